@@ -1,0 +1,1 @@
+"""The ``nightlights`` command-line interface: thin click commands over the stage functions."""

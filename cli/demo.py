@@ -1,0 +1,3 @@
+"""``nightlights demo``."""
+
+commands: list = []

@@ -1,0 +1,3 @@
+"""``nightlights streets sample`` and ``streets fit``."""
+
+commands: list = []

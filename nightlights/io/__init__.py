@@ -1,0 +1,21 @@
+"""File input and output: the only place the toolkit touches files.
+
+Vector layers are read with pyogrio (any format GDAL reads) and written as GeoPackage with
+explicit field types; rasters are written as float32 Cloud-Optimised GeoTIFFs. Every write
+is atomic: the output appears complete or not at all.
+"""
+
+from nightlights.io.atomic import atomic_output
+from nightlights.io.crs import ensure_projected
+from nightlights.io.raster import RasterBand, read_raster, write_cog
+from nightlights.io.vector import read_vector, write_gpkg
+
+__all__ = [
+    "RasterBand",
+    "atomic_output",
+    "ensure_projected",
+    "read_raster",
+    "read_vector",
+    "write_cog",
+    "write_gpkg",
+]

@@ -1,0 +1,1 @@
+"""Street layers to streetlight layouts (Chuang 2011, Sec. 3)."""
