@@ -1,0 +1,348 @@
+"""Light placement along streets (Chuang 2011, Sec. 3.1, Fig. 8).
+
+Each lit street gets a jittered grid of poles in its sampled arrangement: one row on one side
+(single-sided rectangular grid), two rows with poles opposite each other (double-sided
+rectangular), two rows alternating sides (triangular, "staggered"), or one row of twin-arm
+poles on the median (central). Poles follow the curve: positions are measured along the line,
+not its chord, and offset along the local normal.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import shapely
+from scipy.spatial import cKDTree
+
+from nightlights.errors import EmptyInputError, InputError
+from nightlights.io import ensure_projected, read_vector, write_gpkg
+from nightlights.streets.schema import ARRANGEMENTS, STREET_CLASSES
+
+#: Fields of the output light layer and their types.
+LIGHT_FIELDS: dict[str, str] = {
+    "light_id": "int",
+    "pole_id": "int",
+    "street_id": "str",
+    "system_id": "str",
+    "heading": "float",
+    "mounting_height": "float",
+    "arm_length": "float",
+    "tilt": "float",
+    "side": "str",
+    "arrangement": "str",
+}
+
+_REQUIRED = ("width", "lit", "arrangement", "spacing", "mounting_height", "system_id")
+_DEFAULTS = {"arm_length": 0.0, "setback": 1.0, "tilt": 0.0}
+
+
+@dataclass(frozen=True)
+class PlacementOptions:
+    """Knobs of the placement grid.
+
+    Attributes
+    ----------
+    along_jitter
+        Standard deviation of the along-street jitter as a fraction of the spacing [1].
+    across_jitter
+        Standard deviation of the across-street jitter [m].
+    merge_fraction
+        Poles of different streets closer than this fraction of the spacing are merged
+        (where streets meet); the pole of the higher street class stays [1].
+    tangent_step
+        Half-length of the chord used to estimate the local street direction [m].
+    """
+
+    along_jitter: float = 0.05
+    across_jitter: float = 0.2
+    merge_fraction: float = 0.5
+    tangent_step: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("along_jitter", "across_jitter", "merge_fraction", "tangent_step"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value < 0:
+                raise InputError(f"placement option {name}={value!r}; expected a number >= 0")
+        if self.along_jitter >= 0.25:
+            raise InputError(
+                f"placement option along_jitter={self.along_jitter}; expected < 0.25 of the "
+                "spacing so that poles keep their order along the street"
+            )
+
+
+def place_lights(
+    streets: gpd.GeoDataFrame,
+    *,
+    rng: np.random.Generator,
+    options: PlacementOptions | None = None,
+) -> gpd.GeoDataFrame:
+    """Place light systems along lit streets.
+
+    Parameters
+    ----------
+    streets
+        Output of ``streets sample``: lines in a projected CRS [m] with ``width`` [m],
+        ``lit``, ``arrangement``, ``spacing`` [m], ``mounting_height`` [m], ``system_id``
+        and optionally ``arm_length`` [m], ``setback`` [m], ``tilt`` [deg],
+        ``street_class`` and ``source_id``.
+    rng
+        Random generator for the pole count, phase and jitter.
+    options
+        Grid knobs (:class:`PlacementOptions`).
+
+    Returns
+    -------
+    geopandas.GeoDataFrame
+        One point per luminaire at its pole foot, with :data:`LIGHT_FIELDS`. ``heading`` is
+        the compass bearing [deg] from the pole towards the carriageway; a central twin-arm
+        pole carries two luminaires with opposite headings.
+
+    Notes
+    -----
+    On a street of length L with spacing s the number of pole positions is
+    ``floor(L / s + U)``, ``U ~ Uniform(0, 1)``, so that its expectation is exactly ``L / s``
+    even on the short pieces OSM splits streets into; the positions keep spacing s and start
+    at a uniform random phase. Opposite and central arrangements put a pole pair (or a
+    twin-arm pole) at every position; staggered alternates sides, so consecutive poles on
+    one side are 2 s apart. Poles of different streets closer than ``merge_fraction * s``
+    are merged, keeping the pole of the higher street class.
+
+    References
+    ----------
+    Chuang 2011, Sec. 3.1 and Fig. 8 (rectangular and triangular light-point grids).
+    """
+    options = options or PlacementOptions()
+    if streets.crs is None or not streets.crs.is_projected:
+        raise InputError("place_lights needs streets in a projected CRS [m]")
+    missing = [name for name in _REQUIRED if name not in streets]
+    if missing:
+        raise InputError(
+            f"streets lack fields {missing}; run `nightlights streets sample` first"
+        )
+    table = _street_table(streets)
+    if table.empty:
+        return _empty_lights(streets.crs)
+    lengths = shapely.length(table.geometry.to_numpy())
+    spacing = table["spacing"].to_numpy(float)
+    counts = np.floor(lengths / spacing + rng.random(len(table))).astype(int)
+    slack = np.maximum(lengths - np.maximum(counts - 1, 0) * spacing, 0.0)
+    phase = rng.random(len(table)) * slack
+    street_index = np.repeat(np.arange(len(table)), counts)
+    position = np.concatenate([np.arange(n) for n in counts]) if counts.sum() else np.zeros(0)
+    along = phase[street_index] + position * spacing[street_index]
+    along += rng.normal(0.0, options.along_jitter, along.size) * spacing[street_index]
+    along = np.clip(along, 0.0, lengths[street_index])
+
+    rows = _expand_arrangement(table, street_index, position.astype(int))
+    street_of_row = street_index[rows.slot]
+    geoms = table.geometry.to_numpy()[street_of_row]
+    distance = along[rows.slot]
+    point, tangent = _point_and_tangent(geoms, distance, lengths[street_of_row], options)
+    normal_left = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    half_width = 0.5 * table["width"].to_numpy(float)[street_of_row]
+    setback = table["setback"].to_numpy(float)[street_of_row]
+    offset = np.where(rows.side_sign == 0, 0.0, half_width + setback)
+    offset = offset + rng.normal(0.0, options.across_jitter, offset.size) * (rows.side_sign != 0)
+    pole_xy = point + normal_left * (rows.side_sign * offset)[:, None]
+    facing = -normal_left * np.where(rows.side_sign == 0, rows.face_sign, rows.side_sign)[:, None]
+    heading = np.degrees(np.arctan2(facing[:, 0], facing[:, 1])) % 360.0
+
+    lights = pd.DataFrame(
+        {
+            "pole_key": rows.pole,
+            "street_id": table["source_id"].to_numpy()[street_of_row],
+            "system_id": table["system_id"].to_numpy()[street_of_row],
+            "heading": heading,
+            "mounting_height": table["mounting_height"].to_numpy(float)[street_of_row],
+            "arm_length": table["arm_length"].to_numpy(float)[street_of_row],
+            "tilt": table["tilt"].to_numpy(float)[street_of_row],
+            "side": np.array(["right", "center", "left"])[rows.side_sign + 1],
+            "arrangement": table["arrangement"].to_numpy()[street_of_row],
+            "x": pole_xy[:, 0],
+            "y": pole_xy[:, 1],
+            "_street": street_of_row,
+            "_spacing": spacing[street_of_row],
+            "_rank": table["_rank"].to_numpy()[street_of_row],
+        }
+    )
+    lights = _merge_poles(lights, options.merge_fraction)
+    lights["pole_id"] = pd.factorize(lights["pole_key"])[0]
+    lights["light_id"] = np.arange(len(lights))
+    geometry = gpd.points_from_xy(lights["x"], lights["y"], crs=streets.crs)
+    return gpd.GeoDataFrame(lights[list(LIGHT_FIELDS)], geometry=geometry, crs=streets.crs)
+
+
+def place(
+    src: str | os.PathLike[str],
+    dst: str | os.PathLike[str],
+    *,
+    seed: int | None = None,
+    options: PlacementOptions | None = None,
+    catalog: str | os.PathLike[str] | None = None,
+) -> gpd.GeoDataFrame:
+    """Stage ``streets place``: read sampled streets, place lights, write a point GeoPackage.
+
+    Parameters
+    ----------
+    src
+        Output of ``streets sample``.
+    dst
+        Output GeoPackage (layer ``lights``), written atomically.
+    seed
+        Random seed; the same seed gives the same layer.
+    options
+        Grid knobs.
+    catalog
+        Luminaire database folder; every ``system_id`` must exist in it (default: the
+        bundled database, when the photometry package provides one).
+    """
+    streets = read_vector(src)
+    if streets.empty:
+        raise EmptyInputError(f"{src}: the layer has no streets")
+    if streets.crs is None or not streets.crs.is_projected:
+        streets = ensure_projected(streets, source=str(src))
+    lights = place_lights(streets, rng=np.random.default_rng(seed), options=options)
+    _check_system_ids(lights, catalog, source=str(src))
+    write_gpkg(lights, dst, layer="lights", schema=LIGHT_FIELDS)  # type: ignore[arg-type]
+    return lights
+
+
+@dataclass(frozen=True)
+class _ArrangementRows:
+    slot: np.ndarray  # index into the pole positions
+    side_sign: np.ndarray  # +1 left of the line direction, -1 right, 0 on the centreline
+    face_sign: np.ndarray  # for central poles: +1 faces left carriageway, -1 right
+    pole: np.ndarray  # pole key: lights with the same key share a pole
+
+
+def _expand_arrangement(
+    table: pd.DataFrame, street_index: np.ndarray, position: np.ndarray
+) -> _ArrangementRows:
+    arrangement = table["arrangement"].to_numpy()[street_index]
+    first_side = table["_first_side"].to_numpy()[street_index]
+    slots = np.arange(street_index.size)
+    parts = []
+    single = arrangement == "single_sided"
+    parts.append((slots[single], first_side[single], np.zeros(single.sum(), int), 0))
+    staggered = arrangement == "staggered"
+    alternate = np.where(position[staggered] % 2 == 0, 1, -1) * first_side[staggered]
+    parts.append((slots[staggered], alternate, np.zeros(staggered.sum(), int), 0))
+    opposite = arrangement == "opposite"
+    for sign, key in ((1, 0), (-1, 1)):
+        parts.append((slots[opposite], np.full(opposite.sum(), sign), np.zeros(opposite.sum(), int), key))
+    central = arrangement == "central"
+    for face in (1, -1):
+        parts.append((slots[central], np.zeros(central.sum(), int), np.full(central.sum(), face), 0))
+    slot = np.concatenate([p[0] for p in parts])
+    side = np.concatenate([p[1] for p in parts]).astype(int)
+    face = np.concatenate([p[2] for p in parts]).astype(int)
+    pole = np.concatenate([p[0] * 2 + p[3] for p in parts])
+    order = np.lexsort((face, side, slot))
+    return _ArrangementRows(slot[order], side[order], face[order], pole[order])
+
+
+def _street_table(streets: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
+    table = streets.copy()
+    if "source_id" not in table:
+        table["source_id"] = table.index.astype(str)
+    for name, default in _DEFAULTS.items():
+        if name not in table:
+            table[name] = default
+        table[name] = pd.to_numeric(table[name], errors="coerce").fillna(default)
+    lit = table["lit"].astype("boolean").fillna(False).to_numpy(bool)
+    table = table.loc[lit].copy()
+    bad = ~table["arrangement"].isin(ARRANGEMENTS)
+    if bad.any():
+        raise InputError(
+            f"street {table.loc[bad, 'source_id'].iloc[0]!r}: arrangement "
+            f"{table.loc[bad, 'arrangement'].iloc[0]!r}; expected one of {', '.join(ARRANGEMENTS)}"
+        )
+    for name in ("width", "spacing", "mounting_height"):
+        values = pd.to_numeric(table[name], errors="coerce")
+        wrong = ~(values > 0)
+        if wrong.any():
+            raise InputError(
+                f"street {table.loc[wrong, 'source_id'].iloc[0]!r}: {name}="
+                f"{table.loc[wrong, name].iloc[0]!r}; expected a positive number [m]"
+            )
+        table[name] = values.astype(float)
+    table = table.loc[~(table.geometry.isna() | table.geometry.is_empty)]
+    table = table.explode(index_parts=False)
+    table = table.loc[table.geometry.geom_type == "LineString"]
+    table = table.loc[shapely.length(table.geometry.to_numpy()) > 0].reset_index(drop=True)
+    classes = {name: rank for rank, name in enumerate(STREET_CLASSES)}
+    street_class = table["street_class"] if "street_class" in table else pd.Series(None, index=table.index)
+    table["_rank"] = street_class.map(classes).fillna(len(classes)).astype(int).to_numpy()
+    # Single-sided rows stand on the right of the line direction by default (the kerb side
+    # in right-hand traffic); staggered rows start there.
+    table["_first_side"] = -1
+    return table
+
+
+def _point_and_tangent(
+    geoms: np.ndarray, distance: np.ndarray, length: np.ndarray, options: PlacementOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    point = shapely.get_coordinates(shapely.line_interpolate_point(geoms, distance))[:, :2]
+    step = np.minimum(options.tangent_step, 0.5 * length)
+    ahead = shapely.line_interpolate_point(geoms, np.minimum(distance + step, length))
+    behind = shapely.line_interpolate_point(geoms, np.maximum(distance - step, 0.0))
+    chord = shapely.get_coordinates(ahead)[:, :2] - shapely.get_coordinates(behind)[:, :2]
+    norm = np.hypot(chord[:, 0], chord[:, 1])
+    norm[norm == 0] = 1.0
+    return point, chord / norm[:, None]
+
+
+def _merge_poles(lights: pd.DataFrame, merge_fraction: float) -> pd.DataFrame:
+    """Drop poles closer than ``merge_fraction * spacing`` to a kept pole of another street."""
+    if lights.empty or merge_fraction == 0:
+        return lights
+    poles = (
+        lights.groupby("pole_key", sort=False)
+        .agg(x=("x", "first"), y=("y", "first"), street=("_street", "first"),
+             spacing=("_spacing", "first"), rank=("_rank", "first"))
+        .reset_index()
+    )
+    poles = poles.sort_values(["rank", "street", "pole_key"], kind="stable").reset_index(drop=True)
+    xy = poles[["x", "y"]].to_numpy()
+    tree = cKDTree(xy)
+    radius = merge_fraction * poles["spacing"].to_numpy()
+    neighbours = tree.query_ball_point(xy, radius)
+    keep = np.ones(len(poles), dtype=bool)
+    street = poles["street"].to_numpy()
+    for index, near in enumerate(neighbours):
+        # Poles are visited in priority order; a pole survives unless a pole of another
+        # street, already kept and earlier in priority, stands within its radius.
+        if any(j < index and keep[j] and street[j] != street[index] for j in near):
+            keep[index] = False
+    kept_keys = set(poles.loc[keep, "pole_key"])
+    return lights.loc[lights["pole_key"].isin(kept_keys)].reset_index(drop=True)
+
+
+def _empty_lights(crs: object) -> gpd.GeoDataFrame:
+    frame = pd.DataFrame({name: pd.Series(dtype=_PANDAS_TYPES[kind]) for name, kind in LIGHT_FIELDS.items()})
+    return gpd.GeoDataFrame(frame, geometry=gpd.GeoSeries([], crs=crs), crs=crs)
+
+
+_PANDAS_TYPES = {"int": "int64", "float": "float64", "str": object, "bool": bool}
+
+
+def _check_system_ids(
+    lights: gpd.GeoDataFrame, catalog: str | os.PathLike[str] | None, *, source: str
+) -> None:
+    try:
+        from ies.library import load_library
+    except ImportError:  # the photometry package has no luminaire database yet
+        if catalog is not None:
+            raise InputError("--catalog needs the ies luminaire database, not installed") from None
+        return
+    database = load_library(catalog)
+    unknown = sorted(set(lights["system_id"]) - set(database.systems))
+    if unknown:
+        raise InputError(
+            f"{source}: light system ids {unknown} are not in the luminaire database "
+            f"(known: {', '.join(sorted(database.systems))})"
+        )
