@@ -219,7 +219,7 @@ def parse_length(value: object, *, default_unit: str = "m") -> float:
 
     Examples
     --------
-    >>> parse_length("23'")
+    >>> round(parse_length("23'"), 4)
     7.0104
     >>> parse_length("7.5 m")
     7.5
@@ -232,7 +232,7 @@ def parse_length(value: object, *, default_unit: str = "m") -> float:
     match = _FEET_INCHES.match(text)
     if match:
         feet, inches = (float(g.replace(",", ".")) for g in match.groups())
-        return round(feet * 0.3048 + inches * 0.0254, 6)
+        return feet * 0.3048 + inches * 0.0254
     match = _LENGTH.match(text)
     if not match:
         return np.nan
@@ -240,7 +240,7 @@ def parse_length(value: object, *, default_unit: str = "m") -> float:
     unit = unit or default_unit
     if unit not in LENGTH_UNITS:
         return np.nan
-    return round(float(number.replace(",", ".")) * LENGTH_UNITS[unit], 6)
+    return float(number.replace(",", ".")) * LENGTH_UNITS[unit]
 
 
 def normalize_streets(

@@ -267,7 +267,7 @@ def _street_table(streets: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
         if wrong.any():
             raise InputError(
                 f"street {table.loc[wrong, 'source_id'].iloc[0]!r}: {name}="
-                f"{table.loc[wrong, name].iloc[0]!r}; expected a positive number [m]"
+                f"{table.loc[wrong, name].iloc[0]}; expected a positive number [m]"
             )
         table[name] = values.astype(float)
     table = table.loc[~(table.geometry.isna() | table.geometry.is_empty)]
