@@ -238,3 +238,30 @@ def test_stage_empty_result_is_an_error(tmp_path, highways: list[str]) -> None:
     with pytest.raises(EmptyInputError):
         normalize(src, out)
     assert not out.exists()
+
+
+def test_curved_geometries_are_linearised(tmp_path) -> None:
+    """GDAL curve types (CircularString, CompoundCurve) arrive as LineStrings."""
+    import struct
+
+    import pyogrio
+
+    # A half circle of radius 50 m as ISO WKB CircularString (type 8) and inside a
+    # CompoundCurve (type 9); shapely cannot build curves, so the bytes are written by hand.
+    arc = struct.pack("<BII", 1, 8, 3) + struct.pack("<6d", 0, 0, 50, 50, 100, 0)
+    compound = struct.pack("<BII", 1, 9, 1) + arc
+    src = tmp_path / "curved.gpkg"
+    pyogrio.raw.write(
+        src,
+        geometry=np.array([arc, compound], dtype=object),
+        field_data=[np.array(["residential", "primary"])],
+        fields=["highway"],
+        geometry_type="Unknown",
+        crs="EPSG:3067",
+        driver="GPKG",
+    )
+    out = tmp_path / "out.gpkg"
+    normalize(src, out)
+    frame = gpd.read_file(out)
+    assert (frame.geometry.geom_type == "LineString").all()
+    assert frame.geometry.length.to_numpy() == pytest.approx([np.pi * 50] * 2, rel=1e-3)
