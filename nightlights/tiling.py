@@ -1,0 +1,283 @@
+"""Raster grids, tiles, light-to-tile binning and parallel tile execution with Dask.
+
+A raster stage describes its output as a :class:`RasterGrid`, cuts it into :class:`Tile`
+windows, assigns each source (a luminaire with a region of influence) to the tiles its
+region touches, and runs one task per tile on the local threaded scheduler or on a
+``dask.distributed`` cluster. Results come back as numpy arrays; nothing is written until
+every tile has succeeded, so a failed tile leaves no output.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import dask
+import numpy as np
+from affine import Affine
+from dask.callbacks import Callback
+from numpy.typing import NDArray
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from nightlights.errors import InputError
+
+__all__ = [
+    "RasterGrid",
+    "Tile",
+    "assign_to_tiles",
+    "compute_tiles",
+    "grid_from_bounds",
+    "make_tiles",
+]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RasterGrid:
+    """A north-up raster grid.
+
+    Attributes
+    ----------
+    x_min
+        West edge [m].
+    y_max
+        North edge [m].
+    resolution
+        Pixel size [m].
+    rows, cols
+        Grid shape [pixels].
+    """
+
+    x_min: float
+    y_max: float
+    resolution: float
+    rows: int
+    cols: int
+
+    @property
+    def transform(self) -> Affine:
+        """Affine transform of the top-left pixel corner."""
+        return Affine(self.resolution, 0.0, self.x_min, 0.0, -self.resolution, self.y_max)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, y_min, x_max, y_max) [m]."""
+        return (
+            self.x_min,
+            self.y_max - self.rows * self.resolution,
+            self.x_min + self.cols * self.resolution,
+            self.y_max,
+        )
+
+    def centres(self, tile: Tile) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Pixel-centre coordinates of a tile: x (cols,) and y (rows,) [m]."""
+        x = self.x_min + (tile.col0 + np.arange(tile.cols) + 0.5) * self.resolution
+        y = self.y_max - (tile.row0 + np.arange(tile.rows) + 0.5) * self.resolution
+        return x, y
+
+
+@dataclass(frozen=True)
+class Tile:
+    """A window of a :class:`RasterGrid` (row and column offsets and sizes) [pixels]."""
+
+    row0: int
+    col0: int
+    rows: int
+    cols: int
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """Row and column slices into the full grid."""
+        return slice(self.row0, self.row0 + self.rows), slice(self.col0, self.col0 + self.cols)
+
+
+def grid_from_bounds(bounds: Sequence[float], resolution: float) -> RasterGrid:
+    """Grid covering ``bounds`` with square pixels, grown east and south to whole pixels.
+
+    Parameters
+    ----------
+    bounds
+        (x_min, y_min, x_max, y_max) [m].
+    resolution
+        Pixel size [m].
+
+    Raises
+    ------
+    InputError
+        Non-positive or non-finite resolution, or empty/inverted bounds.
+    """
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise InputError(f"resolution={resolution!r} m; expected a positive number of metres")
+    if len(bounds) != 4 or not all(math.isfinite(v) for v in bounds):
+        raise InputError(f"bounds={tuple(bounds)!r}; expected four finite numbers xmin,ymin,xmax,ymax")
+    x_min, y_min, x_max, y_max = (float(v) for v in bounds)
+    if x_max <= x_min or y_max <= y_min:
+        raise InputError(
+            f"bounds={tuple(bounds)!r}; expected xmin < xmax and ymin < ymax (in metres)"
+        )
+    cols = max(1, math.ceil((x_max - x_min) / resolution - 1e-9))
+    rows = max(1, math.ceil((y_max - y_min) / resolution - 1e-9))
+    return RasterGrid(x_min, y_max, float(resolution), rows, cols)
+
+
+def make_tiles(grid: RasterGrid, tile_size: int) -> list[Tile]:
+    """Cut ``grid`` into square tiles of ``tile_size`` pixels (smaller at the east/south edge)."""
+    if tile_size < 1:
+        raise InputError(f"tile_size={tile_size}; expected at least 1 pixel")
+    return [
+        Tile(r, c, min(tile_size, grid.rows - r), min(tile_size, grid.cols - c))
+        for r in range(0, grid.rows, tile_size)
+        for c in range(0, grid.cols, tile_size)
+    ]
+
+
+def assign_to_tiles(
+    grid: RasterGrid,
+    tile_size: int,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    radius: NDArray[np.float64],
+) -> list[NDArray[np.intp]]:
+    """Indices of the sources whose square region touches each tile of :func:`make_tiles`.
+
+    Binning, not a per-tile search: each source's bounding box is converted to a range of
+    tile rows and columns, the (source, tile) pairs are expanded and grouped by tile.
+
+    Parameters
+    ----------
+    grid
+        Output grid.
+    tile_size
+        Tile size used by :func:`make_tiles` [pixels].
+    x, y
+        Source positions [m].
+    radius
+        Region-of-influence radius per source [m].
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One sorted index array per tile, in :func:`make_tiles` order.
+    """
+    n_tile_rows = math.ceil(grid.rows / tile_size)
+    n_tile_cols = math.ceil(grid.cols / tile_size)
+    tile_span = tile_size * grid.resolution
+    c0 = np.floor((x - radius - grid.x_min) / tile_span)
+    c1 = np.floor((x + radius - grid.x_min) / tile_span)
+    r0 = np.floor((grid.y_max - (y + radius)) / tile_span)
+    r1 = np.floor((grid.y_max - (y - radius)) / tile_span)
+    c0 = np.clip(c0, 0, None).astype(np.int64)
+    r0 = np.clip(r0, 0, None).astype(np.int64)
+    c1 = np.clip(c1, None, n_tile_cols - 1).astype(np.int64)
+    r1 = np.clip(r1, None, n_tile_rows - 1).astype(np.int64)
+    n_c = np.maximum(c1 - c0 + 1, 0)
+    n_r = np.maximum(r1 - r0 + 1, 0)
+    counts = n_c * n_r
+    source = np.repeat(np.arange(len(x)), counts)
+    local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    n_c_pair = n_c[source]
+    tile_row = r0[source] + local // np.maximum(n_c_pair, 1)
+    tile_col = c0[source] + local % np.maximum(n_c_pair, 1)
+    tile_index = tile_row * n_tile_cols + tile_col
+    order = np.argsort(tile_index, kind="stable")
+    boundaries = np.searchsorted(tile_index[order], np.arange(n_tile_rows * n_tile_cols + 1))
+    return [
+        source[order[boundaries[i] : boundaries[i + 1]]]
+        for i in range(n_tile_rows * n_tile_cols)
+    ]
+
+
+class _TileProgress(Callback):  # type: ignore[misc]
+    def __init__(self, advance: Callable[[], None], prefix: str) -> None:
+        super().__init__()
+        self._advance = advance
+        self._prefix = prefix
+
+    def _posttask(self, key: Any, result: Any, dsk: Any, state: Any, worker_id: Any) -> None:
+        name = key[0] if isinstance(key, tuple) else key
+        if str(name).startswith(self._prefix):
+            self._advance()
+
+
+def compute_tiles(
+    function: Callable[..., Any],
+    per_tile_args: Sequence[tuple[Any, ...]],
+    *,
+    shared: Any = None,
+    scheduler: str | Any | None = None,
+    num_workers: int | None = None,
+    description: str = "tiles",
+    progress: bool = True,
+) -> list[Any]:
+    """Run ``function(*args, shared)`` for every tile in parallel with Dask.
+
+    Parameters
+    ----------
+    function
+        Module-level (picklable) function computing one tile.
+    per_tile_args
+        One argument tuple per tile.
+    shared
+        Object every task receives as its last argument; sent to the workers once.
+    scheduler
+        ``None``: local threads. A ``dask.distributed`` address (``tcp://...``) or a
+        ``distributed.Client``: run on that cluster.
+    num_workers
+        Threads of the local scheduler (default: Dask's, one per core).
+    description
+        Label of the progress bar.
+    progress
+        Show a rich progress bar on stderr.
+
+    Returns
+    -------
+    list
+        Results in the order of ``per_tile_args``. The first failing tile's exception is
+        re-raised; remaining tiles are cancelled.
+    """
+    prefix = f"tile-{function.__name__}"
+    shared_key = dask.delayed(shared, name=f"shared-{dask.base.tokenize(shared)}", pure=True)
+    tasks = [
+        dask.delayed(function, pure=True, name=f"{prefix}-{index}")(*args, shared_key)
+        for index, args in enumerate(per_tile_args)
+    ]
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, transient=True, disable=not progress) as bar:
+        task_id = bar.add_task(description, total=len(tasks))
+        if scheduler is None:
+            with _TileProgress(lambda: bar.advance(task_id), prefix):
+                return list(dask.compute(*tasks, scheduler="threads", num_workers=num_workers))
+        return _compute_distributed(tasks, scheduler, lambda: bar.advance(task_id))
+
+
+def _compute_distributed(
+    tasks: list[Any], scheduler: str | Any, advance: Callable[[], None]
+) -> list[Any]:
+    from distributed import Client, as_completed
+
+    own_client = not isinstance(scheduler, Client)
+    client = Client(scheduler, set_as_default=False) if own_client else scheduler
+    try:
+        futures = client.compute(tasks)
+        position = {future.key: index for index, future in enumerate(futures)}
+        results: list[Any] = [None] * len(futures)
+        try:
+            for future in as_completed(futures):
+                results[position[future.key]] = future.result()
+                advance()
+        except BaseException:
+            client.cancel(futures)
+            raise
+        return results
+    finally:
+        if own_client:
+            client.close()
