@@ -9,8 +9,14 @@ from nightlights.demo import run_demo
 
 
 @click.command("demo")
-@click.option("--out", "out_dir", default="nightlights-demo", show_default=True,
-              type=click.Path(file_okay=False), help="Output folder.")
+@click.option(
+    "--out",
+    "out_dir",
+    default="nightlights-demo",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Output folder.",
+)
 @click.option("--seed", default=2011, show_default=True, help="Random seed.")
 def demo(out_dir: str, seed: int) -> None:
     """Run every stage on the bundled Helsinki extract (OpenStreetMap, ODbL)."""

@@ -33,7 +33,11 @@ def streets() -> None:
 @click.option("--crs", "assume_crs", default=None, help="CRS of an input that has none.")
 @click.option("--target-crs", default=None, help="Projected output CRS (default: local UTM).")
 def normalize_command(
-    src: str, dst: str, mapping: str, layer: str | None, assume_crs: str | None,
+    src: str,
+    dst: str,
+    mapping: str,
+    layer: str | None,
+    assume_crs: str | None,
     target_crs: str | None,
 ) -> None:
     """Map SRC's street fields onto the canonical fields; write DST (GeoPackage)."""
@@ -63,18 +67,39 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 @streets.command("place")
 @click.argument("src", type=click.Path(exists=True, dir_okay=False))
 @click.argument("dst", type=click.Path(dir_okay=False))
-@click.option("--catalog", default=None, type=click.Path(exists=True, file_okay=False),
-              help="Luminaire database folder (default: the bundled one).")
+@click.option(
+    "--catalog",
+    default=None,
+    type=click.Path(exists=True, file_okay=False),
+    help="Luminaire database folder (default: the bundled one).",
+)
 @seed_option
-@click.option("--along-jitter", default=PlacementOptions.along_jitter, show_default=True,
-              help="Along-street jitter, fraction of the spacing [1].")
-@click.option("--across-jitter", default=PlacementOptions.across_jitter, show_default=True,
-              help="Across-street jitter [m].")
-@click.option("--merge-fraction", default=PlacementOptions.merge_fraction, show_default=True,
-              help="Merge poles of different streets closer than this fraction of the spacing.")
+@click.option(
+    "--along-jitter",
+    default=PlacementOptions.along_jitter,
+    show_default=True,
+    help="Along-street jitter, fraction of the spacing [1].",
+)
+@click.option(
+    "--across-jitter",
+    default=PlacementOptions.across_jitter,
+    show_default=True,
+    help="Across-street jitter [m].",
+)
+@click.option(
+    "--merge-fraction",
+    default=PlacementOptions.merge_fraction,
+    show_default=True,
+    help="Merge poles of different streets closer than this fraction of the spacing.",
+)
 def place_command(
-    src: str, dst: str, catalog: str | None, seed: int | None, along_jitter: float,
-    across_jitter: float, merge_fraction: float,
+    src: str,
+    dst: str,
+    catalog: str | None,
+    seed: int | None,
+    along_jitter: float,
+    across_jitter: float,
+    merge_fraction: float,
 ) -> None:
     """Place light systems along the sampled streets in SRC; write points to DST."""
     options = PlacementOptions(

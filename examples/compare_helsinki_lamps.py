@@ -30,12 +30,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import shapely
+from nightlights.streets.sample import sample_streets
 from scipy.spatial import cKDTree
 
 from nightlights.demo import example_path, mapped_street_lamps
 from nightlights.streets.normalize import normalize
 from nightlights.streets.place import place
-from nightlights.streets.sample import sample_streets
 
 VEHICULAR = ("motorway", "arterial", "collector", "local", "service")
 #: A lamp counts as standing along a street when it is this close to its centreline [m].
@@ -55,8 +55,9 @@ def along_street_statistics(points: gpd.GeoSeries, streets: gpd.GeoDataFrame) ->
     t = shapely.get_coordinates(ahead) - shapely.get_coordinates(behind)
     p = shapely.get_coordinates(points.to_numpy()[point_index]) - shapely.get_coordinates(behind)
     side = np.sign(t[:, 0] * p[:, 1] - t[:, 1] * p[:, 0])
-    table = pd.DataFrame({"street": streets["source_id"].to_numpy()[street_index],
-                          "along": along, "side": side})
+    table = pd.DataFrame(
+        {"street": streets["source_id"].to_numpy()[street_index], "along": along, "side": side}
+    )
     spacings = []
     sides = []
     for _, group in table.groupby("street"):
@@ -67,7 +68,7 @@ def along_street_statistics(points: gpd.GeoSeries, streets: gpd.GeoDataFrame) ->
         sides.append("both" if group["side"].nunique() > 1 else "one")
     spacings = np.asarray(spacings)
     return {
-        "snapped": int(len(point_index)),
+        "snapped": len(point_index),
         "spacings": spacings[spacings > 1.0],
         "one_sided_share": float(np.mean(np.array(sides) == "one")) if sides else float("nan"),
         "streets_with_two_or_more": len(sides),
@@ -139,16 +140,27 @@ def main() -> None:
     streets.plot(ax=ax, color="0.75", linewidth=0.6)
     study_vehicular.plot(ax=ax, color="0.35", linewidth=1.0)
     poles.plot(ax=ax, color="tab:orange", markersize=5, label=f"predicted poles ({len(poles)})")
-    mapped.plot(ax=ax, color="tab:blue", markersize=5, marker="x",
-                label=f"mapped street_lamp ({len(mapped)})")
+    mapped.plot(
+        ax=ax,
+        color="tab:blue",
+        markersize=5,
+        marker="x",
+        label=f"mapped street_lamp ({len(mapped)})",
+    )
     ax.set_xlim(bounds.bounds[0], bounds.bounds[2])
     ax.set_ylim(bounds.bounds[1], bounds.bounds[3])
     ax.set_title("Helsinki centre: predicted poles vs OSM street lamps")
     ax.set_xlabel(f"easting [m] ({streets.crs.to_string()})")
     ax.set_ylabel("northing [m]")
     ax.legend(loc="lower left")
-    ax.text(0.99, 0.01, "(c) OpenStreetMap contributors, ODbL", transform=ax.transAxes,
-            ha="right", fontsize=7)
+    ax.text(
+        0.99,
+        0.01,
+        "(c) OpenStreetMap contributors, ODbL",
+        transform=ax.transAxes,
+        ha="right",
+        fontsize=7,
+    )
     fig.tight_layout()
     fig.savefig(args.out / "helsinki_map.png", dpi=110)
     plt.close(fig)
@@ -156,8 +168,7 @@ def main() -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     bins = np.arange(0, 81, 4)
     axes[0].hist(stats_mapped["spacings"], bins=bins, alpha=0.6, density=True, label="mapped")
-    axes[0].hist(stats_predicted["spacings"], bins=bins, alpha=0.6, density=True,
-                 label="predicted")
+    axes[0].hist(stats_predicted["spacings"], bins=bins, alpha=0.6, density=True, label="predicted")
     axes[0].set_xlabel("along-street spacing, same side [m]")
     axes[0].set_ylabel("density")
     axes[0].legend()

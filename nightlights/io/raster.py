@@ -77,8 +77,10 @@ def write_cog(
         raise OutputError(f"{path}: no bands to write")
     shape = bands[0].data.shape
     if any(band.data.shape != shape for band in bands) or len(shape) != 2:
-        raise OutputError(f"{path}: bands must be 2-D arrays of one shape, got "
-                          f"{[band.data.shape for band in bands]}")
+        raise OutputError(
+            f"{path}: bands must be 2-D arrays of one shape, got "
+            f"{[band.data.shape for band in bands]}"
+        )
     rows, cols = shape
     crs_text = CRS.from_user_input(crs).to_wkt()
     profile = {

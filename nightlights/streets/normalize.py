@@ -431,7 +431,7 @@ def _parse_value(value: Any, rule: FieldRule) -> Any:
             return None
         if not np.isfinite(number) or number < 0:
             return None
-        return int(round(number)) if rule.kind == "int" else number
+        return round(number) if rule.kind == "int" else number
     length = parse_length(value, default_unit=rule.default_unit)
     return None if not np.isfinite(length) or length <= 0 else length
 

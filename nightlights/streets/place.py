@@ -120,9 +120,7 @@ def place_lights(
         raise InputError("place_lights needs streets in a projected CRS [m]")
     missing = [name for name in _REQUIRED if name not in streets]
     if missing:
-        raise InputError(
-            f"streets lack fields {missing}; run `nightlights streets sample` first"
-        )
+        raise InputError(f"streets lack fields {missing}; run `nightlights streets sample` first")
     table = _street_table(streets)
     if table.empty:
         return _empty_lights(streets.crs)
@@ -233,10 +231,14 @@ def _expand_arrangement(
     parts.append((slots[staggered], alternate, np.zeros(staggered.sum(), int), 0))
     opposite = arrangement == "opposite"
     for sign, key in ((1, 0), (-1, 1)):
-        parts.append((slots[opposite], np.full(opposite.sum(), sign), np.zeros(opposite.sum(), int), key))
+        parts.append(
+            (slots[opposite], np.full(opposite.sum(), sign), np.zeros(opposite.sum(), int), key)
+        )
     central = arrangement == "central"
-    for face in (1, -1):
-        parts.append((slots[central], np.zeros(central.sum(), int), np.full(central.sum(), face), 0))
+    for facing in (1, -1):
+        parts.append(
+            (slots[central], np.zeros(central.sum(), int), np.full(central.sum(), facing), 0)
+        )
     slot = np.concatenate([p[0] for p in parts])
     side = np.concatenate([p[1] for p in parts]).astype(int)
     face = np.concatenate([p[2] for p in parts]).astype(int)
@@ -275,7 +277,9 @@ def _street_table(streets: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     table = table.loc[table.geometry.geom_type == "LineString"]
     table = table.loc[shapely.length(table.geometry.to_numpy()) > 0].reset_index(drop=True)
     classes = {name: rank for rank, name in enumerate(STREET_CLASSES)}
-    street_class = table["street_class"] if "street_class" in table else pd.Series(None, index=table.index)
+    street_class = (
+        table["street_class"] if "street_class" in table else pd.Series(None, index=table.index)
+    )
     table["_rank"] = street_class.map(classes).fillna(len(classes)).astype(int).to_numpy()
     # Single-sided rows stand on the right of the line direction by default (the kerb side
     # in right-hand traffic); staggered rows start there.
@@ -302,8 +306,13 @@ def _merge_poles(lights: pd.DataFrame, merge_fraction: float) -> pd.DataFrame:
         return lights
     poles = (
         lights.groupby("pole_key", sort=False)
-        .agg(x=("x", "first"), y=("y", "first"), street=("_street", "first"),
-             spacing=("_spacing", "first"), rank=("_rank", "first"))
+        .agg(
+            x=("x", "first"),
+            y=("y", "first"),
+            street=("_street", "first"),
+            spacing=("_spacing", "first"),
+            rank=("_rank", "first"),
+        )
         .reset_index()
     )
     poles = poles.sort_values(["rank", "street", "pole_key"], kind="stable").reset_index(drop=True)
@@ -323,7 +332,9 @@ def _merge_poles(lights: pd.DataFrame, merge_fraction: float) -> pd.DataFrame:
 
 
 def _empty_lights(crs: object) -> gpd.GeoDataFrame:
-    frame = pd.DataFrame({name: pd.Series(dtype=_PANDAS_TYPES[kind]) for name, kind in LIGHT_FIELDS.items()})
+    frame = pd.DataFrame(
+        {name: pd.Series(dtype=_PANDAS_TYPES[kind]) for name, kind in LIGHT_FIELDS.items()}
+    )
     return gpd.GeoDataFrame(frame, geometry=gpd.GeoSeries([], crs=crs), crs=crs)
 
 

@@ -21,8 +21,15 @@ def test_version_and_help() -> None:
 def test_normalize_osm_xml(data_dir, tmp_path) -> None:
     out = tmp_path / "streets.gpkg"
     result = CliRunner().invoke(
-        cli, ["streets", "normalize", str(data_dir / "streets" / "berlin-siegessaeule.osm.gz"),
-              str(out), "--mapping", "osm"]
+        cli,
+        [
+            "streets",
+            "normalize",
+            str(data_dir / "streets" / "berlin-siegessaeule.osm.gz"),
+            str(out),
+            "--mapping",
+            "osm",
+        ],
     )
     assert result.exit_code == 0, result.output
     assert "canonical fields" in result.output
@@ -32,8 +39,9 @@ def test_normalize_osm_xml(data_dir, tmp_path) -> None:
 
 def test_domain_errors_are_one_line_with_nonzero_exit(tmp_path) -> None:
     out = tmp_path / "out.gpkg"
-    result = CliRunner().invoke(cli, ["streets", "normalize", str(tmp_path / "missing.gpkg"),
-                                      str(out)])
+    result = CliRunner().invoke(
+        cli, ["streets", "normalize", str(tmp_path / "missing.gpkg"), str(out)]
+    )
     assert result.exit_code == 1
     assert result.output.strip().count("\n") == 0
     assert "InputError" in result.output and "no such file" in result.output
@@ -48,9 +56,16 @@ def test_place_from_sampled_layer(tmp_path) -> None:
     src = tmp_path / "lit.gpkg"
     gpd.GeoDataFrame(
         {
-            "source_id": ["a"], "street_class": ["local"], "width": [7.0], "lit": [True],
-            "arrangement": ["staggered"], "spacing": [25.0], "mounting_height": [8.0],
-            "arm_length": [1.0], "setback": [1.0], "tilt": [0.0],
+            "source_id": ["a"],
+            "street_class": ["local"],
+            "width": [7.0],
+            "lit": [True],
+            "arrangement": ["staggered"],
+            "spacing": [25.0],
+            "mounting_height": [8.0],
+            "arm_length": [1.0],
+            "setback": [1.0],
+            "tilt": [0.0],
             "system_id": ["street_led_small"],
         },
         geometry=[shapely.LineString([(0, 0), (500, 0)])],

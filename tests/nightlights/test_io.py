@@ -36,8 +36,9 @@ def test_atomic_output_leaves_nothing_on_failure(tmp_path) -> None:
 
 
 def test_atomic_output_needs_existing_directory(tmp_path) -> None:
-    with pytest.raises(OutputError, match="does not exist"), atomic_output(
-        tmp_path / "missing" / "x.tif"
+    with (
+        pytest.raises(OutputError, match="does not exist"),
+        atomic_output(tmp_path / "missing" / "x.tif"),
     ):
         pass
 
@@ -88,7 +89,9 @@ def test_write_gpkg_explicit_types_and_nulls(tmp_path) -> None:
         crs="EPSG:3067",
     )
     path = write_gpkg(
-        frame, tmp_path / "a.gpkg", layer="pts",
+        frame,
+        tmp_path / "a.gpkg",
+        layer="pts",
         schema={"n": "int", "x": "float", "flag": "bool", "name": "str"},
     )
     info = pyogrio.read_info(path, layer="pts")

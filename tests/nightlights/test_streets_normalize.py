@@ -166,7 +166,10 @@ def test_geometry_cleaning_explodes_multiparts_and_drops_degenerate() -> None:
         ("name = 'x'", "needs a \\[fields"),
         ("[fields.colour]\nsource=['c']\ntype='category'", "not a canonical field"),
         ("[fields.lanes]\nsource=['l']\ntype='complex'", "type 'complex'"),
-        ("[fields.street_class]\nsource=['c']\ntype='category'\nvalues={A='boulevard'}", "unknown classes"),
+        (
+            "[fields.street_class]\nsource=['c']\ntype='category'\nvalues={A='boulevard'}",
+            "unknown classes",
+        ),
         ("[fields.width]\nsource=['w']\ntype='length'\ndefault_unit='furlong'", "not a unit"),
         ("[fields = broken", "not valid TOML"),
     ],
@@ -193,7 +196,14 @@ def test_stage_reads_osm_xml_and_writes_projected_gpkg(data_dir, tmp_path) -> No
     frame = gpd.read_file(out)
     assert len(frame) == report.output_features > 50
     assert frame.crs.to_epsg() == 32633  # UTM 33N for Berlin
-    assert set(frame["street_class"]) <= {"motorway", "arterial", "collector", "local", "service", "path"}
+    assert set(frame["street_class"]) <= {
+        "motorway",
+        "arterial",
+        "collector",
+        "local",
+        "service",
+        "path",
+    }
     assert frame.geometry.length.min() > 0
 
 

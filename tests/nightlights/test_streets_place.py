@@ -122,7 +122,7 @@ def test_bad_fields_are_clear_errors() -> None:
     line = [shapely.LineString([(0, 0), (100, 0)])]
     with pytest.raises(InputError, match="arrangement 'zigzag'"):
         place_lights(_streets(line, arrangement="zigzag"), rng=np.random.default_rng(0))
-    with pytest.raises(InputError, match="spacing=0.0"):
+    with pytest.raises(InputError, match=r"spacing=0\.0"):
         place_lights(_streets(line, spacing=0.0), rng=np.random.default_rng(0))
     with pytest.raises(InputError, match="run `nightlights streets sample`"):
         place_lights(_streets(line).drop(columns="spacing"), rng=np.random.default_rng(0))
@@ -169,4 +169,4 @@ def test_placement_properties(coords, arrangement, width, spacing, seed) -> None
     d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
     other = street[:, None] != street[None, :]
     assert np.all(d[other] >= options.merge_fraction * spacing - 1e-6)
-    assert set(lights["heading"].between(0, 360))== {True}
+    assert set(lights["heading"].between(0, 360)) == {True}
