@@ -24,6 +24,8 @@ from nightlights.errors import NightlightsError
 COMMAND_MODULES = (
     "cli.streets",
     "cli.demo",
+    "cli.photometry",
+    "cli.rasters",
 )
 
 DOMAIN_ERRORS = (NightlightsError, BayesNetError, PhotometryError)

@@ -113,7 +113,9 @@ def grid_from_bounds(bounds: Sequence[float], resolution: float) -> RasterGrid:
     if not (math.isfinite(resolution) and resolution > 0):
         raise InputError(f"resolution={resolution!r} m; expected a positive number of metres")
     if len(bounds) != 4 or not all(math.isfinite(v) for v in bounds):
-        raise InputError(f"bounds={tuple(bounds)!r}; expected four finite numbers xmin,ymin,xmax,ymax")
+        raise InputError(
+            f"bounds={tuple(bounds)!r}; expected four finite numbers xmin,ymin,xmax,ymax"
+        )
     x_min, y_min, x_max, y_max = (float(v) for v in bounds)
     if x_max <= x_min or y_max <= y_min:
         raise InputError(
@@ -186,8 +188,7 @@ def assign_to_tiles(
     order = np.argsort(tile_index, kind="stable")
     boundaries = np.searchsorted(tile_index[order], np.arange(n_tile_rows * n_tile_cols + 1))
     return [
-        source[order[boundaries[i] : boundaries[i + 1]]]
-        for i in range(n_tile_rows * n_tile_cols)
+        source[order[boundaries[i] : boundaries[i + 1]]] for i in range(n_tile_rows * n_tile_cols)
     ]
 
 

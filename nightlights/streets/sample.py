@@ -1,0 +1,256 @@
+"""Fill missing street and lighting properties by sampling a Bayesian network.
+
+Stage ``streets sample`` (Chuang 2011, Sec. 3.3): every canonical street field observed on
+a segment (``<field>_observed`` true) is evidence; every missing street field and every
+lighting field is drawn by likelihood-weighted sampling of a geo-typical network from
+:mod:`bayesnets.catalog` (or a user's network folder). The pole spacing is derived from
+the sampled spacing ratio: ``spacing = spacing_ratio * mounting_height`` [m].
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+
+from bayesnets import BayesNet, load_network, sample_frame
+from bayesnets.errors import BayesNetError
+from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict
+from nightlights.errors import InputError
+from nightlights.io import read_vector, write_gpkg
+from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, observed_field
+
+__all__ = ["DEFAULT_CANDIDATES", "OUTPUT_SCHEMA", "fill_lighting", "lighting_summary",
+           "resolve_network",
+           "sample_streets"]
+
+logger = logging.getLogger(__name__)
+
+#: Fields the sampled layer gets besides the canonical ones.
+EXTRA_FIELDS: dict[str, str] = {"spacing_ratio": "float"}
+
+#: Field types of the sampled layer (besides the input's other fields).
+OUTPUT_SCHEMA: dict[str, str] = {
+    **STREET_FIELDS,
+    **{observed_field(name): "bool" for name in STREET_FIELDS},
+    **LIGHTING_FIELDS,
+    **EXTRA_FIELDS,
+}
+
+_NETWORK_FIELDS = tuple(name for name in (*STREET_FIELDS, *LIGHTING_FIELDS) if name != "spacing")
+
+
+def resolve_network(network: str | os.PathLike[str] | BayesNet | None) -> BayesNet:
+    """A network object from a catalogue name, a folder, or None (the default network)."""
+    if isinstance(network, BayesNet):
+        return network
+    return load_network(network)
+
+
+def fill_lighting(
+    streets: gpd.GeoDataFrame,
+    network: str | os.PathLike[str] | BayesNet | None = None,
+    *,
+    candidates: int = DEFAULT_CANDIDATES,
+    rng: np.random.Generator,
+    on_conflict: OnConflict = "error",
+    progress: bool = False,
+) -> gpd.GeoDataFrame:
+    """Fill missing street fields and add lighting fields by likelihood-weighted sampling.
+
+    Parameters
+    ----------
+    streets
+        Normalised streets: canonical fields of :data:`STREET_FIELDS` (missing values
+        allowed) with ``<field>_observed`` flags. A field without a flag counts as observed
+        where it is not missing. Lighting fields with an ``_observed`` flag are evidence too.
+    network
+        Network object, catalogue name or folder; None for the catalogue default.
+    candidates
+        Likelihood-weighting candidates per segment [1] (Chuang 2011, Sec. 3.3).
+    rng
+        Random generator; the same seed gives the same layer.
+    on_conflict
+        ``"error"`` or ``"relax"`` impossible evidence (see
+        :func:`bayesnets.likelihood_weighted_sample`).
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    geopandas.GeoDataFrame
+        ``streets`` with every street field filled (observed values kept as they were,
+        flags kept), the lighting fields of :data:`LIGHTING_FIELDS` and ``spacing_ratio``
+        [1]; ``spacing = spacing_ratio * mounting_height`` [m]. An empty layer gives an
+        empty layer with these columns.
+
+    Raises
+    ------
+    bayesnets.errors.BayesNetError
+        Impossible evidence (``on_conflict="error"``), a value the network cannot map, or a
+        network missing a field this stage needs.
+
+    References
+    ----------
+    Chuang 2011, Sec. 3.2-3.3.
+    """
+    net = resolve_network(network)
+    bound = {binding.field for binding in net.bindings.values()}
+    missing = [name for name in _NETWORK_FIELDS if name not in bound]
+    if missing or "spacing_ratio" not in bound:
+        raise BayesNetError(
+            f"network {net.name!r} binds no variable to fields "
+            f"{[*missing, *(['spacing_ratio'] if 'spacing_ratio' not in bound else [])]}; "
+            "streets sample needs every street and lighting field"
+        )
+    out = streets.copy()
+    evidence = pd.DataFrame(index=out.index)
+    for name in sorted(bound):
+        if name not in out:
+            continue
+        flag = observed_field(name)
+        if flag in out:
+            observed = out[flag].astype("boolean").fillna(False).to_numpy(bool)
+        elif name in STREET_FIELDS:
+            observed = out[name].notna().to_numpy()
+        else:
+            continue
+        evidence[name] = out[name].astype(object).where(observed, None)
+    labels = (list(out["source_id"].astype(str)) if "source_id" in out
+              else [str(i) for i in out.index])
+    sampled = sample_frame(
+        net, evidence, candidates=candidates, rng=rng, on_conflict=on_conflict,
+        labels=labels, progress=progress,
+    )
+    for name, kind in STREET_FIELDS.items():
+        flag = observed_field(name)
+        filled = _typed(sampled[name], kind)
+        if name in out:
+            keep = out[name].notna().to_numpy().copy()
+            if flag in out:
+                keep &= out[flag].astype("boolean").fillna(False).to_numpy(bool)
+            filled = filled.where(~keep, _typed(out[name], kind))
+        else:
+            keep = np.zeros(len(out), bool)
+        out[name] = filled.to_numpy()
+        out[flag] = keep
+    for name, kind in LIGHTING_FIELDS.items():
+        if name == "spacing":
+            continue
+        out[name] = _typed(sampled[name], kind).to_numpy()
+    out["spacing_ratio"] = sampled["spacing_ratio"].to_numpy(float)
+    out["spacing"] = out["spacing_ratio"].to_numpy(float) * out["mounting_height"].to_numpy(
+        float
+    )
+    logger.info("sampled %d street segments with network %r", len(out), net.name)
+    return out
+
+
+def _typed(values: pd.Series, kind: str) -> pd.Series:
+    if kind == "float":
+        return pd.to_numeric(values, errors="coerce").astype("float64")
+    if kind == "int":
+        return pd.to_numeric(values, errors="coerce").round().astype("Int64")
+    if kind == "bool":
+        return values.astype(object).map(_as_bool).astype("boolean")
+    return values.astype(object)
+
+
+def _as_bool(value: object) -> object:
+    if value is None or (isinstance(value, float) and np.isnan(value)) or value is pd.NA:
+        return None
+    if isinstance(value, str):
+        return value.strip().lower() in ("true", "t", "yes", "y", "1")
+    return bool(value)
+
+
+def sample_streets(
+    src: str | os.PathLike[str],
+    dst: str | os.PathLike[str],
+    *,
+    network: str | os.PathLike[str] | None = None,
+    candidates: int = DEFAULT_CANDIDATES,
+    seed: int | None = None,
+    on_conflict: OnConflict = "error",
+    progress: bool = False,
+) -> Path:
+    """Stage ``streets sample``: read normalised streets, fill them, write a GeoPackage.
+
+    Parameters
+    ----------
+    src
+        Output of ``streets normalize``: lines in a projected CRS [m] with the canonical
+        fields, their ``_observed`` flags and ``source_id``.
+    dst
+        Output GeoPackage (layer ``streets``); written atomically, nothing is written on
+        failure.
+    network
+        Catalogue network name (``europe``, ``north_america``) or network folder; default:
+        the catalogue's default network.
+    candidates
+        Likelihood-weighting candidates per segment [1].
+    seed
+        Random seed; the same seed gives the same output.
+    on_conflict
+        ``"error"`` or ``"relax"`` for impossible evidence.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    pathlib.Path
+        ``dst``.
+
+    Raises
+    ------
+    InputError
+        The input has no CRS or a geographic one.
+    bayesnets.errors.BayesNetError
+        Unknown network name (the message lists the catalogue), impossible evidence, values
+        the network cannot map. The message names the input file.
+    """
+    streets = read_vector(src)
+    if streets.crs is None or not streets.crs.is_projected:
+        raise InputError(
+            f"{src}: streets must be in a projected CRS [m] (run `nightlights streets "
+            "normalize` first)"
+        )
+    try:
+        filled = fill_lighting(
+            streets, network, candidates=candidates, rng=np.random.default_rng(seed),
+            on_conflict=on_conflict, progress=progress,
+        )
+    except BayesNetError as exc:
+        raise type(exc)(f"{src}: {exc}") from exc
+    schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
+    if "source_id" in filled:
+        schema["source_id"] = "str"
+    return write_gpkg(filled, dst, layer="streets", schema=schema)  # type: ignore[arg-type]
+
+
+def lighting_summary(streets: pd.DataFrame) -> dict[str, dict[str, int]]:
+    """Counts of segments per arrangement and per light system (lit segments only).
+
+    Parameters
+    ----------
+    streets
+        Output of :func:`fill_lighting`.
+
+    Returns
+    -------
+    dict
+        ``{"arrangement": {name: count}, "system_id": {id: count}}``, plus ``"lit"``
+        with the numbers of lit and unlit segments.
+    """
+    lit = streets["lit"].astype("boolean").fillna(False).to_numpy(bool) if len(streets) else []
+    summary: dict[str, dict[str, int]] = {
+        "lit": {"lit": int(np.sum(lit)), "unlit": int(len(streets) - np.sum(lit))}
+    }
+    for name in ("arrangement", "system_id"):
+        counts = streets.loc[lit, name].value_counts() if len(streets) else pd.Series()
+        summary[name] = {str(k): int(v) for k, v in sorted(counts.items())}
+    return summary
