@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -68,8 +69,9 @@ class Binding:
     edges: tuple[float, ...] = ()
     nearest: bool = False
 
-    def encode(self, values: Sequence[Any] | pd.Series, *, labels: Sequence[Any] | None = None
-               ) -> np.ndarray:
+    def encode(
+        self, values: Sequence[Any] | pd.Series, *, labels: Sequence[Any] | None = None
+    ) -> np.ndarray:
         """State codes of observed ``values``; missing values (None, NaN, NA) give -1.
 
         Parameters
@@ -127,7 +129,8 @@ class Binding:
         exact = distance[np.arange(len(index)), index] <= 1e-9 * np.maximum(1.0, np.abs(numeric))
         if not self.nearest and not exact.all():
             self._reject(
-                observed[~exact], labels,
+                observed[~exact],
+                labels,
                 f"expected one of {list(self.states)} (set nearest = true to round)",
             )
         codes[present] = index
@@ -154,8 +157,9 @@ class Binding:
     def _reject(self, bad: pd.Series, labels: Sequence[Any] | None, expected: str) -> None:
         positions = list(bad.index[:5])
         names = [labels[p] for p in positions] if labels is not None else positions
-        shown = ", ".join(f"{name}: {value!r}" for name, value in zip(names, bad.iloc[:5],
-                                                                        strict=True))
+        shown = ", ".join(
+            f"{name}: {value!r}" for name, value in zip(names, bad.iloc[:5], strict=True)
+        )
         raise EvidenceError(
             f"field {self.field!r} (variable {self.variable}): {len(bad)} value(s) match no "
             f"state (records {shown}{', ...' if len(bad) > 5 else ''}); {expected}"
@@ -196,8 +200,7 @@ def parse_binding(
         edges or values do not match the states.
     """
     where = f"{source}, [variables.{variable}]"
-    unknown = set(spec) - {"field", "kind", "nearest", "edges", "values", "description",
-                           "unit"}
+    unknown = set(spec) - {"field", "kind", "nearest", "edges", "values", "description", "unit"}
     if unknown:
         raise BindingError(f"{where}: unknown keys {sorted(unknown)}")
     field = spec.get("field")
@@ -218,8 +221,7 @@ def parse_binding(
         numbers = tuple(_state_number(state, where, kind) for state in states)
         return Binding(variable, field, kind, states, numbers=numbers, nearest=nearest)
     edges = tuple(float(edge) for edge in spec.get("edges", ()))
-    if len(edges) != len(states) + 1 or any(b <= a for a, b in zip(edges, edges[1:],
-                                                                    strict=False)):
+    if len(edges) != len(states) + 1 or any(b <= a for a, b in pairwise(edges)):
         raise BindingError(
             f"{where}: bins need {len(states) + 1} increasing edges for states "
             f"{list(states)}, got {list(edges)}"

@@ -243,9 +243,7 @@ def build_network(
                 )
     order = _topological_order(by_name)
     states = {name_: table.states() for name_, table in by_name.items()}
-    probabilities = {
-        name_: _normalised_table(by_name[name_], states) for name_ in order
-    }
+    probabilities = {name_: _normalised_table(by_name[name_], states) for name_ in order}
     config = dict(config or {})
     bindings = _parse_bindings(config, states, config_source)
     return BayesNet(
@@ -270,7 +268,7 @@ def _topological_order(tables: Mapping[str, VariableTable]) -> list[str]:
         if mark.get(name) == 2:
             return
         if mark.get(name) == 1:
-            cycle = [*path[path.index(name):], name]
+            cycle = [*path[path.index(name) :], name]
             files = ", ".join(tables[v].source for v in cycle[:-1])
             raise CyclicNetworkError(
                 f"cycle {' -> '.join(cycle)} (each is a parent of the next; tables {files}, "
@@ -290,8 +288,9 @@ def _topological_order(tables: Mapping[str, VariableTable]) -> list[str]:
 def _normalised_table(table: VariableTable, states: Mapping[str, tuple[str, ...]]) -> np.ndarray:
     shape = (len(states[table.variable]), *(len(states[p]) for p in table.parents))
     weights = np.zeros(shape)
-    index_of = {v: {s: i for i, s in enumerate(states[v])} for v in (table.variable,
-                                                                     *table.parents)}
+    index_of = {
+        v: {s: i for i, s in enumerate(states[v])} for v in (table.variable, *table.parents)
+    }
     for row in table.rows:
         index = [index_of[table.variable][row.state]]
         for parent, state in zip(table.parents, row.parent_states, strict=True):
@@ -310,10 +309,10 @@ def _normalised_table(table: VariableTable, states: Mapping[str, tuple[str, ...]
             f"{parent}={states[parent][i]}"
             for parent, i in zip(table.parents, combination, strict=True)
         )
-        lines = _rows_with(table.rows, tuple(states[p][i] for p, i in
-                                             zip(table.parents, combination, strict=True)))
-        detail = (f"rows on lines {lines} all have weight 0" if lines
-                  else "no row gives it")
+        lines = _rows_with(
+            table.rows, tuple(states[p][i] for p, i in zip(table.parents, combination, strict=True))
+        )
+        detail = f"rows on lines {lines} all have weight 0" if lines else "no row gives it"
         raise MissingParentCombinationError(
             f"{table.source}: parent combination {named or '(none)'} of {table.variable}: "
             f"{detail}; expected at least one row with a positive weight"
@@ -364,7 +363,7 @@ def network_tables(network: BayesNet) -> list[VariableTable]:
     for name in network.variables:
         parents = network.parents[name]
         table = network.tables[name]
-        rows = []
+        rows: list[TableRow] = []
         for index in product(*(range(n) for n in table.shape)):
             rows.append(
                 TableRow(
@@ -415,8 +414,12 @@ def format_config(network: BayesNet) -> str:
         binding = network.bindings.get(variable)
         if binding is None:
             continue
-        lines += ["", f"[variables.{variable}]", f"field = {_toml_value(binding.field)}",
-                  f"kind = {_toml_value(binding.kind)}"]
+        lines += [
+            "",
+            f"[variables.{variable}]",
+            f"field = {_toml_value(binding.field)}",
+            f"kind = {_toml_value(binding.kind)}",
+        ]
         if binding.nearest:
             lines.append("nearest = true")
         if binding.kind == "bins":

@@ -38,21 +38,27 @@ _NETWORK_HELP = (
     help="Impossible evidence: stop, or drop the least likely observations with a warning.",
 )
 def sample(
-    src: str, dst: str, network: str | None, seed: int | None, candidates: int,
+    src: str,
+    dst: str,
+    network: str | None,
+    seed: int | None,
+    candidates: int,
     on_conflict: str,
 ) -> None:
     """Fill missing street and lighting fields of SRC by sampling a Bayesian network."""
     path = sample_streets(
-        src, dst, network=network, candidates=candidates, seed=seed,
+        src,
+        dst,
+        network=network,
+        candidates=candidates,
+        seed=seed,
         on_conflict=on_conflict,  # type: ignore[arg-type]
         progress=True,
     )
     streets = read_vector(path)
     summary = lighting_summary(streets)
     console = Console(stderr=True)
-    console.print(
-        f"[bold]{len(streets)}[/] street segments ({summary['lit']['lit']} lit) -> {dst}"
-    )
+    console.print(f"[bold]{len(streets)}[/] street segments ({summary['lit']['lit']} lit) -> {dst}")
     for field, title in (("arrangement", "arrangement"), ("system_id", "light system")):
         table = Table(title, "lit segments")
         for value, count in summary[field].items():

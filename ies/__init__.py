@@ -22,6 +22,7 @@ from ies.errors import (
     PhotometryWarning,
 )
 from ies.eulumdat import parse_ldt, read_ldt
+from ies.frames import direction_from_angles, photometric_angles
 from ies.lm63 import parse_ies, read_ies
 from ies.photometry import Photometry
 from ies.reader import parse_photometry, read_photometry
@@ -34,9 +35,11 @@ __all__ = [
     "PhotometryError",
     "PhotometryParseError",
     "PhotometryWarning",
+    "direction_from_angles",
     "parse_ies",
     "parse_ldt",
     "parse_photometry",
+    "photometric_angles",
     "read_ies",
     "read_ldt",
     "read_photometry",

@@ -161,7 +161,7 @@ def parse_ldt(text: str, *, source: str = "<string>") -> Photometry:
         watts = take_number(f"wattage of set {k + 1}")
         lamp_sets.append((int(n_lamps), lamp_type, flux, colour, rendering, watts))
 
-    stream = TokenStream(tokenize(lines[position:], position + 1), source)
+    stream = TokenStream(tokenize(lines[position:], position + 1, decimal_comma=True), source)
     stream.read_floats(10, "direct ratios")
     n_c = int(numbers["n_c_planes"])
     n_g = int(numbers["n_intensities"])

@@ -78,7 +78,7 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
     >>> round(p.luminous_flux(), 6)
     12.566371
     """
-    lines = text.splitlines()
+    lines = text.removeprefix("\ufeff").splitlines()
     if not lines:
         raise PhotometryParseError("empty file", source=source)
     version = _version_from(lines[0])
@@ -123,7 +123,6 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
     if n_lamps < 1:
         raise stream.error("number of lamps must be >= 1", stream.last_token())
     lumens_per_lamp = stream.read_float("lumens per lamp")
-    lumens_token = stream.last_token()
     multiplier = stream.read_float("candela multiplier")
     if multiplier <= 0:
         raise stream.error("candela multiplier must be > 0", stream.last_token())
@@ -156,7 +155,9 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
         keywords["_FILEGENTYPE" if version == "2019" else "_FUTURE_USE"] = f"{second_field:g}"
 
     vertical = np.array(stream.read_floats(n_vertical, "vertical angles"))
+    first_horizontal = stream.peek()
     horizontal = np.array(stream.read_floats(n_horizontal, "horizontal angles"))
+    last_horizontal = stream.last_token()
     start = stream.position
     values = np.array(stream.read_floats(n_vertical * n_horizontal, "candela values"))
     bad = np.nonzero(values < 0)[0]
@@ -178,8 +179,12 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
         else:
             vertical, horizontal, candela, symmetry = _unfold_type_ab(vertical, horizontal, candela)
     except ValueError as exc:
+        assert first_horizontal is not None and last_horizontal is not None
         raise PhotometryParseError(
-            str(exc), source=source, line=lumens_token.line if lumens_token else None
+            str(exc),
+            source=source,
+            line=last_horizontal.line,
+            token=f"{first_horizontal.text} .. {last_horizontal.text}",
         ) from None
 
     tilt_scale = 1.0

@@ -211,9 +211,12 @@ class Photometry:
     # ------------------------------------------------------------------ integrals
     def _kernels(self) -> tuple[Kernel, Kernel]:
         """Solid-angle weight along (vertical, horizontal) for this photometric type."""
-        return {"C": ("sin", "one"), "A": ("cos", "one"), "B": ("one", "cos")}[
-            self.photometric_type
-        ]
+        kernels: dict[str, tuple[Kernel, Kernel]] = {
+            "C": ("sin", "one"),
+            "A": ("cos", "one"),
+            "B": ("one", "cos"),
+        }
+        return kernels[self.photometric_type]
 
     def zone_flux(
         self,

@@ -5,13 +5,14 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ies.photometry import Photometry
 
 
-def polar_candela_figure(photometry: Photometry, *, title: str | None = None) -> object:
+def polar_candela_figure(photometry: Photometry, *, title: str | None = None) -> Any:
     """Matplotlib figure with the C0-C180 and C90-C270 planes of a type C distribution.
 
     Nadir points down; each plane is drawn with its first half (C0, C90) on the right and
@@ -29,13 +30,11 @@ def polar_candela_figure(photometry: Photometry, *, title: str | None = None) ->
     matplotlib.figure.Figure
         The figure (not yet saved) [-].
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     v = np.linspace(0.0, 180.0, 361)
-    figure, axes = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(6, 6))
+    figure = Figure(figsize=(6, 6))
+    axes: Any = figure.add_subplot(projection="polar")  # matplotlib PolarAxes
     axes.set_theta_zero_location("S")
     for (right, left), colour in (((0.0, 180.0), "tab:red"), ((90.0, 270.0), "tab:blue")):
         cd_right = photometry.intensity(v, right)
@@ -46,7 +45,7 @@ def polar_candela_figure(photometry: Photometry, *, title: str | None = None) ->
     axes.set_thetagrids(
         range(0, 360, 30), labels=[f"{(a if a <= 180 else 360 - a)}°" for a in range(0, 360, 30)]
     )
-    axes.set_rlabel_position(90)
+    axes.set_rlabel_position(45)
     axes.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1))
     name = Path(photometry.source).name
     axes.set_title(title or f"{name}\nluminous intensity [cd]", fontsize=10)
@@ -69,17 +68,14 @@ def write_polar_plot(photometry: Photometry, path: str | os.PathLike[str]) -> Pa
     Path
         The written file [-].
     """
-    import matplotlib.pyplot as plt
-
     target = Path(path)
     figure = polar_candela_figure(photometry)
     handle, temporary = tempfile.mkstemp(suffix=".png", dir=target.parent or Path("."))
     os.close(handle)
     try:
-        figure.savefig(temporary, dpi=120)  # type: ignore[attr-defined]
+        figure.savefig(temporary, dpi=120)
         os.replace(temporary, target)
     finally:
-        plt.close(figure)  # type: ignore[arg-type]
         if os.path.exists(temporary):
             os.unlink(temporary)
     return target

@@ -26,6 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,13 +75,13 @@ def _colour() -> object:
     return colour
 
 
-def _from_colour_sd(name: str, sd: object, description: str) -> Spectrum:
+def _from_colour_sd(name: str, sd: Any, description: str) -> Spectrum:
     return Spectrum(
         name,
-        np.asarray(sd.wavelengths, float),  # type: ignore[attr-defined]
-        np.asarray(sd.values, float),
+        np.asarray(sd.wavelengths, dtype=np.float64),
+        np.asarray(sd.values, dtype=np.float64),
         description,
-    )  # type: ignore[attr-defined]
+    )
 
 
 def _illuminant(key: str) -> Callable[[], object]:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from ies.errors import PhotometryParseError
 
 _SEPARATORS = re.compile(r"[,\s]+")
+_WHITESPACE = re.compile(r"\s+")
 
 
 def decode_photometric_bytes(data: bytes) -> str:
@@ -63,7 +64,7 @@ class Token:
     line: int
 
 
-def tokenize(lines: list[str], first_line: int) -> list[Token]:
+def tokenize(lines: list[str], first_line: int, *, decimal_comma: bool = False) -> list[Token]:
     """Split lines into tokens, remembering line numbers.
 
     Parameters
@@ -72,6 +73,8 @@ def tokenize(lines: list[str], first_line: int) -> list[Token]:
         Lines of text (no line ends) [-].
     first_line : int
         1-based line number of ``lines[0]`` in the file [-].
+    decimal_comma : bool
+        Read ``,`` as a decimal mark (EULUMDAT, one value per line) instead of a separator [-].
 
     Returns
     -------
@@ -79,8 +82,11 @@ def tokenize(lines: list[str], first_line: int) -> list[Token]:
         Tokens in file order [-].
     """
     tokens = []
+    separators = _WHITESPACE if decimal_comma else _SEPARATORS
     for offset, line in enumerate(lines):
-        for word in _SEPARATORS.split(line.strip()):
+        if decimal_comma:
+            line = line.replace(",", ".")
+        for word in separators.split(line.strip()):
             if word:
                 tokens.append(Token(word, first_line + offset))
     return tokens

@@ -399,8 +399,8 @@ def flux_profile(
     tilt: float = 0.0,
     roll: float = 0.0,
     street_azimuth: float = 0.0,
-    nadir_step: float = 0.25,
-    azimuth_step: float = 1.0,
+    nadir_step: float = 0.5,
+    azimuth_step: float = 2.0,
 ) -> FluxProfile:
     """Integrate a mounted luminaire's intensity over world azimuth.
 

@@ -23,7 +23,8 @@ def _root() -> Path:
 def catalog_names() -> list[str]:
     """Names of the catalogue networks, sorted."""
     return sorted(
-        entry.name for entry in _root().iterdir()
+        entry.name
+        for entry in _root().iterdir()
         if entry.is_dir() and (entry / CONFIG_NAME).exists()
     )
 

@@ -24,9 +24,14 @@ from nightlights.errors import InputError
 from nightlights.io import read_vector, write_gpkg
 from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, observed_field
 
-__all__ = ["DEFAULT_CANDIDATES", "OUTPUT_SCHEMA", "fill_lighting", "lighting_summary",
-           "resolve_network",
-           "sample_streets"]
+__all__ = [
+    "DEFAULT_CANDIDATES",
+    "OUTPUT_SCHEMA",
+    "fill_lighting",
+    "lighting_summary",
+    "resolve_network",
+    "sample_streets",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -120,11 +125,17 @@ def fill_lighting(
         else:
             continue
         evidence[name] = out[name].astype(object).where(observed, None)
-    labels = (list(out["source_id"].astype(str)) if "source_id" in out
-              else [str(i) for i in out.index])
+    labels = (
+        list(out["source_id"].astype(str)) if "source_id" in out else [str(i) for i in out.index]
+    )
     sampled = sample_frame(
-        net, evidence, candidates=candidates, rng=rng, on_conflict=on_conflict,
-        labels=labels, progress=progress,
+        net,
+        evidence,
+        candidates=candidates,
+        rng=rng,
+        on_conflict=on_conflict,
+        labels=labels,
+        progress=progress,
     )
     for name, kind in STREET_FIELDS.items():
         flag = observed_field(name)
@@ -143,9 +154,7 @@ def fill_lighting(
             continue
         out[name] = _typed(sampled[name], kind).to_numpy()
     out["spacing_ratio"] = sampled["spacing_ratio"].to_numpy(float)
-    out["spacing"] = out["spacing_ratio"].to_numpy(float) * out["mounting_height"].to_numpy(
-        float
-    )
+    out["spacing"] = out["spacing_ratio"].to_numpy(float) * out["mounting_height"].to_numpy(float)
     logger.info("sampled %d street segments with network %r", len(out), net.name)
     return out
 
@@ -221,8 +230,12 @@ def sample_streets(
         )
     try:
         filled = fill_lighting(
-            streets, network, candidates=candidates, rng=np.random.default_rng(seed),
-            on_conflict=on_conflict, progress=progress,
+            streets,
+            network,
+            candidates=candidates,
+            rng=np.random.default_rng(seed),
+            on_conflict=on_conflict,
+            progress=progress,
         )
     except BayesNetError as exc:
         raise type(exc)(f"{src}: {exc}") from exc

@@ -14,12 +14,22 @@ from bayesnets.binding import MISSING, parse_binding
 from bayesnets.errors import BindingError, EvidenceError
 
 WIDTH = parse_binding(
-    "WIDTH", {"field": "width", "kind": "bins", "edges": [0, 4.75, 6.75, math.inf],
-              "values": [3.5, 6.0, 10.0]},
-    ["3.5", "6", "wide"], source="network.toml",
+    "WIDTH",
+    {
+        "field": "width",
+        "kind": "bins",
+        "edges": [0, 4.75, 6.75, math.inf],
+        "values": [3.5, 6.0, 10.0],
+    },
+    ["3.5", "6", "wide"],
+    source="network.toml",
 )
-LANES = parse_binding("LANES", {"field": "lanes", "kind": "int", "nearest": True},
-                      ["1", "2", "4"], source="network.toml")
+LANES = parse_binding(
+    "LANES",
+    {"field": "lanes", "kind": "int", "nearest": True},
+    ["1", "2", "4"],
+    source="network.toml",
+)
 
 
 def test_bins_encode_by_interval_and_decode_to_representative() -> None:
@@ -32,8 +42,7 @@ def test_bins_encode_by_interval_and_decode_to_representative() -> None:
 
 def test_int_nearest_and_exact() -> None:
     assert LANES.encode(pd.Series([1, 3, 5, np.nan])).tolist() == [0, 1, 2, MISSING]
-    exact = parse_binding("LANES", {"field": "lanes", "kind": "int"}, ["1", "2"],
-                          source="n.toml")
+    exact = parse_binding("LANES", {"field": "lanes", "kind": "int"}, ["1", "2"], source="n.toml")
     with pytest.raises(EvidenceError, match="nearest"):
         exact.encode([3])
     assert LANES.decode(np.array([2])).dtype == np.int64
@@ -50,8 +59,7 @@ def test_bool_and_category() -> None:
 
 def test_malformed_bindings() -> None:
     with pytest.raises(BindingError, match="increasing edges"):
-        parse_binding("W", {"field": "w", "kind": "bins", "edges": [0, 1]}, ["a", "b"],
-                      source="n")
+        parse_binding("W", {"field": "w", "kind": "bins", "edges": [0, 1]}, ["a", "b"], source="n")
     with pytest.raises(BindingError, match="kind 'colour'"):
         parse_binding("W", {"field": "w", "kind": "colour"}, ["a"], source="n")
     with pytest.raises(BindingError, match="bool variable"):

@@ -13,10 +13,22 @@ from bayesnets import BayesNet, catalog_names, default_network_name, exact_margi
 from bayesnets.catalog import catalog_path
 from bayesnets.errors import CatalogError
 
-SYSTEM_IDS = {"post_top_led", "street_led_small", "street_led_medium", "road_led_large",
-              "road_hps"}
-FIELDS = {"street_class", "lanes", "width", "has_median", "oneway", "lit", "mounting_height",
-          "arrangement", "spacing_ratio", "arm_length", "setback", "tilt", "system_id"}
+SYSTEM_IDS = {"post_top_led", "street_led_small", "street_led_medium", "road_led_large", "road_hps"}
+FIELDS = {
+    "street_class",
+    "lanes",
+    "width",
+    "has_median",
+    "oneway",
+    "lit",
+    "mounting_height",
+    "arrangement",
+    "spacing_ratio",
+    "arm_length",
+    "setback",
+    "tilt",
+    "system_id",
+}
 
 
 @pytest.fixture(params=["europe", "north_america"])
@@ -42,8 +54,7 @@ def test_bindings_and_states(net: BayesNet) -> None:
     assert {b.field for b in net.bindings.values()} == FIELDS
     assert net.field_of("WIDTH_RATIO") is None
     assert set(net.states["SYSTEM"]) == SYSTEM_IDS
-    assert set(net.states["ARRANGEMENT"]) == {"single_sided", "staggered", "opposite",
-                                              "central"}
+    assert set(net.states["ARRANGEMENT"]) == {"single_sided", "staggered", "opposite", "central"}
     ratios = [float(s) for s in net.states["SPACING_RATIO"]]
     assert min(ratios) >= 2.5 and max(ratios) <= 4.0  # spacing 2.5-4 x mounting height
     net.to_pgmpy()  # pgmpy accepts the CPDs (check_model)
@@ -62,8 +73,11 @@ def test_arrangement_follows_width_to_height_rule(net: BayesNet) -> None:
     # One-sided when width <= height, staggered at 1-1.5x, opposite above 1.5x, central on
     # divided roads (issue 2; Chuang 2011 Fig. 10 for the table layout).
     most_likely = {
-        ("F", "le1"): "single_sided", ("F", "1to1.5"): "staggered",
-        ("F", "gt1.5"): "opposite", ("T", "le1"): "central", ("T", "1to1.5"): "central",
+        ("F", "le1"): "single_sided",
+        ("F", "1to1.5"): "staggered",
+        ("F", "gt1.5"): "opposite",
+        ("T", "le1"): "central",
+        ("T", "1to1.5"): "central",
         ("T", "gt1.5"): "central",
     }
     for (median, ratio), arrangement in most_likely.items():
@@ -80,8 +94,9 @@ def test_arrangement_follows_width_to_height_rule(net: BayesNet) -> None:
 
 def test_wide_divided_road_never_single_sided_at_5m(net: BayesNet) -> None:
     n = 3000
-    frame = pd.DataFrame({"width": [20.0] * n,
-                          "has_median": [True] * n, "mounting_height": [5.0] * n})
+    frame = pd.DataFrame(
+        {"width": [20.0] * n, "has_median": [True] * n, "mounting_height": [5.0] * n}
+    )
     out = bayesnets.sample_frame(net, frame, rng=np.random.default_rng(0))
     assert not (out["arrangement"] == "single_sided").any()
     assert (out["arrangement"] == "central").mean() > 0.3
@@ -89,8 +104,10 @@ def test_wide_divided_road_never_single_sided_at_5m(net: BayesNet) -> None:
 
 def test_mounting_height_by_class(net: BayesNet) -> None:
     heights = np.array([float(s) for s in net.states["MOUNTING_HEIGHT"]])
-    column = {c: net.tables["MOUNTING_HEIGHT"][:, net.states["STREET_CLASS"].index(c)]
-              for c in net.states["STREET_CLASS"]}
+    column = {
+        c: net.tables["MOUNTING_HEIGHT"][:, net.states["STREET_CLASS"].index(c)]
+        for c in net.states["STREET_CLASS"]
+    }
     assert column["path"][heights > 6].sum() == 0  # footways 4.5-6 m
     assert column["motorway"][heights < 10].sum() == 0  # wide roads 10-12 m
     assert column["arterial"][heights < 8].sum() == 0
@@ -102,8 +119,13 @@ def test_mounting_height_by_class(net: BayesNet) -> None:
 def test_systems_match_mounting_height(net: BayesNet) -> None:
     for state in net.states["MOUNTING_HEIGHT"]:
         height = float(state)
-        column = dict(zip(net.states["SYSTEM"], net.tables["SYSTEM"][
-            :, net.states["MOUNTING_HEIGHT"].index(state)], strict=True))
+        column = dict(
+            zip(
+                net.states["SYSTEM"],
+                net.tables["SYSTEM"][:, net.states["MOUNTING_HEIGHT"].index(state)],
+                strict=True,
+            )
+        )
         if height <= 5:
             assert column["post_top_led"] == 1.0
         if height >= 10:
@@ -115,8 +137,10 @@ def test_systems_match_mounting_height(net: BayesNet) -> None:
 
 
 def test_north_america_has_more_high_pressure_sodium() -> None:
-    share = {name: exact_marginals(load_network(name), {}, ["SYSTEM"])["SYSTEM"]
-             for name in ("europe", "north_america")}
+    share = {
+        name: exact_marginals(load_network(name), {}, ["SYSTEM"])["SYSTEM"]
+        for name in ("europe", "north_america")
+    }
     hps = load_network("europe").states["SYSTEM"].index("road_hps")
     assert share["north_america"][hps] > 2 * share["europe"][hps]
 

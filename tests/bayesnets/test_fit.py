@@ -38,8 +38,10 @@ def test_fit_recovers_tables_within_sampling_error(tmp_path: Path) -> None:
     frame = decode_samples(truth, codes)
     # A flat base network: the estimate must come from the data, not the prior.
     flat = build_network(
-        [parse_table(text.replace(",0\n", ",1\n"), source=name)
-         for name, text in TOY_TABLES.items()],
+        [
+            parse_table(text.replace(",0\n", ",1\n"), source=name)
+            for name, text in TOY_TABLES.items()
+        ],
         tomllib.loads(FULL_CONFIG),
     )
     fitted = fit_network(frame, flat, prior=1.0)
@@ -65,8 +67,10 @@ def _parent_counts(net, codes, variable):
 
 def test_prior_zero_is_maximum_likelihood_and_keeps_unseen_columns() -> None:
     truth = _full_toy()
-    frame = decode_samples(truth, likelihood_weighted_sample(
-        truth, {"A": np.zeros(500, int)}, rng=np.random.default_rng(1)))
+    frame = decode_samples(
+        truth,
+        likelihood_weighted_sample(truth, {"A": np.zeros(500, int)}, rng=np.random.default_rng(1)),
+    )
     with pytest.warns(FitWarning, match="without data keep the base table"):
         fitted = fit_network(frame, truth, prior=0.0)
     a1 = truth.states["A"].index("a1")
@@ -77,8 +81,9 @@ def test_prior_zero_is_maximum_likelihood_and_keeps_unseen_columns() -> None:
 
 def test_hidden_tables_are_kept_with_a_warning() -> None:
     toy = _full_toy()
-    frame = decode_samples(toy, likelihood_weighted_sample(toy, {}, size=200,
-                                                           rng=np.random.default_rng(2)))
+    frame = decode_samples(
+        toy, likelihood_weighted_sample(toy, {}, size=200, rng=np.random.default_rng(2))
+    )
     hidden = build_network(
         [parse_table(text, source=name) for name, text in TOY_TABLES.items()],
         tomllib.loads(TOY_CONFIG),

@@ -72,9 +72,7 @@ def test_marginals_with_evidence_match_exact_inference(
 ) -> None:
     codes = {v: _code(toy, v, s) for v, s in evidence.items()}
     arrays = {v: np.full(RECORDS, c) for v, c in codes.items()}
-    samples = likelihood_weighted_sample(
-        toy, arrays, candidates=200, rng=np.random.default_rng(2)
-    )
+    samples = likelihood_weighted_sample(toy, arrays, candidates=200, rng=np.random.default_rng(2))
     for variable, code in codes.items():
         assert np.all(samples[variable] == code)  # evidence is kept
     _assert_close_to_exact(toy, samples, exact_marginals(toy, codes), RECORDS)
@@ -88,8 +86,9 @@ def test_one_candidate_is_biased_and_many_are_not(toy: BayesNet) -> None:
     exact = exact_marginals(toy, {"D": d_true[0]}, ["A"])["A"]
     error = {}
     for candidates in (1, 200):
-        samples = likelihood_weighted_sample(toy, {"D": d_true}, candidates=candidates,
-                                             rng=np.random.default_rng(3))
+        samples = likelihood_weighted_sample(
+            toy, {"D": d_true}, candidates=candidates, rng=np.random.default_rng(3)
+        )
         error[candidates] = np.abs(_frequencies(samples["A"], 3) - exact).max()
     standard_error = np.sqrt(0.25 / RECORDS)
     assert error[1] > 6 * standard_error
@@ -99,12 +98,15 @@ def test_one_candidate_is_biased_and_many_are_not(toy: BayesNet) -> None:
 def test_same_seed_same_samples(toy: BayesNet) -> None:
     rng = np.random.default_rng(0)
     evidence = {"D": rng.integers(-1, 2, 500), "A": rng.integers(-1, 3, 500)}
-    first = likelihood_weighted_sample(toy, evidence, rng=np.random.default_rng(42),
-                                       on_conflict="relax")
-    again = likelihood_weighted_sample(toy, evidence, rng=np.random.default_rng(42),
-                                       on_conflict="relax")
-    other = likelihood_weighted_sample(toy, evidence, rng=np.random.default_rng(43),
-                                       on_conflict="relax")
+    first = likelihood_weighted_sample(
+        toy, evidence, rng=np.random.default_rng(42), on_conflict="relax"
+    )
+    again = likelihood_weighted_sample(
+        toy, evidence, rng=np.random.default_rng(42), on_conflict="relax"
+    )
+    other = likelihood_weighted_sample(
+        toy, evidence, rng=np.random.default_rng(43), on_conflict="relax"
+    )
     for variable in toy.variables:
         np.testing.assert_array_equal(first[variable], again[variable])
     assert any(not np.array_equal(first[v], other[v]) for v in toy.variables)
@@ -113,10 +115,10 @@ def test_same_seed_same_samples(toy: BayesNet) -> None:
 def test_grouped_sampling_has_the_per_record_distribution(toy: BayesNet) -> None:
     n = 3000
     evidence = {"D": np.full(n, _code(toy, "D", "T"))}
-    grouped = likelihood_weighted_sample(toy, evidence, candidates=8,
-                                         rng=np.random.default_rng(5))
-    single = likelihood_weighted_sample(toy, evidence, candidates=8,
-                                        rng=np.random.default_rng(6), grouped=False)
+    grouped = likelihood_weighted_sample(toy, evidence, candidates=8, rng=np.random.default_rng(5))
+    single = likelihood_weighted_sample(
+        toy, evidence, candidates=8, rng=np.random.default_rng(6), grouped=False
+    )
     # Two independent estimates of the same distribution: their difference has standard
     # error sqrt(2 p (1 - p) / n); allow 4 of them.
     for variable in ("A", "B", "C"):
@@ -136,8 +138,9 @@ def test_impossible_evidence_names_records_and_fields(toy: BayesNet) -> None:
     d = np.full(n, _code(toy, "D", "T"))
     labels = [f"seg{i}" for i in range(n)]
     with pytest.raises(ImpossibleEvidenceError) as info:
-        likelihood_weighted_sample(toy, {"C": c, "D": d}, rng=np.random.default_rng(0),
-                                   record_labels=labels)
+        likelihood_weighted_sample(
+            toy, {"C": c, "D": d}, rng=np.random.default_rng(0), record_labels=labels
+        )
     message = str(info.value)
     assert "2 record(s): seg3, seg7" in message
     assert "c=c2 (C)" in message and "d=T (D)" in message
@@ -164,8 +167,7 @@ def test_rare_but_possible_evidence_is_not_an_error(toy: BayesNet) -> None:
     # some records draw only zero-weight candidates; they are redrawn, not reported.
     n = 2000
     evidence = {"A": np.full(n, _code(toy, "A", "a2")), "D": np.full(n, _code(toy, "D", "T"))}
-    samples = likelihood_weighted_sample(toy, evidence, candidates=1,
-                                         rng=np.random.default_rng(0))
+    samples = likelihood_weighted_sample(toy, evidence, candidates=1, rng=np.random.default_rng(0))
     assert not np.any(samples["C"] == _code(toy, "C", "c2"))
 
 
@@ -205,8 +207,11 @@ def test_samples_lie_in_the_support(a: list[int], seed: int, candidates: int) ->
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EvidenceRelaxedWarning)
         samples = likelihood_weighted_sample(
-            net, {"A": np.array(a), "D": d}, candidates=candidates,
-            rng=np.random.default_rng(seed), on_conflict="relax",
+            net,
+            {"A": np.array(a), "D": d},
+            candidates=candidates,
+            rng=np.random.default_rng(seed),
+            on_conflict="relax",
         )
     observed = np.array(a) >= 0
     assert np.all(samples["A"][observed] == np.array(a)[observed])

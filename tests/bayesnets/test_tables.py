@@ -115,10 +115,13 @@ def test_all_zero_parent_combination_names_rows(tmp_path: Path) -> None:
 def test_inconsistent_parent_state_names_file_and_line(tmp_path: Path) -> None:
     # 'c9' is not a state of C.
     folder = _broken(
-        tmp_path, "D.csv",
+        tmp_path,
+        "D.csv",
         "D,C,weight\nT,c0,9\nF,c0,1\nT,c1,5\nF,c1,5\nT,c2,0\nF,c2,1\nT,c9,1\n",
     )
-    with pytest.raises(InconsistentStatesError, match=r"D\.csv, line 8: parent C has no state 'c9'"):
+    with pytest.raises(
+        InconsistentStatesError, match=r"D\.csv, line 8: parent C has no state 'c9'"
+    ):
         read_network(folder)
 
 
@@ -168,7 +171,7 @@ def test_missing_folder_and_no_tables(tmp_path: Path) -> None:
     with pytest.raises(NetworkDefinitionError, match="not a network folder"):
         read_network(tmp_path / "absent")
     (tmp_path / "empty").mkdir()
-    with pytest.raises(NetworkDefinitionError, match="no \\*.csv"):
+    with pytest.raises(NetworkDefinitionError, match=r"no \*\.csv"):
         read_network(tmp_path / "empty")
 
 

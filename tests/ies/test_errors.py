@@ -48,8 +48,10 @@ def test_wrong_counts_leave_values_over_or_run_out():
 
 def test_unknown_symmetry_is_an_error():
     text = GOOD.replace("0 90\n", "0 120\n")
-    with pytest.raises(PhotometryParseError, match="no LM-63 symmetry"):
+    with pytest.raises(PhotometryParseError, match="no LM-63 symmetry") as info:
         ies.parse_ies(text, source="odd.ies")
+    assert info.value.line == 6
+    assert info.value.token == "0 .. 120"
 
 
 def test_missing_tilt_line():

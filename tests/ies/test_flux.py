@@ -129,3 +129,26 @@ def test_flux_scales_linearly_with_the_candela_multiplier(multiplier):
     scaled = ies.parse_ies(base.format(m=multiplier))
     assert scaled.luminous_flux() == pytest.approx(multiplier * one.luminous_flux(), rel=1e-12)
     assert scaled.scaled(1 / multiplier).luminous_flux() == pytest.approx(one.luminous_flux())
+
+
+@pytest.mark.parametrize(
+    "name", ["demo_two_lamp_sets.ldt", "road_luminaire.ldt", "projector.ldt", "relative.ldt"]
+)
+def test_downward_fraction_matches_eulumdat_dff(name):
+    # EULUMDAT line 22 states the downward flux fraction DFF [%] computed by the file's author
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhotometryWarning)
+        photometry = ies.read_ldt(data_file(name))
+    dff = float(photometry.keywords["downward_flux_fraction"])
+    assert 100 * photometry.downward_flux() / photometry.luminous_flux() == pytest.approx(
+        dff, abs=0.5
+    )
+
+
+def test_multiplier_of_absolute_radiometric_file():
+    # B1 module.ies (Ushio, LM-63-2002, feet, lumens -1, multiplier 1.32) states
+    # [_TOTALLUMINAIRELUMENS] 91.6 for the unscaled table: the scaled integral is 1.32 x that
+    photometry = ies.read_ies(data_file("B1_module.ies"))
+    assert photometry.keywords["_UNITS"] == "feet"
+    stated = float(photometry.keywords["_TOTALLUMINAIRELUMENS"])
+    assert photometry.luminous_flux() == pytest.approx(1.32 * stated, rel=0.01)

@@ -122,3 +122,18 @@ def test_intensity_is_never_negative(index, v, h, method):
         warnings.simplefilter("ignore", PhotometryWarning)
         photometry = ies.read_photometry(ALL_FILES[index])
     assert float(photometry.intensity(v, h, method=method)) >= 0.0
+
+
+@settings(max_examples=50, deadline=None)
+@given(v=st.floats(min_value=0.5, max_value=179.5), h=st.floats(min_value=0, max_value=359.9))
+def test_angles_and_directions_round_trip(v, h):
+    x, y, z = ies.direction_from_angles(v, h)
+    v2, h2 = ies.photometric_angles(x, y, z)
+    assert float(v2) == pytest.approx(v, abs=1e-9)
+    assert (float(h2) - h + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-7)
+
+
+def test_nadir_and_street_side_directions():
+    v, h = ies.photometric_angles([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0])
+    np.testing.assert_allclose(v, [0.0, 90.0, 90.0])
+    np.testing.assert_allclose(h[1:], [0.0, 90.0])

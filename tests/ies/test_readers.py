@@ -238,3 +238,20 @@ def test_dispatch_by_content_for_unknown_suffix(tmp_path, ies_text):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhotometryWarning)
         assert ies.read_photometry(ldt).format == "EULUMDAT"
+
+
+def test_eulumdat_decimal_commas():
+    text = data_file("relative.ldt").read_text()
+    lines = text.splitlines()
+    # write every decimal of the numeric tail with a comma, as some European tools do
+    tail_start = 26 + 6 + 10
+    lines[tail_start:] = [line.replace(".", ",") for line in lines[tail_start:]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhotometryWarning)
+        with_commas = ies.parse_ldt("\n".join(lines))
+        reference = ies.read_ldt(data_file("relative.ldt"))
+    np.testing.assert_allclose(with_commas.candela, reference.candela)
+
+
+def test_byte_order_mark_is_ignored(ies_text):
+    assert ies.parse_ies("\ufeff" + ies_text).version == "2002"

@@ -39,8 +39,10 @@ def _layer(rows: list[dict]) -> gpd.GeoDataFrame:
     for name in STREET_FIELDS:
         data[name] = [row.get(name) for row in rows]
         data[observed_field(name)] = [name in row for row in rows]
-    lines = [shapely.LineString([(385000 + 50 * i, 6672000), (385000 + 50 * i, 6672120)])
-             for i in range(n)]
+    lines = [
+        shapely.LineString([(385000 + 50 * i, 6672000), (385000 + 50 * i, 6672120)])
+        for i in range(n)
+    ]
     return gpd.GeoDataFrame(data, geometry=lines, crs="EPSG:3067")
 
 
@@ -75,8 +77,9 @@ def test_fill_lighting_is_deterministic_under_seed() -> None:
     streets = _layer(ROWS * 20)
     first = fill_lighting(streets, rng=np.random.default_rng(5))
     again = fill_lighting(streets, rng=np.random.default_rng(5))
-    pd.testing.assert_frame_equal(pd.DataFrame(first.drop(columns="geometry")),
-                                  pd.DataFrame(again.drop(columns="geometry")))
+    pd.testing.assert_frame_equal(
+        pd.DataFrame(first.drop(columns="geometry")), pd.DataFrame(again.drop(columns="geometry"))
+    )
 
 
 def test_empty_layer_gives_empty_layer_with_columns() -> None:
@@ -99,8 +102,10 @@ def test_sample_streets_end_to_end(tmp_path: Path) -> None:
     assert sum(summary["arrangement"].values()) == summary["lit"]["lit"]
     again = tmp_path / "again.gpkg"
     sample_streets(src, again, network="north_america", seed=3)
-    pd.testing.assert_frame_equal(pd.DataFrame(gpd.read_file(again).drop(columns="geometry")),
-                                  pd.DataFrame(out.drop(columns="geometry")))
+    pd.testing.assert_frame_equal(
+        pd.DataFrame(gpd.read_file(again).drop(columns="geometry")),
+        pd.DataFrame(out.drop(columns="geometry")),
+    )
 
 
 def test_sample_streets_empty_layer(tmp_path: Path) -> None:
@@ -161,12 +166,16 @@ def test_fit_recovers_arrangement_table(tmp_path: Path) -> None:
         parent = truth.parents[variable][0]
         states = truth.states[parent]
         field = truth.field_of(parent)
-        values = sampled[field].astype(str).map(
-            lambda v, s=states: s.index(v) if v in s else s.index(f"{float(v):g}"))
+        values = (
+            sampled[field]
+            .astype(str)
+            .map(lambda v, s=states: s.index(v) if v in s else s.index(f"{float(v):g}"))
+        )
         counts = np.bincount(values, minlength=len(states)).astype(float)
         seen = counts > 200
         tolerance = 4 * np.sqrt(true * (1 - true) / np.maximum(counts, 1)) + 1 / np.maximum(
-            counts, 1)
+            counts, 1
+        )
         diff = np.abs(fitted.tables[variable] - true)
         assert np.all(diff[:, seen] <= tolerance[:, seen] + 1e-12), variable
     out = tmp_path / "fitted_net"
