@@ -69,6 +69,7 @@ def along_street_statistics(points: gpd.GeoSeries, streets: gpd.GeoDataFrame) ->
     spacings = np.asarray(spacings)
     return {
         "snapped": len(point_index),
+        "per_street": table.groupby("street").size(),
         "spacings": spacings[spacings > 1.0],
         "one_sided_share": float(np.mean(np.array(sides) == "one")) if sides else float("nan"),
         "streets_with_two_or_more": len(sides),
@@ -105,6 +106,14 @@ def main() -> None:
 
     stats_mapped = along_street_statistics(mapped.geometry, study_vehicular)
     stats_predicted = along_street_statistics(poles_in.geometry, study_vehicular)
+    # Mapping is incomplete: most streets have no lamp mapped at all. Where a street has two
+    # or more mapped lamps its lamps were probably mapped, so compare densities there too.
+    per_street = stats_mapped["per_street"]
+    mapped_streets = per_street.index[per_street >= 2]
+    street_length = study_vehicular.set_index("source_id").geometry.length
+    street_length = street_length.groupby(level=0).sum()
+    mapped_km = street_length.loc[mapped_streets].sum() / 1000.0
+    predicted_there = stats_predicted["per_street"].reindex(mapped_streets).fillna(0).sum()
     nn_distance, _ = cKDTree(np.column_stack([poles.geometry.x, poles.geometry.y])).query(
         np.column_stack([mapped.geometry.x, mapped.geometry.y])
     )
@@ -119,6 +128,12 @@ def main() -> None:
         "lamps_per_km_vehicular": {
             "mapped": round(near_vehicular(mapped) / study_km, 2),
             "predicted": round(near_vehicular(poles_in) / study_km, 2),
+        },
+        "streets_with_2plus_mapped_lamps": {
+            "streets": len(mapped_streets),
+            "km": round(mapped_km, 3),
+            "mapped_per_km": round(per_street.loc[mapped_streets].sum() / mapped_km, 2),
+            "predicted_per_km": round(predicted_there / mapped_km, 2),
         },
         "median_spacing_m": {
             "mapped": float(np.median(stats_mapped["spacings"])),

@@ -270,43 +270,108 @@ def ground_illuminance(
     ----------
     Chuang 2011, Sec. 5.1, Eq. 11 (with luminous intensity in place of radiant energy).
     """
+    values, _ = _illuminance_and_pairs(
+        shape,
+        origin,
+        resolution,
+        light_point,
+        rotation,
+        street_azimuth,
+        table_index,
+        tables,
+        weights,
+        radius=radius,
+        ground_z=ground_z,
+        normals=normals,
+    )
+    return values
+
+
+def _illuminance_and_pairs(
+    shape: tuple[int, int],
+    origin: tuple[float, float],
+    resolution: float,
+    light_point: NDArray[np.float64],
+    rotation: NDArray[np.float64],
+    street_azimuth: NDArray[np.float64],
+    table_index: NDArray[np.intp],
+    tables: Sequence[IntensityTable],
+    weights: NDArray[np.float64],
+    *,
+    radius: NDArray[np.float64] | None = None,
+    ground_z: NDArray[np.float64] | None = None,
+    normals: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], int]:
     rows, cols = shape
     n_bands = weights.shape[1]
     out = np.zeros((n_bands, rows * cols))
     n = len(light_point)
     if n == 0 or rows == 0 or cols == 0:
-        return out.reshape(n_bands, rows, cols)
-    x0, y0 = origin
-    r = np.full(n, np.inf) if radius is None else np.asarray(radius, dtype=float)
-    lx, ly = light_point[:, 0], light_point[:, 1]
-    with np.errstate(invalid="ignore"):
-        c0 = np.clip(np.ceil((lx - r - x0) / resolution), 0, cols).astype(np.int64)
-        c1 = np.clip(np.floor((lx + r - x0) / resolution) + 1, 0, cols).astype(np.int64)
-        r0 = np.clip(np.ceil((y0 - (ly + r)) / resolution), 0, rows).astype(np.int64)
-        r1 = np.clip(np.floor((y0 - (ly - r)) / resolution) + 1, 0, rows).astype(np.int64)
-    n_cols = np.maximum(c1 - c0, 0)
-    counts = n_cols * np.maximum(r1 - r0, 0)
+        return out.reshape(n_bands, rows, cols), 0
+    segments = _disc_segments(shape, origin, resolution, light_point, radius)
+    pairs = 0
     for table_id in np.unique(table_index):
-        members = np.flatnonzero((table_index == table_id) & (counts > 0))
-        for batch in _batches(members, counts[members]):
-            _accumulate(
+        chosen = table_index[segments.light] == table_id
+        for batch in _batches(np.flatnonzero(chosen), segments.length[chosen]):
+            pairs += _accumulate(
                 out,
-                batch,
-                counts[batch],
-                c0[batch],
-                r0[batch],
-                n_cols[batch],
+                _Segments(
+                    segments.light[batch],
+                    segments.row[batch],
+                    segments.col0[batch],
+                    segments.length[batch],
+                ),
                 cols,
-                (x0, y0, resolution),
-                light_point[batch],
-                rotation[batch],
-                street_azimuth[batch],
+                (origin[0], origin[1], resolution),
+                light_point,
+                rotation,
+                street_azimuth,
                 tables[table_id],
-                weights[batch],
+                weights,
                 ground_z,
                 normals,
             )
-    return out.reshape(n_bands, rows, cols)
+    return out.reshape(n_bands, rows, cols), pairs
+
+
+@dataclass(frozen=True)
+class _Segments:
+    """Runs of pixels in one row lit by one light: light index, row, first column, length."""
+
+    light: NDArray[np.intp]
+    row: NDArray[np.int64]
+    col0: NDArray[np.int64]
+    length: NDArray[np.int64]
+
+
+def _disc_segments(
+    shape: tuple[int, int],
+    origin: tuple[float, float],
+    resolution: float,
+    light_point: NDArray[np.float64],
+    radius: NDArray[np.float64] | None,
+) -> _Segments:
+    """Pixel-centre runs inside each light's region-of-influence disc, clipped to the window."""
+    rows, cols = shape
+    x0, y0 = origin
+    n = len(light_point)
+    r = np.full(n, np.inf) if radius is None else np.asarray(radius, dtype=float)
+    lx, ly = light_point[:, 0], light_point[:, 1]
+    with np.errstate(invalid="ignore"):
+        r0 = np.clip(np.ceil((y0 - (ly + r)) / resolution), 0, rows).astype(np.int64)
+        r1 = np.clip(np.floor((y0 - (ly - r)) / resolution) + 1, 0, rows).astype(np.int64)
+    n_rows = np.maximum(r1 - r0, 0)
+    light = np.repeat(np.arange(n), n_rows)
+    row = r0[light] + (np.arange(n_rows.sum()) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows))
+    dy = (y0 - row * resolution) - ly[light]
+    with np.errstate(invalid="ignore"):
+        half = np.sqrt(np.maximum(r[light] ** 2 - dy * dy, 0.0))
+        half = np.where(np.isinf(r[light]), np.inf, half)
+        col0 = np.clip(np.ceil((lx[light] - half - x0) / resolution), 0, cols).astype(np.int64)
+        col1 = np.clip(np.floor((lx[light] + half - x0) / resolution) + 1, 0, cols)
+    length = np.maximum(col1.astype(np.int64) - col0, 0)
+    keep = length > 0
+    return _Segments(light[keep], row[keep], col0[keep], length[keep])
 
 
 def _batches(members: NDArray[np.intp], counts: NDArray[np.int64]) -> list[NDArray[np.intp]]:
@@ -319,11 +384,7 @@ def _batches(members: NDArray[np.intp], counts: NDArray[np.int64]) -> list[NDArr
 
 def _accumulate(
     out: NDArray[np.float64],
-    batch: NDArray[np.intp],
-    counts: NDArray[np.int64],
-    c0: NDArray[np.int64],
-    r0: NDArray[np.int64],
-    n_cols: NDArray[np.int64],
+    segments: _Segments,
     cols: int,
     grid: tuple[float, float, float],
     point: NDArray[np.float64],
@@ -333,35 +394,36 @@ def _accumulate(
     weights: NDArray[np.float64],
     ground_z: NDArray[np.float64] | None,
     normals: NDArray[np.float64] | None,
-) -> None:
+) -> int:
     x0, y0, resolution = grid
-    total = int(counts.sum())
-    pair = np.repeat(np.arange(len(batch)), counts)
-    local = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-    width = n_cols[pair]
-    row_offset = local // width
-    row = r0[pair] + row_offset
-    col = c0[pair] + (local - row_offset * width)
+    total = int(segments.length.sum())
+    segment = np.repeat(np.arange(len(segments.length)), segments.length)
+    col = segments.col0[segment] + (
+        np.arange(total) - np.repeat(np.cumsum(segments.length) - segments.length, segments.length)
+    )
+    row = segments.row[segment]
+    pair = segments.light[segment]
     pixel = row * cols + col
-    dx = (x0 - point[pair, 0]) + col * resolution
-    dy = (y0 - point[pair, 1]) - row * resolution
+    # Offsets per light (small numbers), then per pixel.
+    dx = (x0 - point[:, 0])[pair] + col * resolution
+    dy = (y0 - point[:, 1])[pair] - row * resolution
     dz = -point[pair, 2] if ground_z is None else ground_z.ravel()[pixel] - point[pair, 2]
     # Body coordinates b = R^T d (right, forward, up); Chuang 2011, Eq. 5.
-    if np.allclose(rotation[:, 2, 2], 1.0, rtol=0.0, atol=1e-15):
-        bx = rotation[pair, 0, 0] * dx + rotation[pair, 1, 0] * dy
-        by = rotation[pair, 0, 1] * dx + rotation[pair, 1, 1] * dy
+    planar = np.abs(rotation[:, 2, 2] - 1.0) <= 1e-15
+    if np.all(planar[segments.light]):
+        bx = rotation[:, 0, 0][pair] * dx + rotation[:, 1, 0][pair] * dy
+        by = rotation[:, 0, 1][pair] * dx + rotation[:, 1, 1][pair] * dy
         bz = dz
     else:
-        rt = rotation[pair]
-        bx = rt[:, 0, 0] * dx + rt[:, 1, 0] * dy + rt[:, 2, 0] * dz
-        by = rt[:, 0, 1] * dx + rt[:, 1, 1] * dy + rt[:, 2, 1] * dz
-        bz = rt[:, 0, 2] * dx + rt[:, 1, 2] * dy + rt[:, 2, 2] * dz
+        column = [[np.ascontiguousarray(rotation[:, i, j]) for j in range(3)] for i in range(3)]
+        bx = column[0][0][pair] * dx + column[1][0][pair] * dy + column[2][0][pair] * dz
+        by = column[0][1][pair] * dx + column[1][1][pair] * dy + column[2][1][pair] * dz
+        bz = column[0][2][pair] * dx + column[1][2][pair] * dy + column[2][2][pair] * dz
     d2 = np.maximum(dx * dx + dy * dy + dz * dz, MIN_DISTANCE**2)
     inv_d = 1.0 / np.sqrt(d2)
     vertical = np.degrees(np.arccos(np.clip(-bz * inv_d, -1.0, 1.0)))
     horizontal = np.degrees(np.arctan2(-bx, by)) + street_azimuth[pair]
-    horizontal = np.where(horizontal < 0.0, horizontal + 360.0, horizontal)
-    horizontal = np.where(horizontal >= 360.0, horizontal - 360.0, horizontal)
+    horizontal -= 360.0 * np.floor(horizontal * (1.0 / 360.0))
     intensity = table.lookup(vertical, horizontal)
     if normals is None:
         cos_incidence = -dz * inv_d
@@ -380,6 +442,7 @@ def _accumulate(
         band_weight = weights[:, band]
         values = illuminance if np.all(band_weight == 1.0) else illuminance * band_weight[pair]
         out[band] += np.bincount(pixel, weights=values, minlength=out.shape[1])
+    return total
 
 
 # --------------------------------------------------------------------------------------
@@ -1029,7 +1092,7 @@ def _irradiance_tile(
 ) -> tuple[NDArray[np.float32], int]:
     grid, tables = shared
     x, y = grid.centres(tile)
-    values = ground_illuminance(
+    values, pairs = _illuminance_and_pairs(
         (tile.rows, tile.cols),
         (float(x[0]), float(y[0])),
         grid.resolution,
@@ -1043,24 +1106,7 @@ def _irradiance_tile(
         ground_z=ground_z,
         normals=normals,
     )
-    return values.astype(np.float32), _pair_count(tile, grid, light_point, radius, x[0], y[0])
-
-
-def _pair_count(
-    tile: Tile,
-    grid: RasterGrid,
-    light_point: NDArray[np.float64],
-    radius: NDArray[np.float64],
-    x0: float,
-    y0: float,
-) -> int:
-    res = grid.resolution
-    lx, ly = light_point[:, 0], light_point[:, 1]
-    c0 = np.clip(np.ceil((lx - radius - x0) / res), 0, tile.cols)
-    c1 = np.clip(np.floor((lx + radius - x0) / res) + 1, 0, tile.cols)
-    r0 = np.clip(np.ceil((y0 - (ly + radius)) / res), 0, tile.rows)
-    r1 = np.clip(np.floor((y0 - (ly - radius)) / res) + 1, 0, tile.rows)
-    return int((np.maximum(c1 - c0, 0) * np.maximum(r1 - r0, 0)).sum())
+    return values.astype(np.float32), pairs
 
 
 # --------------------------------------------------------------------------------------
