@@ -58,7 +58,7 @@ def _bounds(text: str | None) -> tuple[float, float, float, float] | None:
 )
 @click.option(
     "--threshold",
-    default="floor:0.03",
+    default="floor:0.01",
     show_default=True,
     help="Region of influence: energy:FRACTION, floor:LUX or none.",
 )

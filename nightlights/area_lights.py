@@ -206,6 +206,10 @@ def area_luminaires(
     """
     n = len(lights.x)
     ground = np.zeros(n) if ground_z is None else np.asarray(ground_z, dtype=float)
+    # Region of influence from the whole source's flux (see Luminaires.influence_scale).
+    source_flux = (
+        np.bincount(lights.source, weights=lights.flux)[lights.source] if n else lights.flux
+    )
     return Luminaires(
         light_id=-(np.arange(n, dtype=np.int64) + 1),
         light_point=np.column_stack([lights.x, lights.y, ground + height]).reshape(-1, 3),
@@ -219,6 +223,7 @@ def area_luminaires(
         tables=(lambertian_panel_table(),),
         spectra=(spectrum,),
         names=("area_source",),
+        influence_scale=source_flux,
     )
 
 

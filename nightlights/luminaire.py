@@ -308,7 +308,19 @@ class IntensityTable:
 
     @classmethod
     def from_photometry(cls, photometry: PhotometryLike) -> IntensityTable:
-        """Sample a photometry on the coarsest regular grid that refines its own grid."""
+        """Sample a photometry on the coarsest regular grid that refines its own grid.
+
+        Raises
+        ------
+        InputError
+            The photometry is not type C (types A and B use other angle conventions).
+        """
+        kind = getattr(photometry, "photometric_type", "C")
+        if kind != "C":
+            raise InputError(
+                f"{getattr(photometry, 'source', 'photometry')}: photometric type {kind}; "
+                "ground irradiance needs type C (V from nadir, H around the vertical axis)"
+            )
         vertical_step = _common_step(np.asarray(photometry.vertical_angles, dtype=float))
         horizontal_step = _common_step(np.asarray(photometry.horizontal_angles, dtype=float))
         if vertical_step is None or horizontal_step is None:

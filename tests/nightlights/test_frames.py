@@ -111,3 +111,17 @@ def test_tilt_moves_lambertian_flux_above_the_horizon() -> None:
         profile = flux_profile(table, tilt=tilt)
         expected = np.pi * (1 - np.cos(np.radians(tilt))) / 2
         assert profile.upward_flux == pytest.approx(expected, abs=2e-4 * np.pi)
+
+
+def test_table_from_type_b_photometry_is_refused() -> None:
+    class TypeB:
+        photometric_type = "B"
+        source = "floodlight.ies"
+        vertical_angles = np.array([-90.0, 0.0, 90.0])
+        horizontal_angles = np.array([-90.0, 0.0, 90.0])
+
+        def intensity(self, v, h):
+            return np.ones_like(v)
+
+    with pytest.raises(InputError, match=r"floodlight\.ies: photometric type B"):
+        IntensityTable.from_photometry(TypeB())
