@@ -139,17 +139,25 @@ def plot(payload: dict, path: Path) -> None:
         times = [r["time_s"] for r in rows]
         for axis, key in zip(axes, ("lost_flux_fraction", "mean_abs_error_lx"), strict=True):
             axis.plot(times, [max(r[key], 1e-9) for r in rows], markers[kind], label=kind)
+            offset = (4, 4) if kind == "energy" else (4, -11)
             for r in rows:
-                label = f"{r['value']:g}"
-                if kind == payload["default"]["kind"] and r["value"] == payload["default"]["value"]:
-                    label += " (default)"
+                value = max(r[key], 1e-9)
                 axis.annotate(
-                    label,
-                    (r["time_s"], max(r[key], 1e-9)),
+                    f"{r['value']:g}",
+                    (r["time_s"], value),
                     fontsize=7,
-                    xytext=(3, 3),
+                    xytext=offset,
                     textcoords="offset points",
                 )
+                if kind == payload["default"]["kind"] and r["value"] == payload["default"]["value"]:
+                    axis.plot(
+                        [r["time_s"]],
+                        [value],
+                        "r*",
+                        ms=13,
+                        zorder=3,
+                        label=f"default {kind}:{r['value']:g}",
+                    )
     for axis, title in zip(
         axes, ("lost ground flux [fraction]", "mean absolute pixel error [lx]"), strict=True
     ):

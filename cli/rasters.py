@@ -21,7 +21,7 @@ def _bounds(text: str | None) -> tuple[float, float, float, float] | None:
         raise click.BadParameter(f"{text!r}; expected xmin,ymin,xmax,ymax in metres") from None
     if len(values) != 4:
         raise click.BadParameter(f"{text!r}; expected four numbers xmin,ymin,xmax,ymax")
-    return values  # type: ignore[return-value]
+    return values[0], values[1], values[2], values[3]
 
 
 @click.command("irradiance")

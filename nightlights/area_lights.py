@@ -207,8 +207,9 @@ def area_luminaires(
     n = len(lights.x)
     ground = np.zeros(n) if ground_z is None else np.asarray(ground_z, dtype=float)
     # Region of influence from the whole source's flux (see Luminaires.influence_scale).
-    source_flux = (
-        np.bincount(lights.source, weights=lights.flux)[lights.source] if n else lights.flux
+    source_flux = np.asarray(
+        np.bincount(lights.source, weights=lights.flux)[lights.source] if n else lights.flux,
+        dtype=np.float64,
     )
     return Luminaires(
         light_id=-(np.arange(n, dtype=np.int64) + 1),

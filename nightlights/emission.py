@@ -153,7 +153,7 @@ def dnb_luminous_efficacy(
     if source is not None:
         power = source.on(wavelengths)
     else:
-        w, v = (np.asarray(a, dtype=float) for a in spectrum)  # type: ignore[misc]
+        w, v = (np.asarray(a, dtype=float) for a in spectrum)
         power = np.interp(wavelengths, w, v, left=0.0, right=0.0)
     photopic = spectra.get_sensor("photopic").on(wavelengths)
     response = ((wavelengths >= band[0]) & (wavelengths <= band[1])).astype(float)

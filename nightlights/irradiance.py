@@ -452,11 +452,20 @@ def _accumulate(
 class LightSystemLike(Protocol):
     """What the stage reads from :class:`ies.library.LightSystem`."""
 
-    mounting_height: float
-    arm_length: float
-    tilt: float
-    street_azimuth: float
-    spd: str
+    @property
+    def mounting_height(self) -> float: ...
+
+    @property
+    def arm_length(self) -> float: ...
+
+    @property
+    def tilt(self) -> float: ...
+
+    @property
+    def street_azimuth(self) -> float: ...
+
+    @property
+    def spd(self) -> str: ...
 
 
 class DatabaseLike(Protocol):
@@ -521,13 +530,11 @@ class Luminaires:
 
     def flux_profile(self, index: int) -> FluxProfile:
         """World-frame flux profile of light ``index``, cached per table and rounded angles."""
-        key = (
-            int(self.table_index[index]),
-            *(
-                float(np.round(value[index] / PROFILE_ANGLE_STEP) * PROFILE_ANGLE_STEP)
-                for value in (self.tilt, self.roll, self.street_azimuth)
-            ),
+        tilt, roll, azimuth = (
+            float(np.round(value[index] / PROFILE_ANGLE_STEP) * PROFILE_ANGLE_STEP)
+            for value in (self.tilt, self.roll, self.street_azimuth)
         )
+        key = (int(self.table_index[index]), tilt, roll, azimuth)
         if key not in self.profiles:
             self.profiles[key] = flux_profile(
                 self.tables[key[0]], tilt=key[1], roll=key[2], street_azimuth=key[3]
@@ -622,7 +629,7 @@ def load_database(catalog: str | os.PathLike[str] | None) -> DatabaseLike:
     """The luminaire database of the ``ies`` package (bundled, or the folder ``catalog``)."""
     from ies.library import load_library
 
-    return load_library(catalog)  # type: ignore[no-any-return]
+    return load_library(catalog)
 
 
 def resolve_luminaires(
@@ -754,7 +761,12 @@ def _ids(ids: NDArray[Any], limit: int = 10) -> str:
     return f"[{listed}{', ...' if len(ids) > limit else ''}] ({len(ids)} in all)"
 
 
-def sensor_factors(spectra: Sequence[str | None], sensors: Sequence[str]) -> NDArray[np.float64]:
+def sensor_factors(
+    spectra: Sequence[str | None],
+    sensors: Sequence[str],
+    *,
+    names: Sequence[str] | None = None,
+) -> NDArray[np.float64]:
     """Band weight per spectrum and sensor: 1 for photopic, else k [W m-2 lx-1].
 
     Parameters
@@ -763,6 +775,8 @@ def sensor_factors(spectra: Sequence[str | None], sensors: Sequence[str]) -> NDA
         Spectrum names (``ies.spectra``) per light system.
     sensors
         Sensor names (``ies.spectra.SENSORS``).
+    names
+        Light system names per spectrum, for messages.
 
     Returns
     -------
@@ -785,8 +799,10 @@ def sensor_factors(spectra: Sequence[str | None], sensors: Sequence[str]) -> NDA
             )
         for i, spectrum in enumerate(spectra):
             if spectrum is None:
+                who = names[i] if names is not None else f"number {i}"
+                hint = " (name one with --area-spectrum)" if who == "area_source" else ""
                 raise InputError(
-                    f"sensor {sensor!r} needs a spectrum, but light system {i} has none"
+                    f"sensor {sensor!r} needs a spectrum, but light system {who} has none{hint}"
                 )
             factors[i, j] = float(ies_spectra.sensor_factor(spectrum, sensor))
     return factors
@@ -938,7 +954,8 @@ def irradiance(
     if len(luminaires) == 0:
         raise EmptyInputError(f"{lights_path}: no usable lights remain")
     radius = luminaires.radius(threshold)
-    weights = sensor_factors(luminaires.spectra, sensors)[luminaires.table_index]
+    weights = sensor_factors(luminaires.spectra, sensors, names=luminaires.names)
+    weights = weights[luminaires.table_index]
     weights = weights * luminaires.intensity_scale[:, None]
     if bounds is None:
         reach = float(np.max(radius)) if margin is None else float(margin)

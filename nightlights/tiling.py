@@ -77,7 +77,7 @@ class RasterGrid:
         """Pixel-centre coordinates of a tile: x (cols,) and y (rows,) [m]."""
         x = self.x_min + (tile.col0 + np.arange(tile.cols) + 0.5) * self.resolution
         y = self.y_max - (tile.row0 + np.arange(tile.rows) + 0.5) * self.resolution
-        return x, y
+        return x.astype(np.float64), y.astype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -192,7 +192,7 @@ def assign_to_tiles(
     ]
 
 
-class _TileProgress(Callback):  # type: ignore[misc]
+class _TileProgress(Callback):
     def __init__(self, advance: Callable[[], None], prefix: str) -> None:
         super().__init__()
         self._advance = advance
@@ -267,6 +267,7 @@ def _compute_distributed(
 
     own_client = not isinstance(scheduler, Client)
     client = Client(scheduler, set_as_default=False) if own_client else scheduler
+    assert isinstance(client, Client)
     try:
         futures = client.compute(tasks)
         position = {future.key: index for index, future in enumerate(futures)}

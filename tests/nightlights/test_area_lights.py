@@ -140,3 +140,31 @@ def test_stage_with_area_sources_only(tmp_path: Path) -> None:
     # (6400/pi) cos^4(t) / 8^2 = 0.01 gives cos^2(t) = 1.77 %, the flux fraction beyond
     # (analytic, Lambertian point source); a few pixels more are lost at the disc edge.
     assert fluxes[1] == pytest.approx(6400 * (1 - 0.0177), rel=0.005)
+
+
+def test_area_sources_need_a_spectrum_for_sensor_bands(tmp_path: Path) -> None:
+    areas = write_areas(tmp_path / "a.gpkg", [100.0])
+    lights = tmp_path / "none.gpkg"
+    gpd.GeoDataFrame(
+        {"light_id": [], "system_id": [], "heading": []}, geometry=[], crs=CRS
+    ).to_file(lights, driver="GPKG")
+    kwargs = {
+        "resolution": 2.0,
+        "sensors": ("photopic", "scotopic"),
+        "area_sources": areas,
+        "exitance_field": "lux_out",
+        "progress": False,
+    }
+    with pytest.raises(InputError, match=r"area_source has none.*--area-spectrum"):
+        irradiance(lights, tmp_path / "e.tif", **kwargs)
+    irradiance(
+        lights, tmp_path / "e.tif", area_options=AreaLightOptions(spectrum="LED_4000K"), **kwargs
+    )
+    with rasterio.open(tmp_path / "e.tif") as dataset:
+        photopic, scotopic = dataset.read().astype(float)
+    from ies.spectra import sensor_factor
+
+    lit = photopic > 1
+    np.testing.assert_allclose(
+        scotopic[lit] / photopic[lit], sensor_factor("LED_4000K", "scotopic"), rtol=1e-5
+    )

@@ -52,7 +52,8 @@ class Photometry:
 
 
 class Database:
-    systems = {"lamp": System()}
+    def __init__(self) -> None:
+        self.systems = {"lamp": System()}
 
     def get(self, system_id):
         return self.systems[system_id]
@@ -192,7 +193,7 @@ def test_emission_bad_inputs(scene, tmp_path: Path) -> None:
 
 
 def test_albedo_raster(scene, tmp_path: Path) -> None:
-    lights, irradiance_tif = scene
+    _, irradiance_tif = scene
     albedo = tmp_path / "albedo.tif"
     with rasterio.open(
         albedo,
