@@ -44,6 +44,18 @@ class DemoResult:
     outputs: dict[str, Path] = field(default_factory=dict)
 
 
+#: Ground albedo of the demo [1]: a typical value for a city centre of asphalt, paving and
+#: roofs (urban surface albedo 0.10-0.20; Taha 1997, Energy and Buildings 25, 99-103).
+DEMO_ALBEDO = 0.15
+#: Pixel size of the demo's illuminance raster [m].
+DEMO_IRRADIANCE_RESOLUTION = 1.0
+#: Cell size of the demo's emission raster [m].
+DEMO_EMISSION_RESOLUTION = 50.0
+CREDIT = "(c) OpenStreetMap contributors, ODbL"
+#: Window enlarged in the demo's map (around the Esplanadi park) [m, EPSG:32635].
+DEMO_ZOOM = (385850.0, 6671700.0, 386150.0, 6672000.0)
+
+
 def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult:
     """Run the pipeline on the bundled Helsinki extract, writing every product to ``out_dir``.
 
@@ -54,6 +66,9 @@ def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult
     seed
         Random seed for sampling and placement.
     """
+    from nightlights.emission import emission
+    from nightlights.irradiance import irradiance
+    from nightlights.maps import plot_raster_map
     from nightlights.streets.normalize import normalize
     from nightlights.streets.place import place
     from nightlights.streets.sample import sample_streets
@@ -68,6 +83,32 @@ def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult
     sample_streets(streets_norm, streets_lit, seed=seed)
     result.outputs["streets_lit"] = streets_lit
     lights = out / "lights.gpkg"
-    place(streets_lit, lights, seed=seed)
+    poles = place(streets_lit, lights, seed=seed)
     result.outputs["lights"] = lights
+    irradiance_tif = out / "irradiance.tif"
+    irradiance(
+        lights,
+        irradiance_tif,
+        resolution=DEMO_IRRADIANCE_RESOLUTION,
+        sensors=("photopic", "scotopic"),
+        progress=False,
+    )
+    result.outputs["irradiance"] = irradiance_tif
+    result.outputs["irradiance_map"] = plot_raster_map(
+        irradiance_tif,
+        out / "irradiance.png",
+        points=poles.drop_duplicates("pole_id"),
+        title="Helsinki: predicted poles and ground illuminance",
+        credit=CREDIT,
+        zoom=DEMO_ZOOM,
+    )
+    emission_tif = out / "emission.tif"
+    emission(
+        irradiance_tif,
+        lights,
+        emission_tif,
+        resolution=DEMO_EMISSION_RESOLUTION,
+        albedo=DEMO_ALBEDO,
+    )
+    result.outputs["emission"] = emission_tif
     return result
