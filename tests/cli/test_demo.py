@@ -2,19 +2,29 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import geopandas as gpd
+import numpy as np
+import pytest
+import rasterio
 from click.testing import CliRunner
 
 from cli.main import cli
 from nightlights.demo import mapped_street_lamps
 
 
-def test_demo_runs_every_stage_and_outputs_open_with_crs(tmp_path) -> None:
-    out = tmp_path / "demo"
+@pytest.fixture(scope="module")
+def demo_out(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("demo") / "out"
     result = CliRunner().invoke(cli, ["demo", "--out", str(out), "--seed", "7"])
     assert result.exit_code == 0, result.output
-    streets = gpd.read_file(out / "streets_lit.gpkg")
-    lights = gpd.read_file(out / "lights.gpkg")
+    return out
+
+
+def test_demo_street_layers_open_with_crs(demo_out: Path) -> None:
+    streets = gpd.read_file(demo_out / "streets_lit.gpkg")
+    lights = gpd.read_file(demo_out / "lights.gpkg")
     assert streets.crs.to_epsg() == 32635 and lights.crs.to_epsg() == 32635
     assert streets[["arrangement", "system_id", "spacing"]].notna().all().all()
     # Poles stand where the mapped lamps are: most mapped lamps have a predicted pole near.
@@ -24,19 +34,13 @@ def test_demo_runs_every_stage_and_outputs_open_with_crs(tmp_path) -> None:
     assert nearest.median() < 15.0
 
 
-def test_demo_rasters_are_cogs_in_the_lights_crs(tmp_path) -> None:
-    import numpy as np
-    import rasterio
-
-    out = tmp_path / "demo"
-    result = CliRunner().invoke(cli, ["demo", "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    with rasterio.open(out / "irradiance.tif") as src:
+def test_demo_rasters_are_cogs_in_the_lights_crs(demo_out: Path) -> None:
+    with rasterio.open(demo_out / "irradiance.tif") as src:
         assert src.crs.to_epsg() == 32635 and src.res == (1.0, 1.0)
-        assert src.descriptions[0].startswith("photopic") or "photopic" in src.descriptions[0]
+        assert "photopic" in src.descriptions[0]
         lux = src.read(1)
         assert np.nanmax(lux) > 5.0  # under a pole, street lighting gives tens of lux
-    with rasterio.open(out / "emission.tif") as src:
+    with rasterio.open(demo_out / "emission.tif") as src:
         assert src.count == 2 and src.res == (50.0, 50.0)
         assert np.nansum(src.read(1)) > 0
-    assert (out / "irradiance.png").stat().st_size > 10_000
+    assert (demo_out / "irradiance.png").stat().st_size > 10_000
