@@ -30,12 +30,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import shapely
-from nightlights.streets.sample import sample_streets
 from scipy.spatial import cKDTree
 
 from nightlights.demo import example_path, mapped_street_lamps
 from nightlights.streets.normalize import normalize
 from nightlights.streets.place import place
+from nightlights.streets.sample import sample_streets
 
 VEHICULAR = ("motorway", "arterial", "collector", "local", "service")
 #: A lamp counts as standing along a street when it is this close to its centreline [m].

@@ -93,8 +93,12 @@ def plot_raster_map(
             ax.set_title("enlarged")
             axes[0][0].add_patch(
                 matplotlib.patches.Rectangle(
-                    (zoom[0], zoom[1]), zoom[2] - zoom[0], zoom[3] - zoom[1],
-                    fill=False, edgecolor="w", linewidth=1,
+                    (zoom[0], zoom[1]),
+                    zoom[2] - zoom[0],
+                    zoom[3] - zoom[1],
+                    fill=False,
+                    edgecolor="w",
+                    linewidth=1,
                 )
             )
         else:

@@ -11,6 +11,7 @@ from importlib import resources
 from pathlib import Path
 
 import geopandas as gpd
+from pyproj import CRS
 
 from nightlights.io import ensure_projected, read_vector
 
@@ -23,7 +24,7 @@ def example_path(name: str = "helsinki.osm.pbf") -> Path:
     return path
 
 
-def mapped_street_lamps(crs: object | None = None) -> gpd.GeoDataFrame:
+def mapped_street_lamps(crs: str | CRS | None = None) -> gpd.GeoDataFrame:
     """The ``highway=street_lamp`` nodes mapped in the bundled Helsinki extract.
 
     Parameters
