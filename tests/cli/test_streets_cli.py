@@ -79,3 +79,25 @@ def test_place_from_sampled_layer(tmp_path) -> None:
     again = tmp_path / "again.gpkg"
     CliRunner().invoke(cli, ["streets", "place", str(src), str(again), "--seed", "4"])
     assert gpd.read_file(again).equals(lights)
+
+
+def test_place_rejects_system_ids_missing_from_the_database(tmp_path) -> None:
+    src = tmp_path / "lit.gpkg"
+    gpd.GeoDataFrame(
+        {
+            "source_id": ["a"],
+            "width": [7.0],
+            "lit": [True],
+            "arrangement": ["opposite"],
+            "spacing": [25.0],
+            "mounting_height": [8.0],
+            "system_id": ["no_such_luminaire"],
+        },
+        geometry=[shapely.LineString([(0, 0), (500, 0)])],
+        crs="EPSG:3067",
+    ).to_file(src)
+    out = tmp_path / "lights.gpkg"
+    result = CliRunner().invoke(cli, ["streets", "place", str(src), str(out)])
+    assert result.exit_code == 1
+    assert "no_such_luminaire" in result.output and "not in the luminaire database" in result.output
+    assert not out.exists()
