@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "cli.demo",
     "cli.photometry",
     "cli.rasters",
+    "cli.sky_kernel",
 )
 
 DOMAIN_ERRORS = (NightlightsError, BayesNetError, PhotometryError)

@@ -1,0 +1,123 @@
+"""``nightlights kernel build``: precompute a skyglow kernel table (PCA + FFT) to NetCDF."""
+
+from __future__ import annotations
+
+import time
+
+import click
+from rich.console import Console
+
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.precompute import kernel_build_stage
+
+
+@click.group("kernel")
+def kernel() -> None:
+    """Skyglow kernels: sky luminance per lumen of a ground source, tabulated."""
+
+
+@kernel.command("build")
+@click.argument("out", type=click.Path(dir_okay=False))
+@click.option("--turbidity", type=float, default=2.0, show_default=True, help="Turbidity T >= 1.")
+@click.option(
+    "--aerosol-optical-depth",
+    type=float,
+    default=None,
+    help="Vertical aerosol optical depth (overrides --turbidity).",
+)
+@click.option("--wavelength", type=float, default=550.0, show_default=True, help="[nm].")
+@click.option("--r-min", type=float, default=10.0, show_default=True, help="Inner distance [m].")
+@click.option(
+    "--r-max", type=float, default=100_000.0, show_default=True, help="Outer distance [m]."
+)
+@click.option(
+    "--n-distance", type=int, default=64, show_default=True, help="Log-spaced distance bins."
+)
+@click.option(
+    "--n-elevation", type=int, default=32, show_default=True, help="Elevation rows (0-90 deg)."
+)
+@click.option(
+    "--n-azimuth", type=int, default=128, show_default=True, help="Azimuth columns (even)."
+)
+@click.option(
+    "--source-altitude",
+    "source_altitudes",
+    type=float,
+    multiple=True,
+    help="[m], repeatable (default 0).",
+)
+@click.option(
+    "--observer-altitude",
+    "observer_altitudes",
+    type=float,
+    multiple=True,
+    help="[m], repeatable (default 0).",
+)
+@click.option("--nodes", type=int, default=24, show_default=True, help="Gauss nodes per ray side.")
+@click.option(
+    "--energy", type=float, default=0.9999, show_default=True, help="PCA explained energy."
+)
+@click.option(
+    "--components", type=int, default=None, help="Number of PCA bases (overrides --energy)."
+)
+@click.option(
+    "--sub-distances", type=int, default=2, show_default=True, help="Distances averaged per bin."
+)
+@click.option(
+    "--uplight/--no-uplight", default=False, show_default=True, help="Also tabulate direct uplight."
+)
+@click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
+def build(
+    out: str,
+    turbidity: float,
+    aerosol_optical_depth: float | None,
+    wavelength: float,
+    r_min: float,
+    r_max: float,
+    n_distance: int,
+    n_elevation: int,
+    n_azimuth: int,
+    source_altitudes: tuple[float, ...],
+    observer_altitudes: tuple[float, ...],
+    nodes: int,
+    energy: float,
+    components: int | None,
+    sub_distances: int,
+    uplight: bool,
+    flat_earth: bool,
+) -> None:
+    """Build a kernel table and write it to OUT (NetCDF)."""
+    atmosphere = Atmosphere(
+        turbidity=turbidity,
+        aerosol_optical_depth=aerosol_optical_depth,
+        wavelength_nm=wavelength,
+        flat_earth=flat_earth,
+    )
+    console = Console(stderr=True)
+    start = time.perf_counter()
+    ds = kernel_build_stage(
+        out,
+        r_min=r_min,
+        r_max=r_max,
+        n_r=n_distance,
+        n_el=n_elevation,
+        n_az=n_azimuth,
+        source_altitudes=source_altitudes or (0.0,),
+        observer_altitudes=observer_altitudes or (0.0,),
+        atmosphere=atmosphere,
+        nodes=nodes,
+        pca_energy=energy,
+        n_components=components,
+        sub_distances=sub_distances,
+        uplight=uplight,
+        progress=True,
+    )
+    console.print(
+        f"kernel {ds.sizes['distance']} r x {ds.sizes['elevation']} el x "
+        f"{ds.sizes['azimuth']} az, {ds.sizes['component']} bases "
+        f"(energy {float(ds.explained_energy.min()):.6f}) in {time.perf_counter() - start:.1f} s "
+        f"-> {out} [{ds.attrs['content_hash'][:12]}]"
+    )
+
+
+commands = [kernel]

@@ -1,0 +1,213 @@
+"""Kernel precomputation: dataset contract, PCA + FFT, NetCDF round trip and cache."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from nightlights.errors import InputError
+from nightlights.sky import precompute
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import sky_luminance
+from nightlights.sky.precompute import (
+    build_kernel,
+    get_or_build_kernel,
+    kernel_cache_path,
+    kernel_parameters,
+    panorama_elevations,
+    pca_compress,
+    read_kernel,
+    relative_azimuths,
+    write_kernel,
+)
+
+SMALL = {
+    "r_min": 20.0,
+    "r_max": 50_000.0,
+    "n_r": 12,
+    "n_el": 8,
+    "n_az": 16,
+    "source_altitudes": (0.0, 200.0),
+    "observer_altitudes": (0.0, 500.0),
+    "nodes": 16,
+}
+
+
+@pytest.fixture(scope="module")
+def small_kernel() -> xr.Dataset:
+    return build_kernel(**SMALL, uplight=True, progress=False)
+
+
+def test_grids_follow_the_contract() -> None:
+    np.testing.assert_allclose(panorama_elevations(4), [78.75, 56.25, 33.75, 11.25])
+    np.testing.assert_allclose(relative_azimuths(4), [0.0, 90.0, 180.0, 270.0])
+
+
+def test_dataset_layout(small_kernel: xr.Dataset) -> None:
+    ds = small_kernel
+    assert ds.kernel.dims == (
+        "observer_altitude",
+        "source_altitude",
+        "distance",
+        "elevation",
+        "azimuth",
+    )
+    assert ds.kernel.shape == (2, 2, 12, 8, 16)
+    assert ds.kernel_uplight.shape == ds.kernel.shape
+    assert ds.basis.dims == ("observer_altitude", "component", "elevation", "azimuth")
+    assert ds.coefficient.dims == ("observer_altitude", "source_altitude", "distance", "component")
+    assert ds.basis_fft_real.sizes["frequency"] == 16 // 2 + 1
+    edges = ds.distance_edges.values
+    assert (
+        edges.size == 13
+        and edges[0] == pytest.approx(20.0)
+        and edges[-1] == pytest.approx(50_000.0)
+    )
+    np.testing.assert_allclose(ds.distance.values, np.sqrt(edges[:-1] * edges[1:]))
+    np.testing.assert_allclose(ds.elevation.values, panorama_elevations(8))
+    np.testing.assert_allclose(ds.azimuth.values, relative_azimuths(16))
+    for key in (
+        "turbidity",
+        "aerosol_scale_height",
+        "asymmetry",
+        "wavelength_nm",
+        "earth_radius",
+        "flat_earth",
+        "nodes",
+        "pca_energy",
+        "pca_centered",
+        "content_hash",
+    ):
+        assert key in ds.attrs
+    assert ds.attrs["pca_centered"] == 0
+    assert ds.kernel.attrs["units"] == "cd m-2 lm-1"
+    assert np.all(ds.kernel.values >= 0)
+
+
+def test_kernel_is_symmetric_in_relative_azimuth(small_kernel: xr.Dataset) -> None:
+    k = small_kernel.kernel.values
+    mirrored = k[..., (-np.arange(16)) % 16]
+    np.testing.assert_array_equal(k, mirrored)
+    # the brightest column looks towards the source
+    assert np.all(k[0, 0, :, -1].argmax(axis=-1) == 0)
+
+
+def test_bin_value_is_area_weighted_average_of_point_kernel() -> None:
+    edges = np.array([1000.0, 1100.0])
+    ds = build_kernel(
+        distance_edges=edges, n_el=4, n_az=8, nodes=16, sub_distances=2, progress=False
+    )
+    frac = np.array([0.25, 0.75])
+    r_sub = np.exp(np.log(1000.0) + frac * np.log(1.1))
+    w = r_sub**2 / np.sum(r_sub**2)
+    el = panorama_elevations(4)[:, None, None]
+    az = relative_azimuths(8)[None, :, None]
+    expect = np.sum(sky_luminance(el, az, r_sub[None, None, :], nodes=16) * w, axis=-1)
+    np.testing.assert_allclose(ds.kernel.values[0, 0, 0], expect, rtol=1e-6)
+
+
+def test_pca_reconstructs_kernel(small_kernel: xr.Dataset) -> None:
+    ds = small_kernel
+    basis = ds.basis.values
+    for o in range(2):
+        gram = basis[o].reshape(basis.shape[1], -1) @ basis[o].reshape(basis.shape[1], -1).T
+        np.testing.assert_allclose(gram, np.eye(basis.shape[1]), atol=1e-9)
+        for name, coef in (("kernel", "coefficient"), ("kernel_uplight", "coefficient_uplight")):
+            k = ds[name].values[o].astype(float)
+            rec = np.einsum("crk,kea->crea", ds[coef].values[o], basis[o])
+            bright = k > 0.01 * k.max(axis=(-2, -1), keepdims=True)
+            rel = np.abs(rec - k)[bright] / k[bright]
+            assert rel.mean() < 0.02  # issue 4 target: 2 % mean over pixels > 1 % of max
+
+
+def test_basis_fft_is_rfft_over_azimuth(small_kernel: xr.Dataset) -> None:
+    spectrum = np.fft.rfft(small_kernel.basis.values, axis=-1)
+    np.testing.assert_allclose(small_kernel.basis_fft_real.values, spectrum.real, atol=1e-12)
+    np.testing.assert_allclose(small_kernel.basis_fft_imag.values, spectrum.imag, atol=1e-12)
+
+
+def test_pca_compress_energy_and_components() -> None:
+    rng = np.random.default_rng(1)
+    rows = rng.normal(size=(3, 40))
+    images = rng.uniform(0.1, 10.0, size=(30, 3)) @ rows
+    basis, coef, explained = pca_compress(images, energy=0.999999)
+    assert basis.shape[0] == 3
+    np.testing.assert_allclose(coef @ basis, images, rtol=1e-8, atol=1e-8)
+    assert explained[2] == pytest.approx(1.0)
+    one, _, _ = pca_compress(images, n_components=1)
+    assert one.shape == (1, 40)
+    # fewer bases than the rank: reconstruction is worse, not broken
+    _, c1, _ = pca_compress(images, n_components=1)
+    assert np.linalg.norm(c1 @ one - images) > 1e-3 * np.linalg.norm(images)
+
+
+def test_n_components_respected() -> None:
+    ds = build_kernel(
+        r_min=50.0, r_max=20_000.0, n_r=8, n_el=4, n_az=8, nodes=12, n_components=3, progress=False
+    )
+    assert ds.sizes["component"] == 3
+
+
+def test_content_hash_deterministic_and_sensitive() -> None:
+    a = kernel_parameters(**SMALL)["content_hash"]
+    assert a == kernel_parameters(**SMALL)["content_hash"]
+    assert a != kernel_parameters(**SMALL, atmosphere=Atmosphere(turbidity=3.0))["content_hash"]
+    assert a != kernel_parameters(**{**SMALL, "n_az": 32})["content_hash"]
+
+
+def test_write_read_round_trip(tmp_path: Path, small_kernel: xr.Dataset) -> None:
+    path = write_kernel(small_kernel, tmp_path / "k.nc")
+    back = read_kernel(path)
+    xr.testing.assert_allclose(back.kernel, small_kernel.kernel)
+    np.testing.assert_array_equal(back.coefficient.values, small_kernel.coefficient.values)
+    assert back.attrs["content_hash"] == small_kernel.attrs["content_hash"]
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_read_kernel_errors(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="does not exist"):
+        read_kernel(tmp_path / "missing.nc")
+    bad = tmp_path / "bad.nc"
+    bad.write_text("not netcdf")
+    with pytest.raises(InputError, match="bad.nc"):
+        read_kernel(bad)
+    other = tmp_path / "other.nc"
+    xr.Dataset({"x": ("a", [1.0])}).to_netcdf(other, engine="h5netcdf")
+    with pytest.raises(InputError, match="not a skyglow kernel"):
+        read_kernel(other)
+
+
+def test_cache_reuses_matching_kernel(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    params = {"r_min": 50.0, "r_max": 10_000.0, "n_r": 4, "n_el": 4, "n_az": 8, "nodes": 8}
+    monkeypatch.setenv("NIGHTLIGHTS_CACHE", str(tmp_path))
+    first = get_or_build_kernel(progress=False, **params)
+    path = kernel_cache_path(kernel_parameters(**params))
+    assert path.is_file() and path.parent == tmp_path / "sky"
+
+    def fail(**_: object) -> None:
+        raise AssertionError("rebuilt although a matching cache exists")
+
+    monkeypatch.setattr(precompute, "build_kernel", fail)
+    again = get_or_build_kernel(progress=False, **params)
+    np.testing.assert_array_equal(again.kernel.values, first.kernel.values)
+    with pytest.raises(AssertionError, match="rebuilt"):
+        get_or_build_kernel(progress=False, **{**params, "n_r": 5})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"r_min": 0.0}, "distance grid"),
+        ({"distance_edges": [10.0, 5.0]}, "distance_edges"),
+        ({"n_az": 7}, "n_az"),
+        ({"source_altitudes": ()}, "source_altitudes"),
+        ({"pca_energy": 1.5}, "pca_energy"),
+        ({"sub_distances": 0}, "sub_distances"),
+    ],
+)
+def test_bad_parameters(kwargs: dict, match: str) -> None:
+    with pytest.raises(InputError, match=match):
+        kernel_parameters(**kwargs)
