@@ -55,7 +55,7 @@ def kernel() -> None:
 )
 @click.option("--nodes", type=int, default=24, show_default=True, help="Gauss nodes per ray side.")
 @click.option(
-    "--energy", type=float, default=0.9999, show_default=True, help="PCA explained energy."
+    "--energy", type=float, default=0.999999, show_default=True, help="PCA explained energy."
 )
 @click.option(
     "--components", type=int, default=None, help="Number of PCA bases (overrides --energy)."

@@ -38,6 +38,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from nightlights.errors import InputError
 from nightlights.io.atomic import atomic_output
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import UPLIGHT_EXPONENT, sky_luminance
 
 __all__ = [
@@ -151,13 +152,14 @@ def kernel_parameters(
     n_az: int = 128,
     atmosphere: Atmosphere | None = None,
     nodes: int = 24,
-    leg_nodes: int = 6,
+    leg_nodes: int | None = None,
     core_radius: float = 1.0,
     sub_distances: int = 2,
     sub_pixels: int = 1,
+    supersample: int = 8,
     uplight: bool = False,
     uplight_exponent: float = UPLIGHT_EXPONENT,
-    pca_energy: float = 0.9999,
+    pca_energy: float = 0.999999,
     n_components: int | None = None,
 ) -> dict[str, Any]:
     """Normalised, JSON-serialisable description of a kernel, hashed into its content hash.
@@ -198,10 +200,11 @@ def kernel_parameters(
         "n_az": int(n_az),
         "atmosphere": atm.parameters(),
         "nodes": int(nodes),
-        "leg_nodes": int(leg_nodes),
+        "leg_nodes": None if leg_nodes is None else int(leg_nodes),
         "core_radius": float(core_radius),
         "sub_distances": int(sub_distances),
         "sub_pixels": int(sub_pixels),
+        "supersample": int(supersample),
         "uplight": bool(uplight),
         "uplight_exponent": float(uplight_exponent),
         "pca_energy": float(pca_energy),
@@ -224,10 +227,11 @@ def _bin_images(
     atmosphere: Atmosphere,
     emission: str,
     nodes: int,
-    leg_nodes: int,
+    leg_nodes: int | None,
     core_radius: float,
     sub_distances: int,
     sub_pixels: int,
+    supersample: int,
     uplight_exponent: float,
 ) -> FloatArray:
     """Bin-averaged images, shape (n_bins, n_el, len(half_azimuths))."""
@@ -254,11 +258,79 @@ def _bin_images(
         uplight_exponent=uplight_exponent,
     )  # (e, p, a, q, r, s)
     img = np.einsum("epaqrs,ep,rs->rea", b, w_el, w_r) / sub_pixels
+    if supersample > sub_pixels:
+        _supersample_source_pixels(
+            img,
+            r_sub,
+            w_r,
+            h_c,
+            h_o,
+            elevations,
+            half_azimuths,
+            n_el=n_el,
+            n_az=n_az,
+            supersample=supersample,
+            atmosphere=atmosphere,
+            kwargs={
+                "emission": emission,
+                "nodes": nodes,
+                "leg_nodes": leg_nodes,
+                "core_radius": core_radius,
+                "uplight_exponent": uplight_exponent,
+            },
+        )
     return img
 
 
+def _supersample_source_pixels(
+    img: FloatArray,
+    r_sub: FloatArray,
+    w_r: FloatArray,
+    h_c: float,
+    h_o: float,
+    elevations: FloatArray,
+    half_azimuths: FloatArray,
+    *,
+    n_el: int,
+    n_az: int,
+    supersample: int,
+    atmosphere: Atmosphere,
+    kwargs: dict[str, Any],
+) -> None:
+    """Average, in place, the pixels next to the source direction over m x m directions.
+
+    The source is seen at relative azimuth 0 and elevation el_s(r); pixels of the first two
+    azimuth columns whose centre lies within one pixel height of el_s hold the sharp peak of
+    rays grazing the source and are averaged over ``supersample``^2 directions (solid-angle
+    weights) instead of sampled at their centre.
+    """
+    d_el = 90.0 / n_el
+    d_az = 360.0 / n_az
+    pos, _ = source_frame(
+        r_sub, h_c, earth_radius=atmosphere.earth_radius, flat_earth=atmosphere.flat_earth
+    )
+    el_src = np.degrees(np.arctan2(pos[..., 2] - h_o, np.hypot(pos[..., 0], pos[..., 1])))
+    near = np.any(np.abs(elevations[None, :, None] - el_src[:, None, :]) < d_el, axis=-1)
+    r_idx, e_idx = np.nonzero(near)
+    if r_idx.size == 0:
+        return
+    cols = np.arange(min(2, half_azimuths.size))
+    offs = (np.arange(supersample) + 0.5) / supersample - 0.5
+    el = elevations[e_idx][:, None, None, None, None] + offs[None, None, :, None, None] * d_el
+    az = half_azimuths[cols][None, :, None, None, None] + offs[None, None, None, :, None] * d_az
+    r = r_sub[r_idx][:, None, None, None, :]
+    b = sky_luminance(
+        el, az, r, source_altitude=h_c, observer_altitude=h_o, atmosphere=atmosphere, **kwargs
+    )  # (n, a, p, q, s)
+    w_el = np.cos(np.radians(el[:, 0, :, 0, 0]))
+    w_el = w_el / w_el.sum(axis=1, keepdims=True)
+    img[r_idx[:, None], e_idx[:, None], cols[None, :]] = (
+        np.einsum("napqs,np,ns->na", b, w_el, w_r[r_idx]) / supersample
+    )
+
+
 def pca_compress(
-    images: FloatArray, *, energy: float = 0.9999, n_components: int | None = None
+    images: FloatArray, *, energy: float = 0.999999, n_components: int | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Truncated SVD of a stack of images with unit-normalised rows.
 
@@ -332,13 +404,14 @@ def build_kernel(
     n_az: int = 128,
     atmosphere: Atmosphere | None = None,
     nodes: int = 24,
-    leg_nodes: int = 6,
+    leg_nodes: int | None = None,
     core_radius: float = 1.0,
     sub_distances: int = 2,
     sub_pixels: int = 1,
+    supersample: int = 8,
     uplight: bool = False,
     uplight_exponent: float = UPLIGHT_EXPONENT,
-    pca_energy: float = 0.9999,
+    pca_energy: float = 0.999999,
     n_components: int | None = None,
     progress: bool = True,
 ) -> xr.Dataset:
@@ -364,13 +437,16 @@ def build_kernel(
     nodes
         Gauss-Legendre nodes on each side of the closest approach [-].
     leg_nodes
-        Gauss-Legendre nodes per extinction leg (spherical Earth) [-].
+        None: closed-form leg optical depths; an integer: Gauss nodes per leg [-].
     core_radius
         Softening radius of the point source [m].
     sub_distances
         Distances averaged per bin (area weighted) [-].
     sub_pixels
         Directions per pixel side averaged (solid-angle weighted) [-].
+    supersample
+        Directions per pixel side averaged in the pixels next to the source direction, where
+        rays graze the source (observer next to a lit cell, sources above the observer) [-].
     uplight
         Also compute ``kernel_uplight`` for the low-angle direct-uplight lobe [-].
     uplight_exponent
@@ -406,6 +482,7 @@ def build_kernel(
         core_radius=core_radius,
         sub_distances=sub_distances,
         sub_pixels=sub_pixels,
+        supersample=supersample,
         uplight=uplight,
         uplight_exponent=uplight_exponent,
         pca_energy=pca_energy,
@@ -459,6 +536,7 @@ def build_kernel(
                 core_radius=core_radius,
                 sub_distances=sub_distances,
                 sub_pixels=sub_pixels,
+                supersample=supersample,
                 uplight_exponent=uplight_exponent,
             )
             tables[e][o, c, sl] = img[:, :, mirror]
@@ -486,7 +564,7 @@ def compress_kernel(
     kernel: FloatArray,
     kernel_uplight: FloatArray | None = None,
     *,
-    pca_energy: float = 0.9999,
+    pca_energy: float = 0.999999,
     n_components: int | None = None,
 ) -> xr.Dataset:
     """PCA per observer altitude and rfft of the basis over azimuth.
@@ -569,12 +647,13 @@ def _attributes(params: dict[str, Any]) -> dict[str, Any]:
     attrs: dict[str, Any] = {}
     for key, value in params["atmosphere"].items():
         attrs[key] = value
+    attrs["leg_nodes"] = -1 if params["leg_nodes"] is None else params["leg_nodes"]
     for key in (
         "nodes",
-        "leg_nodes",
         "core_radius",
         "sub_distances",
         "sub_pixels",
+        "supersample",
         "uplight_exponent",
         "pca_energy",
         "kernel_format_version",

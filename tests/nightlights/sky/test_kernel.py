@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -253,3 +254,63 @@ def test_bad_arguments(kwargs: dict, match: str) -> None:
 def test_negative_distance_rejected() -> None:
     with pytest.raises(InputError, match="distance"):
         sky_luminance(45.0, 0.0, -1.0)
+
+
+def test_closed_form_leg_depth_matches_quadrature_along_chords() -> None:
+    """slant_optical_depth (erfcx form) against 256 Gauss nodes along the exact chord."""
+    from nightlights.sky.geometry import altitude
+    from nightlights.sky.kernel import optical_depth, slant_optical_depth
+
+    rng = np.random.default_rng(4)
+    for atm in (Atmosphere(), Atmosphere(flat_earth=True)):
+        start = np.zeros((200, 3))
+        start[:, 2] = rng.uniform(0.0, 2000.0, 200)
+        zenith = np.radians(rng.uniform(0.0, 89.5, 200))
+        length = rng.uniform(10.0, 150_000.0, 200)
+        direction = np.stack([np.sin(zenith), np.zeros(200), np.cos(zenith)], axis=-1)
+        stop = start + length[:, None] * direction
+        exact = optical_depth(start, stop, atm, leg_nodes=256)
+        closed = slant_optical_depth(
+            altitude(start, earth_radius=atm.earth_radius, flat_earth=atm.flat_earth),
+            np.cos(zenith),
+            length,
+            atm,
+        )
+        np.testing.assert_allclose(closed, exact, rtol=1e-4, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("elevation", "azimuth", "distance", "h_c"),
+    [(30.0, 20.0, 2000.0, 0.0), (5.0, 0.0, 20_000.0, 0.0), (60.0, 150.0, 500.0, 100.0)],
+)
+def test_substitution_quadrature_matches_adaptive_integration(
+    elevation: float, azimuth: float, distance: float, h_c: float
+) -> None:
+    """The tan-substituted Gauss rule against scipy.integrate.quad on the same integrand."""
+    from nightlights.sky.geometry import ray_exit_distance
+    from nightlights.sky.kernel import line_of_sight_integrand
+
+    atm = Atmosphere()
+    top = float(
+        ray_exit_distance(
+            elevation, 0.0, atm.top_altitude, earth_radius=atm.earth_radius, flat_earth=False
+        )
+    )
+    closest = distance * math.cos(math.radians(elevation)) * math.cos(math.radians(azimuth))
+    breaks = sorted({max(closest, 1.0), 10 * max(closest, 1.0), 1e4, 1e5})
+    breaks = [b for b in breaks if b < top]
+
+    def f(u: float) -> float:
+        return float(
+            line_of_sight_integrand(
+                u, elevation, azimuth, distance, source_altitude=h_c, atmosphere=atm
+            )
+        )
+
+    edges = [0.0, *breaks, top]
+    reference = sum(
+        quad(f, a, b, limit=400, epsabs=0.0, epsrel=1e-10)[0]
+        for a, b in itertools.pairwise(edges)
+    )
+    value = float(sky_luminance(elevation, azimuth, distance, source_altitude=h_c, nodes=32))
+    assert value == pytest.approx(reference, rel=1e-6)
