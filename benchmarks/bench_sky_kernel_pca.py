@@ -145,6 +145,8 @@ def main() -> None:
     ax2.loglog(
         [b["n_r"] for b in bins], [b["p99_rel_error"] for b in bins], "s--", label="99th pct"
     )
+    ax2.set_xticks([b["n_r"] for b in bins], [str(b["n_r"]) for b in bins])
+    ax2.minorticks_off()
     ax2.set_xlabel("distance bins (10 m - 100 km, log-spaced)")
     ax2.set_ylabel("point source vs its bin image")
     ax2.legend(fontsize=7)

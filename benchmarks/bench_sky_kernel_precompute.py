@@ -113,8 +113,11 @@ def main() -> None:
     ax.axhline(30.0, color="grey", lw=0.8, ls=":")
     ax.text(sweep[0]["rays"], 33.0, "30 s target (64 x 32 x 128)", fontsize=7)
     if "dobashi_configuration_extrapolated" in out:
-        rays = 16 * 16 * 128 * 64 * 129 * 2
-        for label, marker in (("default_24_nodes_2_sub", "s"), ("fast_12_nodes_1_sub", "^")):
+        for label, marker, n_sub in (
+            ("default_24_nodes_2_sub", "s", 2),
+            ("fast_12_nodes_1_sub", "^", 1),
+        ):
+            rays = 16 * 16 * 128 * 64 * 129 * n_sub
             total = out["dobashi_configuration_extrapolated"][label]["extrapolated_total_seconds"]
             ax.loglog([rays], [total], marker, label=f"Dobashi config, EXTRAPOLATED ({label})")
         ax.axhline(900.0, color="C3", lw=0.8, ls=":")

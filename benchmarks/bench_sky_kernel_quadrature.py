@@ -172,6 +172,8 @@ def main() -> None:
     )
     ax2.set_xscale("log")
     ax1.axhline(1e-5, color="grey", lw=0.8)
+    ax1.set_xticks(NODES, [str(n) for n in NODES])
+    ax1.minorticks_off()
     ax1.set_xlabel("Gauss nodes per panel")
     ax1.set_ylabel("relative error vs 256 nodes")
     ax1.legend(fontsize=7)

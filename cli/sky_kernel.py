@@ -53,7 +53,9 @@ def kernel() -> None:
     multiple=True,
     help="[m], repeatable (default 0).",
 )
-@click.option("--nodes", type=int, default=24, show_default=True, help="Gauss nodes per ray side.")
+@click.option(
+    "--nodes", type=int, default=24, show_default=True, help="Gauss nodes per line-of-sight panel."
+)
 @click.option(
     "--energy", type=float, default=0.999999, show_default=True, help="PCA explained energy."
 )

@@ -6,7 +6,9 @@ upwards by a ground source in that bin (Dobashi et al. 2023, Sec. 3.4.1). Each b
 area-weighted average of :func:`nightlights.sky.kernel.sky_luminance` over ``sub_distances``
 distances log-spaced inside the bin (weights r^2 d ln r, i.e. flux spread evenly over the
 annulus), optionally averaged over ``sub_pixels`` x ``sub_pixels`` directions inside each pixel
-(solid-angle weights). Relative azimuths are symmetric: only 0-180 deg are computed and mirrored.
+(solid-angle weights). Pixels next to the source direction, where rays graze the source, are
+always averaged over ``supersample`` x ``supersample`` directions. Relative azimuths are
+symmetric: only 0-180 deg are computed and mirrored.
 
 Compression (Dobashi 2023, Eq. 4): per observer altitude, the images (rows) are normalised to
 unit norm and decomposed by a truncated SVD (eigen-decomposition of the smaller Gram matrix);
@@ -16,7 +18,12 @@ bright, nearby ones; the basis is orthonormal and coefficients are projections o
 images, so kernel ~= sum_k coefficient_k basis_k (no mean is subtracted: ``pca_centered = 0``).
 Basis images are Fourier-transformed over azimuth (rfft) for the runtime (Dobashi 2023, Eq. 9).
 
-The dataset format is the skyglow contract (``/tmp/nl/SKY_CONTRACT.md``, kept in the docs).
+Dataset layout (shared with the runtime, issue 4): coordinates ``observer_altitude``,
+``source_altitude``, ``distance`` (bin centres; edges in ``distance_edges``), ``elevation``
+(pixel centres 90 - (i + 0.5) 90 / n_el), ``azimuth`` (relative to the source, k 360 / n_az),
+``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``), ``basis``,
+``coefficient`` (+ ``coefficient_uplight``), ``basis_fft_real``, ``basis_fft_imag``,
+``explained_energy``; attributes with every model parameter and ``content_hash``.
 """
 
 from __future__ import annotations
@@ -500,7 +507,7 @@ def build_kernel(
     mirror = np.minimum(np.arange(n_az), n_az - np.arange(n_az))
     emissions = ("lambertian", "uplight") if uplight else ("lambertian",)
     shape = (h_o.size, h_c.size, n_r_bins, n_el, n_az)
-    tables = {e: np.zeros(shape) for e in emissions}
+    tables = {e: np.zeros(shape, dtype=np.float32) for e in emissions}
     r_chunk = max(1, int(2_000 // max(1, n_el * half.size * sub_pixels**2 * sub_distances // 64)))
     r_chunk = min(r_chunk, n_r_bins)
     steps = [
@@ -561,8 +568,8 @@ def build_kernel(
 
 
 def compress_kernel(
-    kernel: FloatArray,
-    kernel_uplight: FloatArray | None = None,
+    kernel: NDArray[np.floating[Any]],
+    kernel_uplight: NDArray[np.floating[Any]] | None = None,
     *,
     pca_energy: float = 0.999999,
     n_components: int | None = None,
@@ -587,24 +594,26 @@ def compress_kernel(
         ``basis_fft_imag`` (and ``*_uplight``) without coordinates [cd m-2 lm-1].
     """
     n_o, n_c, n_r, n_el, n_az = kernel.shape
-    rows = [kernel.reshape(n_o, n_c * n_r, n_el * n_az)]
-    if kernel_uplight is not None:
-        rows.append(kernel_uplight.reshape(n_o, n_c * n_r, n_el * n_az))
-    stacked = np.concatenate(rows, axis=1)
-    counts = []
-    for o in range(n_o):
-        _, _, explained = pca_compress(stacked[o], energy=pca_energy, n_components=n_components)
-        counts.append(
-            int(np.searchsorted(explained, pca_energy - 1e-12) + 1)
-            if n_components is None
-            else n_components
-        )
-    k = max(1, min(max(counts), min(stacked.shape[1:])))
-    bases = np.zeros((n_o, k, n_el * n_az))
-    coefs = np.zeros((n_o, stacked.shape[1], k))
+    n_pix = n_el * n_az
+
+    def stack(o: int) -> FloatArray:
+        rows = [kernel[o].reshape(n_c * n_r, n_pix)]
+        if kernel_uplight is not None:
+            rows.append(kernel_uplight[o].reshape(n_c * n_r, n_pix))
+        return np.concatenate(rows, axis=0).astype(float)
+
+    results = [
+        pca_compress(stack(o), energy=pca_energy, n_components=n_components) for o in range(n_o)
+    ]
+    k = max(basis.shape[0] for basis, _, _ in results)
+    n_rows = results[0][1].shape[0]
+    bases = np.zeros((n_o, k, n_pix))
+    coefs = np.zeros((n_o, n_rows, k))
     explained_k = np.zeros(n_o)
     for o in range(n_o):
-        basis, coef, explained = pca_compress(stacked[o], n_components=k)
+        basis, coef, explained = results[o]
+        if basis.shape[0] < k:  # same number of components for every observer altitude
+            basis, coef, explained = pca_compress(stack(o), n_components=k)
         kk = basis.shape[0]
         bases[o, :kk] = basis
         coefs[o, :, :kk] = coef

@@ -309,8 +309,16 @@ def test_substitution_quadrature_matches_adaptive_integration(
 
     edges = [0.0, *breaks, top]
     reference = sum(
-        quad(f, a, b, limit=400, epsabs=0.0, epsrel=1e-10)[0]
-        for a, b in itertools.pairwise(edges)
+        quad(f, a, b, limit=400, epsabs=0.0, epsrel=1e-10)[0] for a, b in itertools.pairwise(edges)
     )
     value = float(sky_luminance(elevation, azimuth, distance, source_altitude=h_c, nodes=32))
     assert value == pytest.approx(reference, rel=1e-6)
+
+
+def test_sources_far_below_the_horizon_fade_out() -> None:
+    """Where the method stops mattering: a source 1000 km away sits ~80 km below the
+    observer's tangent plane; only rays high in the thin upper atmosphere see its light."""
+    near, far = sky_luminance(90.0, 0.0, [100_000.0, 1_000_000.0])
+    assert 0 < far < 1e-6 * near
+    flat_far = float(sky_luminance(90.0, 0.0, 1_000_000.0, atmosphere=Atmosphere(flat_earth=True)))
+    assert far < 1e-3 * flat_far
