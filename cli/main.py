@@ -27,6 +27,7 @@ COMMAND_MODULES = (
     "cli.photometry",
     "cli.rasters",
     "cli.sky_kernel",
+    "cli.skyglow",
 )
 
 DOMAIN_ERRORS = (NightlightsError, BayesNetError, PhotometryError)

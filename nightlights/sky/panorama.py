@@ -1,0 +1,228 @@
+"""Panoramas of skyglow from a polar map and a precomputed kernel (Dobashi et al. 2023, Sec. 3.3).
+
+Skyglow is linear in the emission and, for sources on a common altitude, the kernel only
+depends on the azimuth relative to the source. The panorama is therefore a circular
+convolution in azimuth of the polar flux map with the kernel images, done with FFTs:
+
+- ``exact``: ``L = irfft( sum_d rfft(F_d) rfft(b_d) )`` over distance bins d;
+- ``pca``: with ``b_d ~ sum_k c_dk B_k`` (Dobashi Eq. 4), ``H_k = sum_d F_d c_dk`` (Eq. 7),
+  ``L = irfft( sum_k rfft(H_k) rfft(B_k) )`` (Eqs. 8-9): one inverse FFT per elevation row;
+- ``naive``: the reference, direct integration of the kernel for every lit cell at its own
+  position (Dobashi's baseline), with no binning and no PCA.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+from affine import Affine
+from numpy.typing import NDArray
+
+from nightlights.errors import DataQualityWarning, InputError
+from nightlights.sky.polar import PolarMap
+
+FloatArray = NDArray[np.float64]
+MODES = ("pca", "exact", "naive")
+
+
+@dataclass(frozen=True)
+class KernelSlice:
+    """The kernel tables for one observer and source altitude.
+
+    Attributes
+    ----------
+    kernel
+        ``(bands, n_r, n_el, n_az)`` images [cd m-2 lm-1] (band 0 Lambertian, 1 uplight).
+    coefficient
+        ``(bands, n_r, n_components)`` PCA coefficients [cd m-2 lm-1].
+    basis_fft
+        ``(n_components, n_el, n_freq)`` complex rfft of the bases over azimuth [-].
+    distance_edges
+        ``(n_r + 1,)`` [m].
+    elevation
+        ``(n_el,)`` pixel centres [deg].
+    """
+
+    kernel: FloatArray
+    coefficient: FloatArray
+    basis_fft: NDArray[np.complex128]
+    distance_edges: FloatArray
+    elevation: FloatArray
+
+    @property
+    def n_az(self) -> int:
+        return int(self.kernel.shape[-1])
+
+
+def kernel_slice(
+    kernel: xr.Dataset, *, observer_altitude: float, source_altitude: float = 0.0
+) -> KernelSlice:
+    """Interpolate a kernel dataset linearly to one observer and one source altitude.
+
+    Parameters
+    ----------
+    kernel
+        Dataset in the format of :func:`nightlights.sky.precompute.build_kernel`.
+    observer_altitude
+        Observer altitude [m]; outside the kernel's range the nearest level is used with a
+        warning.
+    source_altitude
+        Altitude of the light sources [m]; same rule.
+    """
+    selected = kernel
+    for name, value in (("observer_altitude", observer_altitude),
+                        ("source_altitude", source_altitude)):
+        levels = np.asarray(kernel[name].values, dtype=float)
+        if value < levels.min() - 1e-6 or value > levels.max() + 1e-6:
+            nearest = float(levels[np.argmin(np.abs(levels - value))])
+            if abs(nearest - value) > 5.0:
+                warnings.warn(
+                    f"{name} {value:g} m is outside the kernel's levels "
+                    f"{levels.min():g}-{levels.max():g} m; using {nearest:g} m",
+                    DataQualityWarning,
+                    stacklevel=2,
+                )
+            value = nearest
+        if levels.size == 1:
+            selected = selected.isel({name: 0})
+        else:
+            selected = selected.interp({name: value})
+    names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in selected else [])
+    coefficients = ["coefficient"] + (
+        ["coefficient_uplight"] if "coefficient_uplight" in selected else []
+    )
+    basis_fft = selected["basis_fft_real"].values + 1j * selected["basis_fft_imag"].values
+    return KernelSlice(
+        kernel=np.stack([selected[n].values.astype(float) for n in names]),
+        coefficient=np.stack([selected[n].values.astype(float) for n in coefficients]),
+        basis_fft=basis_fft,
+        distance_edges=np.asarray(kernel["distance_edges"].values, dtype=float),
+        elevation=np.asarray(kernel["elevation"].values, dtype=float),
+    )
+
+
+def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
+    bands = polar.flux.shape[0]
+    if bands > tables.kernel.shape[0]:
+        raise InputError(
+            f"the emission has {bands} bands (Lambertian + uplight) but the kernel has no "
+            "uplight table; build it with uplight"
+        )
+    if polar.n_az != tables.n_az or polar.flux.shape[1] != tables.kernel.shape[1]:
+        raise InputError(
+            f"polar map {polar.flux.shape[1:]} (distance x azimuth) does not match the kernel "
+            f"{tables.kernel.shape[1]} x {tables.n_az}"
+        )
+
+
+def panorama_pca(polar: PolarMap, tables: KernelSlice, *, components: int | None = None) -> FloatArray:
+    """Panorama by PCA and FFT (Dobashi 2023, Eqs. 7-9).
+
+    Parameters
+    ----------
+    polar
+        Polar flux map [lm], bins matching the kernel.
+    tables
+        Kernel slice.
+    components
+        Use only the first ``components`` bases (default: all stored) [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_el, n_az)`` luminance [cd m-2].
+    """
+    _check_bands(polar, tables)
+    k = tables.coefficient.shape[-1] if components is None else int(components)
+    if not 1 <= k <= tables.coefficient.shape[-1]:
+        raise InputError(
+            f"components={components}; the kernel stores 1-{tables.coefficient.shape[-1]}"
+        )
+    # Eq. 7: H_k(azimuth) = sum over distance of flux x c_k, summed over emission bands.
+    h = np.einsum("bda,bdk->ka", polar.flux, tables.coefficient[: polar.flux.shape[0], :, :k])
+    spectrum = np.einsum("kf,kef->ef", np.fft.rfft(h, axis=-1), tables.basis_fft[:k])
+    return np.fft.irfft(spectrum, n=polar.n_az, axis=-1)
+
+
+def panorama_exact(polar: PolarMap, tables: KernelSlice) -> FloatArray:
+    """Panorama without PCA: per distance bin, FFT convolution of flux and kernel images.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_el, n_az)`` luminance [cd m-2].
+    """
+    _check_bands(polar, tables)
+    bands = polar.flux.shape[0]
+    flux_fft = np.fft.rfft(polar.flux, axis=-1)  # (bands, n_r, n_freq)
+    kernel_fft = np.fft.rfft(tables.kernel[:bands], axis=-1)  # (bands, n_r, n_el, n_freq)
+    spectrum = np.einsum("bdf,bdef->ef", flux_fft, kernel_fft)
+    return np.fft.irfft(spectrum, n=polar.n_az, axis=-1)
+
+
+def panorama_naive(
+    emission: FloatArray,
+    transform: Affine,
+    observer: tuple[float, float],
+    *,
+    elevation: FloatArray,
+    n_az: int,
+    observer_altitude: float,
+    source_altitude: float = 0.0,
+    atmosphere: object | None = None,
+    nodes: int = 24,
+) -> FloatArray:
+    """Reference panorama: the kernel integrated directly for each lit cell at its centre.
+
+    Parameters
+    ----------
+    emission
+        ``(bands, rows, cols)`` upward flux density [lm m-2] (band 0 Lambertian, 1 uplight).
+    transform
+        Raster transform [m].
+    observer
+        Observer (x, y) [m].
+    elevation
+        Panorama elevation pixel centres [deg].
+    n_az
+        Azimuth columns [-].
+    observer_altitude, source_altitude
+        [m].
+    atmosphere
+        :class:`nightlights.sky.atmosphere.Atmosphere` (default: its defaults).
+    nodes
+        Gauss-Legendre nodes per ray half [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_el, n_az)`` luminance [cd m-2].
+    """
+    from nightlights.sky.atmosphere import Atmosphere
+    from nightlights.sky.kernel import sky_luminance
+
+    atmosphere = atmosphere if atmosphere is not None else Atmosphere()
+    data = np.nan_to_num(np.asarray(emission, dtype=float), nan=0.0)
+    if data.ndim == 2:
+        data = data[None]
+    cell = abs(transform.a)
+    azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
+    result = np.zeros((elevation.size, n_az))
+    for band, kind in zip(range(data.shape[0]), ("lambertian", "uplight"), strict=False):
+        rows, cols = np.nonzero(data[band])
+        cx, cy = transform * (cols + 0.5, rows + 0.5)
+        dx, dy = cx - observer[0], cy - observer[1]
+        r = np.hypot(dx, dy)
+        source_azimuth = np.degrees(np.arctan2(dx, dy)) % 360.0
+        flux = data[band, rows, cols] * cell * cell
+        for i in range(r.size):
+            relative = (azimuth[None, :] - source_azimuth[i]) % 360.0
+            result += flux[i] * sky_luminance(
+                elevation[:, None], relative, r[i],
+                source_altitude=source_altitude, observer_altitude=observer_altitude,
+                atmosphere=atmosphere, emission=kind, nodes=nodes,
+            )
+    return result

@@ -1,0 +1,279 @@
+"""Stage ``skyglow``: emission raster + observer -> panorama NetCDF (+ PNG)."""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from pyproj import CRS, Transformer
+
+from nightlights.errors import CRSError, InputError
+from nightlights.io import atomic_output, read_raster
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
+from nightlights.sky.panorama import (
+    MODES,
+    kernel_slice,
+    panorama_exact,
+    panorama_naive,
+    panorama_pca,
+)
+from nightlights.sky.polar import PolarMap, polar_map
+from nightlights.sky.precompute import get_or_build_kernel, read_kernel
+from nightlights.sky.render import render_panorama
+
+#: Largest source distance a scene-sized kernel covers [m] (spherical Earth; beyond it
+#: sources sit well below the observer's horizon and contribute little).
+MAX_KERNEL_RANGE = 300_000.0
+
+
+@dataclass(frozen=True)
+class SkyglowResult:
+    """What ``skyglow`` computed.
+
+    Attributes
+    ----------
+    panorama
+        Dataset with ``luminance`` [cd m-2] and ``sky_brightness`` [mag arcsec-2].
+    zenith_luminance
+        Mean luminance of the top row [cd m-2].
+    zenith_magnitude
+        Its sky brightness [mag arcsec-2].
+    bortle
+        Bortle class of the zenith (non-physical convenience).
+    seconds
+        Time of the panorama computation after the polar map [s].
+    """
+
+    panorama: xr.Dataset
+    zenith_luminance: float
+    zenith_magnitude: float
+    bortle: int
+    seconds: float
+
+
+def scene_kernel_parameters(
+    meta: dict[str, Any],
+    shape: tuple[int, int],
+    observer: tuple[float, float],
+    *,
+    observer_height: float,
+    turbidity: float,
+    n_el: int,
+    n_az: int,
+    n_r: int,
+    uplight: bool,
+) -> dict[str, Any]:
+    """Kernel grid sized to the scene: distances from 10 m to the farthest raster corner."""
+    transform = meta["transform"]
+    rows, cols = shape
+    corners = [transform * (c, r) for c in (0, cols) for r in (0, rows)]
+    far = max(np.hypot(x - observer[0], y - observer[1]) for x, y in corners)
+    r_max = float(min(MAX_KERNEL_RANGE, max(far * 1.01, 100.0)))
+    return {
+        "r_min": 10.0,
+        "r_max": r_max,
+        "n_r": n_r,
+        "n_el": n_el,
+        "n_az": n_az,
+        "observer_altitudes": (float(observer_height),),
+        "source_altitudes": (0.0,),
+        "atmosphere": Atmosphere(turbidity=turbidity),
+        "uplight": uplight,
+    }
+
+
+def skyglow(
+    emission_path: str | os.PathLike[str],
+    out_nc: str | os.PathLike[str],
+    *,
+    observer: tuple[float, float],
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    turbidity: float | None = None,
+    kernel: str | os.PathLike[str] | xr.Dataset | None = None,
+    mode: str = "pca",
+    components: int | None = None,
+    png: str | os.PathLike[str] | None = None,
+    projection: str = "equirectangular",
+    polar_out: str | os.PathLike[str] | None = None,
+    n_el: int = 64,
+    n_az: int = 256,
+    n_r: int = 64,
+    cache_dir: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> SkyglowResult:
+    """Compute what an observer sees: the skyglow panorama of an emission raster.
+
+    Parameters
+    ----------
+    emission_path
+        Upward flux density raster [lm m-2] in a projected CRS; one band = Lambertian, two
+        bands = Lambertian + direct uplight (the ``emission`` stage's output).
+    out_nc
+        Output NetCDF, written atomically.
+    observer
+        Observer position (x, y) in ``observer_crs`` [m or deg].
+    observer_crs
+        CRS of ``observer`` (default: the raster's).
+    observer_height
+        Observer altitude above the (flat) ground [m].
+    turbidity
+        Atmospheric turbidity (Preetham 1999) [-]; default 2, or the given kernel's.
+    kernel
+        Precomputed kernel (path or dataset); default: built for the scene or reused from
+        the cache.
+    mode
+        ``pca`` (fast), ``exact`` (no PCA) or ``naive`` (direct integration, slow reference).
+    components
+        PCA bases used in ``pca`` mode (default: all the kernel stores) [-].
+    png
+        Optional false-colour picture.
+    projection
+        ``equirectangular`` or ``fisheye`` for the picture.
+    polar_out
+        Optional NetCDF of the observer's polar flux map.
+    n_el, n_az, n_r
+        Panorama rows and columns and distance bins of a scene kernel [-].
+    cache_dir
+        Kernel cache folder.
+    progress
+        Progress bar while building a kernel.
+    """
+    if mode not in MODES:
+        raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")
+    data, meta = read_raster(emission_path)
+    if meta["crs"] is None or not meta["crs"].is_projected:
+        raise CRSError(f"{emission_path}: the emission raster needs a projected CRS in metres")
+    if data.shape[0] > 2:
+        raise InputError(
+            f"{emission_path}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 "
+            "(Lambertian + uplight)"
+        )
+    if np.nanmin(data) < 0:
+        raise InputError(f"{emission_path}: negative flux density {np.nanmin(data):g} lm m-2")
+    xy = _observer_xy(observer, observer_crs, meta["crs"])
+    if observer_height < 0:
+        raise InputError(f"observer height {observer_height} m; expected >= 0")
+    if isinstance(kernel, xr.Dataset):
+        table = kernel
+    elif kernel is not None:
+        table = read_kernel(kernel)
+    else:
+        params = scene_kernel_parameters(
+            meta, data.shape[1:], xy, observer_height=observer_height,
+            turbidity=2.0 if turbidity is None else turbidity, n_el=n_el, n_az=n_az, n_r=n_r,
+            uplight=data.shape[0] == 2,
+        )
+        table = get_or_build_kernel(cache_dir=cache_dir, progress=progress, **params)
+    kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
+    if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
+        raise InputError(
+            f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
+            "omit --turbidity or build a kernel for it"
+        )
+    tables = kernel_slice(table, observer_altitude=observer_height)
+    polar = polar_map(
+        data, meta["transform"], xy, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
+    start = time.perf_counter()
+    if mode == "pca":
+        luminance = panorama_pca(polar, tables, components=components)
+    elif mode == "exact":
+        luminance = panorama_exact(polar, tables)
+    else:
+        luminance = panorama_naive(
+            data, meta["transform"], xy, elevation=tables.elevation, n_az=tables.n_az,
+            observer_altitude=observer_height,
+            atmosphere=Atmosphere(turbidity=kernel_turbidity),
+        )
+    seconds = time.perf_counter() - start
+    luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
+    azimuth = (np.arange(tables.n_az) + 0.5) * 360.0 / tables.n_az
+    magnitude = luminance_to_magnitude(luminance)
+    zenith = float(luminance[0].mean())
+    zenith_mag = float(luminance_to_magnitude(zenith))
+    dataset = xr.Dataset(
+        {
+            "luminance": (("elevation", "azimuth"), luminance,
+                          {"units": "cd m-2", "long_name": "artificial sky luminance"}),
+            "sky_brightness": (("elevation", "azimuth"), magnitude,
+                               {"units": "mag arcsec-2",
+                                "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"}),
+        },
+        coords={
+            "elevation": ("elevation", tables.elevation,
+                          {"units": "degree", "long_name": "elevation of pixel centre"}),
+            "azimuth": ("azimuth", azimuth,
+                        {"units": "degree", "long_name": "azimuth clockwise from north"}),
+        },
+        attrs={
+            "observer_x": xy[0],
+            "observer_y": xy[1],
+            "crs": meta["crs"].to_wkt(),
+            "observer_height_m": observer_height,
+            "source_altitude_m": 0.0,
+            "turbidity": kernel_turbidity,
+            "kernel_hash": str(table.attrs.get("content_hash", "")),
+            "mode": mode,
+            "emission": str(emission_path),
+            "emitted_flux_lm": float(polar.total_flux.sum()),
+            "flux_beyond_kernel_lm": float(polar.dropped_flux.sum()),
+            "zenith_luminance_cd_m2": zenith,
+            "zenith_sky_brightness": zenith_mag,
+            "bortle_class_zenith": int(bortle_class(zenith_mag)),
+            "note": "artificial skyglow only (no natural sky background), single scattering",
+        },
+    )
+    with atomic_output(out_nc) as tmp:
+        dataset.to_netcdf(tmp, engine="h5netcdf")
+    if polar_out is not None:
+        write_polar(polar, polar_out)
+    if png is not None:
+        render_panorama(
+            magnitude, tables.elevation, azimuth, png, projection=projection,
+            title=f"artificial skyglow, zenith {zenith_mag:.2f} mag arcsec-2",
+        )
+    return SkyglowResult(dataset, zenith, zenith_mag, int(bortle_class(zenith_mag)), seconds)
+
+
+def write_polar(polar: PolarMap, path: str | os.PathLike[str]) -> Path:
+    """Write a polar flux map as NetCDF (``flux`` [lm], dims band x distance x azimuth)."""
+    edges = polar.distance_edges
+    dataset = xr.Dataset(
+        {
+            "flux": (("band", "distance", "azimuth"), polar.flux, {"units": "lm"}),
+            "distance_edges": (("distance_edge",), edges, {"units": "m"}),
+        },
+        coords={
+            "band": np.arange(polar.flux.shape[0]),
+            "distance": ("distance", np.sqrt(edges[:-1] * edges[1:]), {"units": "m"}),
+            "azimuth": ("azimuth", polar.azimuths, {"units": "degree"}),
+        },
+        attrs={"dropped_flux_lm": float(polar.dropped_flux.sum())},
+    )
+    with atomic_output(path) as tmp:
+        dataset.to_netcdf(tmp, engine="h5netcdf")
+    return Path(path)
+
+
+def _observer_xy(
+    observer: tuple[float, float], observer_crs: str | None, raster_crs: CRS
+) -> tuple[float, float]:
+    x, y = (float(v) for v in observer)
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise InputError(f"observer {observer!r}; expected two finite numbers")
+    if observer_crs is None:
+        return x, y
+    try:
+        source = CRS.from_user_input(observer_crs)
+    except Exception as exc:  # pyproj raises its own CRSError
+        raise CRSError(f"observer CRS {observer_crs!r} is not a CRS: {exc}") from exc
+    transformer = Transformer.from_crs(source, raster_crs, always_xy=True)
+    tx, ty = transformer.transform(x, y)
+    return float(tx), float(ty)
