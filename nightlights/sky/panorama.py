@@ -213,7 +213,8 @@ def panorama_naive(
     result = np.zeros((elevation.size, n_az))
     for band, kind in zip(range(data.shape[0]), ("lambertian", "uplight"), strict=False):
         rows, cols = np.nonzero(data[band])
-        cx, cy = transform * (cols + 0.5, rows + 0.5)
+        cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
+        cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
         dx, dy = cx - observer[0], cy - observer[1]
         r = np.hypot(dx, dy)
         source_azimuth = np.degrees(np.arctan2(dx, dy)) % 360.0

@@ -124,7 +124,8 @@ def polar_map(
     if lit[0].size == 0:
         return PolarMap(flux, edges, n_az, np.zeros(bands), total)
     rows, cols = lit
-    cx, cy = transform * (cols + 0.5, rows + 0.5)
+    cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
+    cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
     cell_flux = values[:, rows, cols] * cell * cell
     centre_distance = np.hypot(cx - observer[0], cy - observer[1])
     k = supersampling(cell, centre_distance, n_az, max_samples=max_samples)

@@ -1,0 +1,16 @@
+"""Small kernels shared by the skyglow runtime tests (built once per session)."""
+
+from __future__ import annotations
+
+import pytest
+import xarray as xr
+
+from nightlights.sky.precompute import build_kernel
+
+
+@pytest.fixture(scope="session")
+def small_kernel() -> xr.Dataset:
+    """A 24-bin, 8 x 32 kernel over 5 m - 20 km with an uplight table (~1 s)."""
+    return build_kernel(
+        r_min=5.0, r_max=20_000.0, n_r=24, n_el=8, n_az=32, uplight=True, progress=False
+    )
