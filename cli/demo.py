@@ -25,7 +25,13 @@ def demo(out_dir: str, seed: int) -> None:
         result = run_demo(out_dir, seed=seed)
     console.print("[bold]Helsinki demo[/] (data (c) OpenStreetMap contributors, ODbL)")
     for stage, path in result.outputs.items():
-        console.print(f"  {stage:>14}: {path}")
+        console.print(f"  {stage:>22}: {path}")
+    for name, (magnitude, bortle) in result.zenith.items():
+        console.print(
+            f"  zenith sky at {name}: {magnitude:.2f} mag arcsec-2 from the extract's "
+            f"streetlights alone (Bortle {bortle})",
+            soft_wrap=True,
+        )
 
 
 commands = [demo]

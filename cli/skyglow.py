@@ -53,7 +53,8 @@ def skyglow(emission: str, observer: str, observer_crs: str | None, observer_hei
         f"zenith: {result.zenith_luminance:.3g} cd m-2 = "
         f"{result.zenith_magnitude:.2f} mag arcsec-2 (artificial skyglow only), "
         f"Bortle class {result.bortle}; panorama {1000 * result.seconds:.1f} ms ({mode}) -> "
-        f"{out_nc}"
+        f"{out_nc}",
+        soft_wrap=True,
     )
 
 

@@ -43,6 +43,8 @@ class DemoResult:
     """Paths written by :func:`run_demo`, in pipeline order."""
 
     outputs: dict[str, Path] = field(default_factory=dict)
+    #: Zenith sky brightness [mag arcsec-2] and Bortle class per observer.
+    zenith: dict[str, tuple[float, int]] = field(default_factory=dict)
 
 
 #: Ground albedo of the demo [1]: a typical value for a city centre of asphalt, paving and
@@ -53,6 +55,23 @@ DEMO_IRRADIANCE_RESOLUTION = 1.0
 #: Cell size of the demo's emission raster [m].
 DEMO_EMISSION_RESOLUTION = 50.0
 CREDIT = "(c) OpenStreetMap contributors, ODbL"
+#: Skyglow observers: name, (longitude, latitude) [deg], picture projection. Esplanadi park
+#: in the centre, and the Suomenlinna sea fortress ~3 km south looking back at the city.
+DEMO_OBSERVERS = (
+    ("esplanadi", (24.9480, 60.1675), "fisheye"),
+    ("suomenlinna", (24.9880, 60.1455), "equirectangular"),
+)
+#: Kernel of the demo: 48 distance bins from 10 m to 10 km, 32 x 128 panorama, Lambertian
+#: and uplight tables, observer eye height 1.7 m, turbidity 2 (cached after the first run).
+DEMO_KERNEL: dict = {
+    "r_min": 10.0,
+    "r_max": 10_000.0,
+    "n_r": 48,
+    "n_el": 32,
+    "n_az": 128,
+    "uplight": True,
+    "observer_altitudes": (1.7,),
+}
 #: Window enlarged in the demo's map (around the Esplanadi park) [m, EPSG:32635].
 DEMO_ZOOM = (385850.0, 6671700.0, 386150.0, 6672000.0)
 
@@ -70,6 +89,8 @@ def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult
     from nightlights.emission import emission
     from nightlights.irradiance import irradiance
     from nightlights.maps import plot_raster_map
+    from nightlights.sky.precompute import get_or_build_kernel
+    from nightlights.sky.stage import skyglow
     from nightlights.streets.normalize import normalize
     from nightlights.streets.place import place
     from nightlights.streets.sample import sample_streets
@@ -112,4 +133,20 @@ def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult
         albedo=DEMO_ALBEDO,
     )
     result.outputs["emission"] = emission_tif
+    kernel = get_or_build_kernel(progress=False, **DEMO_KERNEL)
+    for name, (lon, lat), projection in DEMO_OBSERVERS:
+        panorama = out / f"skyglow_{name}.nc"
+        sky = skyglow(
+            emission_tif,
+            panorama,
+            observer=(lon, lat),
+            observer_crs="EPSG:4326",
+            observer_height=DEMO_KERNEL["observer_altitudes"][0],
+            kernel=kernel,
+            png=out / f"skyglow_{name}.png",
+            projection=projection,
+        )
+        result.outputs[f"skyglow_{name}"] = panorama
+        result.outputs[f"skyglow_{name}_png"] = out / f"skyglow_{name}.png"
+        result.zenith[name] = (sky.zenith_magnitude, sky.bortle)
     return result

@@ -44,3 +44,17 @@ def test_demo_rasters_are_cogs_in_the_lights_crs(demo_out: Path) -> None:
         assert src.count == 2 and src.res == (50.0, 50.0)
         assert np.nansum(src.read(1)) > 0
     assert (demo_out / "irradiance.png").stat().st_size > 10_000
+
+
+def test_demo_skyglow_panoramas(demo_out: Path) -> None:
+    import xarray as xr
+
+    centre = xr.open_dataset(demo_out / "skyglow_esplanadi.nc", engine="h5netcdf")
+    outside = xr.open_dataset(demo_out / "skyglow_suomenlinna.nc", engine="h5netcdf")
+    # In the middle of the lit streets the artificial zenith is much brighter than 3 km away.
+    assert float(centre["luminance"][0].mean()) > 10 * float(outside["luminance"][0].mean())
+    # From Suomenlinna (south-east of the centre) the glow stands to the north-west.
+    horizon = outside["luminance"][-1]
+    assert 280 < float(outside["azimuth"][int(horizon.argmax())]) < 350
+    centre.close()
+    outside.close()
