@@ -24,29 +24,65 @@ def _pair(text: str) -> tuple[float, float]:
 @click.option("--observer-crs", default=None, help="CRS of --observer (default: the raster's).")
 @click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
 @click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
-@click.option("--kernel", type=click.Path(exists=True, dir_okay=False), default=None,
-              help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.")
+@click.option(
+    "--kernel",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.",
+)
 @click.option("--mode", type=click.Choice(MODES), default="pca", show_default=True)
 @click.option("--components", type=int, default=None, help="PCA bases to use (default: all).")
-@click.option("--out", "out_nc", required=True, type=click.Path(dir_okay=False),
-              help="Output panorama NetCDF.")
+@click.option(
+    "--out",
+    "out_nc",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Output panorama NetCDF.",
+)
 @click.option("--png", default=None, type=click.Path(dir_okay=False), help="False-colour PNG.")
-@click.option("--projection", type=click.Choice(PROJECTIONS), default="equirectangular",
-              show_default=True)
-@click.option("--polar-out", default=None, type=click.Path(dir_okay=False),
-              help="Write the observer's polar flux map (NetCDF).")
+@click.option(
+    "--projection", type=click.Choice(PROJECTIONS), default="equirectangular", show_default=True
+)
+@click.option(
+    "--polar-out",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write the observer's polar flux map (NetCDF).",
+)
 @click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns.")
 @click.option("--n-elevation", default=64, show_default=True, help="Panorama rows.")
-def skyglow(emission: str, observer: str, observer_crs: str | None, observer_height: float,
-            turbidity: float | None, kernel: str | None, mode: str, components: int | None,
-            out_nc: str, png: str | None, projection: str, polar_out: str | None,
-            n_azimuth: int, n_elevation: int) -> None:
+def skyglow(
+    emission: str,
+    observer: str,
+    observer_crs: str | None,
+    observer_height: float,
+    turbidity: float | None,
+    kernel: str | None,
+    mode: str,
+    components: int | None,
+    out_nc: str,
+    png: str | None,
+    projection: str,
+    polar_out: str | None,
+    n_azimuth: int,
+    n_elevation: int,
+) -> None:
     """Skyglow panorama (luminance, mag arcsec-2) of EMISSION [lm m-2] for an observer."""
     result = skyglow_stage(
-        emission, out_nc, observer=_pair(observer), observer_crs=observer_crs,
-        observer_height=observer_height, turbidity=turbidity, kernel=kernel, mode=mode,
-        components=components, png=png, projection=projection, polar_out=polar_out,
-        n_el=n_elevation, n_az=n_azimuth,
+        emission,
+        out_nc,
+        observer=_pair(observer),
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        kernel=kernel,
+        mode=mode,
+        components=components,
+        png=png,
+        projection=projection,
+        polar_out=polar_out,
+        n_el=n_elevation,
+        n_az=n_azimuth,
     )
     console = Console(stderr=True)
     console.print(

@@ -22,6 +22,7 @@ from affine import Affine
 from numpy.typing import NDArray
 
 from nightlights.errors import DataQualityWarning, InputError
+from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.polar import PolarMap
 
 FloatArray = NDArray[np.float64]
@@ -73,8 +74,10 @@ def kernel_slice(
         Altitude of the light sources [m]; same rule.
     """
     selected = kernel
-    for name, value in (("observer_altitude", observer_altitude),
-                        ("source_altitude", source_altitude)):
+    for name, value in (
+        ("observer_altitude", observer_altitude),
+        ("source_altitude", source_altitude),
+    ):
         levels = np.asarray(kernel[name].values, dtype=float)
         if value < levels.min() - 1e-6 or value > levels.max() + 1e-6:
             nearest = float(levels[np.argmin(np.abs(levels - value))])
@@ -118,7 +121,9 @@ def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
         )
 
 
-def panorama_pca(polar: PolarMap, tables: KernelSlice, *, components: int | None = None) -> FloatArray:
+def panorama_pca(
+    polar: PolarMap, tables: KernelSlice, *, components: int | None = None
+) -> FloatArray:
     """Panorama by PCA and FFT (Dobashi 2023, Eqs. 7-9).
 
     Parameters
@@ -172,7 +177,7 @@ def panorama_naive(
     n_az: int,
     observer_altitude: float,
     source_altitude: float = 0.0,
-    atmosphere: object | None = None,
+    atmosphere: Atmosphere | None = None,
     nodes: int = 24,
 ) -> FloatArray:
     """Reference panorama: the kernel integrated directly for each lit cell at its centre.
@@ -201,7 +206,6 @@ def panorama_naive(
     numpy.ndarray
         ``(n_el, n_az)`` luminance [cd m-2].
     """
-    from nightlights.sky.atmosphere import Atmosphere
     from nightlights.sky.kernel import sky_luminance
 
     atmosphere = atmosphere if atmosphere is not None else Atmosphere()
@@ -222,8 +226,13 @@ def panorama_naive(
         for i in range(r.size):
             relative = (azimuth[None, :] - source_azimuth[i]) % 360.0
             result += flux[i] * sky_luminance(
-                elevation[:, None], relative, r[i],
-                source_altitude=source_altitude, observer_altitude=observer_altitude,
-                atmosphere=atmosphere, emission=kind, nodes=nodes,
+                elevation[:, None],
+                relative,
+                r[i],
+                source_altitude=source_altitude,
+                observer_altitude=observer_altitude,
+                atmosphere=atmosphere,
+                emission=kind,
+                nodes=nodes,
             )
     return result

@@ -112,7 +112,11 @@ def polar_map(
         data = data[None]
     if data.ndim != 3:
         raise InputError(f"emission must be (bands, rows, cols); got shape {data.shape}")
-    if transform.b != 0 or transform.d != 0 or abs(abs(transform.a) - abs(transform.e)) > 1e-9 * abs(transform.a):
+    if (
+        transform.b != 0
+        or transform.d != 0
+        or abs(abs(transform.a) - abs(transform.e)) > 1e-9 * abs(transform.a)
+    ):
         raise InputError("emission raster must have square, north-up cells")
     edges = np.asarray(distance_edges, dtype=float)
     cell = abs(transform.a)

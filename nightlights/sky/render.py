@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -56,7 +57,7 @@ def render_panorama(
     d_el = 90.0 / elevation.size
     az_edges = np.concatenate([azimuth - d_az / 2, [azimuth[-1] + d_az / 2]])
     el_edges = np.concatenate([elevation + d_el / 2, [elevation[-1] - d_el / 2]])
-    options = {"cmap": "magma_r", "vmin": magnitude_range[0], "vmax": magnitude_range[1]}
+    options: dict[str, Any] = {"cmap": "magma_r", "vmin": magnitude_range[0], "vmax": magnitude_range[1]}
     if projection == "equirectangular":
         fig, ax = plt.subplots(figsize=(11, 3.6), layout="constrained")
         mesh = ax.pcolormesh(az_edges, el_edges, values, **options)

@@ -166,8 +166,14 @@ def skyglow(
         table = read_kernel(kernel)
     else:
         params = scene_kernel_parameters(
-            meta, data.shape[1:], xy, observer_height=observer_height,
-            turbidity=2.0 if turbidity is None else turbidity, n_el=n_el, n_az=n_az, n_r=n_r,
+            meta,
+            data.shape[1:],
+            xy,
+            observer_height=observer_height,
+            turbidity=2.0 if turbidity is None else turbidity,
+            n_el=n_el,
+            n_az=n_az,
+            n_r=n_r,
             uplight=data.shape[0] == 2,
         )
         table = get_or_build_kernel(cache_dir=cache_dir, progress=progress, **params)
@@ -188,7 +194,11 @@ def skyglow(
         luminance = panorama_exact(polar, tables)
     else:
         luminance = panorama_naive(
-            data, meta["transform"], xy, elevation=tables.elevation, n_az=tables.n_az,
+            data,
+            meta["transform"],
+            xy,
+            elevation=tables.elevation,
+            n_az=tables.n_az,
             observer_altitude=observer_height,
             atmosphere=Atmosphere(turbidity=kernel_turbidity),
         )
@@ -200,17 +210,28 @@ def skyglow(
     zenith_mag = float(luminance_to_magnitude(zenith))
     dataset = xr.Dataset(
         {
-            "luminance": (("elevation", "azimuth"), luminance,
-                          {"units": "cd m-2", "long_name": "artificial sky luminance"}),
-            "sky_brightness": (("elevation", "azimuth"), magnitude,
-                               {"units": "mag arcsec-2",
-                                "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"}),
+            "luminance": (
+                ("elevation", "azimuth"),
+                luminance,
+                {"units": "cd m-2", "long_name": "artificial sky luminance"},
+            ),
+            "sky_brightness": (
+                ("elevation", "azimuth"),
+                magnitude,
+                {"units": "mag arcsec-2", "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"},
+            ),
         },
         coords={
-            "elevation": ("elevation", tables.elevation,
-                          {"units": "degree", "long_name": "elevation of pixel centre"}),
-            "azimuth": ("azimuth", azimuth,
-                        {"units": "degree", "long_name": "azimuth clockwise from north"}),
+            "elevation": (
+                "elevation",
+                tables.elevation,
+                {"units": "degree", "long_name": "elevation of pixel centre"},
+            ),
+            "azimuth": (
+                "azimuth",
+                azimuth,
+                {"units": "degree", "long_name": "azimuth clockwise from north"},
+            ),
         },
         attrs={
             "observer_x": xy[0],
@@ -236,7 +257,11 @@ def skyglow(
         write_polar(polar, polar_out)
     if png is not None:
         render_panorama(
-            magnitude, tables.elevation, azimuth, png, projection=projection,
+            magnitude,
+            tables.elevation,
+            azimuth,
+            png,
+            projection=projection,
             title=f"artificial skyglow, zenith {zenith_mag:.2f} mag arcsec-2",
         )
     return SkyglowResult(dataset, zenith, zenith_mag, int(bortle_class(zenith_mag)), seconds)

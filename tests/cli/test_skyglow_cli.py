@@ -15,21 +15,37 @@ from nightlights.sky.precompute import build_kernel, write_kernel
 def _emission(path) -> None:
     values = np.zeros((30, 30), np.float32)
     values[10:14, 20:24] = 1.0
-    write_cog(path, [RasterBand(values, "reflected", "lm m-2")],
-              transform=Affine(100, 0, 500_000, 0, -100, 6_700_000), crs="EPSG:32635")
+    write_cog(
+        path,
+        [RasterBand(values, "reflected", "lm m-2")],
+        transform=Affine(100, 0, 500_000, 0, -100, 6_700_000),
+        crs="EPSG:32635",
+    )
 
 
 def test_skyglow_command_prints_zenith_and_writes_outputs(tmp_path) -> None:
     kernel = tmp_path / "kernel.nc"
-    write_kernel(build_kernel(r_min=5, r_max=6000, n_r=16, n_el=8, n_az=32, progress=False),
-                 kernel)
+    write_kernel(build_kernel(r_min=5, r_max=6000, n_r=16, n_el=8, n_az=32, progress=False), kernel)
     src = tmp_path / "emission.tif"
     _emission(src)
     out, png = tmp_path / "pano.nc", tmp_path / "pano.png"
-    result = CliRunner().invoke(cli, [
-        "skyglow", str(src), "--observer", "501500,6698500", "--kernel", str(kernel),
-        "--observer-height", "0", "--out", str(out), "--png", str(png),
-    ])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "skyglow",
+            str(src),
+            "--observer",
+            "501500,6698500",
+            "--kernel",
+            str(kernel),
+            "--observer-height",
+            "0",
+            "--out",
+            str(out),
+            "--png",
+            str(png),
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "mag arcsec-2" in result.output and "Bortle class" in result.output
     pano = xr.open_dataset(out, engine="h5netcdf")
@@ -44,12 +60,31 @@ def test_skyglow_command_prints_zenith_and_writes_outputs(tmp_path) -> None:
 def test_skyglow_command_errors_are_one_line(tmp_path) -> None:
     src = tmp_path / "emission.tif"
     _emission(src)
-    result = CliRunner().invoke(cli, [
-        "skyglow", str(src), "--observer", "501500,6698500", "--mode", "naive",
-        "--kernel", str(src), "--out", str(tmp_path / "p.nc"),
-    ])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "skyglow",
+            str(src),
+            "--observer",
+            "501500,6698500",
+            "--mode",
+            "naive",
+            "--kernel",
+            str(src),
+            "--out",
+            str(tmp_path / "p.nc"),
+        ],
+    )
     assert result.exit_code != 0 and "Traceback" not in result.output
-    result = CliRunner().invoke(cli, [
-        "skyglow", str(src), "--observer", "nowhere", "--out", str(tmp_path / "p.nc"),
-    ])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "skyglow",
+            str(src),
+            "--observer",
+            "nowhere",
+            "--out",
+            str(tmp_path / "p.nc"),
+        ],
+    )
     assert result.exit_code == 2 and "expected X,Y" in result.output

@@ -107,8 +107,9 @@ def test_sources_beyond_the_kernel_are_dropped_with_a_warning(small_kernel) -> N
 
 def test_pca_with_all_bases_equals_exact(small_kernel) -> None:
     tables = kernel_slice(small_kernel, observer_altitude=0.0)
-    polar = polar_map(_scene(2), TRANSFORM, OBSERVER, distance_edges=tables.distance_edges,
-                      n_az=tables.n_az)
+    polar = polar_map(
+        _scene(2), TRANSFORM, OBSERVER, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
     exact = panorama_exact(polar, tables)
     pca = panorama_pca(polar, tables)
     # The stored bases keep 0.999999 of the energy: agreement to ~1e-3 of the peak.
@@ -118,8 +119,9 @@ def test_pca_with_all_bases_equals_exact(small_kernel) -> None:
 def test_too_few_bases_degrade_gracefully(small_kernel) -> None:
     """Failure regime: error grows as bases are dropped; one basis is still positive-ish."""
     tables = kernel_slice(small_kernel, observer_altitude=0.0)
-    polar = polar_map(_scene(), TRANSFORM, OBSERVER, distance_edges=tables.distance_edges,
-                      n_az=tables.n_az)
+    polar = polar_map(
+        _scene(), TRANSFORM, OBSERVER, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
     exact = panorama_exact(polar, tables)
     bright = exact > 0.01 * exact.max()
     errors = []
@@ -152,11 +154,18 @@ def test_exact_mode_agrees_with_the_naive_reference(small_kernel) -> None:
     """Binning in distance and azimuth versus direct integration at each cell's position."""
     tables = kernel_slice(small_kernel, observer_altitude=0.0)
     scene = _scene()
-    polar = polar_map(scene, TRANSFORM, OBSERVER, distance_edges=tables.distance_edges,
-                      n_az=tables.n_az)
+    polar = polar_map(
+        scene, TRANSFORM, OBSERVER, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
     exact = panorama_exact(polar, tables)
-    naive = panorama_naive(scene, TRANSFORM, OBSERVER, elevation=tables.elevation,
-                           n_az=tables.n_az, observer_altitude=0.0)
+    naive = panorama_naive(
+        scene,
+        TRANSFORM,
+        OBSERVER,
+        elevation=tables.elevation,
+        n_az=tables.n_az,
+        observer_altitude=0.0,
+    )
     bright = naive > 0.01 * naive.max()
     # The test kernel is coarse (24 distance bins over 5 m - 20 km, ratio 1.41 per bin; 8 x 32
     # pixels): binning errors of a few per cent; benchmarks/bench_sky_runtime_* chart how the
@@ -174,12 +183,14 @@ def test_bright_near_source_and_dim_far_city_both_visible(small_kernel) -> None:
     transform = Affine(CELL, 0, 0, 0, -CELL, 1000)
     observer = (500.0, 450.0)
     tables = kernel_slice(small_kernel, observer_altitude=0.0)
-    polar = polar_map(emission, transform, observer, distance_edges=tables.distance_edges,
-                      n_az=tables.n_az)
+    polar = polar_map(
+        emission, transform, observer, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
     near_only = emission.copy()
     near_only[0, :, 100:] = 0
-    polar_near = polar_map(near_only, transform, observer,
-                           distance_edges=tables.distance_edges, n_az=tables.n_az)
+    polar_near = polar_map(
+        near_only, transform, observer, distance_edges=tables.distance_edges, n_az=tables.n_az
+    )
     both = panorama_exact(polar, tables)
     near = panorama_exact(polar_near, tables)
     town = both - near
@@ -196,8 +207,10 @@ def _write_scene(path, bands: int = 2) -> None:
     scene = _scene(bands)
     write_cog(
         path,
-        [RasterBand(scene[b].astype(np.float32), ("reflected", "uplight")[b], "lm m-2")
-         for b in range(bands)],
+        [
+            RasterBand(scene[b].astype(np.float32), ("reflected", "uplight")[b], "lm m-2")
+            for b in range(bands)
+        ],
         transform=Affine(CELL, 0, 500_000, 0, -CELL, 6_700_000),
         crs="EPSG:32635",
     )
@@ -209,8 +222,16 @@ def test_stage_writes_panorama_contract(tmp_path, small_kernel) -> None:
     out = tmp_path / "pano.nc"
     png = tmp_path / "pano.png"
     polar_nc = tmp_path / "polar.nc"
-    result = skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=small_kernel,
-                     observer_height=0.0, png=png, projection="fisheye", polar_out=polar_nc)
+    result = skyglow(
+        src,
+        out,
+        observer=(502_000.0, 6_698_000.0),
+        kernel=small_kernel,
+        observer_height=0.0,
+        png=png,
+        projection="fisheye",
+        polar_out=polar_nc,
+    )
     pano = xr.open_dataset(out, engine="h5netcdf")
     assert pano["luminance"].dims == ("elevation", "azimuth")
     assert pano["luminance"].attrs["units"] == "cd m-2"
@@ -234,10 +255,21 @@ def test_stage_observer_in_another_crs(tmp_path, small_kernel) -> None:
     lon, lat = Transformer.from_crs("EPSG:32635", "EPSG:4326", always_xy=True).transform(
         502_000.0, 6_698_000.0
     )
-    a = skyglow(src, tmp_path / "a.nc", observer=(502_000.0, 6_698_000.0),
-                kernel=small_kernel, observer_height=0.0)
-    b = skyglow(src, tmp_path / "b.nc", observer=(lon, lat), observer_crs="EPSG:4326",
-                kernel=small_kernel, observer_height=0.0)
+    a = skyglow(
+        src,
+        tmp_path / "a.nc",
+        observer=(502_000.0, 6_698_000.0),
+        kernel=small_kernel,
+        observer_height=0.0,
+    )
+    b = skyglow(
+        src,
+        tmp_path / "b.nc",
+        observer=(lon, lat),
+        observer_crs="EPSG:4326",
+        kernel=small_kernel,
+        observer_height=0.0,
+    )
     np.testing.assert_allclose(a.panorama["luminance"], b.panorama["luminance"], rtol=1e-6)
 
 
@@ -249,13 +281,18 @@ def test_stage_bad_inputs(tmp_path, small_kernel) -> None:
         skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=small_kernel, mode="fast")
     one_band_kernel = small_kernel.drop_vars(["kernel_uplight", "coefficient_uplight"])
     with pytest.raises(InputError, match="no uplight table"):
-        skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=one_band_kernel,
-                observer_height=0.0)
+        skyglow(
+            src, out, observer=(502_000.0, 6_698_000.0), kernel=one_band_kernel, observer_height=0.0
+        )
     with pytest.raises(InputError, match="turbidity 5"):
         skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=small_kernel, turbidity=5)
     geographic = tmp_path / "geo.tif"
-    write_cog(geographic, [RasterBand(np.ones((4, 4), np.float32), "e", "lm m-2")],
-              transform=Affine(0.01, 0, 24, 0, -0.01, 60), crs="EPSG:4326")
+    write_cog(
+        geographic,
+        [RasterBand(np.ones((4, 4), np.float32), "e", "lm m-2")],
+        transform=Affine(0.01, 0, 24, 0, -0.01, 60),
+        crs="EPSG:4326",
+    )
     with pytest.raises(CRSError, match="projected CRS"):
         skyglow(geographic, out, observer=(24.01, 59.99), kernel=small_kernel)
     assert not out.exists()
