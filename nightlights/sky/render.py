@@ -57,7 +57,11 @@ def render_panorama(
     d_el = 90.0 / elevation.size
     az_edges = np.concatenate([azimuth - d_az / 2, [azimuth[-1] + d_az / 2]])
     el_edges = np.concatenate([elevation + d_el / 2, [elevation[-1] - d_el / 2]])
-    options: dict[str, Any] = {"cmap": "magma_r", "vmin": magnitude_range[0], "vmax": magnitude_range[1]}
+    options: dict[str, Any] = {
+        "cmap": "magma_r",
+        "vmin": magnitude_range[0],
+        "vmax": magnitude_range[1],
+    }
     if projection == "equirectangular":
         fig, ax = plt.subplots(figsize=(11, 3.6), layout="constrained")
         mesh = ax.pcolormesh(az_edges, el_edges, values, **options)
@@ -70,8 +74,8 @@ def render_panorama(
         fig, ax = plt.subplots(
             figsize=(6.5, 6), subplot_kw={"projection": "polar"}, layout="constrained"
         )
-        ax.set_theta_zero_location("N")
-        ax.set_theta_direction(-1)
+        ax.set_theta_zero_location("N")  # type: ignore[attr-defined]
+        ax.set_theta_direction(-1)  # type: ignore[attr-defined]
         mesh = ax.pcolormesh(np.radians(az_edges), 90.0 - el_edges, values, **options)
         ax.set_ylim(0, 90)
         ax.set_yticks([30, 60, 90])
