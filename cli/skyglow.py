@@ -49,6 +49,12 @@ def _pair(text: str) -> tuple[float, float]:
     type=click.Path(dir_okay=False),
     help="Write the observer's polar flux map (NetCDF).",
 )
+@click.option(
+    "--dem",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Terrain heights [m]: observer altitude, source altitude, horizon mask.",
+)
 @click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns.")
 @click.option("--n-elevation", default=64, show_default=True, help="Panorama rows.")
 def skyglow(
@@ -64,6 +70,7 @@ def skyglow(
     png: str | None,
     projection: str,
     polar_out: str | None,
+    dem: str | None,
     n_azimuth: int,
     n_elevation: int,
 ) -> None:
@@ -83,6 +90,7 @@ def skyglow(
         polar_out=polar_out,
         n_el=n_elevation,
         n_az=n_azimuth,
+        dem=dem,
     )
     console = Console(stderr=True)
     console.print(

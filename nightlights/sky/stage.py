@@ -16,6 +16,7 @@ from nightlights.errors import CRSError, InputError
 from nightlights.io import atomic_output, read_raster
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
+from nightlights.sky.horizon import ground_height, horizon_elevation
 from nightlights.sky.panorama import (
     MODES,
     kernel_slice,
@@ -72,7 +73,11 @@ def scene_kernel_parameters(
     """Kernel grid sized to the scene: distances from 10 m to the farthest raster corner."""
     transform = meta["transform"]
     rows, cols = shape
-    corners = [transform * (c, r) for c in (0, cols) for r in (0, rows)]
+    corners = [
+        (transform.c + transform.a * c, transform.f + transform.e * r)
+        for c in (0, cols)
+        for r in (0, rows)
+    ]
     far = max(np.hypot(x - observer[0], y - observer[1]) for x, y in corners)
     r_max = float(min(MAX_KERNEL_RANGE, max(far * 1.01, 100.0)))
     return {
@@ -102,6 +107,7 @@ def skyglow(
     png: str | os.PathLike[str] | None = None,
     projection: str = "equirectangular",
     polar_out: str | os.PathLike[str] | None = None,
+    dem: str | os.PathLike[str] | None = None,
     n_el: int = 64,
     n_az: int = 256,
     n_r: int = 64,
@@ -138,6 +144,10 @@ def skyglow(
         ``equirectangular`` or ``fisheye`` for the picture.
     polar_out
         Optional NetCDF of the observer's polar flux map.
+    dem
+        Terrain heights [m] in the emission's CRS: the observer stands ``observer_height``
+        above it, sources are taken at the flux-weighted mean terrain height, and the panorama
+        is masked below the terrain horizon (``terrain_mask``).
     n_el, n_az, n_r
         Panorama rows and columns and distance bins of a scene kernel [-].
     cache_dir
@@ -160,6 +170,10 @@ def skyglow(
     xy = _observer_xy(observer, observer_crs, meta["crs"])
     if observer_height < 0:
         raise InputError(f"observer height {observer_height} m; expected >= 0")
+    terrain = _terrain(dem, meta, data, xy, observer_height) if dem is not None else None
+    if terrain is not None:
+        # Altitudes relative to the sources (the kernel's sources stand at altitude 0).
+        observer_height = max(terrain.eye_altitude - terrain.source_altitude, 0.0)
     if isinstance(kernel, xr.Dataset):
         table = kernel
     elif kernel is not None:
@@ -205,8 +219,19 @@ def skyglow(
     seconds = time.perf_counter() - start
     luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
     azimuth = (np.arange(tables.n_az) + 0.5) * 360.0 / tables.n_az
+    below_terrain = np.zeros(luminance.shape, dtype=bool)
+    if terrain is not None:
+        horizon = horizon_elevation(
+            terrain.dem,
+            terrain.transform,
+            xy,
+            eye_altitude=terrain.eye_altitude,
+            n_az=tables.n_az,
+        )
+        below_terrain = tables.elevation[:, None] < horizon[None, :]
+        luminance = np.where(below_terrain, np.nan, luminance)
     magnitude = luminance_to_magnitude(luminance)
-    zenith = float(luminance[0].mean())
+    zenith = float(np.nanmean(luminance[0])) if np.isfinite(luminance[0]).any() else 0.0
     zenith_mag = float(luminance_to_magnitude(zenith))
     dataset = xr.Dataset(
         {
@@ -219,6 +244,11 @@ def skyglow(
                 ("elevation", "azimuth"),
                 magnitude,
                 {"units": "mag arcsec-2", "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"},
+            ),
+            "terrain_mask": (
+                ("elevation", "azimuth"),
+                below_terrain.astype(np.int8),
+                {"long_name": "1 where the terrain (DEM) hides the sky"},
             ),
         },
         coords={
@@ -238,7 +268,8 @@ def skyglow(
             "observer_y": xy[1],
             "crs": meta["crs"].to_wkt(),
             "observer_height_m": observer_height,
-            "source_altitude_m": 0.0,
+            "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
+            "observer_altitude_m": terrain.eye_altitude if terrain is not None else observer_height,
             "turbidity": kernel_turbidity,
             "kernel_hash": str(table.attrs.get("content_hash", "")),
             "mode": mode,
@@ -265,6 +296,47 @@ def skyglow(
             title=f"artificial skyglow, zenith {zenith_mag:.2f} mag arcsec-2",
         )
     return SkyglowResult(dataset, zenith, zenith_mag, int(bortle_class(zenith_mag)), seconds)
+
+
+@dataclass(frozen=True)
+class _Terrain:
+    dem: np.ndarray
+    transform: Any
+    eye_altitude: float
+    source_altitude: float
+
+
+def _terrain(
+    dem_path: str | os.PathLike[str],
+    meta: dict[str, Any],
+    emission: np.ndarray,
+    xy: tuple[float, float],
+    observer_height: float,
+) -> _Terrain:
+    """Read the DEM; eye altitude and the flux-weighted source altitude [m]."""
+    heights, dem_meta = read_raster(dem_path)
+    if dem_meta["crs"] is None or not dem_meta["crs"].equals(meta["crs"]):
+        raise CRSError(f"{dem_path}: the DEM must be in the emission raster's CRS")
+    dem = heights[0]
+    ground = ground_height(dem, dem_meta["transform"], *xy)
+    # Terrain height under each lit emission cell, weighted by its flux.
+    flux = np.nansum(np.nan_to_num(emission, nan=0.0), axis=0)
+    rows, cols = np.nonzero(flux)
+    source_altitude = 0.0
+    if rows.size:
+        t = meta["transform"]
+        cx = t.c + t.a * (cols + 0.5)
+        cy = t.f + t.e * (rows + 0.5)
+        inv = ~dem_meta["transform"]
+        dcol = inv.a * cx + inv.b * cy + inv.c
+        drow = inv.d * cx + inv.e * cy + inv.f
+        from scipy.ndimage import map_coordinates
+
+        z = map_coordinates(
+            np.nan_to_num(dem, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
+        )
+        source_altitude = float(np.average(z, weights=flux[rows, cols]))
+    return _Terrain(dem, dem_meta["transform"], ground + observer_height, source_altitude)
 
 
 def write_polar(polar: PolarMap, path: str | os.PathLike[str]) -> Path:

@@ -1,0 +1,104 @@
+"""The observer's terrain horizon from a DEM (beyond Dobashi et al. 2023, which ignores terrain).
+
+For each azimuth the horizon elevation is the largest angle under which the observer sees the
+terrain along that azimuth, with the Earth's curvature (and standard refraction, k = 0.13)
+lowering distant terrain by d^2 (1 - k) / (2 R).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from affine import Affine
+from numpy.typing import NDArray
+from scipy.ndimage import map_coordinates
+
+from nightlights.errors import InputError
+
+FloatArray = NDArray[np.float64]
+
+#: Mean Earth radius [m].
+EARTH_RADIUS = 6.371e6
+#: Coefficient of terrestrial refraction (standard atmosphere; geodetic convention).
+REFRACTION_COEFFICIENT = 0.13
+
+
+def ground_height(dem: FloatArray, transform: Affine, x: float, y: float) -> float:
+    """DEM height at a point by bilinear interpolation [m].
+
+    Raises
+    ------
+    InputError
+        The point lies outside the DEM or on nodata.
+    """
+    inverse = ~transform
+    col = inverse.a * x + inverse.b * y + inverse.c
+    row = inverse.d * x + inverse.e * y + inverse.f
+    value = map_coordinates(dem, [[row - 0.5], [col - 0.5]], order=1, mode="nearest")[0]
+    inside = 0 <= row < dem.shape[0] and 0 <= col < dem.shape[1]
+    if not inside or not np.isfinite(value):
+        raise InputError(f"observer ({x:.1f}, {y:.1f}) is outside the DEM or on nodata")
+    return float(value)
+
+
+def horizon_elevation(
+    dem: FloatArray,
+    transform: Affine,
+    observer: tuple[float, float],
+    *,
+    eye_altitude: float,
+    n_az: int,
+    samples_per_bin: int = 4,
+    n_distances: int = 400,
+) -> FloatArray:
+    """Terrain horizon elevation per azimuth bin [deg].
+
+    Parameters
+    ----------
+    dem
+        Terrain height [m], NaN as nodata (ignored).
+    transform
+        DEM transform (north up) [m].
+    observer
+        Observer (x, y) [m].
+    eye_altitude
+        Eye altitude above the DEM datum [m].
+    n_az
+        Azimuth bins centred on ``(j + 0.5) 360 / n_az`` [deg].
+    samples_per_bin
+        Rays per azimuth bin; the bin's horizon is the highest [-].
+    n_distances
+        Log-spaced samples along each ray, from one cell to the DEM's far edge [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_az,)`` horizon elevation [deg]; -90 where the DEM shows no terrain.
+    """
+    cell = abs(transform.a)
+    rows, cols = dem.shape
+    corners = [
+        (transform.c + transform.a * c, transform.f + transform.e * r)
+        for c in (0, cols)
+        for r in (0, rows)
+    ]
+    far = max(np.hypot(cx - observer[0], cy - observer[1]) for cx, cy in corners)
+    if far <= cell:
+        raise InputError("the DEM is too small to give a horizon")
+    distance = np.geomspace(cell, far, n_distances)
+    azimuth = (np.arange(n_az * samples_per_bin) + 0.5) * 360.0 / (n_az * samples_per_bin)
+    az = np.radians(azimuth)[:, None]
+    x = observer[0] + distance[None, :] * np.sin(az)
+    y = observer[1] + distance[None, :] * np.cos(az)
+    inverse = ~transform
+    col = inverse.a * x + inverse.b * y + inverse.c
+    row = inverse.d * x + inverse.e * y + inverse.f
+    inside = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
+    filled = np.where(np.isfinite(dem), dem, -1e9)
+    height = map_coordinates(
+        filled, [row.ravel() - 0.5, col.ravel() - 0.5], order=1, mode="nearest"
+    ).reshape(x.shape)
+    drop = distance**2 * (1.0 - REFRACTION_COEFFICIENT) / (2.0 * EARTH_RADIUS)
+    angle = np.degrees(np.arctan2(height - drop[None, :] - eye_altitude, distance[None, :]))
+    angle = np.where(inside & (height > -1e8), angle, -90.0)
+    per_ray = angle.max(axis=1)
+    return per_ray.reshape(n_az, samples_per_bin).max(axis=1)
