@@ -55,6 +55,19 @@ def _pair(text: str) -> tuple[float, float]:
     default=None,
     help="Terrain heights [m]: observer altitude, source altitude, horizon mask.",
 )
+@click.option(
+    "--bands",
+    type=click.Choice(["V", "RGB"]),
+    default="V",
+    show_default=True,
+    help="V: luminance; RGB: CIE XYZ with wavelength-dependent scattering.",
+)
+@click.option(
+    "--spectrum",
+    default="LED_4000K",
+    show_default=True,
+    help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
+)
 @click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns.")
 @click.option("--n-elevation", default=64, show_default=True, help="Panorama rows.")
 def skyglow(
@@ -71,6 +84,8 @@ def skyglow(
     projection: str,
     polar_out: str | None,
     dem: str | None,
+    bands: str,
+    spectrum: str,
     n_azimuth: int,
     n_elevation: int,
 ) -> None:
@@ -91,6 +106,8 @@ def skyglow(
         n_el=n_elevation,
         n_az=n_azimuth,
         dem=dem,
+        bands=bands,
+        spectrum=spectrum,
     )
     console = Console(stderr=True)
     console.print(

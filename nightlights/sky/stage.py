@@ -16,6 +16,11 @@ from nightlights.errors import CRSError, InputError
 from nightlights.io import atomic_output, read_raster
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
+from nightlights.sky.colour import (
+    TRISTIMULUS_WAVELENGTHS,
+    render_colour_panorama,
+    tristimulus_flux_ratios,
+)
 from nightlights.sky.horizon import ground_height, horizon_elevation
 from nightlights.sky.panorama import (
     MODES,
@@ -108,6 +113,8 @@ def skyglow(
     projection: str = "equirectangular",
     polar_out: str | os.PathLike[str] | None = None,
     dem: str | os.PathLike[str] | None = None,
+    bands: str = "V",
+    spectrum: str = "LED_4000K",
     n_el: int = 64,
     n_az: int = 256,
     n_r: int = 64,
@@ -148,6 +155,12 @@ def skyglow(
         Terrain heights [m] in the emission's CRS: the observer stands ``observer_height``
         above it, sources are taken at the flux-weighted mean terrain height, and the panorama
         is masked below the terrain horizon (``terrain_mask``).
+    bands
+        ``V`` (luminance only) or ``RGB``: CIE X, Y, Z panoramas with wavelength-dependent
+        scattering and the emission colour of ``spectrum`` (needs scene kernels, so no
+        ``kernel``); the PNG is then a colour picture (equirectangular).
+    spectrum
+        Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
     n_el, n_az, n_r
         Panorama rows and columns and distance bins of a scene kernel [-].
     cache_dir
@@ -174,6 +187,13 @@ def skyglow(
     if terrain is not None:
         # Altitudes relative to the sources (the kernel's sources stand at altitude 0).
         observer_height = max(terrain.eye_altitude - terrain.source_altitude, 0.0)
+    if bands not in ("V", "RGB"):
+        raise InputError(f"bands {bands!r}; expected V or RGB")
+    if bands == "RGB" and (kernel is not None or mode == "naive"):
+        raise InputError(
+            "--bands RGB builds one scene kernel per tristimulus band: give no --kernel and "
+            "use mode pca or exact"
+        )
     if isinstance(kernel, xr.Dataset):
         table = kernel
     elif kernel is not None:
@@ -201,6 +221,17 @@ def skyglow(
     polar = polar_map(
         data, meta["transform"], xy, distance_edges=tables.distance_edges, n_az=tables.n_az
     )
+    band_tables: dict[str, Any] = {}
+    if bands == "RGB":
+        for band, wavelength in TRISTIMULUS_WAVELENGTHS.items():
+            band_params = dict(params)
+            band_params["atmosphere"] = Atmosphere(
+                turbidity=2.0 if turbidity is None else turbidity, wavelength_nm=wavelength
+            )
+            band_tables[band] = kernel_slice(
+                get_or_build_kernel(cache_dir=cache_dir, progress=progress, **band_params),
+                observer_altitude=observer_height,
+            )
     start = time.perf_counter()
     if mode == "pca":
         luminance = panorama_pca(polar, tables, components=components)
@@ -216,6 +247,24 @@ def skyglow(
             observer_altitude=observer_height,
             atmosphere=Atmosphere(turbidity=kernel_turbidity),
         )
+    xyz = None
+    if bands == "RGB":
+        ratios = tristimulus_flux_ratios(spectrum)
+        channels = []
+        for band, table_c in band_tables.items():
+            scaled = PolarMap(
+                polar.flux * ratios[band],
+                polar.distance_edges,
+                polar.n_az,
+                polar.dropped_flux * ratios[band],
+                polar.total_flux * ratios[band],
+            )
+            if mode == "pca":
+                channels.append(panorama_pca(scaled, table_c, components=components))
+            else:
+                channels.append(panorama_exact(scaled, table_c))
+        xyz = np.maximum(np.stack(channels, axis=-1), 0.0)
+        luminance = xyz[..., 1]
     seconds = time.perf_counter() - start
     luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
     azimuth = (np.arange(tables.n_az) + 0.5) * 360.0 / tables.n_az
@@ -282,11 +331,33 @@ def skyglow(
             "note": "artificial skyglow only (no natural sky background), single scattering",
         },
     )
+    if xyz is not None:
+        if terrain is not None:
+            xyz = np.where(below_terrain[..., None], np.nan, xyz)
+        for index, band in enumerate(TRISTIMULUS_WAVELENGTHS):
+            dataset[band] = (
+                ("elevation", "azimuth"),
+                xyz[..., index],
+                {
+                    "units": "cd m-2",
+                    "long_name": f"CIE 1931 {band} tristimulus luminance",
+                    "scattering_wavelength_nm": TRISTIMULUS_WAVELENGTHS[band],
+                },
+            )
+        dataset.attrs["spectrum"] = spectrum
+    dataset.attrs["bands"] = bands
     with atomic_output(out_nc) as tmp:
         dataset.to_netcdf(tmp, engine="h5netcdf")
     if polar_out is not None:
         write_polar(polar, polar_out)
-    if png is not None:
+    if png is not None and xyz is not None:
+        render_colour_panorama(
+            xyz,
+            tables.elevation,
+            png,
+            title=f"artificial skyglow ({spectrum}), zenith {zenith_mag:.2f} mag arcsec-2",
+        )
+    elif png is not None:
         render_panorama(
             magnitude,
             tables.elevation,

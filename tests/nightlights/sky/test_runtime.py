@@ -303,3 +303,43 @@ def test_observer_altitude_outside_kernel_warns(small_kernel) -> None:
         warnings.simplefilter("always")
         kernel_slice(small_kernel, observer_altitude=500.0)
     assert any("outside the kernel's levels" in str(w.message) for w in caught)
+
+
+def test_rgb_bands_orange_and_blue_white_lights_colour_the_sky(tmp_path) -> None:
+    """Dobashi 2023 Fig. 10: sodium light gives a redder sky than 4000 K LED light; the
+    shorter wavelengths scatter more (Rayleigh), so the Z band falls faster with distance."""
+    src = tmp_path / "emission.tif"
+    _write_scene(src, bands=1)
+    cache = tmp_path / "cache"
+    results = {}
+    for spectrum in ("HPS", "LED_4000K"):
+        out = tmp_path / f"{spectrum}.nc"
+        skyglow(
+            src,
+            out,
+            observer=(502_000.0, 6_698_000.0),
+            bands="RGB",
+            spectrum=spectrum,
+            n_el=8,
+            n_az=32,
+            n_r=16,
+            cache_dir=cache,
+            progress=False,
+            png=tmp_path / f"{spectrum}.png",
+        )
+        pano = xr.open_dataset(out, engine="h5netcdf")
+        results[spectrum] = {band: pano[band].values.copy() for band in ("X", "Y", "Z")}
+        np.testing.assert_allclose(pano["luminance"].values, pano["Y"].values)
+        pano.close()
+    zenith_ratio = {s: r["X"][0].mean() / r["Z"][0].mean() for s, r in results.items()}
+    assert zenith_ratio["HPS"] > 3 * zenith_ratio["LED_4000K"]
+    assert (tmp_path / "HPS.png").stat().st_size > 5000
+    with pytest.raises(InputError, match="RGB"):
+        skyglow(
+            src,
+            tmp_path / "x.nc",
+            observer=(502_000.0, 6_698_000.0),
+            bands="RGB",
+            mode="naive",
+            cache_dir=cache,
+        )
