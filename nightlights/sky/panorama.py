@@ -58,10 +58,35 @@ class KernelSlice:
         return int(self.kernel.shape[-1])
 
 
+def _clamp_level(levels: FloatArray, value: float, name: str) -> float:
+    """``value`` or, outside the levels' range, the nearest level (with a warning if far)."""
+    if value < levels.min() - 1e-6 or value > levels.max() + 1e-6:
+        nearest = float(levels[np.argmin(np.abs(levels - value))])
+        if abs(nearest - value) > 5.0:
+            warnings.warn(
+                f"{name} {value:g} m is outside the kernel's levels "
+                f"{levels.min():g}-{levels.max():g} m; using {nearest:g} m",
+                DataQualityWarning,
+                stacklevel=3,
+            )
+        return nearest
+    return value
+
+
 def kernel_slice(
     kernel: xr.Dataset, *, observer_altitude: float, source_altitude: float = 0.0
 ) -> KernelSlice:
     """Interpolate a kernel dataset linearly to one observer and one source altitude.
+
+    In the source altitude only the kernel tables and the PCA coefficients are interpolated
+    (the bases are shared by all source altitudes of an observer level). Bases of two
+    observer levels come from separate SVDs and cannot be averaged (their signs and
+    rotations within the PCA subspace are arbitrary), so an observer altitude between two
+    levels h_0 < h < h_1 with weight w = (h - h_0) / (h_1 - h_0) keeps BOTH levels' bases,
+    interleaved (level 0 component 0, level 1 component 0, level 0 component 1, ...), with
+    coefficients scaled by 1 - w and w: sum_k c_k B_k is then exactly the linearly
+    interpolated kernel. Such a slice has twice the stored components (and costs twice as
+    much in :func:`panorama_pca`).
 
     Parameters
     ----------
@@ -73,34 +98,43 @@ def kernel_slice(
     source_altitude
         Altitude of the light sources [m]; same rule.
     """
-    selected = kernel
-    for name, value in (
-        ("observer_altitude", observer_altitude),
-        ("source_altitude", source_altitude),
-    ):
-        levels = np.asarray(kernel[name].values, dtype=float)
-        if value < levels.min() - 1e-6 or value > levels.max() + 1e-6:
-            nearest = float(levels[np.argmin(np.abs(levels - value))])
-            if abs(nearest - value) > 5.0:
-                warnings.warn(
-                    f"{name} {value:g} m is outside the kernel's levels "
-                    f"{levels.min():g}-{levels.max():g} m; using {nearest:g} m",
-                    DataQualityWarning,
-                    stacklevel=2,
-                )
-            value = nearest
-        if levels.size == 1:
-            selected = selected.isel({name: 0})
+    h_o = np.asarray(kernel["observer_altitude"].values, dtype=float)
+    h_o_value = _clamp_level(h_o, float(observer_altitude), "observer_altitude")
+    order = np.argsort(h_o)
+    exact = np.nonzero(np.abs(h_o - h_o_value) <= 1e-6)[0]
+    if exact.size:
+        pieces = [(int(exact[0]), 1.0)]
+    else:
+        upper = int(np.searchsorted(h_o[order], h_o_value))
+        lo, hi = int(order[upper - 1]), int(order[upper])
+        w = (h_o_value - h_o[lo]) / (h_o[hi] - h_o[lo])
+        pieces = [(lo, 1.0 - w), (hi, w)]
+    h_c = np.asarray(kernel["source_altitude"].values, dtype=float)
+    h_c_value = _clamp_level(h_c, float(source_altitude), "source_altitude")
+    kernels, coefficients, spectra = [], [], []
+    for index, weight in pieces:
+        level = kernel.isel(observer_altitude=index)
+        if h_c.size == 1:
+            level = level.isel(source_altitude=0)
         else:
-            selected = selected.interp({name: value})
-    names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in selected else [])
-    coefficients = ["coefficient"] + (
-        ["coefficient_uplight"] if "coefficient_uplight" in selected else []
-    )
-    basis_fft = selected["basis_fft_real"].values + 1j * selected["basis_fft_imag"].values
+            level = level.interp(source_altitude=h_c_value)
+        names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in level else [])
+        coefficient_names = ["coefficient"] + (
+            ["coefficient_uplight"] if "coefficient_uplight" in level else []
+        )
+        kernels.append(weight * np.stack([level[n].values.astype(float) for n in names]))
+        coefficients.append(
+            weight * np.stack([level[n].values.astype(float) for n in coefficient_names])
+        )
+        spectra.append(level["basis_fft_real"].values + 1j * level["basis_fft_imag"].values)
+    # Interleave the components of the (one or two) observer levels.
+    coefficient = np.stack(coefficients, axis=-1)
+    coefficient = coefficient.reshape(*coefficient.shape[:-2], -1)
+    basis_fft = np.stack(spectra, axis=1)
+    basis_fft = basis_fft.reshape(-1, *basis_fft.shape[2:])
     return KernelSlice(
-        kernel=np.stack([selected[n].values.astype(float) for n in names]),
-        coefficient=np.stack([selected[n].values.astype(float) for n in coefficients]),
+        kernel=np.sum(kernels, axis=0),
+        coefficient=coefficient,
         basis_fft=basis_fft,
         distance_edges=np.asarray(kernel["distance_edges"].values, dtype=float),
         elevation=np.asarray(kernel["elevation"].values, dtype=float),
