@@ -16,3 +16,12 @@ scheduler_option = click.option(
     metavar="ADDRESS",
     help="dask.distributed scheduler address; default: local threads.",
 )
+catalog_option = click.option(
+    "--catalog",
+    default=None,
+    type=click.Path(exists=True, file_okay=False),
+    help="Luminaire database folder (default: the bundled one).",
+)
+skip_unknown_option = click.option(
+    "--skip-unknown", is_flag=True, help="Drop lights with unknown system ids (with a warning)."
+)

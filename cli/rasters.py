@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 from rich.console import Console
 
-from cli.options import scheduler_option
+from cli.options import catalog_option, scheduler_option, skip_unknown_option
 from nightlights.area_lights import AreaLightOptions
 from nightlights.emission import DEFAULT_VIIRS_SPECTRUM, emission, emission_from_viirs
 from nightlights.errors import InputError
@@ -44,12 +44,7 @@ def _bounds(text: str | None) -> tuple[float, float, float, float] | None:
     default=None,
     help="Growth of the default extent [m] (default: the largest region of influence).",
 )
-@click.option(
-    "--catalog",
-    default=None,
-    type=click.Path(exists=True, file_okay=False),
-    help="Luminaire database folder (default: bundled).",
-)
+@catalog_option
 @click.option(
     "--dem",
     default=None,
@@ -95,7 +90,7 @@ def _bounds(text: str | None) -> tuple[float, float, float, float] | None:
     help="Pseudo-light spacing [m] (default: area height / 2).",
 )
 @click.option("--area-spectrum", default=None, help="Spectrum name of the area sources.")
-@click.option("--skip-unknown", is_flag=True, help="Drop lights with unknown system ids.")
+@skip_unknown_option
 @click.option("--crs", "assume_crs", default=None, help="CRS of a light layer that has none.")
 @click.option("--tile-size", type=int, default=1024, show_default=True, help="Tile edge [px].")
 @scheduler_option
@@ -167,13 +162,8 @@ def irradiance_command(
     show_default=True,
     help="Light spectrum for --from-viirs.",
 )
-@click.option(
-    "--catalog",
-    default=None,
-    type=click.Path(exists=True, file_okay=False),
-    help="Luminaire database folder (default: bundled).",
-)
-@click.option("--skip-unknown", is_flag=True, help="Drop lights with unknown system ids.")
+@catalog_option
+@skip_unknown_option
 def emission_command(
     paths: tuple[str, ...],
     resolution: float | None,

@@ -8,7 +8,7 @@ import click
 from rich.console import Console
 from rich.table import Table
 
-from cli.options import seed_option
+from cli.options import catalog_option, seed_option
 from cli.streets_sample import commands as sample_commands
 from nightlights.streets.normalize import NormalizeReport, builtin_mappings, normalize
 from nightlights.streets.place import PlacementOptions, place
@@ -67,12 +67,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 @streets.command("place")
 @click.argument("src", type=click.Path(exists=True, dir_okay=False))
 @click.argument("dst", type=click.Path(dir_okay=False))
-@click.option(
-    "--catalog",
-    default=None,
-    type=click.Path(exists=True, file_okay=False),
-    help="Luminaire database folder (default: the bundled one).",
-)
+@catalog_option
 @seed_option
 @click.option(
     "--along-jitter",
