@@ -39,11 +39,13 @@ from nightlights.sky.geometry import altitude, ray_exit_distance, source_frame, 
 from nightlights.sky.quadrature import gauss_legendre, tangent_panel_nodes
 
 __all__ = [
+    "BACKENDS",
     "EMISSION_MODELS",
     "emission_intensity",
     "line_of_sight_integrand",
     "optical_depth",
     "sky_luminance",
+    "sky_luminance_grid",
     "slant_optical_depth",
 ]
 
@@ -51,6 +53,9 @@ FloatArray = NDArray[np.float64]
 
 #: Emission angular distributions, each normalised to 1 lm emitted into the upper hemisphere.
 EMISSION_MODELS = ("lambertian", "uplight", "isotropic")
+
+#: Line-of-sight integrators of :func:`sky_luminance` (same model and nodes).
+BACKENDS = ("auto", "numba", "numpy")
 
 #: Default exponent n of the direct-uplight lobe sin^n(theta) about the local vertical [-].
 UPLIGHT_EXPONENT = 4.0
@@ -254,6 +259,7 @@ def sky_luminance(
     leg_nodes: int | None = None,
     core_radius: float = 1.0,
     uplight_exponent: float = UPLIGHT_EXPONENT,
+    backend: str = "auto",
 ) -> FloatArray:
     """Sky luminance seen along a view ray per lumen emitted upwards by a ground point source.
 
@@ -285,6 +291,10 @@ def sky_luminance(
         Softening radius r0 of the point source [m].
     uplight_exponent
         Exponent of the uplight lobe (``emission="uplight"``) [-].
+    backend
+        ``"numba"``: compiled loop over rays (:mod:`nightlights.sky._kernel_numba`, same model
+        and nodes, ~10x faster); ``"numpy"``: vectorised reference; ``"auto"`` (default):
+        numba unless ``leg_nodes`` is given (leg quadrature is numpy only) [-].
 
     Returns
     -------
@@ -308,6 +318,10 @@ def sky_luminance(
         raise InputError(f"nodes {nodes!r}, leg_nodes {leg_nodes!r}; expected >= 1")
     if not core_radius > 0:
         raise InputError(f"core_radius {core_radius!r} m; expected > 0")
+    if backend not in BACKENDS:
+        raise InputError(f"backend {backend!r}; expected one of {BACKENDS}")
+    if backend == "numba" and leg_nodes is not None:
+        raise InputError("backend 'numba' computes closed-form legs only; leg_nodes needs 'numpy'")
     arrays = np.broadcast_arrays(
         np.asarray(elevation, dtype=float),
         np.asarray(relative_azimuth, dtype=float),
@@ -319,6 +333,18 @@ def sky_luminance(
     flat = [a.ravel() for a in arrays]
     if np.any(flat[2] < 0) or not np.all(np.isfinite(flat[2])):
         raise InputError("source distance; expected finite values >= 0 m")
+    if backend != "numpy" and leg_nodes is None:
+        from nightlights.sky._kernel_numba import luminance_rays
+
+        out = luminance_rays(
+            *flat,
+            atmosphere=atmosphere,
+            emission=emission,
+            nodes=nodes,
+            core_radius=core_radius,
+            uplight_exponent=uplight_exponent,
+        )
+        return out.reshape(shape)
     out = np.zeros(flat[0].size)
     per_ray = 3 * nodes * (2 * (leg_nodes or 2) + 8)
     chunk = max(1, _CHUNK_ELEMENTS // per_ray)
@@ -334,6 +360,88 @@ def sky_luminance(
             uplight_exponent=uplight_exponent,
         )
     return out.reshape(shape)
+
+
+def sky_luminance_grid(
+    elevation: ArrayLike,
+    relative_azimuth: ArrayLike,
+    distance: ArrayLike,
+    *,
+    source_altitude: float = 0.0,
+    observer_altitude: float = 0.0,
+    atmosphere: Atmosphere = _DEFAULT_ATMOSPHERE,
+    emission: str = "lambertian",
+    nodes: int = 24,
+    leg_nodes: int | None = None,
+    core_radius: float = 1.0,
+    uplight_exponent: float = UPLIGHT_EXPONENT,
+    backend: str = "auto",
+) -> FloatArray:
+    """:func:`sky_luminance` on the outer product of three axes, for kernel tables.
+
+    With the numba backend the observer-side factors of each view ray (scattering density
+    times the observer leg's transmission) are tabulated once per elevation against altitude
+    (uniform in sqrt(h - h_o), 16,385 nodes) and interpolated linearly at the quadrature nodes,
+    instead of being evaluated in closed form at every node: within 4e-5 of
+    :func:`sky_luminance` (2e-6 at turbidity 2), about 25 % faster.
+
+    Parameters
+    ----------
+    elevation, relative_azimuth
+        1-D axes of view directions [deg].
+    distance
+        1-D axis of ground distances of the source [m].
+    source_altitude, observer_altitude
+        Altitudes above sea level [m].
+    atmosphere, emission, nodes, leg_nodes, core_radius, uplight_exponent, backend
+        As :func:`sky_luminance` [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_el, n_az, n_r)`` [cd m-2 lm-1].
+    """
+    el = np.asarray(elevation, dtype=float).ravel()
+    az = np.asarray(relative_azimuth, dtype=float).ravel()
+    r = np.asarray(distance, dtype=float).ravel()
+    kwargs = {
+        "atmosphere": atmosphere,
+        "emission": emission,
+        "nodes": nodes,
+        "core_radius": core_radius,
+        "uplight_exponent": uplight_exponent,
+    }
+    if backend == "numpy" or leg_nodes is not None:
+        return sky_luminance(
+            el[:, None, None],
+            az[None, :, None],
+            r[None, None, :],
+            source_altitude=source_altitude,
+            observer_altitude=observer_altitude,
+            leg_nodes=leg_nodes,
+            backend=backend,
+            **kwargs,  # type: ignore[arg-type]
+        )
+    # validation shared with sky_luminance (on one ray)
+    sky_luminance(
+        90.0,
+        0.0,
+        r[:1] if r.size else 0.0,
+        source_altitude=source_altitude,
+        observer_altitude=observer_altitude,
+        backend=backend,
+        **kwargs,  # type: ignore[arg-type]
+    )
+    from nightlights.sky._kernel_numba import luminance_grid
+
+    return luminance_grid(
+        el,
+        az,
+        r,
+        source_altitude=float(source_altitude),
+        observer_altitude=float(observer_altitude),
+        **kwargs,  # type: ignore[arg-type]
+    )
 
 
 def _smallest_scale_height(atmosphere: Atmosphere) -> float:
