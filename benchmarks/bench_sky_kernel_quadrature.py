@@ -6,7 +6,8 @@ elevations (panorama rows) x 9 relative azimuths (0-180 deg) x 12 source distanc
 300 km, log-spaced) for three altitude pairs (h_c, h_o) = (0, 0), (500, 0), (0, 500) m, default
 atmosphere (turbidity 2, spherical Earth). Reference: 256 nodes. Error: relative error over lit
 rays (max, 99th percentile, median). Also, separately, sources 10-100 m away (observer next to
-a lit cell), where convergence is slower. Time: wall time per ray (best of 2).
+a lit cell), where convergence is slower. Time: wall time per ray (best of 2), for the
+compiled (numba, default) and the numpy backend.
 Baseline (Dobashi et al. 2023, Sec. 3.2): uniform steps along the ray (midpoint rule, 3 m -
 1 km steps, as far as the top of the model atmosphere) on a subset of 4 x 3 x 4 rays, same
 integrand (:func:`nightlights.sky.kernel.line_of_sight_integrand`).
@@ -44,15 +45,24 @@ def rays(near: bool, n_el: int, n_az: int, n_r: int) -> tuple[np.ndarray, ...]:
     return el, az, r[None, None, :]
 
 
-def measure(nodes: int, ref: dict, grid: tuple[np.ndarray, ...]) -> dict:
-    errs, best = [], np.inf
+def timed(nodes: int, grid: tuple[np.ndarray, ...], backend: str) -> tuple[float, dict]:
+    best, values = np.inf, {}
     for _ in range(2):
         start = time.perf_counter()
         values = {
-            p: sky_luminance(*grid, source_altitude=p[0], observer_altitude=p[1], nodes=nodes)
+            p: sky_luminance(
+                *grid, source_altitude=p[0], observer_altitude=p[1], nodes=nodes, backend=backend
+            )
             for p in PAIRS
         }
         best = min(best, time.perf_counter() - start)
+    return best, values
+
+
+def measure(nodes: int, ref: dict, grid: tuple[np.ndarray, ...]) -> dict:
+    errs = []
+    best, values = timed(nodes, grid, "numba")
+    best_numpy, _ = timed(nodes, grid, "numpy")
     for p in PAIRS:
         lit = ref[p] > 0
         errs.append(np.abs(values[p][lit] / ref[p][lit] - 1.0))
@@ -62,6 +72,7 @@ def measure(nodes: int, ref: dict, grid: tuple[np.ndarray, ...]) -> dict:
         "nodes": nodes,
         "points_per_ray": 3 * nodes,
         "time_per_ray_us": 1e6 * best / n_rays,
+        "time_per_ray_us_numpy": 1e6 * best_numpy / n_rays,
         "max_rel_error": float(err.max()),
         "p99_rel_error": float(np.percentile(err, 99)),
         "median_rel_error": float(np.median(err)),
@@ -154,13 +165,18 @@ def main() -> None:
                 marker="o",
                 label=f"{key.split('_')[0]} ({label})",
             )
-        ax2.semilogy(
-            [r["time_per_ray_us"] for r in rows],
-            [max(r["max_rel_error"], 1e-16) for r in rows],
-            style,
-            marker="o",
-            label=f"max error ({label})",
-        )
+        for key, backend, colour in (
+            ("time_per_ray_us", "numba", "C2"),
+            ("time_per_ray_us_numpy", "numpy", "C4"),
+        ):
+            ax2.semilogy(
+                [r[key] for r in rows],
+                [max(r["max_rel_error"], 1e-16) for r in rows],
+                style,
+                marker="o",
+                color=colour,
+                label=f"max error ({label}, {backend})",
+            )
     uni = out["uniform_steps"]
     ax2.semilogy(
         [r["time_per_ray_us"] for r in uni],

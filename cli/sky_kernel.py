@@ -54,7 +54,7 @@ def kernel() -> None:
     help="[m], repeatable (default 0).",
 )
 @click.option(
-    "--nodes", type=int, default=24, show_default=True, help="Gauss nodes per line-of-sight panel."
+    "--nodes", type=int, default=12, show_default=True, help="Gauss nodes per line-of-sight panel."
 )
 @click.option(
     "--energy", type=float, default=0.999999, show_default=True, help="PCA explained energy."
@@ -63,7 +63,7 @@ def kernel() -> None:
     "--components", type=int, default=None, help="Number of PCA bases (overrides --energy)."
 )
 @click.option(
-    "--sub-distances", type=int, default=2, show_default=True, help="Distances averaged per bin."
+    "--sub-distances", type=int, default=1, show_default=True, help="Distances averaged per bin."
 )
 @click.option(
     "--uplight/--no-uplight", default=False, show_default=True, help="Also tabulate direct uplight."

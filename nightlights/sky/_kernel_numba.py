@@ -566,13 +566,13 @@ def luminance_rays(
     """
     params, flags = model_parameters(atmosphere, emission, core_radius, uplight_exponent)
     x, w = np.polynomial.legendre.leggauss(int(nodes))
-    arrays = [
+    el, az, r, h_c, h_o = (
         np.array(a, dtype=np.float64, order="C")  # a writeable copy (inputs may be broadcast)
         for a in (elevation, relative_azimuth, distance, source_altitude, observer_altitude)
-    ]
-    out = np.zeros(arrays[0].size)
+    )
+    out = np.zeros(el.size)
     if out.size:
-        _rays(*arrays, x, w, params, flags, _TABLE, out)
+        _rays(el, az, r, h_c, h_o, x, w, params, flags, _TABLE, out)
     return out
 
 

@@ -383,7 +383,8 @@ def sky_luminance_grid(
     times the observer leg's transmission) are tabulated once per elevation against altitude
     (uniform in sqrt(h - h_o), 16,385 nodes) and interpolated linearly at the quadrature nodes,
     instead of being evaluated in closed form at every node: within 4e-5 of
-    :func:`sky_luminance` (2e-6 at turbidity 2), about 25 % faster.
+    :func:`sky_luminance` (2e-6 at turbidity 2), about 25 % faster. With fewer rays per
+    elevation than the table has nodes the per-ray path of :func:`sky_luminance` is used.
 
     Parameters
     ----------
@@ -411,7 +412,10 @@ def sky_luminance_grid(
         "core_radius": core_radius,
         "uplight_exponent": uplight_exponent,
     }
-    if backend == "numpy" or leg_nodes is not None:
+    # The observer tables cost ~16,000 closed-form evaluations per elevation: for a few rays per
+    # elevation (supersampled pixels) the per-ray path is cheaper.
+    few_rays = az.size * r.size * 3 * nodes < 16_384
+    if backend == "numpy" or leg_nodes is not None or few_rays:
         return sky_luminance(
             el[:, None, None],
             az[None, :, None],

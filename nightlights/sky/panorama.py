@@ -14,6 +14,7 @@ convolution in azimuth of the polar flux map with the kernel images, done with F
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -141,6 +142,48 @@ def kernel_slice(
     )
 
 
+def kernel_levels(kernel: xr.Dataset, *, observer_altitude: float) -> list[KernelSlice]:
+    """One kernel slice per stored source-altitude level, for :func:`polar_map_levels` maps.
+
+    Parameters
+    ----------
+    kernel
+        Kernel dataset [-].
+    observer_altitude
+        Observer altitude [m] (interpolated between observer levels as in
+        :func:`kernel_slice`).
+
+    Returns
+    -------
+    list of KernelSlice
+        In the order of ``kernel.source_altitude``; all share the same bases.
+    """
+    levels = np.asarray(kernel["source_altitude"].values, dtype=float)
+    return [
+        kernel_slice(kernel, observer_altitude=observer_altitude, source_altitude=float(h))
+        for h in levels
+    ]
+
+
+def _pairs(
+    polar: PolarMap | Sequence[PolarMap], tables: KernelSlice | Sequence[KernelSlice]
+) -> tuple[list[PolarMap], list[KernelSlice]]:
+    """Polar maps and kernel slices level by level (one of each for a single altitude)."""
+    polars = [polar] if isinstance(polar, PolarMap) else list(polar)
+    slices = [tables] if isinstance(tables, KernelSlice) else list(tables)
+    if len(polars) != len(slices) or not polars:
+        raise InputError(
+            f"{len(polars)} polar maps for {len(slices)} kernel source levels; expected one "
+            "polar map per level"
+        )
+    shape = slices[0].basis_fft.shape
+    if any(t.basis_fft.shape != shape for t in slices):
+        raise InputError("kernel slices of different observer levels cannot be combined")
+    for p, t in zip(polars, slices, strict=True):
+        _check_bands(p, t)
+    return polars, slices
+
+
 def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
     bands = polar.flux.shape[0]
     if bands > tables.kernel.shape[0]:
@@ -156,16 +199,21 @@ def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
 
 
 def panorama_pca(
-    polar: PolarMap, tables: KernelSlice, *, components: int | None = None
+    polar: PolarMap | Sequence[PolarMap],
+    tables: KernelSlice | Sequence[KernelSlice],
+    *,
+    components: int | None = None,
 ) -> FloatArray:
     """Panorama by PCA and FFT (Dobashi 2023, Eqs. 7-9).
 
     Parameters
     ----------
     polar
-        Polar flux map [lm], bins matching the kernel.
+        Polar flux map [lm], bins matching the kernel; or one map per source-altitude level
+        (:func:`nightlights.sky.polar.polar_map_levels`), whose H_k add up before the FFT
+        (each cell read with c_k at its own altitude, Dobashi 2023 Sec. 3.4.2).
     tables
-        Kernel slice.
+        Kernel slice, or one per level (:func:`kernel_levels`).
     components
         Use only the first ``components`` bases (default: all stored) [-].
 
@@ -174,32 +222,44 @@ def panorama_pca(
     numpy.ndarray
         ``(n_el, n_az)`` luminance [cd m-2].
     """
-    _check_bands(polar, tables)
-    k = tables.coefficient.shape[-1] if components is None else int(components)
-    if not 1 <= k <= tables.coefficient.shape[-1]:
-        raise InputError(
-            f"components={components}; the kernel stores 1-{tables.coefficient.shape[-1]}"
-        )
-    # Eq. 7: H_k(azimuth) = sum over distance of flux x c_k, summed over emission bands.
-    h = np.einsum("bda,bdk->ka", polar.flux, tables.coefficient[: polar.flux.shape[0], :, :k])
-    spectrum = np.einsum("kf,kef->ef", np.fft.rfft(h, axis=-1), tables.basis_fft[:k])
-    return np.fft.irfft(spectrum, n=polar.n_az, axis=-1)
+    polars, slices = _pairs(polar, tables)
+    stored = slices[0].coefficient.shape[-1]
+    k = stored if components is None else int(components)
+    if not 1 <= k <= stored:
+        raise InputError(f"components={components}; the kernel stores 1-{stored}")
+    # Eq. 7: H_k(azimuth) = sum over distance of flux x c_k, summed over emission bands (and
+    # source-altitude levels).
+    h = sum(
+        np.einsum("bda,bdk->ka", p.flux, t.coefficient[: p.flux.shape[0], :, :k])
+        for p, t in zip(polars, slices, strict=True)
+    )
+    spectrum = np.einsum("kf,kef->ef", np.fft.rfft(h, axis=-1), slices[0].basis_fft[:k])
+    return np.fft.irfft(spectrum, n=polars[0].n_az, axis=-1)
 
 
-def panorama_exact(polar: PolarMap, tables: KernelSlice) -> FloatArray:
+def panorama_exact(
+    polar: PolarMap | Sequence[PolarMap], tables: KernelSlice | Sequence[KernelSlice]
+) -> FloatArray:
     """Panorama without PCA: per distance bin, FFT convolution of flux and kernel images.
+
+    Parameters
+    ----------
+    polar, tables
+        As :func:`panorama_pca` (one of each, or one per source-altitude level).
 
     Returns
     -------
     numpy.ndarray
         ``(n_el, n_az)`` luminance [cd m-2].
     """
-    _check_bands(polar, tables)
-    bands = polar.flux.shape[0]
-    flux_fft = np.fft.rfft(polar.flux, axis=-1)  # (bands, n_r, n_freq)
-    kernel_fft = np.fft.rfft(tables.kernel[:bands], axis=-1)  # (bands, n_r, n_el, n_freq)
-    spectrum = np.einsum("bdf,bdef->ef", flux_fft, kernel_fft)
-    return np.fft.irfft(spectrum, n=polar.n_az, axis=-1)
+    polars, slices = _pairs(polar, tables)
+    spectrum = 0.0
+    for p, t in zip(polars, slices, strict=True):
+        bands = p.flux.shape[0]
+        flux_fft = np.fft.rfft(p.flux, axis=-1)  # (bands, n_r, n_freq)
+        kernel_fft = np.fft.rfft(t.kernel[:bands], axis=-1)  # (bands, n_r, n_el, n_freq)
+        spectrum = spectrum + np.einsum("bdf,bdef->ef", flux_fft, kernel_fft)
+    return np.fft.irfft(spectrum, n=polars[0].n_az, axis=-1)
 
 
 def panorama_naive(
@@ -210,7 +270,7 @@ def panorama_naive(
     elevation: FloatArray,
     n_az: int,
     observer_altitude: float,
-    source_altitude: float = 0.0,
+    source_altitude: float | FloatArray = 0.0,
     atmosphere: Atmosphere | None = None,
     nodes: int = 24,
 ) -> FloatArray:
@@ -228,8 +288,10 @@ def panorama_naive(
         Panorama elevation pixel centres [deg].
     n_az
         Azimuth columns [-].
-    observer_altitude, source_altitude
+    observer_altitude
         [m].
+    source_altitude
+        One altitude for all sources, or one per cell, shape ``(rows, cols)`` [m].
     atmosphere
         :class:`nightlights.sky.atmosphere.Atmosphere` (default: its defaults).
     nodes
@@ -247,6 +309,7 @@ def panorama_naive(
     if data.ndim == 2:
         data = data[None]
     cell = abs(transform.a)
+    heights = np.broadcast_to(np.asarray(source_altitude, dtype=float), data.shape[1:])
     azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
     result = np.zeros((elevation.size, n_az))
     for band, kind in zip(range(data.shape[0]), ("lambertian", "uplight"), strict=False):
@@ -263,7 +326,7 @@ def panorama_naive(
                 elevation[:, None],
                 relative,
                 r[i],
-                source_altitude=source_altitude,
+                source_altitude=heights[rows[i], cols[i]],
                 observer_altitude=observer_altitude,
                 atmosphere=atmosphere,
                 emission=kind,

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from affine import Affine
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nightlights.errors import DataQualityWarning, InputError
 
@@ -82,6 +82,7 @@ def polar_map(
     distance_edges: FloatArray,
     n_az: int,
     max_samples: int = 16,
+    warn: bool = True,
 ) -> PolarMap:
     """Bin an emission raster into the observer's polar map.
 
@@ -100,6 +101,9 @@ def polar_map(
         Azimuth bins [-].
     max_samples
         Largest number of sub-points per cell side [-].
+    warn
+        Warn (:class:`~nightlights.errors.DataQualityWarning`) when flux lies beyond the last
+        distance edge [-].
 
     Returns
     -------
@@ -151,12 +155,126 @@ def polar_map(
                 index, weights=weight[band, inside], minlength=flux[band].size
             ).reshape(flux[band].shape)
     dropped = total - flux.sum(axis=(1, 2))
+    if warn:
+        _warn_dropped(dropped, total, edges)
+    return PolarMap(flux, edges, n_az, dropped, total)
+
+
+def _warn_dropped(dropped: FloatArray, total: FloatArray, edges: FloatArray) -> None:
     share = np.divide(dropped, total, out=np.zeros_like(total), where=total > 0)
     if np.any(share > 1e-9):
         warnings.warn(
             f"{100 * share.max():.3g} % of the emitted flux lies beyond the kernel's range "
             f"({edges[-1] / 1000:g} km) and is left out",
             DataQualityWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    return PolarMap(flux, edges, n_az, dropped, total)
+
+
+def source_level_weights(altitude: ArrayLike, levels: ArrayLike) -> FloatArray:
+    """Weights that split a source between the two kernel levels around its altitude.
+
+    Linear interpolation in the source altitude: a source at h between levels h_j < h_j+1
+    gets weight (h_j+1 - h) / (h_j+1 - h_j) on level j and the rest on level j + 1, so that
+    sum_l w_l c_k(r, h_l) is the kernel coefficient linearly interpolated to h (Dobashi 2023,
+    Sec. 3.4.2 reads c_k at each cell's own altitude). Outside the levels' range the nearest
+    level takes the whole weight.
+
+    Parameters
+    ----------
+    altitude
+        Source altitudes, any shape [m].
+    levels
+        Kernel source-altitude levels, strictly increasing [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_levels, *altitude.shape)``; sums to 1 over the first axis [-].
+    """
+    h = np.asarray(altitude, dtype=float)
+    lv = np.asarray(levels, dtype=float).ravel()
+    if lv.size == 0 or np.any(np.diff(lv) <= 0):
+        raise InputError(f"source levels {lv.tolist()!r}; expected increasing altitudes")
+    out = np.zeros((lv.size, *h.shape))
+    if lv.size == 1:
+        out[0] = 1.0
+        return out
+    clamped = np.clip(h, lv[0], lv[-1])
+    upper = np.clip(np.searchsorted(lv, clamped, side="right"), 1, lv.size - 1)
+    lower = upper - 1
+    w_upper = (clamped - lv[lower]) / (lv[upper] - lv[lower])
+    np.put_along_axis(out, lower[None], (1.0 - w_upper)[None], axis=0)
+    np.put_along_axis(out, upper[None], w_upper[None], axis=0)
+    return out
+
+
+def polar_map_levels(
+    emission: FloatArray,
+    transform: Affine,
+    observer: tuple[float, float],
+    *,
+    source_altitude: ArrayLike,
+    levels: ArrayLike,
+    distance_edges: FloatArray,
+    n_az: int,
+    max_samples: int = 16,
+) -> list[PolarMap]:
+    """Polar maps of an emission raster split by source-altitude level.
+
+    Every cell's flux goes to the two kernel levels around its own altitude with the weights
+    of :func:`source_level_weights`; the panorama is then the sum over levels of each level's
+    polar map convolved with that level's kernel (:func:`nightlights.sky.panorama.panorama_pca`
+    takes the lists), i.e. every lit cell is seen with the kernel of its own altitude instead
+    of one scene-wide altitude.
+
+    Parameters
+    ----------
+    emission
+        Shape ``(bands, rows, cols)`` or ``(rows, cols)`` [lm m-2].
+    transform
+        Raster transform [m].
+    observer
+        Observer (x, y) [m].
+    source_altitude
+        Altitude of each cell, shape ``(rows, cols)``, NaN allowed where nothing is lit [m].
+    levels
+        Kernel source-altitude levels, increasing [m].
+    distance_edges, n_az, max_samples
+        As :func:`polar_map`.
+
+    Returns
+    -------
+    list of PolarMap
+        One per level, in the order of ``levels``; the flux sums to :func:`polar_map`'s.
+    """
+    data = np.asarray(emission, dtype=float)
+    if data.ndim == 2:
+        data = data[None]
+    heights = np.asarray(source_altitude, dtype=float)
+    if heights.shape != data.shape[1:]:
+        raise InputError(
+            f"source altitudes of shape {heights.shape} do not match the emission {data.shape[1:]}"
+        )
+    lit = np.any(np.nan_to_num(data, nan=0.0) != 0, axis=0)
+    if np.any(lit & ~np.isfinite(heights)):
+        raise InputError("source altitude missing (NaN) under lit emission cells")
+    weights = source_level_weights(np.where(lit, heights, 0.0), levels)
+    maps = [
+        polar_map(
+            data * weights[level][None],
+            transform,
+            observer,
+            distance_edges=distance_edges,
+            n_az=n_az,
+            max_samples=max_samples,
+            warn=False,
+        )
+        for level in range(weights.shape[0])
+    ]
+    _warn_dropped(
+        np.sum([m.dropped_flux for m in maps], axis=0),
+        np.sum([m.total_flux for m in maps], axis=0),
+        np.asarray(distance_edges, dtype=float),
+    )
+    return maps

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS, Transformer
 
-from nightlights.errors import CRSError, InputError
+from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import atomic_output, read_raster
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
@@ -24,18 +26,60 @@ from nightlights.sky.colour import (
 from nightlights.sky.horizon import ground_height, horizon_elevation
 from nightlights.sky.panorama import (
     MODES,
-    kernel_slice,
+    KernelSlice,
+    kernel_levels,
     panorama_exact,
     panorama_naive,
     panorama_pca,
 )
-from nightlights.sky.polar import PolarMap, polar_map
+from nightlights.sky.polar import PolarMap, polar_map_levels
 from nightlights.sky.precompute import get_or_build_kernel, read_kernel
 from nightlights.sky.render import render_panorama
 
 #: Largest source distance a scene-sized kernel covers [m] (spherical Earth; beyond it
 #: sources sit well below the observer's horizon and contribute little).
 MAX_KERNEL_RANGE = 300_000.0
+
+FloatArray = NDArray[np.float64]
+
+#: Largest spacing of the source-altitude levels of a scene kernel over terrain [m] (Dobashi
+#: et al. 2023 use 62.5 m); at most :data:`MAX_SOURCE_LEVELS` levels span the lit cells.
+SOURCE_LEVEL_SPACING = 50.0
+MAX_SOURCE_LEVELS = 16
+
+
+def source_levels(
+    heights: ArrayLike,
+    *,
+    spacing: float = SOURCE_LEVEL_SPACING,
+    max_levels: int = MAX_SOURCE_LEVELS,
+) -> FloatArray:
+    """Source-altitude levels of a scene kernel spanning the altitudes of the lit cells.
+
+    Parameters
+    ----------
+    heights
+        Altitudes of the lit cells (NaN ignored) [m].
+    spacing
+        Largest spacing between levels [m].
+    max_levels
+        Most levels (the spacing grows beyond it) [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        Increasing levels from the lowest to the highest lit cell; one level when they all
+        stand within 1 m [m].
+    """
+    h = np.asarray(heights, dtype=float)
+    h = h[np.isfinite(h)]
+    if h.size == 0:
+        return np.zeros(1)
+    low, high = float(h.min()), float(h.max())
+    if high - low < 1.0:
+        return np.array([0.5 * (low + high)])
+    count = int(np.clip(np.ceil((high - low) / spacing) + 1, 2, max_levels))
+    return np.linspace(low, high, count)
 
 
 @dataclass(frozen=True)
@@ -68,14 +112,16 @@ def scene_kernel_parameters(
     shape: tuple[int, int],
     observer: tuple[float, float],
     *,
-    observer_height: float,
+    observer_altitude: float,
     turbidity: float,
     n_el: int,
     n_az: int,
     n_r: int,
     uplight: bool,
+    source_altitudes: ArrayLike = (0.0,),
 ) -> dict[str, Any]:
-    """Kernel grid sized to the scene: distances from 10 m to the farthest raster corner."""
+    """Kernel grid sized to the scene: distances from 10 m to the farthest raster corner, the
+    observer's altitude and the source-altitude levels of the lit cells."""
     transform = meta["transform"]
     rows, cols = shape
     corners = [
@@ -91,8 +137,8 @@ def scene_kernel_parameters(
         "n_r": n_r,
         "n_el": n_el,
         "n_az": n_az,
-        "observer_altitudes": (float(observer_height),),
-        "source_altitudes": (0.0,),
+        "observer_altitudes": (float(observer_altitude),),
+        "source_altitudes": tuple(float(h) for h in np.ravel(source_altitudes)),
         "atmosphere": Atmosphere(turbidity=turbidity),
         "uplight": uplight,
     }
@@ -152,9 +198,11 @@ def skyglow(
     polar_out
         Optional NetCDF of the observer's polar flux map.
     dem
-        Terrain heights [m] in the emission's CRS: the observer stands ``observer_height``
-        above it, sources are taken at the flux-weighted mean terrain height, and the panorama
-        is masked below the terrain horizon (``terrain_mask``).
+        Terrain heights above sea level [m] in the emission's CRS: the observer stands
+        ``observer_height`` above it, every lit cell emits from its own terrain height
+        (the kernel is tabulated at :func:`source_levels` and interpolated linearly per cell,
+        :func:`~nightlights.sky.polar.polar_map_levels`), and the panorama is masked below
+        the terrain horizon (``terrain_mask``).
     bands
         ``V`` (luminance only) or ``RGB``: CIE X, Y, Z panoramas with wavelength-dependent
         scattering and the emission colour of ``spectrum`` (needs scene kernels, so no
@@ -184,9 +232,9 @@ def skyglow(
     if observer_height < 0:
         raise InputError(f"observer height {observer_height} m; expected >= 0")
     terrain = _terrain(dem, meta, data, xy, observer_height) if dem is not None else None
-    if terrain is not None:
-        # Altitudes relative to the sources (the kernel's sources stand at altitude 0).
-        observer_height = max(terrain.eye_altitude - terrain.source_altitude, 0.0)
+    # Altitudes above sea level: without terrain the ground is at 0 m.
+    observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
+    heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
     if bands not in ("V", "RGB"):
         raise InputError(f"bands {bands!r}; expected V or RGB")
     if bands == "RGB" and (kernel is not None or mode == "naive"):
@@ -203,7 +251,8 @@ def skyglow(
             meta,
             data.shape[1:],
             xy,
-            observer_height=observer_height,
+            observer_altitude=observer_altitude,
+            source_altitudes=source_levels(heights[np.any(np.nan_to_num(data) != 0, axis=0)]),
             turbidity=2.0 if turbidity is None else turbidity,
             n_el=n_el,
             n_az=n_az,
@@ -217,26 +266,36 @@ def skyglow(
             f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
             "omit --turbidity or build a kernel for it"
         )
-    tables = kernel_slice(table, observer_altitude=observer_height)
-    polar = polar_map(
-        data, meta["transform"], xy, distance_edges=tables.distance_edges, n_az=tables.n_az
+    slices = kernel_levels(table, observer_altitude=observer_altitude)
+    levels = np.asarray(table["source_altitude"].values, dtype=float)
+    _check_source_levels(heights, data, levels)
+    tables = slices[0]
+    polars = polar_map_levels(
+        data,
+        meta["transform"],
+        xy,
+        source_altitude=heights,
+        levels=levels,
+        distance_edges=tables.distance_edges,
+        n_az=tables.n_az,
     )
-    band_tables: dict[str, Any] = {}
+    polar = _total(polars)
+    band_tables: dict[str, list[KernelSlice]] = {}
     if bands == "RGB":
         for band, wavelength in TRISTIMULUS_WAVELENGTHS.items():
             band_params = dict(params)
             band_params["atmosphere"] = Atmosphere(
                 turbidity=2.0 if turbidity is None else turbidity, wavelength_nm=wavelength
             )
-            band_tables[band] = kernel_slice(
+            band_tables[band] = kernel_levels(
                 get_or_build_kernel(cache_dir=cache_dir, progress=progress, **band_params),
-                observer_altitude=observer_height,
+                observer_altitude=observer_altitude,
             )
     start = time.perf_counter()
     if mode == "pca":
-        luminance = panorama_pca(polar, tables, components=components)
+        luminance = panorama_pca(polars, slices, components=components)
     elif mode == "exact":
-        luminance = panorama_exact(polar, tables)
+        luminance = panorama_exact(polars, slices)
     else:
         luminance = panorama_naive(
             data,
@@ -244,7 +303,8 @@ def skyglow(
             xy,
             elevation=tables.elevation,
             n_az=tables.n_az,
-            observer_altitude=observer_height,
+            observer_altitude=observer_altitude,
+            source_altitude=np.nan_to_num(heights),
             atmosphere=Atmosphere(turbidity=kernel_turbidity),
         )
     xyz = None
@@ -252,13 +312,16 @@ def skyglow(
         ratios = tristimulus_flux_ratios(spectrum)
         channels = []
         for band, table_c in band_tables.items():
-            scaled = PolarMap(
-                polar.flux * ratios[band],
-                polar.distance_edges,
-                polar.n_az,
-                polar.dropped_flux * ratios[band],
-                polar.total_flux * ratios[band],
-            )
+            scaled = [
+                PolarMap(
+                    p.flux * ratios[band],
+                    p.distance_edges,
+                    p.n_az,
+                    p.dropped_flux * ratios[band],
+                    p.total_flux * ratios[band],
+                )
+                for p in polars
+            ]
             if mode == "pca":
                 channels.append(panorama_pca(scaled, table_c, components=components))
             else:
@@ -318,7 +381,8 @@ def skyglow(
             "crs": meta["crs"].to_wkt(),
             "observer_height_m": observer_height,
             "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
-            "observer_altitude_m": terrain.eye_altitude if terrain is not None else observer_height,
+            "source_altitude_levels_m": levels,
+            "observer_altitude_m": observer_altitude,
             "turbidity": kernel_turbidity,
             "kernel_hash": str(table.attrs.get("content_hash", "")),
             "mode": mode,
@@ -374,7 +438,33 @@ class _Terrain:
     dem: np.ndarray
     transform: Any
     eye_altitude: float
-    source_altitude: float
+    source_altitude: float  # flux-weighted mean
+    heights: np.ndarray  # terrain height of every emission cell (NaN where unlit)
+
+
+def _total(polars: list[PolarMap]) -> PolarMap:
+    """The polar map of all source levels together."""
+    return PolarMap(
+        np.sum([p.flux for p in polars], axis=0),
+        polars[0].distance_edges,
+        polars[0].n_az,
+        np.sum([p.dropped_flux for p in polars], axis=0),
+        np.sum([p.total_flux for p in polars], axis=0),
+    )
+
+
+def _check_source_levels(heights: np.ndarray, data: np.ndarray, levels: np.ndarray) -> None:
+    lit = np.any(np.nan_to_num(data) != 0, axis=0)
+    if not lit.any():
+        return
+    low, high = float(np.nanmin(heights[lit])), float(np.nanmax(heights[lit]))
+    if low < levels.min() - 5.0 or high > levels.max() + 5.0:
+        warnings.warn(
+            f"lit cells stand at {low:g}-{high:g} m but the kernel's source levels span "
+            f"{levels.min():g}-{levels.max():g} m; the nearest level is used outside them",
+            DataQualityWarning,
+            stacklevel=3,
+        )
 
 
 def _terrain(
@@ -384,7 +474,7 @@ def _terrain(
     xy: tuple[float, float],
     observer_height: float,
 ) -> _Terrain:
-    """Read the DEM; eye altitude and the flux-weighted source altitude [m]."""
+    """Read the DEM; eye altitude, terrain height under every lit cell and their mean [m]."""
     heights, dem_meta = read_raster(dem_path)
     if dem_meta["crs"] is None or not dem_meta["crs"].equals(meta["crs"]):
         raise CRSError(f"{dem_path}: the DEM must be in the emission raster's CRS")
@@ -394,6 +484,7 @@ def _terrain(
     flux = np.nansum(np.nan_to_num(emission, nan=0.0), axis=0)
     rows, cols = np.nonzero(flux)
     source_altitude = 0.0
+    cell_heights = np.full(flux.shape, np.nan)
     if rows.size:
         t = meta["transform"]
         cx = t.c + t.a * (cols + 0.5)
@@ -407,7 +498,10 @@ def _terrain(
             np.nan_to_num(dem, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
         )
         source_altitude = float(np.average(z, weights=flux[rows, cols]))
-    return _Terrain(dem, dem_meta["transform"], ground + observer_height, source_altitude)
+        cell_heights[rows, cols] = z
+    return _Terrain(
+        dem, dem_meta["transform"], ground + observer_height, source_altitude, cell_heights
+    )
 
 
 def write_polar(polar: PolarMap, path: str | os.PathLike[str]) -> Path:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -106,13 +107,19 @@ def test_bin_value_is_area_weighted_average_of_point_kernel() -> None:
         supersample=1,
         progress=False,
     )
-    frac = np.array([0.25, 0.75])
+    # two Gauss-Legendre nodes in ln r, weights r^2 (equal Gauss weights)
+    frac = 0.5 * (1.0 + np.array([-1.0, 1.0]) / math.sqrt(3.0))
     r_sub = np.exp(np.log(1000.0) + frac * np.log(1.1))
     w = r_sub**2 / np.sum(r_sub**2)
     el = panorama_elevations(4)[:, None, None]
     az = relative_azimuths(8)[None, :, None]
     expect = np.sum(sky_luminance(el, az, r_sub[None, None, :], nodes=16) * w, axis=-1)
     np.testing.assert_allclose(ds.kernel.values[0, 0, 0], expect, rtol=1e-6)
+    # and the converged annulus mean (64-point midpoint rule in ln r) to 1e-5
+    fine = np.exp(np.log(1000.0) + (np.arange(64) + 0.5) / 64 * np.log(1.1))
+    w_fine = fine**2 / np.sum(fine**2)
+    converged = np.sum(sky_luminance(el, az, fine[None, None, :], nodes=16) * w_fine, axis=-1)
+    np.testing.assert_allclose(ds.kernel.values[0, 0, 0], converged, rtol=1e-5)
 
 
 def test_pca_reconstructs_kernel(small_kernel: xr.Dataset) -> None:
