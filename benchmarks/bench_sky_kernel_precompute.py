@@ -45,8 +45,19 @@ def timed(**kwargs: object) -> tuple[float, object]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip Dobashi's configuration")
+    parser.add_argument(
+        "--keep-dobashi",
+        action="store_true",
+        help="skip Dobashi's configuration but keep its last full measurement from the JSON",
+    )
     args = parser.parse_args()
-    build_kernel(n_r=2, n_el=2, n_az=4, progress=False)  # compile the numba kernels once
+    previous = RESULTS / "sky_kernel_precompute.json"
+    kept = None
+    if args.keep_dobashi and previous.is_file():
+        kept = json.loads(previous.read_text()).get("dobashi_configuration")
+    # compile both numba paths (per-ray and grid) before timing anything
+    build_kernel(n_r=2, n_el=2, n_az=4, progress=False)
+    build_kernel(n_r=64, n_el=2, n_az=16, progress=False)
     grids = [(16, 8, 32), (32, 16, 64), (64, 32, 128), (128, 32, 128), (128, 64, 256)]
     sweep = []
     for n_r, n_el, n_az in grids:
@@ -81,7 +92,9 @@ def main() -> None:
         ),
         "flat_terrain_target_seconds": 30.0,
     }
-    if not args.quick:
+    if kept is not None:
+        out["dobashi_configuration"] = kept
+    elif not args.quick and not args.keep_dobashi:
         altitudes = np.arange(16) * 62.5
         edges = np.concatenate([[1.0], (np.arange(1, 129)) * 78.125])
         seconds, ds = timed(
