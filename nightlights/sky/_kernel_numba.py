@@ -151,8 +151,9 @@ def _observer_constants(
     obs_m: float,
     obs_a: float,
     table: FloatArray,
-) -> tuple[float, float, float, float, float, float, float, float]:  # pragma: no cover
-    """Per-ray constants of the observer leg's closed form (mu = sin(elevation))."""
+) -> tuple[float, ...]:  # pragma: no cover - compiled
+    """Per-ray constants of the observer leg's closed form (mu = sin(elevation)), packed for
+    :func:`_observer_tau`."""
     root_curv_o = math.sqrt(max((1.0 - se * se) / (2.0 * (radius + h_o)), 1e-30))
     sk_om = root_curv_o / math.sqrt(h_m)
     sk_oa = root_curv_o / math.sqrt(h_a)
@@ -162,31 +163,33 @@ def _observer_constants(
     e0_oa = _erfcx(x0_oa, table)
     pref_om = beta_m * obs_m * 0.5 * _SQRT_PI / sk_om
     pref_oa = beta_a * obs_a * 0.5 * _SQRT_PI / sk_oa
-    return sk_om, sk_oa, x0_om, x0_oa, e0_om, e0_oa, pref_om, pref_oa
+    return (
+        beta_m,
+        h_m,
+        beta_a,
+        h_a,
+        obs_m,
+        obs_a,
+        sk_om,
+        sk_oa,
+        x0_om,
+        x0_oa,
+        e0_om,
+        e0_oa,
+        pref_om,
+        pref_oa,
+    )
 
 
 @njit(cache=True, inline="always")
 def _observer_tau(
-    u: float,
-    se: float,
-    flat: bool,
-    beta_m: float,
-    h_m: float,
-    beta_a: float,
-    h_a: float,
-    obs_m: float,
-    obs_a: float,
-    sk_om: float,
-    sk_oa: float,
-    x0_om: float,
-    x0_oa: float,
-    e0_om: float,
-    e0_oa: float,
-    pref_om: float,
-    pref_oa: float,
-    table: FloatArray,
+    u: float, se: float, flat: bool, leg: tuple[float, ...], table: FloatArray
 ) -> float:  # pragma: no cover - compiled
-    """Optical depth from the observer to distance u along the view ray."""
+    """Optical depth from the observer to distance u along the view ray (``leg`` from
+    :func:`_observer_constants`)."""
+    beta_m, h_m, beta_a, h_a, obs_m, obs_a = leg[0], leg[1], leg[2], leg[3], leg[4], leg[5]
+    sk_om, sk_oa, x0_om, x0_oa = leg[6], leg[7], leg[8], leg[9]
+    e0_om, e0_oa, pref_om, pref_oa = leg[10], leg[11], leg[12], leg[13]
     if flat:
         return _flat_tau(obs_m, se, u, beta_m, h_m) + _flat_tau(obs_a, se, u, beta_a, h_a)
     tau = 0.0
@@ -224,9 +227,7 @@ def _observer_table(
     se = math.sin(math.radians(el_deg))
     obs_m = math.exp(-h_o / h_m)
     obs_a = math.exp(-h_o / h_a)
-    sk_om, sk_oa, x0_om, x0_oa, e0_om, e0_oa, pref_om, pref_oa = _observer_constants(
-        se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table
-    )
+    leg = _observer_constants(se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table)
     dz = math.sqrt(top - h_o) / size
     b = (radius + h_o) * se
     for i in range(size + 1):
@@ -239,26 +240,7 @@ def _observer_table(
             u = c / (b + math.sqrt(b * b + c))
         tau = 0.0
         if extinction:
-            tau = _observer_tau(
-                u,
-                se,
-                flat,
-                beta_m,
-                h_m,
-                beta_a,
-                h_a,
-                obs_m,
-                obs_a,
-                sk_om,
-                sk_oa,
-                x0_om,
-                x0_oa,
-                e0_om,
-                e0_oa,
-                pref_om,
-                pref_oa,
-                table,
-            )
+            tau = _observer_tau(u, se, flat, leg, table)
         if beta_m > 0.0:
             out[0, i] = beta_m * math.exp(-h / h_m - tau)
         if sigma_a > 0.0:
@@ -354,9 +336,7 @@ def _ray(
     obs_m = math.exp(-h_o / h_m)
     obs_a = math.exp(-h_o / h_a)
     inv_2rc = 1.0 / (2.0 * (radius + h_c))
-    sk_om, sk_oa, x0_om, x0_oa, e0_om, e0_oa, pref_om, pref_oa = _observer_constants(
-        se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table
-    )
+    leg = _observer_constants(se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table)
     # emission and phase constants
     half_n = p[_P_HALF_N]
     up_norm = p[_P_UP_NORM]
@@ -435,26 +415,7 @@ def _ray(
             if extinction:
                 tau = 0.0
                 if not tabulated:
-                    tau = _observer_tau(
-                        u,
-                        se,
-                        flat,
-                        beta_m,
-                        h_m,
-                        beta_a,
-                        h_a,
-                        obs_m,
-                        obs_a,
-                        sk_om,
-                        sk_oa,
-                        x0_om,
-                        x0_oa,
-                        e0_om,
-                        e0_oa,
-                        pref_om,
-                        pref_oa,
-                        table,
-                    )
+                    tau = _observer_tau(u, se, flat, leg, table)
                 if flat:
                     tau += _flat_tau(src_m, cos_emit, s, beta_m, h_m)
                     tau += _flat_tau(src_a, cos_emit, s, beta_a, h_a)
