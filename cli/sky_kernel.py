@@ -8,6 +8,7 @@ import click
 from rich.console import Console
 
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import BACKENDS
 from nightlights.sky.precompute import kernel_build_stage
 
 
@@ -69,6 +70,13 @@ def kernel() -> None:
     "--uplight/--no-uplight", default=False, show_default=True, help="Also tabulate direct uplight."
 )
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
+@click.option(
+    "--backend",
+    type=click.Choice(BACKENDS),
+    default="auto",
+    show_default=True,
+    help="Line-of-sight integrator: numba (compiled) or numpy (reference).",
+)
 def build(
     out: str,
     turbidity: float,
@@ -87,6 +95,7 @@ def build(
     sub_distances: int,
     uplight: bool,
     flat_earth: bool,
+    backend: str,
 ) -> None:
     """Build a kernel table and write it to OUT (NetCDF)."""
     atmosphere = Atmosphere(
@@ -113,6 +122,7 @@ def build(
         sub_distances=sub_distances,
         uplight=uplight,
         progress=True,
+        backend=backend,
     )
     console.print(
         f"kernel {ds.sizes['distance']} r x {ds.sizes['elevation']} el x "

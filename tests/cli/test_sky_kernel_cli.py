@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from click.testing import CliRunner
 
 from cli.main import cli
@@ -56,3 +57,17 @@ def test_kernel_build_bad_value_is_one_line(tmp_path: Path) -> None:
         cli, ["kernel", "build", str(tmp_path / "no" / "k.nc"), "--n-distance", "2"]
     )
     assert result.exit_code != 0 and "does not exist" in result.output
+
+
+def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
+    tables = {}
+    for backend in ("numba", "numpy"):
+        out = tmp_path / f"kernel_{backend}.nc"
+        args = ["kernel", "build", str(out), "--r-max", "5000", "--n-distance", "4"]
+        args += ["--n-elevation", "4", "--n-azimuth", "8", "--backend", backend]
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 0, result.output
+        ds = read_kernel(out)
+        assert ds.attrs["backend"] == backend
+        tables[backend] = ds.kernel.values
+    np.testing.assert_allclose(tables["numba"], tables["numpy"], rtol=1e-4, atol=1e-30)
