@@ -53,7 +53,8 @@ def _pair(text: str) -> tuple[float, float]:
     "--dem",
     type=click.Path(exists=True, dir_okay=False),
     default=None,
-    help="Terrain heights [m]: observer altitude, source altitude, horizon mask.",
+    help="Terrain heights above sea level [m]: observer altitude, each lit cell's own source "
+    "altitude, horizon mask.",
 )
 @click.option(
     "--bands",
