@@ -88,3 +88,27 @@ def test_skyglow_command_errors_are_one_line(tmp_path) -> None:
         ],
     )
     assert result.exit_code == 2 and "expected X,Y" in result.output
+
+
+def test_skyglow_command_over_terrain_uses_absolute_altitudes(tmp_path) -> None:
+    src, dem = tmp_path / "emission.tif", tmp_path / "dem.tif"
+    _emission(src)
+    heights = np.full((30, 30), 120.0, np.float32)
+    heights[:, 15:] = 180.0  # the lit block stands on a 60 m higher terrace
+    write_cog(
+        dem,
+        [RasterBand(heights, "height", "m")],
+        transform=Affine(100, 0, 500_000, 0, -100, 6_700_000),
+        crs="EPSG:32635",
+    )
+    out = tmp_path / "pano.nc"
+    args = ["skyglow", str(src), "--observer", "501250,6698500", "--dem", str(dem)]
+    args += ["--n-azimuth", "32", "--n-elevation", "8", "--out", str(out)]
+    result = CliRunner(env={"NIGHTLIGHTS_CACHE": str(tmp_path / "cache")}).invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    pano = xr.open_dataset(out, engine="h5netcdf")
+    assert abs(float(pano.attrs["observer_altitude_m"]) - 121.7) < 1e-6
+    assert abs(float(pano.attrs["source_altitude_m"]) - 180.0) < 1e-4
+    assert np.atleast_1d(pano.attrs["source_altitude_levels_m"]).tolist() == [180.0]
+    assert np.nanmax(pano["luminance"].values) > 0
+    pano.close()
