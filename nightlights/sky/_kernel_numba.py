@@ -29,6 +29,9 @@ FloatArray = NDArray[np.float64]
 _SQRT_PI = math.sqrt(math.pi)
 _EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2}
 
+#: Largest growth of the observer leg's optical depth between two nodes of its table [-].
+_MAX_TABLE_STEP_TAU = 0.01
+
 # layout of the float parameter vector passed to the compiled code
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
 _P_RADIUS, _P_TOP, _P_CORE, _P_HALF_N, _P_UP_NORM, _P_MIN_H = 6, 7, 8, 9, 10, 11
@@ -212,7 +215,10 @@ def _observer_table(
     tau_obs(h) the optical depth from the observer to the point of the ray at altitude h (0
     without extinction); nodes uniform in z = sqrt(h - h_o) up to the top of the atmosphere,
     dense next to the observer where low rays' tau_obs grows fastest. Returns the table and
-    1 / dz.
+    1 / dz; or an empty table (the caller then uses the closed form) where tau_obs grows by more
+    than :data:`_MAX_TABLE_STEP_TAU` between two nodes while the transmission is still above
+    1e-12 (very low rays over a flat Earth), so that linear interpolation of exp(-tau_obs)
+    stays within ~1e-5.
     """
     out = np.zeros((2, size + 1))
     top = p[_P_TOP]
@@ -230,6 +236,7 @@ def _observer_table(
     leg = _observer_constants(se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table)
     dz = math.sqrt(top - h_o) / size
     b = (radius + h_o) * se
+    tau_before = 0.0
     for i in range(size + 1):
         dh = (i * dz) ** 2
         h = h_o + dh
@@ -241,6 +248,9 @@ def _observer_table(
         tau = 0.0
         if extinction:
             tau = _observer_tau(u, se, flat, leg, table)
+            if tau - tau_before > _MAX_TABLE_STEP_TAU and tau_before < 27.6:  # e^-27.6 = 1e-12
+                return np.zeros((2, 0)), 0.0
+            tau_before = tau
         if beta_m > 0.0:
             out[0, i] = beta_m * math.exp(-h / h_m - tau)
         if sigma_a > 0.0:

@@ -382,9 +382,11 @@ def sky_luminance_grid(
     With the numba backend the observer-side factors of each view ray (scattering density
     times the observer leg's transmission) are tabulated once per elevation against altitude
     (uniform in sqrt(h - h_o), 16,385 nodes) and interpolated linearly at the quadrature nodes,
-    instead of being evaluated in closed form at every node: within 4e-5 of
-    :func:`sky_luminance` (2e-6 at turbidity 2), about 25 % faster. With fewer rays per
-    elevation than the table has nodes the per-ray path of :func:`sky_luminance` is used.
+    instead of being evaluated in closed form at every node: within 5e-5 of
+    :func:`sky_luminance` (2e-6 at turbidity 2), about 25 % faster. Rows whose table would be
+    too coarse (the observer leg's optical depth growing by > 0.01 between nodes: very low rays
+    over a flat Earth) use the closed form; with fewer rays per elevation than the table has
+    nodes the per-ray path of :func:`sky_luminance` is used.
 
     Parameters
     ----------
@@ -426,7 +428,9 @@ def sky_luminance_grid(
             backend=backend,
             **kwargs,  # type: ignore[arg-type]
         )
-    # validation shared with sky_luminance (on one ray)
+    if np.any(r < 0) or not np.all(np.isfinite(r)):
+        raise InputError("source distance; expected finite values >= 0 m")
+    # the remaining validation shared with sky_luminance (on one ray)
     sky_luminance(
         90.0,
         0.0,

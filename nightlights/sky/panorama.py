@@ -53,6 +53,7 @@ class KernelSlice:
     basis_fft: NDArray[np.complex128]
     distance_edges: FloatArray
     elevation: FloatArray
+    observer_altitude: float = float("nan")
 
     @property
     def n_az(self) -> int:
@@ -139,6 +140,7 @@ def kernel_slice(
         basis_fft=basis_fft,
         distance_edges=np.asarray(kernel["distance_edges"].values, dtype=float),
         elevation=np.asarray(kernel["elevation"].values, dtype=float),
+        observer_altitude=h_o_value,
     )
 
 
@@ -156,9 +158,9 @@ def kernel_levels(kernel: xr.Dataset, *, observer_altitude: float) -> list[Kerne
     Returns
     -------
     list of KernelSlice
-        In the order of ``kernel.source_altitude``; all share the same bases.
+        In increasing source altitude; all share the same bases.
     """
-    levels = np.asarray(kernel["source_altitude"].values, dtype=float)
+    levels = np.sort(np.asarray(kernel["source_altitude"].values, dtype=float))
     return [
         kernel_slice(kernel, observer_altitude=observer_altitude, source_altitude=float(h))
         for h in levels
@@ -177,8 +179,12 @@ def _pairs(
             "polar map per level"
         )
     shape = slices[0].basis_fft.shape
-    if any(t.basis_fft.shape != shape for t in slices):
-        raise InputError("kernel slices of different observer levels cannot be combined")
+    altitudes = np.array([t.observer_altitude for t in slices])
+    if any(t.basis_fft.shape != shape for t in slices) or np.ptp(altitudes) > 0:
+        raise InputError(
+            "kernel slices of different observer altitudes cannot be combined (their bases "
+            "differ)"
+        )
     for p, t in zip(polars, slices, strict=True):
         _check_bands(p, t)
     return polars, slices

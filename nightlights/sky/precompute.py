@@ -184,12 +184,15 @@ def kernel_parameters(
     edges = _check_edges(
         distance_grid(r_min, r_max, n_r) if distance_edges is None else distance_edges
     )
-    h_c = np.asarray(source_altitudes, dtype=float).ravel()
-    h_o = np.asarray(observer_altitudes, dtype=float).ravel()
+    h_c = np.sort(np.asarray(source_altitudes, dtype=float).ravel())
+    h_o = np.sort(np.asarray(observer_altitudes, dtype=float).ravel())
     if h_c.size == 0 or h_o.size == 0:
         raise InputError(
             "source_altitudes and observer_altitudes; expected at least one value each"
         )
+    for name, levels in (("source_altitudes", h_c), ("observer_altitudes", h_o)):
+        if np.any(np.diff(levels) <= 0) or not np.all(np.isfinite(levels)):
+            raise InputError(f"{name} {levels.tolist()!r} m; expected distinct finite altitudes")
     if n_el < 1 or n_az < 2 or n_az % 2:
         raise InputError(f"n_el={n_el!r}, n_az={n_az!r}; expected n_el >= 1 and an even n_az >= 2")
     if sub_distances < 1 or sub_pixels < 1:

@@ -266,9 +266,11 @@ def skyglow(
             f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
             "omit --turbidity or build a kernel for it"
         )
+    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
+    offset = _level_offset(heights, data, levels)
+    heights = heights - offset
+    observer_altitude -= offset
     slices = kernel_levels(table, observer_altitude=observer_altitude)
-    levels = np.asarray(table["source_altitude"].values, dtype=float)
-    _check_source_levels(heights, data, levels)
     tables = slices[0]
     polars = polar_map_levels(
         data,
@@ -382,7 +384,8 @@ def skyglow(
             "observer_height_m": observer_height,
             "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
             "source_altitude_levels_m": levels,
-            "observer_altitude_m": observer_altitude,
+            "observer_altitude_m": observer_altitude + offset,
+            "kernel_altitude_offset_m": offset,
             "turbidity": kernel_turbidity,
             "kernel_hash": str(table.attrs.get("content_hash", "")),
             "mode": mode,
@@ -453,18 +456,33 @@ def _total(polars: list[PolarMap]) -> PolarMap:
     )
 
 
-def _check_source_levels(heights: np.ndarray, data: np.ndarray, levels: np.ndarray) -> None:
+def _level_offset(heights: np.ndarray, data: np.ndarray, levels: np.ndarray) -> float:
+    """Common shift of all altitudes that brings the lit cells within a kernel's source levels.
+
+    A scene kernel always covers them (0 is returned). A given kernel may not (e.g. one built
+    with sources at 0 m used over terrain): then observer and sources are shifted together so
+    that the observer keeps its height above the sources (the air density is then that of the
+    kernel's levels), with a warning.
+    """
     lit = np.any(np.nan_to_num(data) != 0, axis=0)
     if not lit.any():
-        return
+        return 0.0
     low, high = float(np.nanmin(heights[lit])), float(np.nanmax(heights[lit]))
-    if low < levels.min() - 5.0 or high > levels.max() + 5.0:
-        warnings.warn(
-            f"lit cells stand at {low:g}-{high:g} m but the kernel's source levels span "
-            f"{levels.min():g}-{levels.max():g} m; the nearest level is used outside them",
-            DataQualityWarning,
-            stacklevel=3,
-        )
+    bottom, top = float(levels.min()), float(levels.max())
+    if low >= bottom - 5.0 and high <= top + 5.0:
+        return 0.0
+    if high - low <= top - bottom:
+        offset = low - bottom if low < bottom else high - top
+    else:
+        offset = 0.5 * (low + high) - 0.5 * (bottom + top)
+    warnings.warn(
+        f"lit cells stand at {low:g}-{high:g} m but the kernel's source levels span "
+        f"{bottom:g}-{top:g} m; observer and sources are shifted by {-offset:+g} m together "
+        "(relative heights kept; cells still outside take the nearest level)",
+        DataQualityWarning,
+        stacklevel=3,
+    )
+    return offset
 
 
 def _terrain(

@@ -246,3 +246,23 @@ def test_pixels_next_to_a_visible_source_are_pixel_averaged() -> None:
     reference = float((b * weight).sum() / (weight.sum() * m))
     assert centre > 5 * reference
     assert averaged == pytest.approx(reference, rel=0.1)
+
+
+def test_altitude_levels_are_sorted_and_distinct() -> None:
+    ds = build_kernel(
+        r_min=10.0,
+        r_max=1000.0,
+        n_r=2,
+        n_el=2,
+        n_az=4,
+        source_altitudes=(100.0, 0.0),
+        observer_altitudes=(50.0, 0.0),
+        progress=False,
+    )
+    assert ds.source_altitude.values.tolist() == [0.0, 100.0]
+    assert ds.observer_altitude.values.tolist() == [0.0, 50.0]
+    assert kernel_parameters(source_altitudes=(100.0, 0.0)) == kernel_parameters(
+        source_altitudes=(0.0, 100.0)
+    )
+    with pytest.raises(InputError, match="distinct"):
+        kernel_parameters(source_altitudes=(0.0, 0.0))

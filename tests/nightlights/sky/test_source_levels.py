@@ -218,3 +218,51 @@ def test_stage_over_terrain_uses_per_cell_levels(tmp_path) -> None:
     naive = runs["naive"].panorama["luminance"].values
     visible = np.isfinite(naive) & (naive > 0.01 * np.nanmax(naive))
     assert np.mean(np.abs(pca[visible] / naive[visible] - 1.0)) < 0.05
+
+
+def test_given_kernel_below_the_terrain_keeps_relative_heights(tmp_path, level_kernel) -> None:
+    """A kernel tabulated at 0-250 m used over terrain 1000 m higher (towns at 1020 and 1230 m,
+    eye at 1300 m): observer and sources are shifted down together by 980 m (warning), and the
+    panorama equals that of the same scene given at the shifted altitudes."""
+    emission, _ = _scene()
+    dem = np.full((80, 80), 1020.0)
+    dem[10:30, 52:72] = 1230.0
+    dem[36:44, 36:44] = 1298.3  # eye at 1300 m
+    src = tmp_path / "emission.tif"
+    write_cog(
+        src,
+        [RasterBand(emission.astype(np.float32), "reflected", "lm m-2")],
+        transform=T,
+        crs="EPSG:3067",
+    )
+    panoramas, messages = {}, {}
+    for name, shift in (("high", 0.0), ("shifted", 980.0)):
+        path = tmp_path / f"dem_{name}.tif"
+        write_cog(
+            path,
+            [RasterBand((dem - shift).astype(np.float32), "height", "m")],
+            transform=T,
+            crs="EPSG:3067",
+        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = skyglow(
+                src,
+                tmp_path / f"pano_{name}.nc",
+                observer=(2000.0, 2000.0),
+                kernel=level_kernel,
+                dem=path,
+            )
+        messages[name] = [str(w.message) for w in caught if "shifted by" in str(w.message)]
+        panoramas[name] = result.panorama
+    assert len(messages["high"]) == 1 and "shifted by -980 m" in messages["high"][0]
+    assert messages["shifted"] == []
+    attrs = panoramas["high"].attrs
+    assert attrs["kernel_altitude_offset_m"] == pytest.approx(980.0)
+    assert attrs["observer_altitude_m"] == pytest.approx(1300.0, abs=0.01)
+    assert panoramas["shifted"].attrs["kernel_altitude_offset_m"] == 0.0
+    np.testing.assert_allclose(
+        panoramas["high"]["luminance"].values,
+        panoramas["shifted"]["luminance"].values,
+        rtol=1e-6,
+    )
