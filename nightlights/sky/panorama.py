@@ -182,8 +182,7 @@ def _pairs(
     altitudes = np.array([t.observer_altitude for t in slices])
     if any(t.basis_fft.shape != shape for t in slices) or np.ptp(altitudes) > 0:
         raise InputError(
-            "kernel slices of different observer altitudes cannot be combined (their bases "
-            "differ)"
+            "kernel slices of different observer altitudes cannot be combined (their bases differ)"
         )
     for p, t in zip(polars, slices, strict=True):
         _check_bands(p, t)
