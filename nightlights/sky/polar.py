@@ -260,21 +260,27 @@ def polar_map_levels(
     if np.any(lit & ~np.isfinite(heights)):
         raise InputError("source altitude missing (NaN) under lit emission cells")
     weights = source_level_weights(np.where(lit, heights, 0.0), levels)
+    edges = np.asarray(distance_edges, dtype=float)
+    bands = data.shape[0]
     maps = [
         polar_map(
             data * weights[level][None],
             transform,
             observer,
-            distance_edges=distance_edges,
+            distance_edges=edges,
             n_az=n_az,
             max_samples=max_samples,
             warn=False,
+        )
+        if np.any(weights[level][lit] > 0)
+        else PolarMap(  # no cell near this level: an empty map, without scanning the raster
+            np.zeros((bands, edges.size - 1, n_az)), edges, n_az, np.zeros(bands), np.zeros(bands)
         )
         for level in range(weights.shape[0])
     ]
     _warn_dropped(
         np.sum([m.dropped_flux for m in maps], axis=0),
         np.sum([m.total_flux for m in maps], axis=0),
-        np.asarray(distance_edges, dtype=float),
+        edges,
     )
     return maps
