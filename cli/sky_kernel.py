@@ -71,6 +71,12 @@ def kernel() -> None:
 )
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
 @click.option(
+    "--tables/--no-tables",
+    default=True,
+    show_default=True,
+    help="Keep the raw images next to the PCA bases (needed only by skyglow --mode exact).",
+)
+@click.option(
     "--backend",
     type=click.Choice(BACKENDS),
     default="auto",
@@ -95,6 +101,7 @@ def build(
     sub_distances: int,
     uplight: bool,
     flat_earth: bool,
+    tables: bool,
     backend: str,
 ) -> None:
     """Build a kernel table and write it to OUT (NetCDF)."""
@@ -123,6 +130,7 @@ def build(
         uplight=uplight,
         progress=True,
         backend=backend,
+        store_tables=tables,
     )
     console.print(
         f"kernel {ds.sizes['distance']} r x {ds.sizes['elevation']} el x "

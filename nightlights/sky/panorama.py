@@ -64,7 +64,13 @@ class KernelSlice:
 
     @property
     def n_az(self) -> int:
-        return int(self.kernel.shape[-1])
+        """Azimuth columns (even), from the stored rfft of the bases."""
+        return 2 * (int(self.basis_fft.shape[-1]) - 1)
+
+    @property
+    def has_tables(self) -> bool:
+        """Whether the raw kernel images are there (``exact`` mode needs them)."""
+        return int(self.kernel.shape[-1]) > 0
 
 
 def _clamp_level(levels: FloatArray, value: float, name: str) -> float:
@@ -131,7 +137,11 @@ def kernel_slice(
         coefficient_names = ["coefficient"] + (
             ["coefficient_uplight"] if "coefficient_uplight" in level else []
         )
-        kernels.append(weight * np.stack([level[n].values.astype(float) for n in names]))
+        if "kernel" in level:
+            kernels.append(weight * np.stack([level[n].values.astype(float) for n in names]))
+        else:  # a PCA-only kernel (built with store_tables=False): no raw images
+            n_r, n_el = level.sizes["distance"], level.sizes["elevation"]
+            kernels.append(np.zeros((len(coefficient_names), n_r, n_el, 0)))
         coefficients.append(
             weight * np.stack([level[n].values.astype(float) for n in coefficient_names])
         )
@@ -198,15 +208,15 @@ def _pairs(
 
 def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
     bands = polar.flux.shape[0]
-    if bands > tables.kernel.shape[0]:
+    if bands > tables.coefficient.shape[0]:
         raise InputError(
             f"the emission has {bands} bands (Lambertian + uplight) but the kernel has no "
             "uplight table; build it with uplight"
         )
-    if polar.n_az != tables.n_az or polar.flux.shape[1] != tables.kernel.shape[1]:
+    if polar.n_az != tables.n_az or polar.flux.shape[1] != tables.coefficient.shape[1]:
         raise InputError(
             f"polar map {polar.flux.shape[1:]} (distance x azimuth) does not match the kernel "
-            f"{tables.kernel.shape[1]} x {tables.n_az}"
+            f"{tables.coefficient.shape[1]} x {tables.n_az}"
         )
 
 
@@ -268,6 +278,11 @@ def panorama_exact(
         ``(n_el, n_az)`` luminance [cd m-2].
     """
     polars, slices = _pairs(polar, tables)
+    if not slices[0].has_tables:
+        raise InputError(
+            "the kernel stores no raw images (built with store_tables=False / --no-tables); "
+            "use mode pca"
+        )
     spectrum = 0.0
     for p, t in zip(polars, slices, strict=True):
         bands = p.flux.shape[0]

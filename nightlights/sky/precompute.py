@@ -74,7 +74,6 @@ KERNEL_FORMAT_VERSION = 2
 FloatArray = NDArray[np.float64]
 
 _REQUIRED_VARIABLES = (
-    "kernel",
     "basis",
     "coefficient",
     "basis_fft_real",
@@ -170,6 +169,7 @@ def kernel_parameters(
     uplight_exponent: float = UPLIGHT_EXPONENT,
     pca_energy: float = 0.999999,
     n_components: int | None = None,
+    store_tables: bool = True,
 ) -> dict[str, Any]:
     """Normalised, JSON-serialisable description of a kernel, hashed into its content hash.
 
@@ -221,6 +221,7 @@ def kernel_parameters(
         "uplight_exponent": float(uplight_exponent),
         "pca_energy": float(pca_energy),
         "n_components": None if n_components is None else int(n_components),
+        "store_tables": bool(store_tables),
     }
     text = json.dumps(params, sort_keys=True, separators=(",", ":"))
     params["content_hash"] = hashlib.sha256(text.encode()).hexdigest()
@@ -457,6 +458,7 @@ def build_kernel(
     n_components: int | None = None,
     progress: bool = True,
     backend: str = "auto",
+    store_tables: bool = True,
 ) -> xr.Dataset:
     """Precompute a skyglow kernel table, compress it by PCA and FFT.
 
@@ -505,6 +507,10 @@ def build_kernel(
     backend
         Line-of-sight integrator, one of :data:`nightlights.sky.kernel.BACKENDS`; not part of
         the content hash (the backends agree to ~1e-5) but recorded in the attributes [-].
+    store_tables
+        Keep the raw images (``kernel``, ``kernel_uplight``) next to the PCA bases; they are
+        needed only by ``exact`` mode and are most of the file (2.2 of 2.9 GB for Dobashi's
+        configuration) [-].
 
     Returns
     -------
@@ -535,6 +541,7 @@ def build_kernel(
         uplight_exponent=uplight_exponent,
         pca_energy=pca_energy,
         n_components=n_components,
+        store_tables=store_tables,
     )
     atm = atmosphere if atmosphere is not None else Atmosphere()
     edges = np.asarray(params["distance_edges"])
@@ -599,6 +606,7 @@ def build_kernel(
         tables.get("uplight"),
         pca_energy=pca_energy,
         n_components=n_components,
+        store_tables=store_tables,
     )
     ds = ds.assign_coords(
         observer_altitude=("observer_altitude", h_o, {"units": "m"}),
@@ -619,6 +627,7 @@ def compress_kernel(
     *,
     pca_energy: float = 0.999999,
     n_components: int | None = None,
+    store_tables: bool = True,
 ) -> xr.Dataset:
     """PCA per observer altitude and rfft of the basis over azimuth.
 
@@ -632,6 +641,8 @@ def compress_kernel(
         Explained-energy target [-].
     n_components
         Number of components (overrides ``pca_energy``) [-].
+    store_tables
+        Include the raw images ``kernel`` (and ``kernel_uplight``) [-].
 
     Returns
     -------
@@ -689,6 +700,10 @@ def compress_kernel(
             kernel_uplight.astype(np.float32),
             unit | {"emission": "uplight"},
         )
+    if not store_tables:
+        data.pop("kernel")
+        data.pop("kernel_uplight", None)
+    if kernel_uplight is not None:
         data["coefficient_uplight"] = (
             dims_c,
             coefs[:, n_c * n_r :].reshape(n_o, n_c, n_r, k),
@@ -716,6 +731,7 @@ def _attributes(params: dict[str, Any]) -> dict[str, Any]:
     ):
         attrs[key] = params[key]
     attrs["uplight"] = int(params["uplight"])
+    attrs["store_tables"] = int(params["store_tables"])
     attrs["n_components_requested"] = (
         -1 if params["n_components"] is None else params["n_components"]
     )

@@ -266,3 +266,38 @@ def test_altitude_levels_are_sorted_and_distinct() -> None:
     )
     with pytest.raises(InputError, match="distinct"):
         kernel_parameters(source_altitudes=(0.0, 0.0))
+
+
+def test_pca_only_kernel_is_smaller_and_renders_the_same(tmp_path: Path) -> None:
+    from affine import Affine
+
+    from nightlights.sky.panorama import kernel_slice, panorama_exact, panorama_pca
+    from nightlights.sky.polar import polar_map
+
+    kwargs = {**SMALL, "uplight": True, "progress": False}
+    full = build_kernel(**kwargs)
+    lean = build_kernel(store_tables=False, **kwargs)
+    assert "kernel" not in lean and "kernel_uplight" not in lean
+    assert "coefficient_uplight" in lean and lean.attrs["store_tables"] == 0
+    assert lean.attrs["content_hash"] != full.attrs["content_hash"]
+    write_kernel(full, tmp_path / "full.nc")
+    write_kernel(lean, tmp_path / "lean.nc")
+    assert (tmp_path / "lean.nc").stat().st_size < (tmp_path / "full.nc").stat().st_size
+    lean = read_kernel(tmp_path / "lean.nc")
+    emission = np.zeros((2, 20, 20))
+    emission[:, 5:8, 12:15] = 1.0
+    transform = Affine(100.0, 0, 0, 0, -100.0, 2000.0)
+    panoramas = []
+    for ds in (full, lean):
+        tables = kernel_slice(ds, observer_altitude=0.0)
+        polar = polar_map(
+            emission,
+            transform,
+            (1000.0, 1000.0),
+            distance_edges=tables.distance_edges,
+            n_az=tables.n_az,
+        )
+        panoramas.append(panorama_pca(polar, tables))
+    np.testing.assert_allclose(panoramas[1], panoramas[0], rtol=1e-12)
+    with pytest.raises(InputError, match="no raw images"):
+        panorama_exact(polar, tables)
