@@ -71,3 +71,13 @@ def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
         assert ds.attrs["backend"] == backend
         tables[backend] = ds.kernel.values
     np.testing.assert_allclose(tables["numba"], tables["numpy"], rtol=1e-4, atol=1e-30)
+
+
+def test_kernel_build_without_tables(tmp_path: Path) -> None:
+    out = tmp_path / "lean.nc"
+    args = ["kernel", "build", str(out), "--r-max", "5000", "--n-distance", "4"]
+    args += ["--n-elevation", "4", "--n-azimuth", "8", "--no-tables"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    ds = read_kernel(out)
+    assert "kernel" not in ds and "coefficient" in ds and ds.attrs["store_tables"] == 0
