@@ -21,6 +21,8 @@ from scipy.special import beta as beta_function
 from scipy.special import erfcx
 
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import _smallest_scale_height
+from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
@@ -43,14 +45,6 @@ def model_parameters(
     atmosphere: Atmosphere, emission: str, core_radius: float, uplight_exponent: float
 ) -> tuple[FloatArray, NDArray[np.int64]]:
     """Pack the model into the float and integer vectors read by :func:`luminance_rays`."""
-    heights = [
-        h
-        for h, beta in (
-            (atmosphere.molecular_scale_height, atmosphere.molecular_extinction),
-            (atmosphere.aerosol_scale_height, atmosphere.aerosol_extinction),
-        )
-        if beta > 0
-    ]
     params = np.zeros(12)
     params[_P_BETA_M] = atmosphere.molecular_extinction
     params[_P_H_M] = atmosphere.molecular_scale_height
@@ -63,7 +57,7 @@ def model_parameters(
     params[_P_CORE] = core_radius
     params[_P_HALF_N] = uplight_exponent / 2.0
     params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
-    params[_P_MIN_H] = min(heights) if heights else atmosphere.molecular_scale_height
+    params[_P_MIN_H] = _smallest_scale_height(atmosphere)
     flags = np.zeros(4, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EXTINCTION] = int(atmosphere.extinction)
@@ -536,7 +530,7 @@ def luminance_rays(
         Shape ``(n,)`` [cd m-2 lm-1].
     """
     params, flags = model_parameters(atmosphere, emission, core_radius, uplight_exponent)
-    x, w = np.polynomial.legendre.leggauss(int(nodes))
+    x, w = gauss_legendre(int(nodes))
     el, az, r, h_c, h_o = (
         np.array(a, dtype=np.float64, order="C")  # a writeable copy (inputs may be broadcast)
         for a in (elevation, relative_azimuth, distance, source_altitude, observer_altitude)
@@ -590,7 +584,7 @@ def luminance_grid(
         Shape ``(n_el, n_az, n_r)`` [cd m-2 lm-1].
     """
     params, flags = model_parameters(atmosphere, emission, core_radius, uplight_exponent)
-    x, w = np.polynomial.legendre.leggauss(int(nodes))
+    x, w = gauss_legendre(int(nodes))
     el, az, r = (
         np.ascontiguousarray(np.ravel(a), dtype=np.float64)
         for a in (elevation, relative_azimuth, distance)

@@ -246,6 +246,27 @@ def optical_depth(
     return 0.5 * length * (dens @ w)
 
 
+def _check_options(
+    emission: str, nodes: int, leg_nodes: int | None, core_radius: float, backend: str
+) -> None:
+    """Validation shared by :func:`sky_luminance` and :func:`sky_luminance_grid`."""
+    if emission not in EMISSION_MODELS:
+        raise InputError(f"emission model {emission!r}; expected one of {EMISSION_MODELS}")
+    if nodes < 1 or (leg_nodes is not None and leg_nodes < 1):
+        raise InputError(f"nodes {nodes!r}, leg_nodes {leg_nodes!r}; expected >= 1")
+    if not core_radius > 0:
+        raise InputError(f"core_radius {core_radius!r} m; expected > 0")
+    if backend not in BACKENDS:
+        raise InputError(f"backend {backend!r}; expected one of {BACKENDS}")
+    if backend == "numba" and leg_nodes is not None:
+        raise InputError("backend 'numba' computes closed-form legs only; leg_nodes needs 'numpy'")
+
+
+def _check_distances(distance: FloatArray) -> None:
+    if np.any(distance < 0) or not np.all(np.isfinite(distance)):
+        raise InputError("source distance; expected finite values >= 0 m")
+
+
 def sky_luminance(
     elevation: ArrayLike,
     relative_azimuth: ArrayLike,
@@ -312,16 +333,7 @@ def sky_luminance(
     >>> bool(b[0] > b[1] > 0)
     True
     """
-    if emission not in EMISSION_MODELS:
-        raise InputError(f"emission model {emission!r}; expected one of {EMISSION_MODELS}")
-    if nodes < 1 or (leg_nodes is not None and leg_nodes < 1):
-        raise InputError(f"nodes {nodes!r}, leg_nodes {leg_nodes!r}; expected >= 1")
-    if not core_radius > 0:
-        raise InputError(f"core_radius {core_radius!r} m; expected > 0")
-    if backend not in BACKENDS:
-        raise InputError(f"backend {backend!r}; expected one of {BACKENDS}")
-    if backend == "numba" and leg_nodes is not None:
-        raise InputError("backend 'numba' computes closed-form legs only; leg_nodes needs 'numpy'")
+    _check_options(emission, nodes, leg_nodes, core_radius, backend)
     arrays = np.broadcast_arrays(
         np.asarray(elevation, dtype=float),
         np.asarray(relative_azimuth, dtype=float),
@@ -331,8 +343,7 @@ def sky_luminance(
     )
     shape = arrays[0].shape
     flat = [a.ravel() for a in arrays]
-    if np.any(flat[2] < 0) or not np.all(np.isfinite(flat[2])):
-        raise InputError("source distance; expected finite values >= 0 m")
+    _check_distances(flat[2])
     if backend != "numpy" and leg_nodes is None:
         from nightlights.sky._kernel_numba import luminance_rays
 
@@ -414,9 +425,13 @@ def sky_luminance_grid(
         "core_radius": core_radius,
         "uplight_exponent": uplight_exponent,
     }
-    # The observer tables cost ~16,000 closed-form evaluations per elevation: for a few rays per
-    # elevation (supersampled pixels) the per-ray path is cheaper.
-    few_rays = az.size * r.size * 3 * nodes < 16_384
+    _check_options(emission, nodes, leg_nodes, core_radius, backend)
+    _check_distances(r)
+    from nightlights.sky._kernel_numba import OBSERVER_TABLE_SIZE, luminance_grid
+
+    # The observer tables cost one closed-form evaluation per table node and elevation: for a
+    # few rays per elevation (supersampled pixels) the per-ray path is cheaper.
+    few_rays = az.size * r.size * 3 * nodes < OBSERVER_TABLE_SIZE
     if backend == "numpy" or leg_nodes is not None or few_rays:
         return sky_luminance(
             el[:, None, None],
@@ -428,20 +443,6 @@ def sky_luminance_grid(
             backend=backend,
             **kwargs,  # type: ignore[arg-type]
         )
-    if np.any(r < 0) or not np.all(np.isfinite(r)):
-        raise InputError("source distance; expected finite values >= 0 m")
-    # the remaining validation shared with sky_luminance (on one ray)
-    sky_luminance(
-        90.0,
-        0.0,
-        r[:1] if r.size else 0.0,
-        source_altitude=source_altitude,
-        observer_altitude=observer_altitude,
-        backend=backend,
-        **kwargs,  # type: ignore[arg-type]
-    )
-    from nightlights.sky._kernel_numba import luminance_grid
-
     return luminance_grid(
         el,
         az,
