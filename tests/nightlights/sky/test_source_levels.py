@@ -81,6 +81,20 @@ def test_level_maps_add_up_to_the_single_map() -> None:
     assert maps[2].flux.sum() == pytest.approx(high_flux * 130.0 / 150.0)
 
 
+def test_level_maps_refuse_heights_of_another_shape() -> None:
+    emission, heights = _scene()
+    with pytest.raises(InputError, match="do not match"):
+        polar_map_levels(
+            emission,
+            T,
+            (2000.0, 2000.0),
+            source_altitude=heights[:, :-1],
+            levels=LEVELS,
+            distance_edges=np.geomspace(10.0, 20_000.0, 9),
+            n_az=32,
+        )
+
+
 def test_level_maps_refuse_missing_heights_under_lit_cells() -> None:
     emission, heights = _scene()
     heights[39, 15] = np.nan
