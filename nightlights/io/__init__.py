@@ -7,11 +7,13 @@ is atomic: the output appears complete or not at all.
 
 from nightlights.io.atomic import atomic_output
 from nightlights.io.crs import ensure_projected
-from nightlights.io.raster import RasterBand, read_raster, write_cog
+from nightlights.io.raster import Raster, RasterBand, as_raster, read_raster, write_cog
 from nightlights.io.vector import read_vector, write_gpkg
 
 __all__ = [
+    "Raster",
     "RasterBand",
+    "as_raster",
     "atomic_output",
     "ensure_projected",
     "read_raster",

@@ -1,0 +1,24 @@
+"""Checks of user input shared by the stages; each raises a one-line :class:`InputError`."""
+
+from __future__ import annotations
+
+import math
+
+from nightlights.errors import InputError
+
+
+def check_resolution(value: object, *, name: str = "resolution") -> float:
+    """Return ``value`` as a positive, finite pixel size [m] or raise :class:`InputError`.
+
+    Parameters
+    ----------
+    value
+        Pixel size [m].
+    name
+        Name of the option in the message.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{name}={value!r} m; expected a positive number of metres")
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name}={value!r} m; expected a positive number of metres")
+    return float(value)
