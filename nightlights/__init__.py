@@ -1,16 +1,137 @@
 """nightlights: a GIS toolkit for night-time lighting.
 
-Predicts streetlight layouts from street layers, computes the light they put on the
-ground and into the sky, and what an observer sees in the night sky.
+Predicts streetlight layouts from street layers, computes the light they put on the ground
+and into the sky, and what an observer sees in the night sky. One function per stage, each
+taking in-memory objects or paths and returning a typed result (``.path`` is the file written,
+if any)::
+
+    import nightlights as nl
+
+    streets = nl.normalize("city.osm.pbf").streets       # GeoDataFrame
+    streets = nl.sample(streets, seed=1).streets          # lighting fields filled
+    lights = nl.place(streets, seed=1).lights             # light points
+    ground = nl.irradiance(lights, resolution=1.0).raster  # Raster [lx]
+    upward = nl.emission(ground, lights=lights, resolution=50.0, albedo=0.15).raster
+    sky = nl.skyglow(upward, observer=(x, y))             # panorama Dataset
+
+The stages are imported on first use, so ``import nightlights`` stays fast.
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from __future__ import annotations
 
-from nightlights.errors import NightlightsError
+import importlib
+from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
+
+from nightlights.errors import (
+    CRSError,
+    DataQualityWarning,
+    EmptyInputError,
+    InputError,
+    NightlightsError,
+    NightlightsWarning,
+    OutputError,
+)
 
 try:
     __version__ = version("nightlights")
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-__all__ = ["NightlightsError", "__version__"]
+#: Public name -> the subpackage that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    # streets -> light points
+    "normalize": "nightlights.streets",
+    "sample": "nightlights.streets",
+    "fit": "nightlights.streets",
+    "place": "nightlights.streets",
+    "NormalizeResult": "nightlights.streets",
+    "SampleResult": "nightlights.streets",
+    "FitResult": "nightlights.streets",
+    "PlaceResult": "nightlights.streets",
+    # light on the ground and what goes up
+    "irradiance": "nightlights.ground",
+    "emission": "nightlights.ground",
+    "emission_from_viirs": "nightlights.ground",
+    "IrradianceResult": "nightlights.ground",
+    "EmissionResult": "nightlights.ground",
+    # the sky
+    "KernelSpec": "nightlights.sky",
+    "build_kernel": "nightlights.sky",
+    "skyglow": "nightlights.sky",
+    "KernelResult": "nightlights.sky",
+    "SkyglowResult": "nightlights.sky",
+    # data types
+    "Raster": "nightlights.io",
+}
+
+if TYPE_CHECKING:
+    from nightlights.ground import (
+        EmissionResult,
+        IrradianceResult,
+        emission,
+        emission_from_viirs,
+        irradiance,
+    )
+    from nightlights.io import Raster
+    from nightlights.sky import (
+        KernelResult,
+        KernelSpec,
+        SkyglowResult,
+        build_kernel,
+        skyglow,
+    )
+    from nightlights.streets import (
+        FitResult,
+        NormalizeResult,
+        PlaceResult,
+        SampleResult,
+        fit,
+        normalize,
+        place,
+        sample,
+    )
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nightlights' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
+
+__all__ = [
+    "CRSError",
+    "DataQualityWarning",
+    "EmissionResult",
+    "EmptyInputError",
+    "FitResult",
+    "InputError",
+    "IrradianceResult",
+    "KernelResult",
+    "KernelSpec",
+    "NightlightsError",
+    "NightlightsWarning",
+    "NormalizeResult",
+    "OutputError",
+    "PlaceResult",
+    "Raster",
+    "SampleResult",
+    "SkyglowResult",
+    "__version__",
+    "build_kernel",
+    "emission",
+    "emission_from_viirs",
+    "fit",
+    "irradiance",
+    "normalize",
+    "place",
+    "sample",
+    "skyglow",
+]
