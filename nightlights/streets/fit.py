@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import geopandas as gpd
@@ -20,12 +21,13 @@ import pandas as pd
 
 from bayesnets import BayesNet, fit_network, write_network
 from bayesnets.errors import BayesNetError
+from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
-from nightlights.io import read_vector
+from nightlights.streets._layer import read_layer
 from nightlights.streets.sample import resolve_network
 from nightlights.streets.schema import observed_field
 
-__all__ = ["fit_lighting_network", "fit_streets", "known_values"]
+__all__ = ["FitResult", "fit", "fit_lighting_network", "known_values"]
 
 
 def known_values(streets: gpd.GeoDataFrame | pd.DataFrame, fields: list[str]) -> pd.DataFrame:
@@ -104,57 +106,115 @@ def fit_lighting_network(
     return fit_network(frame.replace({np.nan: None}), net, prior=prior, name=name)
 
 
-def fit_streets(
-    src: str | os.PathLike[str],
-    out_dir: str | os.PathLike[str],
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """What :func:`fit` returns.
+
+    Attributes
+    ----------
+    network
+        The fitted network; :func:`~nightlights.streets.sample` takes it as ``network``.
+    path
+        The network folder written, or None when no output was asked for.
+    """
+
+    network: BayesNet
+    path: Path | None
+
+
+def fit(
+    streets: gpd.GeoDataFrame | PathLike,
+    output: PathLike | None = None,
     *,
-    network: str | os.PathLike[str] | None = None,
+    network: str | os.PathLike[str] | BayesNet | None = None,
     prior: float = 1.0,
     name: str | None = None,
-) -> Path:
-    """Stage ``streets fit``: estimate a network from ``src`` and write it to ``out_dir``.
+) -> FitResult:
+    """Estimate a street-lighting network from streets whose lighting is known.
+
+    Stage ``streets fit``; see :func:`fit_lighting_network`.
 
     Parameters
     ----------
-    src
-        Street layer with known lighting fields (any vector format).
-    out_dir
-        Output network folder; must not exist or be empty. Written to a temporary folder
-        first and renamed, so a failure leaves nothing behind.
+    streets
+        Street layer with known lighting fields: a GeoDataFrame or any vector file.
+    output
+        Network folder to write; must not exist or be empty. Written to a temporary folder
+        first and renamed, so a failure leaves nothing behind. None writes nothing.
     network
-        Base network (catalogue name or folder); default: the catalogue default.
+        Base network (object, catalogue name or folder); default: the catalogue default.
     prior
         Prior strength in pseudo-observations per parent combination [1].
     name
-        Name of the fitted network (default: the output folder's name).
+        Name of the fitted network (default: the output folder's name, or
+        ``<base>_fitted`` without an output).
 
     Returns
     -------
-    pathlib.Path
-        ``out_dir``.
+    FitResult
+        The fitted network and the written folder (or None).
+
+    Raises
+    ------
+    OutputError
+        ``output`` exists and is not an empty folder, or its parent folder is missing.
+    EmptyInputError
+        The layer has no features, or no known values of the network's fields.
+    bayesnets.errors.BayesNetError
+        A value the network cannot map. The message names the input file.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import geopandas as gpd
+    >>> from shapely import LineString
+    >>> from nightlights.streets import fit
+    >>> surveyed = gpd.GeoDataFrame(
+    ...     {
+    ...         "street_class": ["local", "local", "arterial"],
+    ...         "lit": [True, True, True],
+    ...         "mounting_height": [6.0, 6.0, 10.0],
+    ...         "spacing": [21.0, 24.0, 35.0],
+    ...     },
+    ...     geometry=[LineString([(0, y), (100, y)]) for y in (0, 50, 100)],
+    ...     crs="EPSG:3067",
+    ... )
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")  # most parent combinations have no data here
+    ...     result = fit(surveyed, network="europe", name="surveyed")
+    >>> result.network.name, result.path
+    ('surveyed', None)
     """
-    target = Path(out_dir)
-    if target.exists() and (not target.is_dir() or any(target.iterdir())):
+    target = Path(output) if output is not None else None
+    if target is not None and target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise OutputError(f"{target}: exists and is not an empty folder")
-    streets = read_vector(src)
-    if streets.empty:
-        raise EmptyInputError(f"{src}: no features to fit a network from")
+    frame, source = read_layer(streets)
+    if frame.empty:
+        raise EmptyInputError(f"{source}: no features to fit a network from")
+    if name is None and target is not None:
+        name = target.name
     try:
-        fitted = fit_lighting_network(streets, network, prior=prior, name=name or target.name)
+        fitted = fit_lighting_network(frame, network, prior=prior, name=name)
     except BayesNetError as exc:
-        raise type(exc)(f"{src}: {exc}") from exc
+        raise type(exc)(f"{source}: {exc}") from exc
     except EmptyInputError as exc:
-        raise EmptyInputError(f"{src}: {exc}") from exc
+        raise EmptyInputError(f"{source}: {exc}") from exc
+    if target is not None:
+        _write_network_folder(fitted, target)
+    return FitResult(fitted, target)
+
+
+def _write_network_folder(network: BayesNet, target: Path) -> None:
+    """Write ``network`` to the folder ``target`` through a temporary folder beside it."""
     parent = target.parent if str(target.parent) else Path(".")
     if not parent.is_dir():
         raise OutputError(f"{target}: parent folder {parent} does not exist")
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
     try:
-        write_network(fitted, tmp)
+        write_network(network, tmp)
         if target.exists():
             target.rmdir()
         os.replace(tmp, target)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp)
-    return target

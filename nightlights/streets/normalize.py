@@ -22,9 +22,13 @@ import geopandas as gpd
 import numpy as np
 import pandas as pd
 import shapely
+from pyproj import CRS
 
+from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, MappingError
-from nightlights.io import ensure_projected, read_vector, write_gpkg
+from nightlights.io import ensure_projected, write_gpkg
+from nightlights.io.vector import FieldType
+from nightlights.streets._layer import read_layer
 from nightlights.streets.schema import STREET_CLASSES, STREET_FIELDS, observed_field
 
 #: Length units understood in width values, to metres.
@@ -43,6 +47,14 @@ LENGTH_UNITS: dict[str, float] = {
     "in": 0.0254,
     '"': 0.0254,
     "yd": 0.9144,
+}
+
+#: Field types of the layer :func:`normalize` writes.
+OUTPUT_SCHEMA: dict[str, FieldType] = {
+    "source_id": "str",
+    "name": "str",
+    **STREET_FIELDS,
+    **{observed_field(name): "bool" for name in STREET_FIELDS},
 }
 
 _TRUE_WORDS = frozenset({"yes", "y", "true", "t", "1"})
@@ -321,54 +333,116 @@ def normalize_streets(
     return frame.reset_index(drop=True), report
 
 
+@dataclass(frozen=True, eq=False)
+class NormalizeResult:
+    """What :func:`normalize` returns.
+
+    Attributes
+    ----------
+    streets
+        Normalised streets (see :func:`normalize_streets`), in a projected CRS [m].
+    report
+        Counts of kept, dropped and observed features.
+    path
+        The GeoPackage written, or None when no output was asked for.
+    """
+
+    streets: gpd.GeoDataFrame
+    report: NormalizeReport
+    path: Path | None
+
+
 def normalize(
-    src: str | os.PathLike[str],
-    dst: str | os.PathLike[str],
+    streets: gpd.GeoDataFrame | PathLike,
+    output: PathLike | None = None,
     *,
     mapping: str | os.PathLike[str] = "osm",
     layer: str | None = None,
-    assume_crs: str | None = None,
-    target_crs: str | None = None,
-) -> NormalizeReport:
-    """Stage ``streets normalize``: read a street layer, normalise it, write a GeoPackage.
+    crs: str | CRS | None = None,
+    target_crs: str | CRS | None = None,
+) -> NormalizeResult:
+    """Map a street layer's fields onto the canonical street fields, in a projected CRS.
+
+    Stage ``streets normalize`` (Chuang 2011, Sec. 3.2): the layer is reprojected to a
+    projected CRS in metres, the fields named by ``mapping`` are parsed into the canonical
+    fields of :data:`~nightlights.streets.schema.STREET_FIELDS` with their ``<field>_observed``
+    flags, and what is not a street is dropped (see :func:`normalize_streets`).
 
     Parameters
     ----------
-    src
-        Any vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, FlatGeobuf, OSM).
-    dst
-        Output GeoPackage (layer ``streets``), written atomically.
+    streets
+        Street layer: a GeoDataFrame, or any vector file GDAL reads (GeoPackage, Shapefile,
+        GeoJSON, FlatGeobuf, OpenStreetMap ``.pbf``/``.osm``/``.osm.gz``).
+    output
+        GeoPackage to write (layer ``streets``), atomically; None writes nothing.
     mapping
-        Built-in mapping name or TOML path.
+        Built-in mapping name (``osm``, ``municipal``) or TOML path.
     layer
-        Input layer name (default: first; ``lines`` for OSM files).
-    assume_crs
-        CRS of an input without one.
+        Layer of the input file (default: the first; ``lines`` for OSM files). Only for a
+        path.
+    crs
+        CRS of an input that has none.
     target_crs
-        Projected output CRS [m] (default: the input's if projected, else local UTM).
+        Projected output CRS in metres (default: the input's if projected, else its local
+        UTM zone).
+
+    Returns
+    -------
+    NormalizeResult
+        The normalised streets, the report and the written path (or None).
 
     Raises
     ------
     EmptyInputError
-        No street features remain after filtering.
+        The layer has no features, or none is left after filtering.
+    CRSError
+        The layer has no CRS and ``crs`` is not given, or ``target_crs`` is not projected
+        in metres.
+    MappingError
+        Unknown or malformed mapping.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> from shapely import LineString
+    >>> from nightlights.streets import normalize
+    >>> raw = gpd.GeoDataFrame(
+    ...     {
+    ...         "osm_id": ["1", "2", "3"],
+    ...         "highway": ["primary", "residential", "bus_stop"],
+    ...         "lit": ["yes", "no", None],
+    ...         "width": ["14 m", None, None],
+    ...     },
+    ...     geometry=[
+    ...         LineString([(0, 0), (120, 0)]),
+    ...         LineString([(0, 40), (90, 40)]),
+    ...         LineString([(10, 5), (12, 5)]),
+    ...     ],
+    ...     crs="EPSG:3067",
+    ... )
+    >>> result = normalize(raw)
+    >>> result.streets[["source_id", "street_class", "lit", "width"]]
+      source_id street_class    lit  width
+    0         1     arterial   True   14.0
+    1         2        local  False    NaN
+    >>> result.report.output_features, result.path
+    (2, None)
     """
     rules = load_mapping(mapping)
-    streets = read_vector(src, layer=layer)
-    if streets.empty:
-        raise EmptyInputError(f"{src}: the layer has no features")
-    streets = ensure_projected(
-        streets, source=str(src), assume_crs=assume_crs, target_crs=target_crs
-    )
-    frame, report = normalize_streets(streets, rules, source=str(src))
+    frame, source = read_layer(streets, name=layer)
     if frame.empty:
+        raise EmptyInputError(f"{source}: the layer has no features")
+    frame = ensure_projected(frame, source=source, assume_crs=crs, target_crs=target_crs)
+    normalized, report = normalize_streets(frame, rules, source=source)
+    if normalized.empty:
         reasons = ", ".join(f"{reason}: {n}" for reason, n in report.dropped.items() if n)
         raise EmptyInputError(
-            f"{src}: no street features left after mapping {rules.name!r} ({reasons})"
+            f"{source}: no street features left after mapping {rules.name!r} ({reasons})"
         )
-    schema = {"source_id": "str", "name": "str", **STREET_FIELDS}
-    schema |= {observed_field(name): "bool" for name in STREET_FIELDS}
-    write_gpkg(frame, dst, layer="streets", schema=schema)  # type: ignore[arg-type]
-    return report
+    path = None
+    if output is not None:
+        path = write_gpkg(normalized, output, layer="streets", schema=OUTPUT_SCHEMA)
+    return NormalizeResult(normalized, report, path)
 
 
 def _tag_table(streets: gpd.GeoDataFrame, mapping: StreetMapping) -> pd.DataFrame:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import geopandas as gpd
 import numpy as np
@@ -18,12 +19,15 @@ import pandas as pd
 import shapely
 from scipy.spatial import cKDTree
 
+from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, InputError
-from nightlights.io import ensure_projected, read_vector, write_gpkg
+from nightlights.io import ensure_projected, write_gpkg
+from nightlights.io.vector import FieldType
+from nightlights.streets._layer import read_layer
 from nightlights.streets.schema import ARRANGEMENTS, STREET_CLASSES
 
 #: Fields of the output light layer and their types.
-LIGHT_FIELDS: dict[str, str] = {
+LIGHT_FIELDS: dict[str, FieldType] = {
     "light_id": "int",
     "pole_id": "int",
     "street_id": "str",
@@ -174,39 +178,138 @@ def place_lights(
     return gpd.GeoDataFrame(lights[list(LIGHT_FIELDS)], geometry=geometry, crs=streets.crs)
 
 
+@dataclass(frozen=True, eq=False)
+class PlaceResult:
+    """What :func:`place` returns.
+
+    Attributes
+    ----------
+    lights
+        One point per luminaire with :data:`LIGHT_FIELDS` (see :func:`place_lights`).
+    path
+        The GeoPackage written, or None when no output was asked for.
+    """
+
+    lights: gpd.GeoDataFrame
+    path: Path | None
+
+
 def place(
-    src: str | os.PathLike[str],
-    dst: str | os.PathLike[str],
+    streets: gpd.GeoDataFrame | PathLike,
+    output: PathLike | None = None,
     *,
     seed: int | None = None,
-    options: PlacementOptions | None = None,
+    along_jitter: float | None = None,
+    across_jitter: float | None = None,
+    merge_fraction: float | None = None,
     catalog: str | os.PathLike[str] | None = None,
-) -> gpd.GeoDataFrame:
-    """Stage ``streets place``: read sampled streets, place lights, write a point GeoPackage.
+    options: PlacementOptions | None = None,
+) -> PlaceResult:
+    """Place light systems along the lit streets.
+
+    Stage ``streets place`` (Chuang 2011, Sec. 3.1, Fig. 8); see :func:`place_lights`.
 
     Parameters
     ----------
-    src
-        Output of ``streets sample``.
-    dst
-        Output GeoPackage (layer ``lights``), written atomically.
+    streets
+        Sampled streets (the result of :func:`~nightlights.streets.sample`): a GeoDataFrame
+        or a vector file path. A geographic layer is reprojected to its local UTM zone.
+    output
+        GeoPackage to write (layer ``lights``), atomically; None writes nothing.
     seed
-        Random seed; the same seed gives the same layer.
-    options
-        Grid knobs.
+        Random seed; the same seed gives the same lights.
+    along_jitter
+        Standard deviation of the along-street jitter as a fraction of the spacing [1]
+        (default 0.05).
+    across_jitter
+        Standard deviation of the across-street jitter [m] (default 0.2).
+    merge_fraction
+        Poles of different streets closer than this fraction of the spacing are merged [1]
+        (default 0.5).
     catalog
         Luminaire database folder; every ``system_id`` must exist in it (default: the
         bundled database, when the photometry package provides one).
+    options
+        All grid knobs at once, instead of ``along_jitter``, ``across_jitter`` and
+        ``merge_fraction``.
+
+    Returns
+    -------
+    PlaceResult
+        The lights and the written path (or None).
+
+    Raises
+    ------
+    InputError
+        Both ``options`` and one of the separate knobs are given; a knob is out of range;
+        the streets lack sampled fields or hold bad values; a ``system_id`` is not in the
+        luminaire database.
+    EmptyInputError
+        The layer has no streets.
+    CRSError
+        The layer has no CRS.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> from shapely import LineString
+    >>> from nightlights.streets import place
+    >>> streets = gpd.GeoDataFrame(
+    ...     {
+    ...         "source_id": ["a", "b"],
+    ...         "width": [8.0, 12.0],
+    ...         "lit": [True, True],
+    ...         "arrangement": ["single_sided", "opposite"],
+    ...         "spacing": [30.0, 40.0],
+    ...         "mounting_height": [8.0, 10.0],
+    ...         "system_id": ["street_led_small", "road_led_large"],
+    ...     },
+    ...     geometry=[LineString([(0, 0), (300, 0)]), LineString([(0, 100), (400, 100)])],
+    ...     crs="EPSG:3067",
+    ... )
+    >>> result = place(streets, seed=0, along_jitter=0.0, across_jitter=0.0)
+    >>> result.lights.groupby("street_id").size().to_dict()
+    {'a': 10, 'b': 20}
+    >>> sorted(set(result.lights.loc[result.lights["street_id"] == "b", "side"]))
+    ['left', 'right']
+    >>> result.path is None
+    True
     """
-    streets = read_vector(src)
-    if streets.empty:
-        raise EmptyInputError(f"{src}: the layer has no streets")
-    if streets.crs is None or not streets.crs.is_projected:
-        streets = ensure_projected(streets, source=str(src))
-    lights = place_lights(streets, rng=np.random.default_rng(seed), options=options)
-    _check_system_ids(lights, catalog, source=str(src))
-    write_gpkg(lights, dst, layer="lights", schema=LIGHT_FIELDS)  # type: ignore[arg-type]
-    return lights
+    options = _placement_options(options, along_jitter, across_jitter, merge_fraction)
+    frame, source = read_layer(streets)
+    if frame.empty:
+        raise EmptyInputError(f"{source}: the layer has no streets")
+    if frame.crs is None or not frame.crs.is_projected:
+        frame = ensure_projected(frame, source=source)
+    lights = place_lights(frame, rng=np.random.default_rng(seed), options=options)
+    _check_system_ids(lights, catalog, source=source)
+    path = None
+    if output is not None:
+        path = write_gpkg(lights, output, layer="lights", schema=LIGHT_FIELDS)
+    return PlaceResult(lights, path)
+
+
+def _placement_options(
+    options: PlacementOptions | None,
+    along_jitter: float | None,
+    across_jitter: float | None,
+    merge_fraction: float | None,
+) -> PlacementOptions:
+    """One set of grid knobs from either ``options`` or the separate keywords."""
+    knobs = {
+        "along_jitter": along_jitter,
+        "across_jitter": across_jitter,
+        "merge_fraction": merge_fraction,
+    }
+    given = {name: value for name, value in knobs.items() if value is not None}
+    if options is None:
+        return PlacementOptions(**given)
+    if given:
+        raise InputError(
+            f"placement options given twice: options={options!r} and {sorted(given)}; "
+            "pass either options or the separate keywords"
+        )
+    return options
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import geopandas as gpd
@@ -20,26 +21,30 @@ import pandas as pd
 from bayesnets import BayesNet, load_network, sample_frame
 from bayesnets.errors import BayesNetError
 from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict
+from nightlights._typing import PathLike
 from nightlights.errors import InputError
-from nightlights.io import read_vector, write_gpkg
+from nightlights.io import write_gpkg
+from nightlights.io.vector import FieldType
+from nightlights.streets._layer import read_layer
 from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, observed_field
 
 __all__ = [
     "DEFAULT_CANDIDATES",
     "OUTPUT_SCHEMA",
+    "SampleResult",
     "fill_lighting",
     "lighting_summary",
     "resolve_network",
-    "sample_streets",
+    "sample",
 ]
 
 logger = logging.getLogger(__name__)
 
 #: Fields the sampled layer gets besides the canonical ones.
-EXTRA_FIELDS: dict[str, str] = {"spacing_ratio": "float"}
+EXTRA_FIELDS: dict[str, FieldType] = {"spacing_ratio": "float"}
 
 #: Field types of the sampled layer (besides the input's other fields).
-OUTPUT_SCHEMA: dict[str, str] = {
+OUTPUT_SCHEMA: dict[str, FieldType] = {
     **STREET_FIELDS,
     **{observed_field(name): "bool" for name in STREET_FIELDS},
     **LIGHTING_FIELDS,
@@ -177,33 +182,53 @@ def _as_bool(value: object) -> object:
     return bool(value)
 
 
-def sample_streets(
-    src: str | os.PathLike[str],
-    dst: str | os.PathLike[str],
+@dataclass(frozen=True, eq=False)
+class SampleResult:
+    """What :func:`sample` returns.
+
+    Attributes
+    ----------
+    streets
+        The streets with every street field filled and the lighting fields added (see
+        :func:`fill_lighting`).
+    path
+        The GeoPackage written, or None when no output was asked for.
+    """
+
+    streets: gpd.GeoDataFrame
+    path: Path | None
+
+
+def sample(
+    streets: gpd.GeoDataFrame | PathLike,
+    output: PathLike | None = None,
     *,
-    network: str | os.PathLike[str] | None = None,
+    network: str | os.PathLike[str] | BayesNet | None = None,
     candidates: int = DEFAULT_CANDIDATES,
     seed: int | None = None,
     on_conflict: OnConflict = "error",
     progress: bool = False,
-) -> Path:
-    """Stage ``streets sample``: read normalised streets, fill them, write a GeoPackage.
+) -> SampleResult:
+    """Fill missing street fields and add lighting fields by sampling a Bayesian network.
+
+    Stage ``streets sample`` (Chuang 2011, Sec. 3.3); see :func:`fill_lighting`.
 
     Parameters
     ----------
-    src
-        Output of ``streets normalize``: lines in a projected CRS [m] with the canonical
-        fields, their ``_observed`` flags and ``source_id``.
-    dst
-        Output GeoPackage (layer ``streets``); written atomically, nothing is written on
-        failure.
+    streets
+        Normalised streets (the result of :func:`~nightlights.streets.normalize`): lines
+        in a projected CRS [m] with the canonical fields, their ``_observed`` flags and
+        ``source_id``. A GeoDataFrame or a vector file path.
+    output
+        GeoPackage to write (layer ``streets``), atomically; nothing is written on failure.
+        None writes nothing.
     network
-        Catalogue network name (``europe``, ``north_america``) or network folder; default:
-        the catalogue's default network.
+        Network object, catalogue network name (``europe``, ``north_america``) or network
+        folder; default: the catalogue's default network.
     candidates
         Likelihood-weighting candidates per segment [1].
     seed
-        Random seed; the same seed gives the same output.
+        Random seed; the same seed gives the same streets.
     on_conflict
         ``"error"`` or ``"relax"`` for impossible evidence.
     progress
@@ -211,8 +236,8 @@ def sample_streets(
 
     Returns
     -------
-    pathlib.Path
-        ``dst``.
+    SampleResult
+        The filled streets and the written path (or None).
 
     Raises
     ------
@@ -221,16 +246,39 @@ def sample_streets(
     bayesnets.errors.BayesNetError
         Unknown network name (the message lists the catalogue), impossible evidence, values
         the network cannot map. The message names the input file.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> from shapely import LineString
+    >>> from nightlights.streets import normalize, sample
+    >>> raw = gpd.GeoDataFrame(
+    ...     {"highway": ["primary", "residential", "footway"], "lit": ["yes", "yes", None]},
+    ...     geometry=[
+    ...         LineString([(0, 0), (200, 0)]),
+    ...         LineString([(0, 60), (150, 60)]),
+    ...         LineString([(0, 90), (80, 90)]),
+    ...     ],
+    ...     crs="EPSG:3067",
+    ... )
+    >>> result = sample(normalize(raw).streets, network="europe", seed=1)
+    >>> lit = result.streets
+    >>> list(lit["street_class"]), list(lit["lit_observed"])
+    (['arterial', 'local', 'path'], [True, True, False])
+    >>> bool((lit["spacing"] == lit["spacing_ratio"] * lit["mounting_height"]).all())
+    True
+    >>> result.path is None
+    True
     """
-    streets = read_vector(src)
-    if streets.crs is None or not streets.crs.is_projected:
+    frame, source = read_layer(streets)
+    if frame.crs is None or not frame.crs.is_projected:
         raise InputError(
-            f"{src}: streets must be in a projected CRS [m] (run `nightlights streets "
+            f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
             "normalize` first)"
         )
     try:
         filled = fill_lighting(
-            streets,
+            frame,
             network,
             candidates=candidates,
             rng=np.random.default_rng(seed),
@@ -238,11 +286,14 @@ def sample_streets(
             progress=progress,
         )
     except BayesNetError as exc:
-        raise type(exc)(f"{src}: {exc}") from exc
-    schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
-    if "source_id" in filled:
-        schema["source_id"] = "str"
-    return write_gpkg(filled, dst, layer="streets", schema=schema)  # type: ignore[arg-type]
+        raise type(exc)(f"{source}: {exc}") from exc
+    path = None
+    if output is not None:
+        schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
+        if "source_id" in filled:
+            schema["source_id"] = "str"
+        path = write_gpkg(filled, output, layer="streets", schema=schema)
+    return SampleResult(filled, path)
 
 
 def lighting_summary(streets: pd.DataFrame) -> dict[str, dict[str, int]]:

@@ -1,10 +1,13 @@
 """Canonical street fields shared by the street stages.
 
-``streets normalize`` writes these fields, ``streets sample`` fills the missing ones and
-adds the lighting fields, ``streets place`` reads them.
+:func:`~nightlights.streets.normalize` writes these fields,
+:func:`~nightlights.streets.sample` fills the missing ones and adds the lighting fields,
+:func:`~nightlights.streets.place` reads them.
 """
 
 from __future__ import annotations
+
+from nightlights.io.vector import FieldType
 
 #: Street classes, from fastest to slowest traffic. Municipal schemas and OSM ``highway``
 #: values map onto these (Chuang 2011, Sec. 3.2: "major arterial, minor arterial,
@@ -20,7 +23,7 @@ STREET_CLASSES: tuple[str, ...] = (
 
 #: Street fields written by ``normalize``: name -> field type. Each has a companion
 #: ``<name>_observed`` boolean saying whether the value came from the input.
-STREET_FIELDS: dict[str, str] = {
+STREET_FIELDS: dict[str, FieldType] = {
     "street_class": "str",
     "lanes": "int",
     "width": "float",  # carriageway width [m]
@@ -30,7 +33,7 @@ STREET_FIELDS: dict[str, str] = {
 }
 
 #: Lighting fields added by ``sample``: name -> field type.
-LIGHTING_FIELDS: dict[str, str] = {
+LIGHTING_FIELDS: dict[str, FieldType] = {
     "arrangement": "str",  # one of ARRANGEMENTS
     "mounting_height": "float",  # [m]
     "spacing": "float",  # pole spacing along the street [m]
