@@ -2,7 +2,7 @@
 
 The same model and the same quadrature as the numpy path of
 :func:`nightlights.sky.kernel.sky_luminance` (which stays the reference the tests compare this
-to, STYLE rule 6), written as one loop per view ray so that no temporaries are made and the
+to), written as one loop per view ray so that no temporaries are made and the
 per-ray constants (view direction, source frame, panel ends, the observer leg's closed-form
 terms) are computed once per ray instead of once per node. Rays run in parallel (``prange``).
 
@@ -20,18 +20,16 @@ from numpy.typing import NDArray
 from scipy.special import beta as beta_function
 from scipy.special import erfcx
 
-from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.kernel import _smallest_scale_height
+from nightlights._typing import FloatArray
+from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
-FloatArray = NDArray[np.float64]
-
 _SQRT_PI = math.sqrt(math.pi)
 _EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2}
 
-#: Largest growth of the observer leg's optical depth between two nodes of its table [-].
+#: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
 
 # layout of the float parameter vector passed to the compiled code
@@ -57,7 +55,7 @@ def model_parameters(
     params[_P_CORE] = core_radius
     params[_P_HALF_N] = uplight_exponent / 2.0
     params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
-    params[_P_MIN_H] = _smallest_scale_height(atmosphere)
+    params[_P_MIN_H] = smallest_scale_height(atmosphere)
     flags = np.zeros(4, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EXTINCTION] = int(atmosphere.extinction)
@@ -514,15 +512,15 @@ def luminance_rays(
     source_altitude, observer_altitude
         Altitudes above sea level, shape ``(n,)`` [m].
     atmosphere
-        Atmosphere model [-].
+        Atmosphere model.
     emission
-        Emission model name [-].
+        Emission model name.
     nodes
-        Gauss-Legendre nodes per panel [-].
+        Gauss-Legendre nodes per panel [1].
     core_radius
         Softening radius [m].
     uplight_exponent
-        Exponent of the uplight lobe [-].
+        Exponent of the uplight lobe [1].
 
     Returns
     -------
@@ -574,9 +572,9 @@ def luminance_grid(
     source_altitude, observer_altitude
         Altitudes above sea level [m].
     atmosphere, emission, nodes, core_radius, uplight_exponent
-        As :func:`luminance_rays` [-].
+        As :func:`luminance_rays` [1].
     table_size
-        Nodes of the observer-side table [-].
+        Nodes of the observer-side table [1].
 
     Returns
     -------

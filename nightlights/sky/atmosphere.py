@@ -17,7 +17,9 @@ the Night Sky", ACM TOG 42(6) 219, Sec. 3.2 (two-species exponential atmosphere,
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,10 +35,12 @@ __all__ = [
     "isotropic_phase",
     "rayleigh_optical_depth",
     "rayleigh_phase",
+    "scattering_species",
+    "smallest_scale_height",
 ]
 
 #: Density below exp(-TOP_E_FOLDINGS) of its sea-level value is ignored: the top of the
-#: model atmosphere is this many of the largest scale heights [-].
+#: model atmosphere is this many of the largest scale heights [1].
 TOP_E_FOLDINGS = 16.0
 
 
@@ -57,7 +61,7 @@ def rayleigh_optical_depth(wavelength_nm: ArrayLike = 550.0) -> NDArray[np.float
     Returns
     -------
     numpy.ndarray
-        Optical depth [-].
+        Optical depth [1].
 
     References
     ----------
@@ -89,12 +93,12 @@ def angstrom_turbidity_coefficient(turbidity: ArrayLike) -> NDArray[np.float64]:
     Parameters
     ----------
     turbidity
-        Turbidity T, >= 1 (1 is pure air, 2 a clear sky, 10 haze) [-].
+        Turbidity T, >= 1 (1 is pure air, 2 a clear sky, 10 haze) [1].
 
     Returns
     -------
     numpy.ndarray
-        Angstrom coefficient beta, the aerosol optical depth at 1 um [-].
+        Angstrom coefficient beta, the aerosol optical depth at 1 um [1].
 
     References
     ----------
@@ -117,16 +121,16 @@ def aerosol_optical_depth(
     Parameters
     ----------
     turbidity
-        Turbidity T, >= 1 [-].
+        Turbidity T, >= 1 [1].
     wavelength_nm
         Wavelength [nm].
     angstrom_exponent
-        Angstrom exponent alpha; Preetham uses 1.3 [-].
+        Angstrom exponent alpha; Preetham uses 1.3 [1].
 
     Returns
     -------
     numpy.ndarray
-        Aerosol optical depth [-].
+        Aerosol optical depth [1].
 
     References
     ----------
@@ -145,7 +149,7 @@ def rayleigh_phase(cos_angle: ArrayLike) -> NDArray[np.float64]:
     Parameters
     ----------
     cos_angle
-        Cosine of the scattering angle [-].
+        Cosine of the scattering angle [1].
 
     Returns
     -------
@@ -168,9 +172,9 @@ def henyey_greenstein_phase(cos_angle: ArrayLike, asymmetry: float) -> NDArray[n
     Parameters
     ----------
     cos_angle
-        Cosine of the scattering angle (1 = forward) [-].
+        Cosine of the scattering angle (1 = forward) [1].
     asymmetry
-        Asymmetry parameter g in (-1, 1) [-].
+        Asymmetry parameter g in (-1, 1) [1].
 
     Returns
     -------
@@ -194,7 +198,7 @@ def isotropic_phase(cos_angle: ArrayLike) -> NDArray[np.float64]:
     Parameters
     ----------
     cos_angle
-        Cosine of the scattering angle [-].
+        Cosine of the scattering angle [1].
 
     Returns
     -------
@@ -217,7 +221,7 @@ def exponential_density(altitude: ArrayLike, scale_height: float) -> NDArray[np.
     Returns
     -------
     numpy.ndarray
-        exp(-altitude / H) [-].
+        exp(-altitude / H) [1].
     """
     return np.exp(-np.asarray(altitude, dtype=float) / scale_height)
 
@@ -230,7 +234,7 @@ class Atmosphere:
     ----------
     turbidity
         Turbidity T setting the aerosol amount (Preetham 1999); ignored when
-        ``aerosol_optical_depth`` is given [-].
+        ``aerosol_optical_depth`` is given [1].
     wavelength_nm
         Wavelength of the single band [nm].
     molecular_scale_height
@@ -238,24 +242,24 @@ class Atmosphere:
     aerosol_scale_height
         Scale height of aerosols [m].
     asymmetry
-        Henyey-Greenstein asymmetry g of aerosols; 0 gives isotropic aerosol scattering [-].
+        Henyey-Greenstein asymmetry g of aerosols; 0 gives isotropic aerosol scattering [1].
     earth_radius
         Radius of the spherical Earth [m].
     flat_earth
-        Use a flat Earth (Dobashi 2023) instead of a sphere [-].
+        Use a flat Earth (Dobashi 2023) instead of a sphere.
     extinction
-        Attenuate light on both legs (source to scattering point to observer) [-].
+        Attenuate light on both legs (source to scattering point to observer).
     aerosol_optical_depth
-        Vertical aerosol optical depth at ``wavelength_nm``; overrides ``turbidity`` [-].
+        Vertical aerosol optical depth at ``wavelength_nm``; overrides ``turbidity`` [1].
     rayleigh_optical_depth
         Vertical molecular optical depth; default Bodhaine 1999 at ``wavelength_nm``; 0 removes
-        the molecules [-].
+        the molecules [1].
     angstrom_exponent
-        Angstrom exponent for turbidity to optical depth [-].
+        Angstrom exponent for turbidity to optical depth [1].
     aerosol_albedo
-        Single-scattering albedo of aerosols [-].
+        Single-scattering albedo of aerosols [1].
     molecular_phase
-        ``"rayleigh"`` or ``"isotropic"`` (validation) [-].
+        ``"rayleigh"`` or ``"isotropic"`` (validation).
     """
 
     turbidity: float = 2.0
@@ -296,14 +300,14 @@ class Atmosphere:
 
     @property
     def molecular_optical_depth(self) -> float:
-        """Vertical molecular optical depth from sea level [-]."""
+        """Vertical molecular optical depth from sea level [1]."""
         if self.rayleigh_optical_depth is not None:
             return float(self.rayleigh_optical_depth)
         return float(rayleigh_optical_depth(self.wavelength_nm))
 
     @property
     def aerosol_depth(self) -> float:
-        """Vertical aerosol optical depth from sea level [-]."""
+        """Vertical aerosol optical depth from sea level [1]."""
         if self.aerosol_optical_depth is not None:
             return float(self.aerosol_optical_depth)
         return float(
@@ -359,7 +363,7 @@ class Atmosphere:
         altitude
             Altitude of the scattering point above sea level [m].
         cos_angle
-            Cosine of the scattering angle [-].
+            Cosine of the scattering angle [1].
 
         Returns
         -------
@@ -388,6 +392,45 @@ class Atmosphere:
             )
         return out
 
+    @classmethod
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> Atmosphere:
+        """The atmosphere described by :meth:`parameters` (or a kernel's attributes).
+
+        Parameters
+        ----------
+        parameters
+            Mapping with the field names of :class:`Atmosphere`; extra keys are ignored, missing
+            fields take their defaults, -1 stands for None and integers for booleans.
+
+        Returns
+        -------
+        Atmosphere
+            The atmosphere.
+
+        Examples
+        --------
+        >>> atm = Atmosphere(aerosol_optical_depth=0.3, flat_earth=True)
+        >>> Atmosphere.from_parameters(atm.parameters()) == atm
+        True
+        """
+        values: dict[str, Any] = {}
+        for name, spec in cls.__dataclass_fields__.items():
+            if name not in parameters:
+                continue
+            value = parameters[name]
+            if isinstance(value, np.generic):
+                value = value.item()
+            if spec.default is None:  # optional optical depths: -1 stands for None
+                value = None if float(value) < 0 else float(value)
+            elif isinstance(spec.default, bool):
+                value = bool(value)
+            elif isinstance(spec.default, float):
+                value = float(value)
+            else:
+                value = str(value)
+            values[name] = value
+        return cls(**values)
+
     def parameters(self) -> dict[str, float | int | str]:
         """Every model parameter, as NetCDF-safe attribute values (None -> -1, bool -> int)."""
         out: dict[str, float | int | str] = {}
@@ -401,3 +444,43 @@ class Atmosphere:
         out["molecular_optical_depth_used"] = self.molecular_optical_depth
         out["aerosol_optical_depth_used"] = self.aerosol_depth
         return out
+
+
+def scattering_species(atmosphere: Atmosphere) -> list[tuple[float, float]]:
+    """The species that scatter: (sea-level extinction [m-1], scale height [m]) pairs.
+
+    Parameters
+    ----------
+    atmosphere
+        Atmosphere model.
+
+    Returns
+    -------
+    list of tuple
+        Molecules then aerosols, each only when its extinction is positive.
+    """
+    return [
+        (beta, height)
+        for beta, height in (
+            (atmosphere.molecular_extinction, atmosphere.molecular_scale_height),
+            (atmosphere.aerosol_extinction, atmosphere.aerosol_scale_height),
+        )
+        if beta > 0
+    ]
+
+
+def smallest_scale_height(atmosphere: Atmosphere) -> float:
+    """Smallest scale height of the species that scatter (the molecules' when none does) [m].
+
+    Parameters
+    ----------
+    atmosphere
+        Atmosphere model.
+
+    Returns
+    -------
+    float
+        Scale height [m].
+    """
+    heights = [height for _, height in scattering_species(atmosphere)]
+    return min(heights) if heights else atmosphere.molecular_scale_height

@@ -28,7 +28,7 @@ TRISTIMULUS_WAVELENGTHS: dict[str, float] = {"X": 599.0, "Y": 555.0, "Z": 446.0}
 
 
 def tristimulus_flux_ratios(spectrum: str) -> dict[str, float]:
-    """Flux in each tristimulus band per photopic lumen for a luminaire spectrum [-].
+    """Flux in each tristimulus band per photopic lumen for a luminaire spectrum [1].
 
     Parameters
     ----------

@@ -10,7 +10,9 @@ observer's tangent plane and their local vertical is tilted away from the observ
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+
+from nightlights._typing import FloatArray
 
 __all__ = [
     "altitude",
@@ -18,8 +20,6 @@ __all__ = [
     "source_frame",
     "view_direction",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def view_direction(elevation: ArrayLike, relative_azimuth: ArrayLike) -> FloatArray:
@@ -35,7 +35,7 @@ def view_direction(elevation: ArrayLike, relative_azimuth: ArrayLike) -> FloatAr
     Returns
     -------
     numpy.ndarray
-        Shape ``(..., 3)``, components (x, y, z) [-].
+        Shape ``(..., 3)``, components (x, y, z) [1].
     """
     el = np.radians(np.asarray(elevation, dtype=float))
     az = np.radians(np.asarray(relative_azimuth, dtype=float))
@@ -58,12 +58,12 @@ def source_frame(
     earth_radius
         Earth radius R [m].
     flat_earth
-        Flat Earth: the source sits at (r, 0, h_c) with vertical (0, 0, 1) [-].
+        Flat Earth: the source sits at (r, 0, h_c) with vertical (0, 0, 1).
 
     Returns
     -------
     position, vertical : numpy.ndarray
-        Shapes ``(..., 3)`` [m] and [-].
+        Shapes ``(..., 3)`` [m] and [1].
     """
     r, h = np.broadcast_arrays(
         np.asarray(distance, dtype=float), np.asarray(source_altitude, dtype=float)
@@ -92,7 +92,7 @@ def altitude(points: ArrayLike, *, earth_radius: float, flat_earth: bool) -> Flo
     earth_radius
         Earth radius R [m].
     flat_earth
-        Flat Earth: the altitude is z [-].
+        Flat Earth: the altitude is z.
 
     Returns
     -------
@@ -128,7 +128,7 @@ def ray_exit_distance(
     earth_radius
         Earth radius R [m].
     flat_earth
-        Flat Earth [-].
+        Flat Earth.
 
     Returns
     -------

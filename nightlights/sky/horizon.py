@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 from affine import Affine
-from numpy.typing import NDArray
 from scipy.ndimage import map_coordinates
 
+from nightlights._typing import FloatArray
 from nightlights.errors import InputError
-
-FloatArray = NDArray[np.float64]
 
 #: Mean Earth radius [m].
 EARTH_RADIUS = 6.371e6
@@ -65,9 +63,9 @@ def horizon_elevation(
     n_az
         Azimuth bins centred on ``(j + 0.5) 360 / n_az`` [deg].
     samples_per_bin
-        Rays per azimuth bin; the bin's horizon is the highest [-].
+        Rays per azimuth bin; the bin's horizon is the highest [1].
     n_distances
-        Log-spaced samples along each ray, from one cell to the DEM's far edge [-].
+        Log-spaced samples along each ray, from one cell to the DEM's far edge [1].
 
     Returns
     -------

@@ -29,12 +29,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.special import beta as beta_function
 from scipy.special import erfcx
 
+from nightlights._typing import FloatArray
 from nightlights.errors import InputError
-from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.atmosphere import Atmosphere, scattering_species, smallest_scale_height
 from nightlights.sky.geometry import altitude, ray_exit_distance, source_frame, view_direction
 from nightlights.sky.quadrature import gauss_legendre, tangent_panel_nodes
 
@@ -49,15 +50,13 @@ __all__ = [
     "slant_optical_depth",
 ]
 
-FloatArray = NDArray[np.float64]
-
 #: Emission angular distributions, each normalised to 1 lm emitted into the upper hemisphere.
 EMISSION_MODELS = ("lambertian", "uplight", "isotropic")
 
 #: Line-of-sight integrators of :func:`sky_luminance` (same model and nodes).
 BACKENDS = ("auto", "numba", "numpy")
 
-#: Default exponent n of the direct-uplight lobe sin^n(theta) about the local vertical [-].
+#: Default exponent n of the direct-uplight lobe sin^n(theta) about the local vertical [1].
 UPLIGHT_EXPONENT = 4.0
 
 _DEFAULT_ATMOSPHERE = Atmosphere()
@@ -82,11 +81,11 @@ def emission_intensity(
     Parameters
     ----------
     cos_zenith
-        Cosine of the angle between the emission direction and the local vertical [-].
+        Cosine of the angle between the emission direction and the local vertical [1].
     model
-        One of :data:`EMISSION_MODELS` [-].
+        One of :data:`EMISSION_MODELS`.
     uplight_exponent
-        Exponent n of the uplight lobe [-].
+        Exponent n of the uplight lobe [1].
 
     Returns
     -------
@@ -137,16 +136,16 @@ def slant_optical_depth(
     start_altitude
         Altitude h0 of the lower end above sea level [m].
     cos_zenith
-        Cosine of the path's zenith angle at the lower end, clipped to [0, 1] [-].
+        Cosine of the path's zenith angle at the lower end, clipped to [0, 1] [1].
     length
         Path length L [m].
     atmosphere
-        Atmosphere model [-].
+        Atmosphere model.
 
     Returns
     -------
     numpy.ndarray
-        Optical depth [-].
+        Optical depth [1].
 
     References
     ----------
@@ -158,7 +157,7 @@ def slant_optical_depth(
     big_l = np.asarray(length, dtype=float)
     tau = np.zeros(np.broadcast_shapes(h0.shape, mu.shape, big_l.shape))
     if atmosphere.flat_earth:
-        for beta, height in _species(atmosphere):
+        for beta, height in scattering_species(atmosphere):
             m_l = mu * big_l / height
             safe = np.where(m_l > 1e-12, m_l, 1.0)
             mean = np.where(m_l > 1e-12, -np.expm1(-safe) / safe, 1.0 - 0.5 * m_l)
@@ -167,7 +166,7 @@ def slant_optical_depth(
     # k is floored so that vertical paths (k = 0) take the same branch: erfcx(x) is accurate
     # for huge x and the bracket then reduces to (1 - exp(-m L)) / m
     curvature = np.maximum((1.0 - mu * mu) / (2.0 * (atmosphere.earth_radius + h0)), 1e-30)
-    for beta, height in _species(atmosphere):
+    for beta, height in scattering_species(atmosphere):
         k = curvature / height
         sk = np.sqrt(k)
         x0 = (mu / height) / (2.0 * sk)
@@ -176,17 +175,6 @@ def slant_optical_depth(
         bracket = erfcx(x0) - erfcx(x_end) * ratio
         tau += (beta * 0.5 * math.sqrt(math.pi)) * np.exp(-h0 / height) / sk * bracket
     return tau
-
-
-def _species(atmosphere: Atmosphere) -> list[tuple[float, float]]:
-    return [
-        (beta, height)
-        for beta, height in (
-            (atmosphere.molecular_extinction, atmosphere.molecular_scale_height),
-            (atmosphere.aerosol_extinction, atmosphere.aerosol_scale_height),
-        )
-        if beta > 0
-    ]
 
 
 def optical_depth(
@@ -203,20 +191,20 @@ def optical_depth(
     start, stop
         Points, shape ``(..., 3)`` [m].
     atmosphere
-        Atmosphere model [-].
+        Atmosphere model.
     leg_nodes
-        Gauss-Legendre nodes along the segment (spherical Earth only) [-].
+        Gauss-Legendre nodes along the segment (spherical Earth only) [1].
 
     Returns
     -------
     numpy.ndarray
-        Optical depth [-].
+        Optical depth [1].
     """
     p1 = np.asarray(start, dtype=float)
     p2 = np.asarray(stop, dtype=float)
     seg = p2 - p1
     length = np.sqrt(np.einsum("...i,...i->...", seg, seg))
-    species = _species(atmosphere)
+    species = scattering_species(atmosphere)
     tau = np.zeros(length.shape)
     if not species:
         return tau
@@ -299,23 +287,23 @@ def sky_luminance(
     observer_altitude
         Altitude of the observer above sea level [m].
     atmosphere
-        Atmosphere model [-].
+        Atmosphere model.
     emission
-        Angular distribution of the source, one of :data:`EMISSION_MODELS` [-].
+        Angular distribution of the source, one of :data:`EMISSION_MODELS`.
     nodes
         Gauss-Legendre nodes per panel of the line of sight (three panels: before the closest
-        approach, after it, and past one density scale length) [-].
+        approach, after it, and past one density scale length) [1].
     leg_nodes
         None (default): closed-form leg optical depths (:func:`slant_optical_depth`); an
-        integer: Gauss-Legendre nodes along each leg instead (:func:`optical_depth`, reference) [-].
+        integer: Gauss-Legendre nodes along each leg instead (:func:`optical_depth`, reference) [1].
     core_radius
         Softening radius r0 of the point source [m].
     uplight_exponent
-        Exponent of the uplight lobe (``emission="uplight"``) [-].
+        Exponent of the uplight lobe (``emission="uplight"``) [1].
     backend
         ``"numba"``: compiled loop over rays (:mod:`nightlights.sky._kernel_numba`, same model
         and nodes, ~10x faster); ``"numpy"``: vectorised reference; ``"auto"`` (default):
-        numba unless ``leg_nodes`` is given (leg quadrature is numpy only) [-].
+        numba unless ``leg_nodes`` is given (leg quadrature is numpy only) [1].
 
     Returns
     -------
@@ -324,8 +312,8 @@ def sky_luminance(
 
     References
     ----------
-    Dobashi et al. 2023, Sec. 3.2, Eqs. 1-2 (single scattering, split at closest approach);
-    DESIGN.md, Physics: Skyglow (substitution u = u_c + d tan t).
+    Dobashi et al. 2023, Sec. 3.2, Eqs. 1-2 (single scattering, split at closest approach;
+    here integrated after the substitution u = u_c + d tan t).
 
     Examples
     --------
@@ -408,7 +396,7 @@ def sky_luminance_grid(
     source_altitude, observer_altitude
         Altitudes above sea level [m].
     atmosphere, emission, nodes, leg_nodes, core_radius, uplight_exponent, backend
-        As :func:`sky_luminance` [-].
+        As :func:`sky_luminance`.
 
     Returns
     -------
@@ -451,18 +439,6 @@ def sky_luminance_grid(
         observer_altitude=float(observer_altitude),
         **kwargs,  # type: ignore[arg-type]
     )
-
-
-def _smallest_scale_height(atmosphere: Atmosphere) -> float:
-    heights = [
-        h
-        for h, beta in (
-            (atmosphere.molecular_scale_height, atmosphere.molecular_extinction),
-            (atmosphere.aerosol_scale_height, atmosphere.aerosol_extinction),
-        )
-        if beta > 0
-    ]
-    return min(heights) if heights else atmosphere.molecular_scale_height
 
 
 def _luminance_chunk(
@@ -509,7 +485,7 @@ def _luminance_chunk(
     # aerosol-like scale length H / sin(el) past the closest approach): beyond it the
     # 1 / s^2 substitution alone leaves the density decay in a thin sliver of t
     sin_el = np.maximum(np.sin(np.radians(el)), 1e-3)
-    length = _smallest_scale_height(atmosphere) / sin_el
+    length = smallest_scale_height(atmosphere) / sin_el
     knee = np.clip(split + np.maximum(length, d_eff), split, stop)
     panels = ((start, split, nodes), (split, knee, nodes), (knee, stop, nodes))
     total = np.zeros(el.shape)
@@ -602,13 +578,13 @@ def line_of_sight_integrand(
     source_altitude, observer_altitude
         Altitudes above sea level [m].
     atmosphere
-        Atmosphere model [-].
+        Atmosphere model.
     emission
-        One of :data:`EMISSION_MODELS` [-].
+        One of :data:`EMISSION_MODELS`.
     core_radius
         Softening radius [m].
     uplight_exponent
-        Exponent of the uplight lobe [-].
+        Exponent of the uplight lobe [1].
 
     Returns
     -------

@@ -23,11 +23,11 @@ import xarray as xr
 from affine import Affine
 from numpy.typing import NDArray
 
+from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.polar import PolarMap
 
-FloatArray = NDArray[np.float64]
 MODES = ("pca", "exact", "naive")
 
 
@@ -42,7 +42,7 @@ class KernelSlice:
     coefficient
         ``(bands, n_r, n_components)`` PCA coefficients [cd m-2 lm-1].
     basis_fft
-        ``(n_components, n_el, n_freq)`` complex rfft of the bases over azimuth [-].
+        ``(n_components, n_el, n_freq)`` complex rfft of the bases over azimuth [1].
     distance_edges
         ``(n_r + 1,)`` [m].
     elevation
@@ -167,7 +167,7 @@ def kernel_levels(kernel: xr.Dataset, *, observer_altitude: float) -> list[Kerne
     Parameters
     ----------
     kernel
-        Kernel dataset [-].
+        Kernel dataset.
     observer_altitude
         Observer altitude [m] (interpolated between observer levels as in
         :func:`kernel_slice`).
@@ -237,7 +237,7 @@ def panorama_pca(
     tables
         Kernel slice, or one per level (:func:`kernel_levels`).
     components
-        Use only the first ``components`` bases (default: all stored) [-].
+        Use only the first ``components`` bases (default: all stored) [1].
 
     Returns
     -------
@@ -317,7 +317,7 @@ def panorama_naive(
     elevation
         Panorama elevation pixel centres [deg].
     n_az
-        Azimuth columns [-].
+        Azimuth columns [1].
     observer_altitude
         [m].
     source_altitude
@@ -325,7 +325,7 @@ def panorama_naive(
     atmosphere
         :class:`nightlights.sky.atmosphere.Atmosphere` (default: its defaults).
     nodes
-        Gauss-Legendre nodes per ray half [-].
+        Gauss-Legendre nodes per ray half [1].
 
     Returns
     -------

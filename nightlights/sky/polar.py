@@ -15,9 +15,8 @@ import numpy as np
 from affine import Affine
 from numpy.typing import ArrayLike, NDArray
 
+from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -65,9 +64,9 @@ def supersampling(
     distance
         Distance of the cell centre from the observer [m].
     n_az
-        Azimuth bins [-].
+        Azimuth bins [1].
     max_samples
-        Largest k [-].
+        Largest k [1].
     """
     bin_width = 2.0 * np.pi / n_az
     needed = np.ceil(2.0 * cell_size / (np.maximum(distance, 1e-9) * bin_width))
@@ -98,12 +97,12 @@ def polar_map(
     distance_edges
         Distance bin edges [m], increasing.
     n_az
-        Azimuth bins [-].
+        Azimuth bins [1].
     max_samples
-        Largest number of sub-points per cell side [-].
+        Largest number of sub-points per cell side [1].
     warn
         Warn (:class:`~nightlights.errors.DataQualityWarning`) when flux lies beyond the last
-        distance edge [-].
+        distance edge [1].
 
     Returns
     -------
@@ -190,7 +189,7 @@ def source_level_weights(altitude: ArrayLike, levels: ArrayLike) -> FloatArray:
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_levels, *altitude.shape)``; sums to 1 over the first axis [-].
+        Shape ``(n_levels, *altitude.shape)``; sums to 1 over the first axis [1].
     """
     h = np.asarray(altitude, dtype=float)
     lv = np.asarray(levels, dtype=float).ravel()

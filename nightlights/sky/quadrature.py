@@ -13,11 +13,11 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+
+from nightlights._typing import FloatArray
 
 __all__ = ["gauss_legendre", "tangent_panel_nodes"]
-
-FloatArray = NDArray[np.float64]
 
 
 @lru_cache(maxsize=64)
@@ -34,12 +34,12 @@ def gauss_legendre(n: int) -> tuple[FloatArray, FloatArray]:
     Parameters
     ----------
     n
-        Number of nodes, >= 1 [-].
+        Number of nodes, >= 1 [1].
 
     Returns
     -------
     nodes, weights : numpy.ndarray
-        Shape ``(n,)`` [-].
+        Shape ``(n,)`` [1].
     """
     if n < 1:
         raise ValueError(f"number of Gauss nodes {n!r}; expected >= 1")
@@ -60,7 +60,7 @@ def tangent_panel_nodes(
     scale
         Miss distance d > 0 [m].
     n
-        Gauss-Legendre nodes in t [-].
+        Gauss-Legendre nodes in t [1].
 
     Returns
     -------
@@ -70,7 +70,7 @@ def tangent_panel_nodes(
 
     References
     ----------
-    DESIGN.md, Physics: Skyglow (peak-flattening substitution); Dobashi et al. 2023, Sec. 3.2.
+    Dobashi et al. 2023, Sec. 3.2 (the integrand, here with a peak-flattening substitution).
     """
     x, w = gauss_legendre(n)
     a = np.asarray(start, dtype=float)[..., None]
