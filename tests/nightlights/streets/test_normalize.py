@@ -192,7 +192,9 @@ def test_unknown_mapping_name(tmp_path) -> None:
 
 def test_stage_reads_osm_xml_and_writes_projected_gpkg(data_dir, tmp_path) -> None:
     out = tmp_path / "streets.gpkg"
-    report = normalize(data_dir / "streets" / "berlin-siegessaeule.osm.gz", out, mapping="osm")
+    report = normalize(
+        data_dir / "streets" / "berlin-siegessaeule.osm.gz", out, mapping="osm"
+    ).report
     frame = gpd.read_file(out)
     assert len(frame) == report.output_features > 50
     assert frame.crs.to_epsg() == 32633  # UTM 33N for Berlin
@@ -220,7 +222,7 @@ def test_stage_without_crs_is_an_error_and_writes_nothing(tmp_path) -> None:
     with pytest.raises(CRSError, match="no coordinate reference system"):
         normalize(src, out)
     assert not out.exists()
-    normalize(src, out, assume_crs="EPSG:3067")
+    normalize(src, out, crs="EPSG:3067")
     assert gpd.read_file(out).crs.to_epsg() == 3067
 
 
