@@ -26,6 +26,7 @@ import json
 import os
 import platform
 import statistics
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -146,12 +147,19 @@ def _version(package: str) -> str | None:
 
 
 def _blas() -> list[dict[str, Any]]:
+    import numpy  # noqa: F401  (loads the BLAS that threadpoolctl reports)
+
     try:
         from threadpoolctl import threadpool_info
     except ImportError:
         return []
     keys = ("user_api", "internal_api", "version", "num_threads", "threading_layer")
     return [{key: pool.get(key) for key in keys} for pool in threadpool_info()]
+
+
+def _numba_threads() -> int | None:
+    numba = sys.modules.get("numba")  # only where the benchmark uses it: importing is slow
+    return None if numba is None else int(numba.config.NUMBA_NUM_THREADS)
 
 
 def machine() -> dict[str, Any]:
@@ -167,6 +175,7 @@ def machine() -> dict[str, Any]:
         "python": platform.python_version(),
         "numpy": _version("numpy"),
         "numba": _version("numba"),
+        "numba_threads": _numba_threads(),
         "blas": _blas(),
     }
 
