@@ -2,24 +2,62 @@
 
 from __future__ import annotations
 
-import click
-from rich.console import Console
+from pathlib import Path
 
-from nightlights.demo import run_demo
+import click
+
+from cli.options import (
+    SEED_HELP,
+    OutputExistsError,
+    deprecated_option,
+    files_argument,
+    one_of,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+)
+
+DEFAULT_DEMO_FOLDER = "nightlights-demo"
 
 
 @click.command("demo")
-@click.option(
+@files_argument("[OUTPUT]")
+@output_option
+@deprecated_option(
     "--out",
-    "out_dir",
-    default="nightlights-demo",
-    show_default=True,
+    "old_out",
     type=click.Path(file_okay=False),
-    help="Output folder.",
+    replacement="OUTPUT or -o/--output",
 )
-@click.option("--seed", default=2011, show_default=True, help="Random seed.")
-def demo(out_dir: str, seed: int) -> None:
-    """Run every stage on the bundled Helsinki extract (OpenStreetMap, ODbL)."""
+@overwrite_option
+@click.option("--seed", type=int, default=2011, show_default=True, help=SEED_HELP)
+@click.pass_context
+def demo(
+    ctx: click.Context,
+    files: tuple[str, ...],
+    output: str | None,
+    old_out: str | None,
+    overwrite: bool,
+    seed: int,
+) -> None:
+    """Run every stage on the bundled Helsinki extract (OpenStreetMap, ODbL); write the
+    products to the folder OUTPUT (default: nightlights-demo).
+
+    A folder that is not empty is refused unless --overwrite is given; then the demo's
+    files in it are replaced and other files are left alone.
+    """
+    output = one_of(ctx, **{"-o/--output": output, "--out": old_out})
+    if output is None and not files:
+        output = DEFAULT_DEMO_FOLDER
+    _, out_dir = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=True)
+    folder = Path(out_dir)
+    if not overwrite and folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise OutputExistsError(out_dir)
+
+    from rich.console import Console
+
+    from nightlights.demo import run_demo
+
     console = Console(stderr=True)
     with console.status("running the Helsinki demo ..."):
         result = run_demo(out_dir, seed=seed)

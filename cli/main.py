@@ -1,8 +1,9 @@
 """Entry point of the ``nightlights`` command.
 
-Each command group lives in its own module and is listed in :data:`COMMAND_MODULES`; this
-module only builds the group, sets up logging, and turns domain errors into one-line
-messages with a non-zero exit status.
+One module per command, named after it, each exposing ``commands`` (click commands or groups);
+this module only builds the group, sets up logging, and turns domain errors into one-line
+messages with exit status 1. The command modules import only click at import time, so that
+``nightlights --help`` does not load the library.
 """
 
 from __future__ import annotations
@@ -15,22 +16,27 @@ from typing import Any
 
 import click
 
-from bayesnets.errors import BayesNetError
-from ies.errors import PhotometryError
 from nightlights import __version__
-from nightlights.errors import NightlightsError
 
 #: Modules that each expose ``commands``: a list of click commands or groups.
 COMMAND_MODULES = (
     "cli.streets",
-    "cli.demo",
-    "cli.photometry",
-    "cli.rasters",
-    "cli.sky_kernel",
+    "cli.irradiance",
+    "cli.emission",
+    "cli.kernel",
     "cli.skyglow",
+    "cli.photometry",
+    "cli.demo",
 )
 
-DOMAIN_ERRORS = (NightlightsError, BayesNetError, PhotometryError)
+
+def domain_errors() -> tuple[type[Exception], ...]:
+    """The exception roots of the project's packages (reported in one line)."""
+    from bayesnets.errors import BayesNetError
+    from ies.errors import PhotometryError
+    from nightlights.errors import NightlightsError
+
+    return (NightlightsError, BayesNetError, PhotometryError)
 
 
 class NightlightsGroup(click.Group):
@@ -39,8 +45,10 @@ class NightlightsGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except DOMAIN_ERRORS as exc:
-            raise click.ClickException(f"{type(exc).__name__}: {exc}") from exc
+        except Exception as exc:
+            if isinstance(exc, domain_errors()):
+                raise click.ClickException(f"{type(exc).__name__}: {exc}") from exc
+            raise
 
 
 @click.group(cls=NightlightsGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -48,7 +56,11 @@ class NightlightsGroup(click.Group):
 @click.option("-v", "--verbose", count=True, help="More detail (repeat for debug).")
 @click.option("-q", "--quiet", is_flag=True, help="Only errors.")
 def cli(verbose: int, quiet: bool) -> None:
-    """Night-time lighting: streetlights, irradiance, emission and skyglow."""
+    """Night-time lighting: streetlights, irradiance, emission and skyglow.
+
+    Commands that write a product take INPUT... OUTPUT (or -o/--output OUTPUT) and refuse to
+    replace an existing output unless --overwrite is given.
+    """
     level = (
         logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     )

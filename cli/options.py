@@ -1,15 +1,232 @@
-"""Options shared by several commands."""
+"""Options, arguments and helpers shared by the commands, in the manner of rasterio's ``rio``.
+
+Every command that writes a product takes its paths as positional ``INPUT... OUTPUT``; the
+output may be given with ``-o/--output`` instead, and then every positional path is an input.
+An existing output is never replaced unless ``--overwrite`` is given.
+
+This module imports only click, so that ``nightlights --help`` stays fast: the choices and
+defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they
+are equal) instead of importing it.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
 import click
 
-seed_option = click.option(
-    "--seed", type=int, default=None, help="Random seed; the same seed gives the same output."
+F = TypeVar("F", bound=Callable[..., Any])
+
+# --- mirrors of library constants (checked by tests/cli/test_options.py) --------------------
+#: nightlights.sky.panorama.MODES
+SKYGLOW_MODES = ("pca", "exact", "naive")
+#: nightlights.sky.render.PROJECTIONS
+PROJECTIONS = ("equirectangular", "fisheye")
+#: nightlights.sky.kernel.BACKENDS
+KERNEL_BACKENDS = ("auto", "numba", "numpy")
+#: nightlights.ground.upward.DEFAULT_VIIRS_SPECTRUM
+DEFAULT_VIIRS_SPECTRUM = "LED_4000K"
+#: nightlights.ground.area_lights.AreaLightOptions.height [m]
+DEFAULT_AREA_HEIGHT = 8.0
+#: nightlights.streets.place.PlacementOptions.along_jitter [1]
+DEFAULT_ALONG_JITTER = 0.05
+#: nightlights.streets.place.PlacementOptions.across_jitter [m]
+DEFAULT_ACROSS_JITTER = 0.2
+#: nightlights.streets.place.PlacementOptions.merge_fraction [1]
+DEFAULT_MERGE_FRACTION = 0.5
+#: nightlights.streets.sample.DEFAULT_CANDIDATES
+DEFAULT_CANDIDATES = 128
+#: nightlights.streets.normalize.builtin_mappings()
+BUILTIN_MAPPINGS = ("municipal", "osm")
+#: bayesnets.catalog_names() and bayesnets.default_network_name()
+NETWORK_CATALOG = ("europe", "north_america")
+DEFAULT_NETWORK = "europe"
+
+
+class OutputExistsError(click.ClickException):
+    """An output exists and ``--overwrite`` was not given (exit status 1)."""
+
+    def __init__(self, path: str) -> None:
+        super().__init__(f"{path}: exists; give --overwrite to replace it")
+
+
+# --- positional INPUT... OUTPUT, -o/--output, --overwrite -------------------------------------
+
+
+def files_argument(metavar: str) -> Callable[[F], F]:
+    """Positional paths ``INPUT... OUTPUT`` (the output may come from ``-o/--output``)."""
+    return click.argument("files", nargs=-1, type=click.Path(), metavar=metavar)
+
+
+output_option = click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(),
+    help="Output path (an alternative to the last positional path; then every positional "
+    "path is an input).",
 )
 overwrite_option = click.option(
-    "--overwrite/--no-overwrite", default=True, show_default=True, help="Replace existing outputs."
+    "--overwrite", is_flag=True, default=False, help="Replace an existing output."
 )
+
+
+def resolve_inout(
+    files: Sequence[str],
+    output: str | None,
+    *,
+    inputs: int | tuple[int, int],
+    usage: str,
+    overwrite: bool,
+    existing_inputs: bool = True,
+) -> tuple[list[str], str]:
+    """Split positional ``files`` and ``-o/--output`` into inputs and the output.
+
+    Parameters
+    ----------
+    files
+        Positional paths: inputs then the output, or only inputs when ``output`` is given.
+    output
+        The ``-o/--output`` value, or None.
+    inputs
+        Number of inputs expected, or ``(fewest, most)``.
+    usage
+        The positional paths as the help shows them, for the error message.
+    overwrite
+        Whether an existing output may be replaced.
+    existing_inputs
+        Refuse inputs that do not exist (usage error, exit status 2).
+
+    Returns
+    -------
+    tuple of (list of str, str)
+        The input paths and the output path.
+
+    Raises
+    ------
+    click.UsageError
+        Wrong number of paths, or a missing input.
+    OutputExistsError
+        The output exists and ``overwrite`` is False.
+    """
+    paths = list(files)
+    if output is None:
+        if not paths:
+            raise click.UsageError(f"missing OUTPUT; expected {usage} (or -o/--output OUTPUT)")
+        output = paths.pop()
+    fewest, most = (inputs, inputs) if isinstance(inputs, int) else inputs
+    if not fewest <= len(paths) <= most:
+        given = ", ".join(paths) if paths else "none"
+        raise click.UsageError(f"expected {usage}; inputs given: {given}")
+    if existing_inputs:
+        for path in paths:
+            if not Path(path).exists():
+                raise click.UsageError(f"input {path!r} does not exist")
+    check_outputs([output], overwrite=overwrite)
+    return paths, output
+
+
+def check_outputs(paths: Sequence[str | None], *, overwrite: bool) -> None:
+    """Refuse the first path that exists unless ``overwrite``; None entries are skipped."""
+    if overwrite:
+        return
+    for path in paths:
+        if path is not None and Path(path).exists():
+            raise OutputExistsError(path)
+
+
+# --- deprecated spellings -----------------------------------------------------------------------
+
+
+def warn_deprecated(ctx: click.Context, message: str) -> None:
+    """Print a one-line deprecation warning on stderr (silenced by ``nightlights -q``)."""
+    if ctx.find_root().params.get("quiet"):
+        return
+    click.echo(f"DeprecationWarning: {message}", err=True)
+
+
+class DeprecatedOption(click.Option):
+    """A hidden option kept for one release; using it prints a warning naming ``replacement``.
+
+    ``replacement`` is the spelling to use instead; the command reference lists both.
+    """
+
+    def __init__(self, *args: Any, replacement: str, **kwargs: Any) -> None:
+        kwargs.setdefault("hidden", True)
+        super().__init__(*args, **kwargs)
+        self.replacement = replacement
+
+    def handle_parse_result(
+        self, ctx: click.Context, opts: Any, args: list[str]
+    ) -> tuple[Any, list[str]]:
+        if self.name in opts:
+            warn_deprecated(ctx, f"{self.opts[0]} is deprecated; use {self.replacement}.")
+        return super().handle_parse_result(ctx, opts, args)
+
+
+def deprecated_option(*decls: str, replacement: str, **kwargs: Any) -> Callable[[F], F]:
+    """A :class:`DeprecatedOption` decorator."""
+    return click.option(*decls, cls=DeprecatedOption, replacement=replacement, **kwargs)
+
+
+class DefaultCommandGroup(click.Group):
+    """A group that runs ``default_command`` when the first argument names no subcommand.
+
+    It also rewrites deprecated spellings of the group (``deprecated_spellings``: old option
+    -> subcommand that replaces it, the option's value becoming the subcommand's first path).
+    """
+
+    def __init__(
+        self,
+        *args: Any,
+        default_command: str,
+        deprecated_spellings: dict[str, str] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(*args, **kwargs)
+        self.default_command = default_command
+        self.deprecated_spellings = dict(deprecated_spellings or {})
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        args = self._rewrite_deprecated(ctx, list(args))
+        if args and args[0] not in self.commands and args[0] not in ctx.help_option_names:
+            args.insert(0, self.default_command)
+        return super().parse_args(ctx, args)
+
+    def _rewrite_deprecated(self, ctx: click.Context, args: list[str]) -> list[str]:
+        for old, command in self.deprecated_spellings.items():
+            for i, arg in enumerate(args):
+                if arg == "--":
+                    break
+                if arg == old and i + 1 < len(args):
+                    value, rest = args[i + 1], args[:i] + args[i + 2 :]
+                elif arg.startswith(old + "="):
+                    value, rest = arg[len(old) + 1 :], args[:i] + args[i + 1 :]
+                else:
+                    continue
+                warn_deprecated(
+                    ctx,
+                    f"{ctx.command_path} {old} INPUT OUTPUT is deprecated; use "
+                    f"{ctx.command_path} {command} INPUT OUTPUT.",
+                )
+                return [command, value, *rest]
+        return args
+
+
+def one_of(ctx: click.Context, **values: Any) -> Any:
+    """The one value given among ``values`` (keyword = option as typed); both given: error."""
+    given = {name: value for name, value in values.items() if value is not None}
+    if len(given) > 1:
+        raise click.UsageError(f"give only one of {' and '.join(given)}", ctx)
+    return next(iter(given.values()), None)
+
+
+# --- options of several commands --------------------------------------------------------------
+
+SEED_HELP = "Random seed; the same seed gives the same output."
+seed_option = click.option("--seed", type=int, default=None, help=SEED_HELP)
 scheduler_option = click.option(
     "--scheduler",
     default=None,
@@ -25,3 +242,20 @@ catalog_option = click.option(
 skip_unknown_option = click.option(
     "--skip-unknown", is_flag=True, help="Drop lights with unknown system ids (with a warning)."
 )
+crs_option = click.option(
+    "--crs", default=None, metavar="CRS", help="CRS of an input that has none (e.g. EPSG:3067)."
+)
+target_crs_option = click.option(
+    "--target-crs",
+    default=None,
+    metavar="CRS",
+    help="Projected output CRS in metres (default: the input's if projected, else its local "
+    "UTM zone).",
+)
+dem_option = click.option(
+    "--dem",
+    default=None,
+    type=click.Path(exists=True, dir_okay=False),
+    help="Terrain heights above sea level [m] (raster).",
+)
+resolution_option = click.option("--resolution", type=float, default=None, help="Pixel size [m].")

@@ -6,12 +6,8 @@ import json
 import warnings
 
 import click
-from rich.console import Console
-from rich.table import Table
 
-from ies import read_photometry
-from ies.errors import PhotometryWarning
-from ies.plot import write_polar_plot
+from cli.options import check_outputs, overwrite_option
 
 
 @click.group()
@@ -36,8 +32,16 @@ def photometry() -> None:
     show_default=True,
     help="C-plane facing the street, for the BUG front/back split [deg].",
 )
-def info_command(file: str, as_json: bool, plot_path: str | None, street_azimuth: float) -> None:
+@overwrite_option
+def info_command(
+    file: str, as_json: bool, plot_path: str | None, street_azimuth: float, overwrite: bool
+) -> None:
     """Summarise photometric FILE: grid, declared and integrated flux, ULOR, BUG, warnings."""
+    from ies import read_photometry
+    from ies.errors import PhotometryWarning
+    from ies.plot import write_polar_plot
+
+    check_outputs([plot_path], overwrite=overwrite)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhotometryWarning)  # kept in .warnings, printed below
         photometry = read_photometry(file)
@@ -62,6 +66,9 @@ def _lumens(value: object) -> str:
 
 def print_summary(summary: dict[str, object]) -> None:
     """Print a photometry summary as a table (stdout)."""
+    from rich.console import Console
+    from rich.table import Table
+
     console = Console()
     grid = summary["grid"]
     assert isinstance(grid, dict)

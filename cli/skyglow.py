@@ -3,23 +3,36 @@
 from __future__ import annotations
 
 import click
-from rich.console import Console
 
-from nightlights.sky.panorama import MODES
-from nightlights.sky.render import PROJECTIONS
-from nightlights.sky.stage import skyglow as skyglow_stage
+from cli.options import (
+    PROJECTIONS,
+    SKYGLOW_MODES,
+    check_outputs,
+    deprecated_option,
+    files_argument,
+    one_of,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+)
 
 
-def _pair(text: str) -> tuple[float, float]:
+def parse_pair(text: str) -> tuple[float, float]:
+    """``X,Y`` -> two floats."""
     try:
         x, y = (float(v) for v in text.split(","))
     except ValueError:
-        raise click.BadParameter(f"{text!r}; expected X,Y") from None
+        raise click.BadParameter(f"{text!r}; expected X,Y", param_hint="--observer") from None
     return x, y
 
 
 @click.command("skyglow")
-@click.argument("emission", type=click.Path(exists=True, dir_okay=False))
+@files_argument("EMISSION OUTPUT")
+@output_option
+@deprecated_option(
+    "--out", "old_out", type=click.Path(dir_okay=False), replacement="OUTPUT or -o/--output"
+)
+@overwrite_option
 @click.option("--observer", required=True, help="Observer X,Y (in --observer-crs).")
 @click.option("--observer-crs", default=None, help="CRS of --observer (default: the raster's).")
 @click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
@@ -30,31 +43,32 @@ def _pair(text: str) -> tuple[float, float]:
     default=None,
     help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.",
 )
-@click.option("--mode", type=click.Choice(MODES), default="pca", show_default=True)
-@click.option("--components", type=int, default=None, help="PCA bases to use (default: all).")
+@click.option("--mode", type=click.Choice(SKYGLOW_MODES), default="pca", show_default=True)
 @click.option(
-    "--out",
-    "out_nc",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Output panorama NetCDF.",
+    "--components",
+    type=int,
+    default=None,
+    help="PCA bases to use at run time, the first of those the kernel stores (default: all).",
 )
 @click.option("--png", default=None, type=click.Path(dir_okay=False), help="False-colour PNG.")
 @click.option(
     "--projection", type=click.Choice(PROJECTIONS), default="equirectangular", show_default=True
 )
 @click.option(
-    "--polar-out",
+    "--polar-output",
     default=None,
     type=click.Path(dir_okay=False),
     help="Write the observer's polar flux map (NetCDF).",
+)
+@deprecated_option(
+    "--polar-out", "old_polar_out", type=click.Path(dir_okay=False), replacement="--polar-output"
 )
 @click.option(
     "--dem",
     type=click.Path(exists=True, dir_okay=False),
     default=None,
-    help="Terrain heights above sea level [m]: observer altitude, each lit cell's own source "
-    "altitude, horizon mask.",
+    help="Terrain heights above sea level [m] (raster): observer altitude, each lit cell's own "
+    "source altitude, horizon mask.",
 )
 @click.option(
     "--bands",
@@ -71,8 +85,19 @@ def _pair(text: str) -> tuple[float, float]:
 )
 @click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns.")
 @click.option("--n-elevation", default=64, show_default=True, help="Panorama rows.")
+@click.option(
+    "--n-distance",
+    default=64,
+    show_default=True,
+    help="Distance bins of the scene kernel built when --kernel is not given.",
+)
+@click.pass_context
 def skyglow(
-    emission: str,
+    ctx: click.Context,
+    files: tuple[str, ...],
+    output: str | None,
+    old_out: str | None,
+    overwrite: bool,
     observer: str,
     observer_crs: str | None,
     observer_height: float,
@@ -80,21 +105,32 @@ def skyglow(
     kernel: str | None,
     mode: str,
     components: int | None,
-    out_nc: str,
     png: str | None,
     projection: str,
-    polar_out: str | None,
+    polar_output: str | None,
+    old_polar_out: str | None,
     dem: str | None,
     bands: str,
     spectrum: str,
     n_azimuth: int,
     n_elevation: int,
+    n_distance: int,
 ) -> None:
-    """Skyglow panorama (luminance, mag arcsec-2) of EMISSION [lm m-2] for an observer."""
-    result = skyglow_stage(
+    """Skyglow panorama (luminance, mag arcsec-2) of EMISSION [lm m-2] for an observer;
+    write OUTPUT (NetCDF)."""
+    import nightlights as nl
+
+    observer_xy = parse_pair(observer)
+    output = one_of(ctx, **{"-o/--output": output, "--out": old_out})
+    polar_output = one_of(ctx, **{"--polar-output": polar_output, "--polar-out": old_polar_out})
+    (emission,), out = resolve_inout(
+        files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
+    )
+    check_outputs([png, polar_output], overwrite=overwrite)
+    result = nl.skyglow(
         emission,
-        out_nc,
-        observer=_pair(observer),
+        out,
+        observer=observer_xy,
         observer_crs=observer_crs,
         observer_height=observer_height,
         turbidity=turbidity,
@@ -103,19 +139,21 @@ def skyglow(
         components=components,
         png=png,
         projection=projection,
-        polar_out=polar_out,
-        n_el=n_elevation,
-        n_az=n_azimuth,
+        polar_output=polar_output,
         dem=dem,
         bands=bands,
         spectrum=spectrum,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
     )
-    console = Console(stderr=True)
-    console.print(
+    from rich.console import Console
+
+    Console(stderr=True).print(
         f"zenith: {result.zenith_luminance:.3g} cd m-2 = "
         f"{result.zenith_magnitude:.2f} mag arcsec-2 (artificial skyglow only), "
         f"Bortle class {result.bortle}; panorama {1000 * result.seconds:.1f} ms ({mode}) -> "
-        f"{out_nc}",
+        f"{out}",
         soft_wrap=True,
     )
 

@@ -1,18 +1,42 @@
-"""``nightlights streets``: normalise street layers, fill lighting properties, place poles."""
+"""``nightlights streets``: street layers to streetlight layouts (Chuang 2011, Sec. 3).
+
+``normalize`` maps a street layer's fields onto the canonical ones, ``sample`` fills the
+missing street and lighting fields from a Bayesian network, ``fit`` estimates such a network
+from streets whose lighting is known, and ``place`` puts light systems along the streets.
+"""
 
 from __future__ import annotations
 
 from collections import Counter
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
-from rich.console import Console
-from rich.table import Table
 
-from cli.options import catalog_option, seed_option
-from cli.streets_sample import commands as sample_commands
-from nightlights.streets.normalize import NormalizeReport, builtin_mappings, normalize
-from nightlights.streets.place import PlacementOptions, place
-from nightlights.streets.schema import STREET_FIELDS
+from cli.options import (
+    BUILTIN_MAPPINGS,
+    DEFAULT_ACROSS_JITTER,
+    DEFAULT_ALONG_JITTER,
+    DEFAULT_CANDIDATES,
+    DEFAULT_MERGE_FRACTION,
+    DEFAULT_NETWORK,
+    NETWORK_CATALOG,
+    catalog_option,
+    crs_option,
+    files_argument,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+    seed_option,
+    target_crs_option,
+)
+
+if TYPE_CHECKING:
+    from nightlights.streets.normalize import NormalizeReport
+
+_NETWORK_HELP = (
+    f"Catalogue network ({', '.join(NETWORK_CATALOG)}; default {DEFAULT_NETWORK}) "
+    "or a network folder."
+)
 
 
 @click.group()
@@ -21,34 +45,49 @@ def streets() -> None:
 
 
 @streets.command("normalize")
-@click.argument("src", type=click.Path(dir_okay=False))
-@click.argument("dst", type=click.Path(dir_okay=False))
+@files_argument("INPUT OUTPUT")
+@output_option
+@overwrite_option
 @click.option(
     "--mapping",
     default="osm",
     show_default=True,
-    help=f"Built-in mapping ({', '.join(builtin_mappings())}) or a TOML file.",
+    help=f"Built-in mapping ({', '.join(BUILTIN_MAPPINGS)}) or a TOML file.",
 )
 @click.option("--layer", default=None, help="Input layer (default: first; 'lines' for OSM).")
-@click.option("--crs", "assume_crs", default=None, help="CRS of an input that has none.")
-@click.option("--target-crs", default=None, help="Projected output CRS (default: local UTM).")
+@crs_option
+@target_crs_option
 def normalize_command(
-    src: str,
-    dst: str,
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
     mapping: str,
     layer: str | None,
-    assume_crs: str | None,
+    crs: str | None,
     target_crs: str | None,
 ) -> None:
-    """Map SRC's street fields onto the canonical fields; write DST (GeoPackage)."""
-    report = normalize(
-        src, dst, mapping=mapping, layer=layer, assume_crs=assume_crs, target_crs=target_crs
+    """Map INPUT's street fields onto the canonical fields; write OUTPUT (GeoPackage)."""
+    import nightlights as nl
+
+    (src,), dst = resolve_inout(
+        files,
+        output,
+        inputs=1,
+        usage="INPUT OUTPUT",
+        overwrite=overwrite,
+        existing_inputs=False,  # the stage names a missing file in its own error
     )
-    print_normalize_report(report, dst)
+    result = nl.normalize(src, dst, mapping=mapping, layer=layer, crs=crs, target_crs=target_crs)
+    print_normalize_report(result.report, dst)
 
 
 def print_normalize_report(report: NormalizeReport, dst: str) -> None:
-    """Print counts of kept, dropped and observed features."""
+    """Print counts of kept, dropped and observed features (stderr)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from nightlights.streets.schema import STREET_FIELDS
+
     console = Console(stderr=True)
     console.print(
         f"[bold]{report.output_features}[/] street parts from {report.input_features} "
@@ -64,43 +103,153 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
     console.print(table)
 
 
+@streets.command("sample")
+@files_argument("INPUT OUTPUT")
+@output_option
+@overwrite_option
+@click.option("--network", default=None, metavar="NAME|DIR", help=_NETWORK_HELP)
+@seed_option
+@click.option(
+    "--candidates",
+    default=DEFAULT_CANDIDATES,
+    show_default=True,
+    type=click.IntRange(min=1),
+    help="Likelihood-weighting candidates per segment.",
+)
+@click.option(
+    "--on-conflict",
+    type=click.Choice(["error", "relax"]),
+    default="error",
+    show_default=True,
+    help="Impossible evidence: stop, or drop the least likely observations with a warning.",
+)
+def sample_command(
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
+    network: str | None,
+    seed: int | None,
+    candidates: int,
+    on_conflict: str,
+) -> None:
+    """Fill missing street and lighting fields of INPUT by sampling a Bayesian network
+    (Chuang 2011, Sec. 3.3); write OUTPUT."""
+    import nightlights as nl
+
+    (src,), dst = resolve_inout(files, output, inputs=1, usage="INPUT OUTPUT", overwrite=overwrite)
+    result = nl.sample(
+        src,
+        dst,
+        network=network,
+        candidates=candidates,
+        seed=seed,
+        on_conflict=cast(Literal["error", "relax"], on_conflict),
+        progress=True,
+    )
+    print_lighting_summary(result.streets, dst)
+
+
+def print_lighting_summary(streets: Any, dst: str) -> None:
+    """Print the lit segments per arrangement and light system (stderr)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from nightlights.streets.sample import lighting_summary
+
+    summary = lighting_summary(streets)
+    console = Console(stderr=True)
+    console.print(f"[bold]{len(streets)}[/] street segments ({summary['lit']['lit']} lit) -> {dst}")
+    for field, title in (("arrangement", "arrangement"), ("system_id", "light system")):
+        table = Table(title, "lit segments")
+        for value, count in summary[field].items():
+            table.add_row(value, str(count))
+        console.print(table)
+
+
+@streets.command("fit")
+@files_argument("INPUT OUTPUT")
+@output_option
+@click.option("--network", default=None, metavar="BASE", help="Base network: " + _NETWORK_HELP)
+@click.option(
+    "--prior",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Pseudo-observations per parent combination from the base network (0: maximum "
+    "likelihood).",
+)
+def fit_command(
+    files: tuple[str, ...], output: str | None, network: str | None, prior: float
+) -> None:
+    """Estimate a network's tables from INPUT (lighting known); write it to the folder OUTPUT.
+
+    OUTPUT must not exist or be an empty folder: a network folder is never replaced.
+    """
+    import nightlights as nl
+
+    (src,), dst = resolve_inout(
+        files,
+        output,
+        inputs=1,
+        usage="INPUT OUTPUT",
+        overwrite=True,  # the stage refuses a folder that is not empty
+    )
+    result = nl.fit(src, dst, network=network, prior=prior)
+    from rich.console import Console
+
+    Console(stderr=True).print(f"fitted network -> {result.path} (use --network {result.path})")
+
+
 @streets.command("place")
-@click.argument("src", type=click.Path(exists=True, dir_okay=False))
-@click.argument("dst", type=click.Path(dir_okay=False))
+@files_argument("INPUT OUTPUT")
+@output_option
+@overwrite_option
 @catalog_option
 @seed_option
 @click.option(
     "--along-jitter",
-    default=PlacementOptions.along_jitter,
+    default=DEFAULT_ALONG_JITTER,
     show_default=True,
     help="Along-street jitter, fraction of the spacing [1].",
 )
 @click.option(
     "--across-jitter",
-    default=PlacementOptions.across_jitter,
+    default=DEFAULT_ACROSS_JITTER,
     show_default=True,
     help="Across-street jitter [m].",
 )
 @click.option(
     "--merge-fraction",
-    default=PlacementOptions.merge_fraction,
+    default=DEFAULT_MERGE_FRACTION,
     show_default=True,
-    help="Merge poles of different streets closer than this fraction of the spacing.",
+    help="Merge poles of different streets closer than this fraction of the spacing [1].",
 )
 def place_command(
-    src: str,
-    dst: str,
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
     catalog: str | None,
     seed: int | None,
     along_jitter: float,
     across_jitter: float,
     merge_fraction: float,
 ) -> None:
-    """Place light systems along the sampled streets in SRC; write points to DST."""
-    options = PlacementOptions(
-        along_jitter=along_jitter, across_jitter=across_jitter, merge_fraction=merge_fraction
+    """Place light systems along the sampled streets in INPUT; write points to OUTPUT."""
+    import nightlights as nl
+
+    (src,), dst = resolve_inout(files, output, inputs=1, usage="INPUT OUTPUT", overwrite=overwrite)
+    result = nl.place(
+        src,
+        dst,
+        seed=seed,
+        along_jitter=along_jitter,
+        across_jitter=across_jitter,
+        merge_fraction=merge_fraction,
+        catalog=catalog,
     )
-    lights = place(src, dst, seed=seed, options=options, catalog=catalog)
+    from rich.console import Console
+
+    lights = result.lights
     console = Console(stderr=True)
     console.print(
         f"[bold]{len(lights)}[/] luminaires on {lights['pole_id'].nunique()} poles -> {dst}"
@@ -108,8 +257,5 @@ def place_command(
     for arrangement, count in sorted(Counter(lights["arrangement"]).items()):
         console.print(f"  {arrangement}: {count}")
 
-
-for _command in sample_commands:
-    streets.add_command(_command)
 
 commands = [streets]

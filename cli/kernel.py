@@ -5,11 +5,16 @@ from __future__ import annotations
 import time
 
 import click
-from rich.console import Console
 
-from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.kernel import BACKENDS
-from nightlights.sky.precompute import kernel_build_stage
+from cli.options import (
+    KERNEL_BACKENDS,
+    deprecated_option,
+    files_argument,
+    one_of,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+)
 
 
 @click.group("kernel")
@@ -18,7 +23,9 @@ def kernel() -> None:
 
 
 @kernel.command("build")
-@click.argument("out", type=click.Path(dir_okay=False))
+@files_argument("OUTPUT")
+@output_option
+@overwrite_option
 @click.option("--turbidity", type=float, default=2.0, show_default=True, help="Turbidity T >= 1.")
 @click.option(
     "--aerosol-optical-depth",
@@ -35,10 +42,10 @@ def kernel() -> None:
     "--n-distance", type=int, default=64, show_default=True, help="Log-spaced distance bins."
 )
 @click.option(
-    "--n-elevation", type=int, default=32, show_default=True, help="Elevation rows (0-90 deg)."
+    "--n-elevation", type=int, default=64, show_default=True, help="Elevation rows (0-90 deg)."
 )
 @click.option(
-    "--n-azimuth", type=int, default=128, show_default=True, help="Azimuth columns (even)."
+    "--n-azimuth", type=int, default=256, show_default=True, help="Azimuth columns (even)."
 )
 @click.option(
     "--source-altitude",
@@ -61,7 +68,14 @@ def kernel() -> None:
     "--energy", type=float, default=0.999999, show_default=True, help="PCA explained energy."
 )
 @click.option(
-    "--components", type=int, default=None, help="Number of PCA bases (overrides --energy)."
+    "--n-components",
+    type=int,
+    default=None,
+    help="PCA bases to store, at most the tables' rank (overrides --energy). Not the same as "
+    "skyglow --components, which uses fewer of the stored bases at run time.",
+)
+@deprecated_option(
+    "--components", "old_components", type=int, default=None, replacement="--n-components"
 )
 @click.option(
     "--sub-distances", type=int, default=1, show_default=True, help="Distances averaged per bin."
@@ -78,13 +92,17 @@ def kernel() -> None:
 )
 @click.option(
     "--backend",
-    type=click.Choice(BACKENDS),
+    type=click.Choice(KERNEL_BACKENDS),
     default="auto",
     show_default=True,
     help="Line-of-sight integrator: numba (compiled) or numpy (reference).",
 )
+@click.pass_context
 def build(
-    out: str,
+    ctx: click.Context,
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
     turbidity: float,
     aerosol_optical_depth: float | None,
     wavelength: float,
@@ -97,42 +115,47 @@ def build(
     observer_altitudes: tuple[float, ...],
     nodes: int,
     energy: float,
-    components: int | None,
+    n_components: int | None,
+    old_components: int | None,
     sub_distances: int,
     uplight: bool,
     flat_earth: bool,
     tables: bool,
     backend: str,
 ) -> None:
-    """Build a kernel table and write it to OUT (NetCDF)."""
-    atmosphere = Atmosphere(
-        turbidity=turbidity,
-        aerosol_optical_depth=aerosol_optical_depth,
-        wavelength_nm=wavelength,
-        flat_earth=flat_earth,
-    )
-    console = Console(stderr=True)
-    start = time.perf_counter()
-    ds = kernel_build_stage(
-        out,
+    """Build a kernel table and write it to OUTPUT (NetCDF)."""
+    import nightlights as nl
+    from nightlights.sky.atmosphere import Atmosphere
+
+    _, out = resolve_inout(files, output, inputs=0, usage="OUTPUT", overwrite=overwrite)
+    components = one_of(ctx, **{"--n-components": n_components, "--components": old_components})
+    spec = nl.KernelSpec(
         r_min=r_min,
         r_max=r_max,
-        n_r=n_distance,
-        n_el=n_elevation,
-        n_az=n_azimuth,
+        n_distance=n_distance,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
         source_altitudes=source_altitudes or (0.0,),
         observer_altitudes=observer_altitudes or (0.0,),
-        atmosphere=atmosphere,
+        atmosphere=Atmosphere(
+            turbidity=turbidity,
+            aerosol_optical_depth=aerosol_optical_depth,
+            wavelength_nm=wavelength,
+            flat_earth=flat_earth,
+        ),
         nodes=nodes,
         pca_energy=energy,
         n_components=components,
         sub_distances=sub_distances,
         uplight=uplight,
-        progress=True,
-        backend=backend,
         store_tables=tables,
     )
-    console.print(
+    start = time.perf_counter()
+    result = nl.build_kernel(spec, out, backend=backend, progress=True)
+    from rich.console import Console
+
+    ds = result.kernel
+    Console(stderr=True).print(
         f"kernel {ds.sizes['distance']} r x {ds.sizes['elevation']} el x "
         f"{ds.sizes['azimuth']} az, {ds.sizes['component']} bases "
         f"(energy {float(ds.explained_energy.min()):.6f}) in {time.perf_counter() - start:.1f} s "

@@ -1,0 +1,201 @@
+"""cli.options: INPUT... OUTPUT and -o/--output, --overwrite, deprecated spellings, and the
+library constants the CLI mirrors so that ``nightlights --help`` does not import the library."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from cli import options
+from cli.main import cli
+from cli.options import (
+    DefaultCommandGroup,
+    OutputExistsError,
+    deprecated_option,
+    one_of,
+    resolve_inout,
+)
+from cli.reference import walk
+
+# --- the mirrored constants ---------------------------------------------------------------------
+
+
+def test_mirrored_constants_equal_the_library() -> None:
+    from bayesnets import catalog_names, default_network_name
+    from nightlights.ground.area_lights import AreaLightOptions
+    from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
+    from nightlights.sky.kernel import BACKENDS
+    from nightlights.sky.panorama import MODES
+    from nightlights.sky.render import PROJECTIONS
+    from nightlights.streets.normalize import builtin_mappings
+    from nightlights.streets.place import PlacementOptions
+    from nightlights.streets.sample import DEFAULT_CANDIDATES
+
+    assert tuple(options.SKYGLOW_MODES) == tuple(MODES)
+    assert tuple(options.PROJECTIONS) == tuple(PROJECTIONS)
+    assert tuple(options.KERNEL_BACKENDS) == tuple(BACKENDS)
+    assert options.DEFAULT_VIIRS_SPECTRUM == DEFAULT_VIIRS_SPECTRUM
+    assert options.DEFAULT_AREA_HEIGHT == AreaLightOptions.height
+    assert options.DEFAULT_ALONG_JITTER == PlacementOptions.along_jitter
+    assert options.DEFAULT_ACROSS_JITTER == PlacementOptions.across_jitter
+    assert options.DEFAULT_MERGE_FRACTION == PlacementOptions.merge_fraction
+    assert options.DEFAULT_CANDIDATES == DEFAULT_CANDIDATES
+    assert list(options.BUILTIN_MAPPINGS) == builtin_mappings()
+    assert list(options.NETWORK_CATALOG) == catalog_names()
+    assert options.DEFAULT_NETWORK == default_network_name()
+
+
+def test_help_does_not_import_the_library() -> None:
+    code = (
+        "import sys; from cli.main import cli; "
+        "heavy = {'geopandas', 'rasterio', 'xarray', 'numba', 'ies', 'bayesnets', "
+        "'nightlights.streets', 'nightlights.ground', 'nightlights.sky'} & set(sys.modules); "
+        "assert not heavy, heavy"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[2])
+
+
+def test_shared_options_mean_the_same_everywhere() -> None:
+    """An option name defined once in cli.options has one help text in every command."""
+    helps: dict[str, set[str]] = {}
+    for command, _ in walk(cli, "nightlights"):
+        for param in command.params:
+            if isinstance(param, click.Option) and not param.hidden:
+                helps.setdefault(param.opts[-1], set()).add(param.help or "")
+    for name in ("--output", "--overwrite", "--crs", "--target-crs", "--seed", "--catalog"):
+        assert len(helps[name]) == 1, (name, helps[name])
+
+
+# --- INPUT... OUTPUT, -o/--output, --overwrite ----------------------------------------------------
+
+
+def test_last_positional_is_the_output(tmp_path: Path) -> None:
+    a = tmp_path / "a"
+    a.touch()
+    assert resolve_inout([str(a), "out"], None, inputs=1, usage="A OUT", overwrite=False) == (
+        [str(a)],
+        "out",
+    )
+
+
+def test_with_output_option_every_positional_is_an_input(tmp_path: Path) -> None:
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.touch()
+    b.touch()
+    inputs, output = resolve_inout(
+        [str(a), str(b)], "out", inputs=(1, 2), usage="A [B] OUT", overwrite=False
+    )
+    assert inputs == [str(a), str(b)] and output == "out"
+
+
+@pytest.mark.parametrize(
+    ("files", "output", "message"),
+    [
+        ([], None, "missing OUTPUT"),
+        (["out"], None, "expected A OUT"),
+        (["missing", "out"], None, "'missing' does not exist"),
+        (["x", "y", "out"], None, "expected A OUT"),
+    ],
+)
+def test_wrong_paths_are_usage_errors(
+    files: list[str], output: str | None, message: str, tmp_path: Path
+) -> None:
+    (tmp_path / "x").touch()
+    (tmp_path / "y").touch()
+    files = [str(tmp_path / f) if f in ("x", "y") else f for f in files]
+    with pytest.raises(click.UsageError, match=message):
+        resolve_inout(files, output, inputs=1, usage="A OUT", overwrite=False)
+
+
+def test_existing_output_is_refused_without_overwrite(tmp_path: Path) -> None:
+    a, out = tmp_path / "a", tmp_path / "out"
+    a.touch()
+    out.write_text("keep")
+    with pytest.raises(OutputExistsError, match="exists; give --overwrite") as info:
+        resolve_inout([str(a), str(out)], None, inputs=1, usage="A OUT", overwrite=False)
+    assert info.value.exit_code == 1
+    assert resolve_inout([str(a), str(out)], None, inputs=1, usage="A OUT", overwrite=True)[1] == (
+        str(out)
+    )
+    assert out.read_text() == "keep"
+
+
+# --- deprecated spellings -----------------------------------------------------------------------
+
+
+@click.group()
+@click.option("-q", "--quiet", is_flag=True)
+def _root(quiet: bool) -> None:
+    pass
+
+
+@_root.command("cmd")
+@click.option("--new", default=None)
+@deprecated_option("--old", "old", default=None, replacement="--new")
+@click.pass_context
+def _cmd(ctx: click.Context, new: str | None, old: str | None) -> None:
+    click.echo(one_of(ctx, **{"--new": new, "--old": old}))
+
+
+def test_deprecated_option_warns_on_stderr_and_still_works() -> None:
+    result = CliRunner().invoke(_root, ["cmd", "--old", "x"])
+    assert result.exit_code == 0, result.output
+    assert result.stdout == "x\n"
+    assert result.stderr == "DeprecationWarning: --old is deprecated; use --new.\n"
+    quiet = CliRunner().invoke(_root, ["-q", "cmd", "--old", "x"])
+    assert quiet.stdout == "x\n" and quiet.stderr == ""
+    new = CliRunner().invoke(_root, ["cmd", "--new", "x"])
+    assert new.stdout == "x\n" and new.stderr == ""
+
+
+def test_deprecated_option_is_hidden_and_exclusive_with_its_replacement() -> None:
+    assert "--old" not in CliRunner().invoke(_root, ["cmd", "--help"]).output
+    both = CliRunner().invoke(_root, ["cmd", "--old", "x", "--new", "y"])
+    assert both.exit_code == 2 and "give only one of --new and --old" in both.output
+
+
+@click.group(cls=DefaultCommandGroup, default_command="a", deprecated_spellings={"--b-from": "b"})
+def _group() -> None:
+    pass
+
+
+@_group.command("a")
+@click.argument("paths", nargs=-1)
+@click.option("--flag", is_flag=True)
+def _a(paths: tuple[str, ...], flag: bool) -> None:
+    click.echo(f"a {list(paths)} {flag}")
+
+
+@_group.command("b")
+@click.argument("paths", nargs=-1)
+@click.option("--flag", is_flag=True)
+def _b(paths: tuple[str, ...], flag: bool) -> None:
+    click.echo(f"b {list(paths)} {flag}")
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["x", "y"], "a ['x', 'y'] False"),
+        (["--flag", "x"], "a ['x'] True"),
+        (["a", "x"], "a ['x'] False"),
+        (["b", "x", "--flag"], "b ['x'] True"),
+        (["--flag", "--b-from", "x", "y"], "b ['x', 'y'] True"),
+        (["--b-from=x", "y"], "b ['x', 'y'] False"),
+    ],
+)
+def test_default_command_group(args: list[str], expected: str) -> None:
+    result = CliRunner().invoke(_group, args)
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == expected
+    assert ("DeprecationWarning" in result.stderr) == any(a.startswith("--b-from") for a in args)
+
+
+def test_default_command_group_help_is_the_groups() -> None:
+    result = CliRunner().invoke(_group, ["--help"])
+    assert result.exit_code == 0 and "Commands:" in result.output
