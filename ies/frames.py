@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 
 def photometric_angles(
-    x: ArrayLike, y: ArrayLike, z: ArrayLike
+    x: ArrayLike, y: ArrayLike, z: ArrayLike, *, x_plane: ArrayLike = 0.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Type C angles of direction vectors given in the luminaire frame.
 
@@ -22,7 +22,10 @@ def photometric_angles(
     ----------
     x, y, z : array_like
         Components of directions from the luminaire (need not be unit length), broadcast
-        against each other; z up [m] or [-].
+        against each other; z up [m] or [1].
+    x_plane : array_like, optional
+        C-plane angle of the frame's x axis, added to the horizontal angle before it is
+        wrapped to [0, 360); 0 for the frame above [deg].
 
     Returns
     -------
@@ -45,12 +48,12 @@ def photometric_angles(
     length = np.sqrt(x * x + y * y + z * z)
     with np.errstate(invalid="ignore", divide="ignore"):
         vertical = np.degrees(np.arccos(np.clip(-z / length, -1.0, 1.0)))
-    horizontal = np.degrees(np.arctan2(y, x)) % 360.0
+    horizontal = np.mod(np.degrees(np.arctan2(y, x)) + np.asarray(x_plane, dtype=float), 360.0)
     return vertical, horizontal
 
 
 def direction_from_angles(
-    vertical: ArrayLike, horizontal: ArrayLike
+    vertical: ArrayLike, horizontal: ArrayLike, *, x_plane: ArrayLike = 0.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Unit direction (x, y, z; z up) of type C angles, the inverse of
     :func:`photometric_angles` (Chuang 2011, Eqs. 1 and 3).
@@ -61,12 +64,14 @@ def direction_from_angles(
         Angle from nadir [deg].
     horizontal : array_like
         C-plane angle [deg].
+    x_plane : array_like, optional
+        C-plane angle of the frame's x axis [deg].
 
     Returns
     -------
     tuple of ndarray
-        Unit vector components [-].
+        Unit vector components [1].
     """
     v = np.radians(np.asarray(vertical, dtype=float))
-    h = np.radians(np.asarray(horizontal, dtype=float))
+    h = np.radians(np.asarray(horizontal, dtype=float) - np.asarray(x_plane, dtype=float))
     return np.sin(v) * np.cos(h), np.sin(v) * np.sin(h), -np.cos(v)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import geopandas as gpd
 import matplotlib
@@ -14,11 +15,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import LogNorm
 
-from nightlights.io import atomic_output, read_raster
+from nightlights.io import Raster, as_raster, atomic_output
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 
 def plot_raster_map(
-    raster_path: str | os.PathLike[str],
+    raster: Raster | xr.DataArray | str | os.PathLike[str],
     out_png: str | os.PathLike[str],
     *,
     band: int = 1,
@@ -32,8 +36,8 @@ def plot_raster_map(
 
     Parameters
     ----------
-    raster_path
-        GeoTIFF to draw.
+    raster
+        Raster to draw: a :class:`~nightlights.io.Raster`, a DataArray or a GeoTIFF path.
     out_png
         Output PNG, written atomically.
     band
@@ -48,10 +52,15 @@ def plot_raster_map(
         Data credit printed in the corner.
     zoom
         Optional ``(xmin, ymin, xmax, ymax)`` [m] drawn as a second, enlarged panel.
+
+    Returns
+    -------
+    pathlib.Path
+        The written PNG.
     """
-    data, meta = read_raster(raster_path)
-    values = data[band - 1]
-    transform = meta["transform"]
+    image_raster = as_raster(raster)
+    values = image_raster.data[band - 1]
+    transform = image_raster.transform
     rows, cols = values.shape
     extent = (
         transform.c,
@@ -59,8 +68,8 @@ def plot_raster_map(
         transform.f + transform.e * rows,
         transform.f,
     )
-    unit = meta["units"][band - 1] or ""
-    description = meta["descriptions"][band - 1] or f"band {band}"
+    unit = image_raster.units[band - 1] or ""
+    description = image_raster.descriptions[band - 1] or f"band {band}"
     finite = values[np.isfinite(values)]
     top = max(float(finite.max()) if finite.size else 1.0, floor * 10)
     panels = 2 if zoom else 1
@@ -68,7 +77,7 @@ def plot_raster_map(
         1, panels, figsize=(6.5 * panels + 1, 7.5), squeeze=False, layout="constrained"
     )
     norm = LogNorm(vmin=floor, vmax=top)
-    crs = meta["crs"]
+    crs = image_raster.crs
     for index, ax in enumerate(axes[0]):
         image = ax.imshow(
             np.clip(values, floor, None),

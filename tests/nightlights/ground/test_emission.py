@@ -12,18 +12,20 @@ import rasterio
 from affine import Affine
 from shapely.geometry import Point
 
-from nightlights.emission import (
+from nightlights.errors import DataQualityWarning, InputError
+from nightlights.ground import (
+    InfluenceThreshold,
+    RasterGrid,
     block_aggregate,
     deposit_flux,
     dnb_luminous_efficacy,
     emission,
     emission_from_viirs,
     flux_density_to_viirs_radiance,
+    irradiance,
+    resolve_luminaires,
     viirs_radiance_to_flux_density,
 )
-from nightlights.errors import DataQualityWarning, InputError
-from nightlights.irradiance import InfluenceThreshold, irradiance, resolve_luminaires
-from nightlights.tiling import RasterGrid
 
 CRS = "EPSG:32633"
 
@@ -110,8 +112,8 @@ def test_reflected_band_integrates_to_albedo_times_ground_flux(scene, tmp_path: 
         ground_flux = dataset.read(1).astype(float).sum() * 1.0
     result = emission(
         irradiance_tif,
-        lights,
         tmp_path / "m.tif",
+        lights=lights,
         resolution=50.0,
         albedo=0.15,
         database=Database(),
@@ -170,8 +172,8 @@ def test_emission_bad_inputs(scene, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="integer multiple"):
         emission(
             irradiance_tif,
-            lights,
             tmp_path / "m.tif",
+            lights=lights,
             resolution=2.5,
             albedo=0.1,
             database=Database(),
@@ -179,8 +181,8 @@ def test_emission_bad_inputs(scene, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="albedo"):
         emission(
             irradiance_tif,
-            lights,
             tmp_path / "m.tif",
+            lights=lights,
             resolution=10,
             albedo=1.5,
             database=Database(),
@@ -188,7 +190,12 @@ def test_emission_bad_inputs(scene, tmp_path: Path) -> None:
     far = write_lights(tmp_path / "far.gpkg", [(100.0, 100.0), (9000.0, 0.0)])
     with pytest.warns(DataQualityWarning, match="1 lights"):
         emission(
-            irradiance_tif, far, tmp_path / "m.tif", resolution=10, albedo=0.1, database=Database()
+            irradiance_tif,
+            tmp_path / "m.tif",
+            lights=far,
+            resolution=10,
+            albedo=0.1,
+            database=Database(),
         )
 
 
@@ -207,8 +214,8 @@ def test_albedo_raster(scene, tmp_path: Path) -> None:
         transform=Affine(400, 0, -250, 0, -400, 450),
     ) as dataset:
         dataset.write(np.full((1, 2, 2), 0.3, np.float32))
-    emission(irradiance_tif, None, tmp_path / "a.tif", resolution=20, albedo=albedo)
-    emission(irradiance_tif, None, tmp_path / "b.tif", resolution=20, albedo=0.3)
+    emission(irradiance_tif, tmp_path / "a.tif", resolution=20, albedo=albedo)
+    emission(irradiance_tif, tmp_path / "b.tif", resolution=20, albedo=0.3)
     with rasterio.open(tmp_path / "a.tif") as a, rasterio.open(tmp_path / "b.tif") as b:
         np.testing.assert_allclose(a.read(1), b.read(1), rtol=1e-6)
 

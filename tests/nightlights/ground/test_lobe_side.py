@@ -9,7 +9,7 @@ import rasterio
 import shapely
 
 from ies.library import load_library
-from nightlights.irradiance import irradiance
+from nightlights.ground import irradiance
 
 ASYMMETRIC = ["street_led_small", "street_led_medium", "road_led_large", "road_hps"]
 

@@ -3,14 +3,17 @@
 A raster stage describes its output as a :class:`RasterGrid`, cuts it into :class:`Tile`
 windows, assigns each source (a luminaire with a region of influence) to the tiles its
 region touches, and runs one task per tile on the local threaded scheduler or on a
-``dask.distributed`` cluster. Results come back as numpy arrays; nothing is written until
-every tile has succeeded, so a failed tile leaves no output.
+``dask.distributed`` cluster (:func:`compute_tiles`). Results come back as numpy arrays;
+nothing is written until every tile has succeeded, so a failed tile leaves no output.
+:func:`compute_irradiance` runs the illuminance kernel
+(:func:`~nightlights.ground.illuminance.ground_illuminance`) this way.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -22,12 +25,19 @@ from dask.callbacks import Callback
 from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from nightlights.errors import InputError
+from nightlights._typing import FloatArray
+from nightlights._validate import check_resolution
+from nightlights.errors import DataQualityWarning, InputError
+from nightlights.ground import illuminance
+from nightlights.ground.frames import IntensityTable
+from nightlights.ground.luminaires import Luminaires, describe_ids
 
 __all__ = [
+    "ComputedIrradiance",
     "RasterGrid",
     "Tile",
     "assign_to_tiles",
+    "compute_irradiance",
     "compute_tiles",
     "grid_from_bounds",
     "make_tiles",
@@ -58,6 +68,19 @@ class RasterGrid:
     rows: int
     cols: int
 
+    @classmethod
+    def from_transform(cls, transform: Affine, shape: tuple[int, int]) -> RasterGrid:
+        """The grid of a north-up ``transform`` with square pixels and ``shape`` (rows, cols).
+
+        Raises
+        ------
+        InputError
+            The transform is rotated or its pixels are not square.
+        """
+        if transform.b != 0 or transform.d != 0 or not math.isclose(transform.a, -transform.e):
+            raise InputError(f"expected a north-up grid with square pixels, got {transform}")
+        return cls(transform.c, transform.f, transform.a, *shape)
+
     @property
     def transform(self) -> Affine:
         """Affine transform of the top-left pixel corner."""
@@ -73,7 +96,7 @@ class RasterGrid:
             self.y_max,
         )
 
-    def centres(self, tile: Tile) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def centres(self, tile: Tile) -> tuple[FloatArray, FloatArray]:
         """Pixel-centre coordinates of a tile: x (cols,) and y (rows,) [m]."""
         x = self.x_min + (tile.col0 + np.arange(tile.cols) + 0.5) * self.resolution
         y = self.y_max - (tile.row0 + np.arange(tile.rows) + 0.5) * self.resolution
@@ -110,8 +133,7 @@ def grid_from_bounds(bounds: Sequence[float], resolution: float) -> RasterGrid:
     InputError
         Non-positive or non-finite resolution, or empty/inverted bounds.
     """
-    if not (math.isfinite(resolution) and resolution > 0):
-        raise InputError(f"resolution={resolution!r} m; expected a positive number of metres")
+    resolution = check_resolution(resolution)
     if len(bounds) != 4 or not all(math.isfinite(v) for v in bounds):
         raise InputError(
             f"bounds={tuple(bounds)!r}; expected four finite numbers xmin,ymin,xmax,ymax"
@@ -140,9 +162,9 @@ def make_tiles(grid: RasterGrid, tile_size: int) -> list[Tile]:
 def assign_to_tiles(
     grid: RasterGrid,
     tile_size: int,
-    x: NDArray[np.float64],
-    y: NDArray[np.float64],
-    radius: NDArray[np.float64],
+    x: FloatArray,
+    y: FloatArray,
+    radius: FloatArray,
 ) -> list[NDArray[np.intp]]:
     """Indices of the sources whose square region touches each tile of :func:`make_tiles`.
 
@@ -283,3 +305,141 @@ def _compute_distributed(
     finally:
         if own_client:
             client.close()
+
+
+@dataclass(frozen=True)
+class ComputedIrradiance:
+    """Bands of :func:`compute_irradiance` on the whole grid.
+
+    Attributes
+    ----------
+    bands
+        Array (bands, rows, cols) [band units].
+    n_lights
+        Lights that light at least one pixel of the grid.
+    n_pairs
+        Light-pixel evaluations [1].
+    """
+
+    bands: NDArray[np.float32]
+    n_lights: int
+    n_pairs: int
+
+
+def compute_irradiance(
+    grid: RasterGrid,
+    luminaires: Luminaires,
+    weights: FloatArray,
+    radius: FloatArray,
+    *,
+    ground_z: FloatArray | None = None,
+    normals: FloatArray | None = None,
+    scheduler: str | Any | None = None,
+    tile_size: int = 1024,
+    num_workers: int | None = None,
+    progress: bool = True,
+) -> ComputedIrradiance:
+    """Tile ``grid``, bin lights to tiles, run the illuminance kernel per tile with Dask.
+
+    Parameters
+    ----------
+    grid
+        Output grid.
+    luminaires
+        Lights.
+    weights
+        Band weights per light (n, bands) [band unit per lx].
+    radius
+        Region of influence per light [m].
+    ground_z, normals
+        Ground on the full grid (see
+        :func:`~nightlights.ground.illuminance.ground_illuminance`) [m], [1].
+    scheduler
+        ``None`` (local threads) or a ``dask.distributed`` address/Client.
+    tile_size
+        Tile edge [pixels].
+    num_workers
+        Local threads (default one per core).
+    progress
+        Show a progress bar.
+    """
+    x, y = luminaires.light_point[:, 0], luminaires.light_point[:, 1]
+    finite_radius = np.where(
+        np.isfinite(radius), radius, 2.0 * (grid.rows + grid.cols) * grid.resolution
+    )
+    tiles = make_tiles(grid, tile_size)
+    members = assign_to_tiles(grid, tile_size, x, y, finite_radius)
+    touching = np.zeros(len(luminaires), dtype=bool)
+    for index in members:
+        touching[index] = True
+    if (~touching).any():
+        warnings.warn(
+            f"{(~touching).sum()} of {len(luminaires)} lights light no pixel of the raster "
+            f"(ids {describe_ids(luminaires.light_id[~touching])}); ignored",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+    per_tile = []
+    for tile, index in zip(tiles, members, strict=True):
+        rows, cols = tile.slices
+        per_tile.append(
+            (
+                tile,
+                luminaires.light_point[index],
+                luminaires.rotation[index],
+                luminaires.street_azimuth[index],
+                luminaires.table_index[index],
+                weights[index],
+                finite_radius[index],
+                None if ground_z is None else ground_z[rows, cols],
+                None if normals is None else normals[rows, cols],
+            )
+        )
+    shared = (grid, luminaires.tables)
+    results = compute_tiles(
+        _irradiance_tile,
+        per_tile,
+        shared=shared,
+        scheduler=scheduler,
+        num_workers=num_workers,
+        description=f"irradiance: {len(tiles)} tiles",
+        progress=progress,
+    )
+    bands = np.zeros((weights.shape[1], grid.rows, grid.cols), dtype=np.float32)
+    n_pairs = 0
+    for tile, (values, pairs) in zip(tiles, results, strict=True):
+        rows, cols = tile.slices
+        bands[:, rows, cols] = values
+        n_pairs += pairs
+    return ComputedIrradiance(bands, int(touching.sum()), n_pairs)
+
+
+def _irradiance_tile(
+    tile: Tile,
+    light_point: FloatArray,
+    rotation: FloatArray,
+    street_azimuth: FloatArray,
+    table_index: NDArray[np.intp],
+    weights: FloatArray,
+    radius: FloatArray,
+    ground_z: FloatArray | None,
+    normals: FloatArray | None,
+    shared: tuple[RasterGrid, tuple[IntensityTable, ...]],
+) -> tuple[NDArray[np.float32], int]:
+    grid, tables = shared
+    x, y = grid.centres(tile)
+    values, pairs = illuminance._illuminance_and_pairs(
+        (tile.rows, tile.cols),
+        (float(x[0]), float(y[0])),
+        grid.resolution,
+        light_point,
+        rotation,
+        street_azimuth,
+        table_index,
+        tables,
+        weights,
+        radius=radius,
+        ground_z=ground_z,
+        normals=normals,
+    )
+    return values.astype(np.float32), pairs

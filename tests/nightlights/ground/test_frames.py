@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nightlights.errors import InputError
-from nightlights.luminaire import (
+from nightlights.ground import (
     IntensityTable,
     direction_to_photometric,
     flux_profile,

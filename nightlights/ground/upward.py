@@ -16,27 +16,38 @@ coarse grid, which the skyglow stages take as their source:
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import warnings
-from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
+import geopandas as gpd
 import numpy as np
-import rasterio
+from affine import Affine
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS
 from rasterio.warp import Resampling, calculate_default_transform, reproject
+from shapely.geometry import box
 
+from ies import spectra
+from nightlights._typing import FloatArray
+from nightlights._validate import check_resolution
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
-from nightlights.io import RasterBand, ensure_projected, read_raster, read_vector, write_cog
-from nightlights.irradiance import DatabaseLike, load_database, resolve_luminaires
-from nightlights.tiling import RasterGrid
+from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
+from nightlights.ground.tiles import RasterGrid
+from nightlights.io import Raster, as_raster, ensure_projected, raster_on_grid, read_vector
+from nightlights.io.terrain import source_label
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = [
+    "DEFAULT_VIIRS_SPECTRUM",
     "DNB_BAND",
+    "EmissionResult",
     "block_aggregate",
     "deposit_flux",
     "dnb_luminous_efficacy",
@@ -45,8 +56,6 @@ __all__ = [
     "flux_density_to_viirs_radiance",
     "viirs_radiance_to_flux_density",
 ]
-
-logger = logging.getLogger(__name__)
 
 #: VIIRS DNB radiance unit [nW cm-2 sr-1] in SI [W m-2 sr-1].
 NANOWATT_PER_CM2 = 1e-9 / 1e-4
@@ -60,11 +69,7 @@ DNB_BAND = (500.0, 900.0)
 DEFAULT_VIIRS_SPECTRUM = "LED_4000K"
 
 
-# --------------------------------------------------------------------------------------
-# Pure models
-
-
-def block_aggregate(values: ArrayLike, factor: int) -> NDArray[np.float64]:
+def block_aggregate(values: ArrayLike, factor: int) -> FloatArray:
     """Flux-conserving aggregation of a flux-density raster by an integer factor.
 
     Parameters
@@ -94,7 +99,7 @@ def block_aggregate(values: ArrayLike, factor: int) -> NDArray[np.float64]:
 
 def deposit_flux(
     x: ArrayLike, y: ArrayLike, flux: ArrayLike, grid: RasterGrid
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Deposit point fluxes in the cells that contain them, as flux density.
 
     Parameters
@@ -146,8 +151,6 @@ def dnb_luminous_efficacy(
     response rolls off over ~20 nm at both ends; for broad spectra (LED, incandescent) the
     flat band changes K by a few percent, for line spectra (LPS at 589 nm) it is exact.
     """
-    from ies import spectra
-
     source = spectra.get_spd(spectrum) if isinstance(spectrum, str) else None
     wavelengths = np.arange(360.0, 951.0, 1.0)
     if source is not None:
@@ -163,7 +166,7 @@ def dnb_luminous_efficacy(
     return float(K_PHOTOPIC * np.trapezoid(power * photopic, wavelengths) / in_band)
 
 
-def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> NDArray[np.float64]:
+def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> FloatArray:
     """Upward luminous flux density of a Lambertian ground seen by VIIRS DNB.
 
     Parameters
@@ -190,98 +193,151 @@ def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> NDAr
     return np.pi * np.asarray(radiance, dtype=float) * NANOWATT_PER_CM2 * efficacy
 
 
-def flux_density_to_viirs_radiance(flux_density: ArrayLike, efficacy: float) -> NDArray[np.float64]:
+def flux_density_to_viirs_radiance(flux_density: ArrayLike, efficacy: float) -> FloatArray:
     """Inverse of :func:`viirs_radiance_to_flux_density` [nW cm-2 sr-1]."""
     return np.asarray(flux_density, dtype=float) / (np.pi * NANOWATT_PER_CM2 * efficacy)
 
 
-# --------------------------------------------------------------------------------------
-# Stages
-
-
 @dataclass(frozen=True)
 class EmissionResult:
-    """What an emission stage wrote: path, grid, CRS and total upward flux per band [lm]."""
+    """What an emission stage computed.
 
-    path: str
-    grid: RasterGrid
-    crs: CRS
-    total_flux: dict[str, float]
+    Attributes
+    ----------
+    raster
+        Upward luminous flux density [lm m-2]: bands ``reflected`` and ``uplight``
+        (:func:`emission`) or ``upward`` (:func:`emission_from_viirs`); the values of the
+        float32 file.
+    path
+        The written raster, or ``None`` when no output was asked for.
+    total_flux
+        Total upward flux per band [lm].
+    """
+
+    raster: Raster
+    path: Path | None = None
+    total_flux: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def grid(self) -> RasterGrid:
+        """The raster's grid."""
+        return RasterGrid.from_transform(self.raster.transform, self.raster.shape)
+
+    @property
+    def crs(self) -> CRS:
+        """The raster's projected CRS."""
+        return self.raster.projected_crs(source="emission")
 
 
 def emission(
-    irradiance_path: str | os.PathLike[str],
-    lights_path: str | os.PathLike[str] | None,
-    out_path: str | os.PathLike[str],
+    irradiance: Raster | xr.DataArray | str | os.PathLike[str],
+    output: str | os.PathLike[str] | None = None,
     *,
+    lights: gpd.GeoDataFrame | str | os.PathLike[str] | None = None,
     resolution: float,
-    albedo: float | str | os.PathLike[str],
+    albedo: float | Raster | xr.DataArray | str | os.PathLike[str],
     catalog: str | os.PathLike[str] | None = None,
     database: DatabaseLike | None = None,
     skip_unknown: bool = False,
-    assume_crs: str | None = None,
+    crs: str | CRS | None = None,
 ) -> EmissionResult:
-    """Stage ``emission``: irradiance + lights -> upward flux density, two bands.
+    """Upward luminous flux density from ground illuminance and the lights, two bands.
 
     Parameters
     ----------
-    irradiance_path
-        Output of ``irradiance`` (needs its ``photopic`` band) [lx].
-    lights_path
-        The light layer that produced it (for the direct uplight); ``None`` for no uplight.
-    out_path
-        Output float32 COG: band 1 ``reflected``, band 2 ``uplight`` [lm m-2].
+    irradiance
+        Output of :func:`~nightlights.ground.irradiance` (needs its ``photopic`` band) [lx]:
+        a :class:`~nightlights.io.Raster`, a DataArray or a path.
+    output
+        Float32 Cloud-Optimised GeoTIFF to write; ``None`` writes nothing.
+    lights
+        The light layer that produced it (for the direct uplight), or its path; ``None``
+        for no uplight.
     resolution
         Coarse cell size; an integer multiple of the irradiance pixel size [m].
     albedo
-        Ground reflectance, a number or a raster resampled to the irradiance grid [1].
-    catalog, database
-        Luminaire database (folder or object).
+        Ground reflectance [1]: a number, or a raster (Raster, DataArray or path) resampled
+        bilinearly to the irradiance grid.
+    catalog
+        Luminaire database folder; default the bundled one.
+    database
+        A database object (overrides ``catalog``).
     skip_unknown
         Drop lights with unknown system ids instead of failing.
-    assume_crs
+    crs
         CRS of a light layer that has none.
+
+    Returns
+    -------
+    EmissionResult
+        Band 1 ``reflected``, band 2 ``uplight`` [lm m-2] and their total flux [lm].
+
+    Raises
+    ------
+    InputError
+        Resolution not a multiple of the pixel size, no photopic band, albedo outside
+        [0, 1] or not covering the raster.
+    CRSError
+        The irradiance or albedo raster has no CRS.
 
     Notes
     -----
-    Lights whose light point falls outside the coarse grid are dropped from the uplight
-    band with a :class:`~nightlights.errors.DataQualityWarning` naming their number and
-    flux.
+    The ground reflects Lambertianly, :math:`M_\\text{refl} = \\rho E`, aggregated to the
+    coarse grid by summing flux; each luminaire's flux above the horizontal, in the world
+    frame, is deposited in the cell holding its light point. Lights whose light point falls
+    outside the coarse grid are dropped from the uplight band with a
+    :class:`~nightlights.errors.DataQualityWarning` naming their number and flux.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> from shapely.geometry import Point
+    >>> from nightlights.ground import irradiance
+    >>> lights = gpd.GeoDataFrame(
+    ...     {"system_id": ["street_led_small"] * 2, "heading": [0.0, 180.0]},
+    ...     geometry=[Point(0, 0), Point(20, 10)],
+    ...     crs="EPSG:3067",
+    ... )
+    >>> ground = irradiance(lights, resolution=2.0, progress=False).raster
+    >>> result = emission(ground, lights=lights, resolution=20.0, albedo=0.15)
+    >>> result.raster.descriptions
+    ('reflected', 'uplight')
+    >>> {band: round(flux) for band, flux in result.total_flux.items()}
+    {'reflected': 1193, 'uplight': 0}
     """
-    data, meta = read_raster(irradiance_path)
-    crs = meta["crs"]
-    if crs is None:
-        raise CRSError(f"{irradiance_path}: the irradiance raster has no CRS")
-    transform = meta["transform"]
+    label = source_label(irradiance, "irradiance raster")
+    raster = as_raster(irradiance)
+    if raster.crs is None:
+        raise CRSError(f"{label}: the irradiance raster has no CRS")
+    raster_crs = raster.crs
+    transform = raster.transform
     if transform.b != 0 or transform.d != 0 or not math.isclose(transform.a, -transform.e):
-        raise InputError(
-            f"{irradiance_path}: expected a north-up grid with square pixels, got {transform}"
-        )
+        raise InputError(f"{label}: expected a north-up grid with square pixels, got {transform}")
     fine = transform.a
-    band = _photopic_band(meta, irradiance_path)
-    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
-        raise InputError(f"resolution={resolution!r} m; expected a positive number of metres")
+    band = _photopic_band(raster, label)
+    check_resolution(resolution)
     factor = round(resolution / fine)
     if factor < 1 or not math.isclose(factor * fine, resolution, rel_tol=1e-6):
         raise InputError(
             f"resolution={resolution} m is not an integer multiple of the irradiance pixel "
             f"size {fine} m; expected e.g. {max(1, factor) * fine} m"
         )
-    illuminance = data[band]
-    albedo_grid = _albedo(albedo, illuminance.shape, transform, crs)
+    illuminance = raster.data[band]
+    albedo_grid = _albedo(albedo, illuminance.shape, transform, raster_crs)
     reflected = block_aggregate(albedo_grid * illuminance, factor)
     grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
     uplight = np.zeros_like(reflected)
-    if lights_path is not None:
-        frame = read_vector(lights_path)
+    if lights is not None:
+        lights_label = "lights" if isinstance(lights, gpd.GeoDataFrame) else str(lights)
+        frame = lights if isinstance(lights, gpd.GeoDataFrame) else read_vector(lights)
         if frame.empty:
-            raise EmptyInputError(f"{lights_path}: the light layer holds no lights")
-        frame = ensure_projected(frame, source=str(lights_path), assume_crs=assume_crs)
-        frame = frame.to_crs(crs)
+            raise EmptyInputError(f"{lights_label}: the light layer holds no lights")
+        frame = ensure_projected(frame, source=lights_label, assume_crs=crs)
+        frame = frame.to_crs(raster_crs)
         luminaires = resolve_luminaires(
             frame,
             database or load_database(catalog),
-            source=str(lights_path),
+            source=lights_label,
             skip_unknown=skip_unknown,
         )
         flux = luminaires.upward_flux()
@@ -290,110 +346,100 @@ def emission(
         )
         if (~inside).any():
             warnings.warn(
-                f"{lights_path}: {(~inside).sum()} lights ({flux[~inside].sum():.4g} lm of "
+                f"{lights_label}: {(~inside).sum()} lights ({flux[~inside].sum():.4g} lm of "
                 "uplight) stand outside the emission grid; left out",
                 DataQualityWarning,
                 stacklevel=2,
             )
     area = grid.resolution**2
     totals = {"reflected": float(reflected.sum() * area), "uplight": float(uplight.sum() * area)}
-    write_cog(
-        out_path,
-        [
-            RasterBand(
-                reflected,
-                "reflected",
-                "lm m-2",
-                {"quantity": "upward luminous flux density", "model": "Lambertian, albedo x E"},
-            ),
-            RasterBand(
-                uplight,
-                "uplight",
-                "lm m-2",
-                {"quantity": "upward luminous flux density", "model": "direct luminaire uplight"},
-            ),
-        ],
-        transform=grid.transform,
-        crs=crs,
-        tags={
-            "nightlights_stage": "emission",
-            "source": str(irradiance_path),
-            "albedo": str(albedo),
-            "resolution_m": resolution,
-            "total_reflected_lm": totals["reflected"],
-            "total_uplight_lm": totals["uplight"],
-        },
+    albedo_text = (
+        str(albedo)
+        if isinstance(albedo, (int, float, str, os.PathLike))
+        else source_label(albedo, "albedo raster")
     )
-    return EmissionResult(str(out_path), grid, crs, totals)
+    tags = {
+        "nightlights_stage": "emission",
+        "source": label,
+        "albedo": albedo_text,
+        "resolution_m": resolution,
+        "total_reflected_lm": totals["reflected"],
+        "total_uplight_lm": totals["uplight"],
+    }
+    result = Raster(
+        _as_written(np.stack([reflected, uplight])),
+        grid.transform,
+        raster_crs,
+        descriptions=("reflected", "uplight"),
+        units=("lm m-2", "lm m-2"),
+        tags={key: str(value) for key, value in tags.items()},
+        band_tags=(
+            {"quantity": "upward luminous flux density", "model": "Lambertian, albedo x E"},
+            {"quantity": "upward luminous flux density", "model": "direct luminaire uplight"},
+        ),
+    )
+    path = None if output is None else result.write(output)
+    return EmissionResult(result, path, totals)
 
 
-def _photopic_band(meta: dict[str, Any], path: str | os.PathLike[str]) -> int:
+def _photopic_band(raster: Raster, label: str) -> int:
     for index, (description, tags) in enumerate(
-        zip(meta["descriptions"], meta["band_tags"], strict=True)
+        zip(raster.descriptions, raster.band_tags, strict=True)
     ):
         if tags.get("sensor") == "photopic" or description == "photopic":
             return index
     raise InputError(
-        f"{path}: no photopic band (band descriptions {meta['descriptions']}); "
+        f"{label}: no photopic band (band descriptions {list(raster.descriptions)}); "
         "run irradiance with --sensor photopic"
     )
 
 
 def _albedo(
-    albedo: float | str | os.PathLike[str],
+    albedo: float | Raster | xr.DataArray | str | os.PathLike[str],
     shape: tuple[int, int],
-    transform: Any,
+    transform: Affine,
     crs: CRS,
-) -> NDArray[np.float64]:
+) -> FloatArray:
     if isinstance(albedo, (int, float)):
         value = float(albedo)
         if not 0.0 <= value <= 1.0:
             raise InputError(f"albedo={albedo!r}; expected a reflectance in [0, 1]")
         return np.full(shape, value)
-    grid = np.full(shape, np.nan)
-    try:
-        with rasterio.open(albedo) as dataset:
-            if dataset.crs is None:
-                raise CRSError(f"{albedo}: the albedo raster has no CRS")
-            reproject(
-                rasterio.band(dataset, 1),
-                grid,
-                dst_transform=transform,
-                dst_crs=crs.to_wkt(),
-                dst_nodata=np.nan,
-                resampling=Resampling.bilinear,
-            )
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"{albedo}: cannot read the albedo raster: {exc}") from exc
-    if np.isnan(grid).any():
-        raise InputError(
-            f"{albedo}: the albedo raster leaves {np.isnan(grid).sum()} irradiance pixels "
-            "uncovered; expected it to cover the irradiance raster"
-        )
+    grid = raster_on_grid(
+        albedo,
+        transform=transform,
+        shape=shape,
+        crs=crs,
+        name="albedo raster",
+        require_crs=True,
+    )
     if grid.min() < 0 or grid.max() > 1:
         raise InputError(
-            f"{albedo}: albedo values span {grid.min():.3g}..{grid.max():.3g}; expected [0, 1]"
+            f"{source_label(albedo, 'albedo raster')}: albedo values span "
+            f"{grid.min():.3g}..{grid.max():.3g}; expected [0, 1]"
         )
     return grid
 
 
 def emission_from_viirs(
-    viirs_path: str | os.PathLike[str],
-    out_path: str | os.PathLike[str],
+    viirs: Raster | xr.DataArray | str | os.PathLike[str],
+    output: str | os.PathLike[str] | None = None,
     *,
     spectrum: str = DEFAULT_VIIRS_SPECTRUM,
     resolution: float | None = None,
     target_crs: str | CRS | None = None,
     band: tuple[float, float] = DNB_BAND,
 ) -> EmissionResult:
-    """Stage ``emission --from-viirs``: DNB radiance -> upward luminous flux density.
+    """Upward luminous flux density from a VIIRS Day/Night Band radiance raster.
 
     Parameters
     ----------
-    viirs_path
-        VIIRS DNB radiance raster (band 1) [nW cm-2 sr-1].
-    out_path
-        Output float32 COG, one band ``upward`` [lm m-2].
+    viirs
+        VIIRS DNB radiance (band 1) [nW cm-2 sr-1]: a :class:`~nightlights.io.Raster`, a
+        DataArray or a path.
+    output
+        Float32 Cloud-Optimised GeoTIFF to write, one band ``upward`` [lm m-2]; ``None``
+        writes nothing.
     spectrum
         Spectrum of the city's light (``ies.spectra.SPDS``).
     resolution
@@ -404,26 +450,50 @@ def emission_from_viirs(
     band
         Flat DNB pass band [nm].
 
+    Returns
+    -------
+    EmissionResult
+        One band ``upward`` [lm m-2] and its total flux [lm].
+
+    Raises
+    ------
+    CRSError
+        The raster has no CRS, or ``target_crs`` is not projected.
+    InputError
+        Bad resolution, or a spectrum without power in the band.
+
     Notes
     -----
-    Negative radiances (noise after background subtraction) are set to 0 with a
+    :math:`M_v = \\pi L 10^{-5} K` (:func:`viirs_radiance_to_flux_density`). Negative
+    radiances (noise after background subtraction) are set to 0 with a
     :class:`~nightlights.errors.DataQualityWarning`. Resampling uses the area average, so a
     coarser output conserves flux.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> dnb = Raster(np.full((1, 4, 4), 20.0), Affine(450, 0, 500_000, 0, -450, 6_700_000),
+    ...              "EPSG:32635", ("radiance",), ("nW cm-2 sr-1",))
+    >>> result = emission_from_viirs(dnb, spectrum="LED_4000K")
+    >>> result.raster.descriptions, result.raster.shape
+    (('upward',), (4, 4))
+    >>> round(float(result.raster.data[0, 0, 0]), 4)  # [lm m-2]
+    0.2543
     """
-    try:
-        with rasterio.open(viirs_path) as dataset:
-            radiance = dataset.read(1, masked=True).astype(float).filled(np.nan)
-            src_crs = CRS.from_user_input(dataset.crs.to_wkt()) if dataset.crs else None
-            src_transform = dataset.transform
-            width, height, bounds = dataset.width, dataset.height, dataset.bounds
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"{viirs_path}: cannot read raster: {exc}") from exc
+    label = source_label(viirs, "VIIRS raster")
+    source = as_raster(viirs)
+    radiance = source.data[0]
+    src_crs = source.crs
+    src_transform = source.transform
+    (height, width), bounds = source.shape, source.bounds
     if src_crs is None:
-        raise CRSError(f"{viirs_path}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
+        raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
     negative = radiance < 0
     if negative.any():
         warnings.warn(
-            f"{viirs_path}: {negative.sum()} pixels have negative radiance (min "
+            f"{label}: {negative.sum()} pixels have negative radiance (min "
             f"{np.nanmin(radiance):.3g} nW cm-2 sr-1); set to 0",
             DataQualityWarning,
             stacklevel=2,
@@ -431,10 +501,10 @@ def emission_from_viirs(
         radiance = np.where(negative, 0.0, radiance)
     efficacy = dnb_luminous_efficacy(spectrum, band=band)
     density = viirs_radiance_to_flux_density(radiance, efficacy)
-    target = _viirs_target_crs(src_crs, bounds, target_crs, viirs_path)
+    target = _viirs_target_crs(src_crs, bounds, target_crs, label)
     kwargs = {} if resolution is None else {"resolution": resolution}
-    if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
-        raise InputError(f"resolution={resolution!r} m; expected a positive number of metres")
+    if resolution is not None:
+        check_resolution(resolution)
     if target == src_crs and (resolution is None or math.isclose(resolution, src_transform.a)):
         out, transform = density, src_transform
     else:
@@ -455,29 +525,31 @@ def emission_from_viirs(
         )
     pixel_area = abs(transform.a * transform.e)
     total = float(np.nansum(out) * pixel_area)
-    write_cog(
-        out_path,
-        [
-            RasterBand(
-                out,
-                "upward",
-                "lm m-2",
-                {"quantity": "upward luminous flux density", "model": "VIIRS DNB, Lambertian"},
-            )
-        ],
-        transform=transform,
-        crs=target,
-        tags={
-            "nightlights_stage": "emission_from_viirs",
-            "source": str(viirs_path),
-            "spectrum": spectrum,
-            "dnb_band_nm": f"{band[0]}-{band[1]}",
-            "dnb_luminous_efficacy_lm_per_W": efficacy,
-            "factor_lm_m2_per_nW_cm2_sr": np.pi * NANOWATT_PER_CM2 * efficacy,
-        },
+    tags = {
+        "nightlights_stage": "emission_from_viirs",
+        "source": label,
+        "spectrum": spectrum,
+        "dnb_band_nm": f"{band[0]}-{band[1]}",
+        "dnb_luminous_efficacy_lm_per_W": efficacy,
+        "factor_lm_m2_per_nW_cm2_sr": np.pi * NANOWATT_PER_CM2 * efficacy,
+    }
+    result = Raster(
+        _as_written(out),
+        transform,
+        target,
+        descriptions=("upward",),
+        units=("lm m-2",),
+        tags={key: str(value) for key, value in tags.items()},
+        band_tags=({"quantity": "upward luminous flux density", "model": "VIIRS DNB, Lambertian"},),
     )
-    grid = RasterGrid(transform.c, transform.f, transform.a, *out.shape)
-    return EmissionResult(str(out_path), grid, target, {"upward": total})
+    path = None if output is None else result.write(output)
+    return EmissionResult(result, path, {"upward": total})
+
+
+def _as_written(values: FloatArray) -> FloatArray:
+    """The values as the float32 file holds them, so that the in-memory product and the
+    file are the same numbers."""
+    return values.astype(np.float32).astype(np.float64)
 
 
 def _viirs_target_crs(
@@ -491,9 +563,6 @@ def _viirs_target_crs(
         if not target.is_projected:
             raise CRSError(f"target CRS {target.to_string()} is not projected")
         return target
-    import geopandas as gpd
-    from shapely.geometry import box
-
     footprint = gpd.GeoDataFrame(geometry=[box(*bounds)], crs=src_crs)
     projected = ensure_projected(footprint, source=str(source))
     return CRS.from_user_input(projected.crs)

@@ -12,18 +12,20 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nightlights.area_lights import (
+from nightlights.errors import InputError
+from nightlights.ground import (
     AreaLightOptions,
+    InfluenceThreshold,
     area_luminaires,
+    compute_irradiance,
+    flux_profile,
+    grid_from_bounds,
+    irradiance,
     lambertian_panel_table,
     pseudo_lights,
     read_area_lights,
     rectangle_illuminance,
 )
-from nightlights.errors import InputError
-from nightlights.irradiance import InfluenceThreshold, compute_irradiance, irradiance
-from nightlights.luminaire import flux_profile
-from nightlights.tiling import grid_from_bounds
 
 CRS = "EPSG:32633"
 

@@ -12,6 +12,7 @@ The photometric frame (IES type C) has its z axis pointing down (vertical angle 
 nadir, 180 at zenith, Chuang 2011, Sec. 4.3 "T_lobe"). Horizontal (C-plane) angles H
 increase counterclockwise when the luminaire is viewed from above, and the light system's
 ``street_azimuth`` C-plane points along the body's forward axis, i.e. along ``heading``.
+The type C angle maths is that of :mod:`ies.frames`, applied in the body frame.
 
 The light point (the photometric centre) hangs ``arm_length`` metres from the pole foot
 along ``heading``, ``mounting_height`` metres above the ground at the pole foot (Chuang
@@ -41,8 +42,10 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ies.frames import direction_from_angles, photometric_angles
+from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 
 __all__ = [
@@ -61,7 +64,7 @@ logger = logging.getLogger(__name__)
 
 def luminaire_rotation(
     heading: ArrayLike, tilt: ArrayLike = 0.0, roll: ArrayLike = 0.0
-) -> NDArray[np.float64]:
+) -> FloatArray:
     """Rotation matrices from the luminaire body frame to the world frame.
 
     Parameters
@@ -93,8 +96,8 @@ def luminaire_rotation(
     Examples
     --------
     >>> R = luminaire_rotation(90.0)
-    >>> np.round(R @ [0.0, 1.0, 0.0], 12)  # forward axis now points east
-    array([ 1.,  0.,  0.])
+    >>> np.round(R @ [0.0, 1.0, 0.0], 12).tolist()  # forward axis now points east
+    [1.0, 0.0, 0.0]
     """
     h, t, r = np.broadcast_arrays(
         np.radians(np.asarray(heading, dtype=float)),
@@ -112,7 +115,7 @@ def luminaire_rotation(
     return rz @ rx @ ry
 
 
-def _stack(rows: list[list[NDArray[np.float64]]]) -> NDArray[np.float64]:
+def _stack(rows: list[list[FloatArray]]) -> FloatArray:
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
@@ -124,7 +127,7 @@ def light_points(
     mounting_height: ArrayLike,
     arm_length: ArrayLike = 0.0,
     ground_z: ArrayLike = 0.0,
-) -> NDArray[np.float64]:
+) -> FloatArray:
     """Photometric centres of luminaires from their pole feet.
 
     Parameters
@@ -162,7 +165,7 @@ def direction_to_photometric(
     rotation: ArrayLike,
     *,
     street_azimuth: ArrayLike = 0.0,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[FloatArray, FloatArray]:
     """Photometric angles (V, H) of world directions leaving a luminaire.
 
     Parameters
@@ -196,12 +199,13 @@ def direction_to_photometric(
     """
     d = np.asarray(direction, dtype=float)
     body = np.einsum("...ji,...j->...i", np.asarray(rotation, dtype=float), d)
-    norm = np.linalg.norm(body, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos_v = np.clip(-body[..., 2] / norm, -1.0, 1.0)
-    vertical = np.degrees(np.arccos(np.where(norm > 0, cos_v, 1.0)))
-    horizontal = np.degrees(np.arctan2(-body[..., 0], body[..., 1]))
-    horizontal = np.mod(horizontal + np.asarray(street_azimuth, dtype=float), 360.0)
+    # The photometric frame of ies.frames with x along the street C-plane (forward) and y
+    # to the left: (forward, left, up) = (b_y, -b_x, b_z).
+    vertical, horizontal = photometric_angles(
+        body[..., 1], -body[..., 0], body[..., 2], x_plane=street_azimuth
+    )
+    # A zero vector (0/0 above) has no direction: call it nadir.
+    vertical = np.where(np.isnan(vertical), 0.0, vertical)
     return vertical, horizontal
 
 
@@ -211,7 +215,7 @@ def photometric_to_direction(
     rotation: ArrayLike,
     *,
     street_azimuth: ArrayLike = 0.0,
-) -> NDArray[np.float64]:
+) -> FloatArray:
     """World unit vectors of photometric angles; the inverse of :func:`direction_to_photometric`.
 
     Parameters
@@ -230,11 +234,8 @@ def photometric_to_direction(
     numpy.ndarray
         Unit vectors (..., 3) in the world frame [1].
     """
-    v = np.radians(np.asarray(vertical, dtype=float))
-    a = np.radians(np.asarray(horizontal, dtype=float) - np.asarray(street_azimuth, dtype=float))
-    body = np.stack(
-        np.broadcast_arrays(-np.sin(v) * np.sin(a), np.sin(v) * np.cos(a), -np.cos(v)), axis=-1
-    )
+    forward, left, up = direction_from_angles(vertical, horizontal, x_plane=street_azimuth)
+    body = np.stack(np.broadcast_arrays(-left, forward, up), axis=-1)
     return np.einsum("...ij,...j->...i", np.asarray(rotation, dtype=float), body)
 
 
@@ -249,12 +250,12 @@ class PhotometryLike(Protocol):
     """What the table needs from :class:`ies.Photometry`."""
 
     @property
-    def vertical_angles(self) -> NDArray[np.float64]: ...
+    def vertical_angles(self) -> FloatArray: ...
 
     @property
-    def horizontal_angles(self) -> NDArray[np.float64]: ...
+    def horizontal_angles(self) -> FloatArray: ...
 
-    def intensity(self, vertical: ArrayLike, horizontal: ArrayLike) -> NDArray[np.float64]: ...
+    def intensity(self, vertical: ArrayLike, horizontal: ArrayLike) -> FloatArray: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,7 +274,7 @@ class IntensityTable:
 
     vertical_step: float
     horizontal_step: float
-    candela: NDArray[np.float64]
+    candela: FloatArray
 
     def __post_init__(self) -> None:
         n_h, n_v = self.candela.shape
@@ -290,7 +291,7 @@ class IntensityTable:
     @classmethod
     def from_function(
         cls,
-        intensity: Callable[[NDArray[np.float64], NDArray[np.float64]], ArrayLike],
+        intensity: Callable[[FloatArray, FloatArray], ArrayLike],
         *,
         vertical_step: float = 0.5,
         horizontal_step: float = 1.0,
@@ -331,7 +332,7 @@ class IntensityTable:
             horizontal_step=horizontal_step or _FALLBACK_HORIZONTAL_STEP,
         )
 
-    def lookup(self, vertical: ArrayLike, horizontal: ArrayLike) -> NDArray[np.float64]:
+    def lookup(self, vertical: ArrayLike, horizontal: ArrayLike) -> FloatArray:
         """Intensity at (vertical, horizontal) by bilinear interpolation [cd].
 
         Parameters
@@ -363,7 +364,7 @@ class IntensityTable:
         return lower + th * (upper - lower)
 
 
-def _common_step(angles: NDArray[np.float64]) -> float | None:
+def _common_step(angles: FloatArray) -> float | None:
     for step in _STEPS:
         ratio = angles / step
         if np.allclose(ratio, np.round(ratio), rtol=0.0, atol=1e-6):
@@ -385,9 +386,9 @@ class FluxProfile:
         Flux emitted within each nadir angle of straight down [lm].
     """
 
-    nadir_angle: NDArray[np.float64]
-    peak_intensity: NDArray[np.float64]
-    cumulative_flux: NDArray[np.float64]
+    nadir_angle: FloatArray
+    peak_intensity: FloatArray
+    cumulative_flux: FloatArray
 
     @property
     def total_flux(self) -> float:
@@ -421,7 +422,7 @@ def flux_profile(
     table
         Candela table in the photometric frame.
     tilt, roll
-        Mounting rotations (see :mod:`nightlights.luminaire`) [deg].
+        Mounting rotations (see :mod:`nightlights.ground.frames`) [deg].
     street_azimuth
         C-plane facing the street [deg].
     nadir_step
@@ -444,7 +445,7 @@ def flux_profile(
     azimuth = np.radians(np.arange(0.0, 360.0, azimuth_step) + azimuth_step / 2)
     rotation = luminaire_rotation(0.0, tilt, roll)
 
-    def intensity(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+    def intensity(theta: FloatArray) -> FloatArray:
         t, a = np.meshgrid(theta, azimuth, indexing="ij")
         direction = np.stack([np.sin(t) * np.sin(a), np.sin(t) * np.cos(a), -np.cos(t)], -1)
         vertical, horizontal = direction_to_photometric(

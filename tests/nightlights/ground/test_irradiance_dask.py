@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 from distributed import Client, LocalCluster
 
-from nightlights.irradiance import InfluenceThreshold, Luminaires, compute_irradiance
-from nightlights.luminaire import IntensityTable, luminaire_rotation
-from nightlights.tiling import grid_from_bounds
+from nightlights.ground import (
+    InfluenceThreshold,
+    IntensityTable,
+    Luminaires,
+    compute_irradiance,
+    grid_from_bounds,
+    luminaire_rotation,
+)
 
 
 def make_luminaires(n: int, rng: np.random.Generator) -> Luminaires:

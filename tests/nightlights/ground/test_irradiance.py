@@ -15,13 +15,15 @@ from hypothesis import strategies as st
 from shapely.geometry import Point
 
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
-from nightlights.irradiance import (
+from nightlights.ground import (
     InfluenceThreshold,
+    IntensityTable,
+    flux_profile,
     ground_illuminance,
     influence_radius,
     irradiance,
+    luminaire_rotation,
 )
-from nightlights.luminaire import IntensityTable, flux_profile, luminaire_rotation
 
 CRS = "EPSG:32633"
 
@@ -438,7 +440,7 @@ def test_flat_dem_equals_no_dem(tmp_path: Path, database: FakeDatabase) -> None:
 def test_a_failing_tile_leaves_the_old_output(
     tmp_path: Path, database: FakeDatabase, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import nightlights.irradiance as module
+    import nightlights.ground.illuminance as module
 
     lights = write_lights(tmp_path / "l.gpkg", [light(1, 50.0, 50.0), light(2, 150.0, 50.0)])
     out = tmp_path / "e.tif"

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import geopandas as gpd
 import numpy as np
@@ -29,10 +30,16 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS
 
+from nightlights._typing import FloatArray
 from nightlights.errors import EmptyInputError, InputError
+from nightlights.ground.frames import IntensityTable, luminaire_rotation
+from nightlights.ground.luminaires import Luminaires, sample_elevation
 from nightlights.io import ensure_projected, read_vector
-from nightlights.irradiance import Luminaires, sample_elevation
-from nightlights.luminaire import IntensityTable, luminaire_rotation
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from nightlights.io import Raster
 
 __all__ = [
     "AreaLightOptions",
@@ -94,9 +101,9 @@ class PseudoLights:
         Voronoi cells clipped to their polygon.
     """
 
-    x: NDArray[np.float64]
-    y: NDArray[np.float64]
-    flux: NDArray[np.float64]
+    x: FloatArray
+    y: FloatArray
+    flux: FloatArray
     source: NDArray[np.intp]
     cells: NDArray[np.object_]
 
@@ -124,9 +131,9 @@ def pseudo_lights(polygons: ArrayLike, exitance: ArrayLike, *, spacing: float) -
     """
     geometries = np.asarray(polygons, dtype=object).ravel()
     exitance = np.broadcast_to(np.asarray(exitance, dtype=float), geometries.shape)
-    xs: list[NDArray[np.float64]] = []
-    ys: list[NDArray[np.float64]] = []
-    fluxes: list[NDArray[np.float64]] = []
+    xs: list[FloatArray] = []
+    ys: list[FloatArray] = []
+    fluxes: list[FloatArray] = []
     sources: list[NDArray[np.intp]] = []
     all_cells: list[NDArray[np.object_]] = []
     for index, (polygon, value) in enumerate(zip(geometries, exitance, strict=True)):
@@ -189,7 +196,7 @@ def area_luminaires(
     *,
     height: float,
     spectrum: str | None = None,
-    ground_z: NDArray[np.float64] | None = None,
+    ground_z: FloatArray | None = None,
 ) -> Luminaires:
     """Kernel-ready luminaires for pseudo-lights (ids -1, -2, ...).
 
@@ -229,19 +236,19 @@ def area_luminaires(
 
 
 def read_area_lights(
-    path: str | os.PathLike[str],
+    areas: gpd.GeoDataFrame | str | os.PathLike[str],
     *,
     exitance_field: str,
-    crs: CRS,
+    crs: CRS | str,
     options: AreaLightOptions,
-    dem: str | os.PathLike[str] | None = None,
+    dem: Raster | xr.DataArray | str | os.PathLike[str] | None = None,
 ) -> Luminaires:
-    """Read a polygon layer of area sources and turn it into pseudo-light luminaires.
+    """Turn a polygon layer of area sources into pseudo-light luminaires.
 
     Parameters
     ----------
-    path
-        Polygon layer with a luminous exitance field.
+    areas
+        Polygon layer with a luminous exitance field, or its path.
     exitance_field
         Field name holding the exitance [lm m-2].
     crs
@@ -249,7 +256,8 @@ def read_area_lights(
     options
         Panel height, spacing and spectrum.
     dem
-        Elevation raster [m]; default flat ground at z = 0.
+        Elevation raster [m] (a :class:`~nightlights.io.Raster`, a DataArray or a path);
+        default flat ground at z = 0.
 
     Raises
     ------
@@ -257,10 +265,13 @@ def read_area_lights(
         Missing field, non-polygon features, negative or non-numeric exitance (naming the
         features).
     """
-    frame = read_vector(path)
+    if isinstance(areas, gpd.GeoDataFrame):
+        path, frame = "area sources", areas
+    else:
+        path, frame = str(areas), read_vector(areas)
     if frame.empty:
         raise EmptyInputError(f"{path}: the area-source layer holds no polygons")
-    frame = ensure_projected(frame, source=str(path)).to_crs(crs)
+    frame = ensure_projected(frame, source=path).to_crs(crs)
     if exitance_field not in frame:
         raise InputError(
             f"{path}: no field {exitance_field!r} (fields: {', '.join(map(str, frame.columns))});"
@@ -296,7 +307,7 @@ def rectangle_illuminance(
     *,
     exitance: float,
     height: float,
-) -> NDArray[np.float64]:
+) -> FloatArray:
     """Exact illuminance under a horizontal Lambertian rectangle (the reference model).
 
     Parameters
@@ -335,7 +346,7 @@ def rectangle_illuminance(
     py = np.asarray(y, dtype=float)
     xmin, ymin, xmax, ymax = bounds
 
-    def corner(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    def corner(a: FloatArray, b: FloatArray) -> FloatArray:
         big_a, big_b = np.abs(a) / height, np.abs(b) / height
         ra, rb = np.sqrt(1 + big_a**2), np.sqrt(1 + big_b**2)
         value = (big_a / ra * np.arctan(big_b / ra) + big_b / rb * np.arctan(big_a / rb)) / (
