@@ -93,7 +93,29 @@ class FieldRule:
 
 @dataclass(frozen=True)
 class StreetMapping:
-    """A mapping from an input street schema to the canonical fields."""
+    """A mapping from an input street schema to the canonical fields.
+
+    Attributes
+    ----------
+    name
+        Mapping name.
+    description
+        One line on the schema it reads.
+    id_field
+        Input field holding the feature id (``source_id``); None uses the row index.
+    packed_tags_field
+        Input field with packed ``"key"=>"value"`` tags (GDAL's OSM ``other_tags``).
+    keep_field
+        Input field whose value says whether a feature is a street.
+    keep_values
+        Values of ``keep_field`` that are streets.
+    drop_rules
+        ``(field, values)`` pairs: features with one of these values are dropped.
+    rules
+        Canonical field name -> how it is read.
+    source
+        Where the mapping came from, used in messages.
+    """
 
     name: str
     description: str
@@ -108,7 +130,23 @@ class StreetMapping:
 
 @dataclass
 class NormalizeReport:
-    """What normalisation kept, dropped and observed."""
+    """What normalisation kept, dropped and observed.
+
+    Attributes
+    ----------
+    input_features
+        Features in the input layer [1].
+    output_features
+        Street parts in the output [1].
+    dropped
+        Reason -> number of features or parts dropped for it [1].
+    observed
+        Canonical field -> number of parts where the input gave a value [1].
+    unknown_values
+        Canonical field -> input values not understood (treated as missing) and their counts.
+    crs
+        Output CRS, as text.
+    """
 
     input_features: int = 0
     output_features: int = 0
@@ -119,13 +157,29 @@ class NormalizeReport:
 
 
 def builtin_mappings() -> list[str]:
-    """Names of the mappings shipped with the toolkit."""
+    """Names of the mappings shipped with the toolkit.
+
+    Returns
+    -------
+    list of str
+        Sorted names, e.g. ``["municipal", "osm"]``.
+    """
     folder = resources.files("nightlights.streets") / "mappings"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
 def load_mapping(name_or_path: str | os.PathLike[str]) -> StreetMapping:
     """Load a mapping by built-in name (``osm``, ``municipal``) or TOML file path.
+
+    Parameters
+    ----------
+    name_or_path
+        Built-in mapping name or path of a TOML file.
+
+    Returns
+    -------
+    StreetMapping
+        The parsed mapping.
 
     Raises
     ------
@@ -146,7 +200,26 @@ def load_mapping(name_or_path: str | os.PathLike[str]) -> StreetMapping:
 
 
 def parse_mapping(text: str, *, source: str = "<mapping>") -> StreetMapping:
-    """Parse a mapping from TOML text (see ``nightlights/streets/mappings/osm.toml``)."""
+    """Parse a mapping from TOML text (see ``nightlights/streets/mappings/osm.toml``).
+
+    Parameters
+    ----------
+    text
+        TOML text.
+    source
+        Where the text came from, used in messages.
+
+    Returns
+    -------
+    StreetMapping
+        The parsed mapping.
+
+    Raises
+    ------
+    MappingError
+        Invalid TOML, an unknown canonical field, field type, street class or unit, or a
+        drop rule without field and values.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -203,7 +276,23 @@ def parse_mapping(text: str, *, source: str = "<mapping>") -> StreetMapping:
 
 
 def parse_packed_tags(text: object) -> dict[str, str]:
-    """Parse GDAL's OSM ``other_tags`` hstore text (``"k"=>"v","k2"=>"v2"``) into a dict."""
+    """Parse GDAL's OSM ``other_tags`` hstore text (``"k"=>"v","k2"=>"v2"``) into a dict.
+
+    Parameters
+    ----------
+    text
+        Packed tags; anything but a non-empty string gives an empty dict.
+
+    Returns
+    -------
+    dict of str to str
+        Tag key -> value.
+
+    Examples
+    --------
+    >>> parse_packed_tags('"lanes"=>"2","lit"=>"yes"')
+    {'lanes': '2', 'lit': 'yes'}
+    """
     if not isinstance(text, str) or not text:
         return {}
     return {

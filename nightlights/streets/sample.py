@@ -55,7 +55,23 @@ _NETWORK_FIELDS = tuple(name for name in (*STREET_FIELDS, *LIGHTING_FIELDS) if n
 
 
 def resolve_network(network: str | os.PathLike[str] | BayesNet | None) -> BayesNet:
-    """A network object from a catalogue name, a folder, or None (the default network)."""
+    """A network object from a catalogue name, a folder, or None (the default network).
+
+    Parameters
+    ----------
+    network
+        Network object (returned as it is), catalogue name, network folder, or None.
+
+    Returns
+    -------
+    bayesnets.BayesNet
+        The network.
+
+    Raises
+    ------
+    bayesnets.errors.CatalogError
+        Unknown catalogue name (the message lists the catalogue).
+    """
     if isinstance(network, BayesNet):
         return network
     return load_network(network)

@@ -49,5 +49,11 @@ ARRANGEMENTS: tuple[str, ...] = ("single_sided", "staggered", "opposite", "centr
 
 
 def observed_field(name: str) -> str:
-    """Name of the companion field that says whether ``name`` was observed."""
+    """Name of the companion field that says whether ``name`` was observed.
+
+    Examples
+    --------
+    >>> observed_field("lanes")
+    'lanes_observed'
+    """
     return f"{name}_observed"
