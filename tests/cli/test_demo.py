@@ -1,8 +1,9 @@
-"""End-to-end test of ``nightlights demo`` on the bundled Helsinki extract."""
+"""``nightlights demo``: end to end on the bundled Helsinki extract, and its paths."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import geopandas as gpd
 import numpy as np
@@ -17,7 +18,7 @@ from nightlights.demo import mapped_street_lamps
 @pytest.fixture(scope="module")
 def demo_out(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("demo") / "out"
-    result = CliRunner().invoke(cli, ["demo", "--out", str(out), "--seed", "7"])
+    result = CliRunner().invoke(cli, ["demo", str(out), "--seed", "7"])
     assert result.exit_code == 0, result.output
     return out
 
@@ -58,3 +59,45 @@ def test_demo_skyglow_panoramas(demo_out: Path) -> None:
     assert 280 < float(outside["azimuth"][int(horizon.argmax())]) < 350
     centre.close()
     outside.close()
+
+
+@pytest.fixture
+def fake_demo(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, int]]:
+    calls: list[tuple[str, int]] = []
+
+    def run_demo(out_dir: str, *, seed: int) -> SimpleNamespace:
+        calls.append((out_dir, seed))
+        return SimpleNamespace(outputs={"lights": Path(out_dir) / "lights.gpkg"}, zenith={})
+
+    monkeypatch.setattr("nightlights.demo.run_demo", run_demo)
+    return calls
+
+
+def test_demo_output_spellings(
+    fake_demo: list[tuple[str, int]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    assert runner.invoke(cli, ["demo"]).exit_code == 0
+    assert runner.invoke(cli, ["demo", "a"]).exit_code == 0
+    assert runner.invoke(cli, ["demo", "-o", "b", "--seed", "3"]).exit_code == 0
+    old = runner.invoke(cli, ["demo", "--out", "c"])
+    assert old.exit_code == 0, old.output
+    assert "DeprecationWarning: --out is deprecated; use OUTPUT or -o/--output." in old.stderr
+    assert fake_demo == [("nightlights-demo", 2011), ("a", 2011), ("b", 3), ("c", 2011)]
+
+
+def test_demo_refuses_a_folder_that_is_not_empty(
+    fake_demo: list[tuple[str, int]], tmp_path: Path
+) -> None:
+    (tmp_path / "empty").mkdir()
+    assert CliRunner().invoke(cli, ["demo", str(tmp_path / "empty")]).exit_code == 0
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "notes.txt").write_text("keep")
+    result = CliRunner().invoke(cli, ["demo", str(full)])
+    assert result.exit_code == 1
+    assert result.output == f"Error: {full}: exists; give --overwrite to replace it\n"
+    assert CliRunner().invoke(cli, ["demo", str(full), "--overwrite"]).exit_code == 0
+    assert fake_demo == [(str(tmp_path / "empty"), 2011), (str(full), 2011)]
+    assert (full / "notes.txt").read_text() == "keep"

@@ -1,47 +1,24 @@
-"""CLI: nightlights irradiance and nightlights emission."""
+"""``nightlights irradiance``."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import geopandas as gpd
 import numpy as np
-import pytest
 import rasterio
-from affine import Affine
 from click.testing import CliRunner
-from shapely.geometry import Point, box
+from shapely.geometry import box
 
 from cli.main import cli
 
 CRS = "EPSG:3067"
 
 
-@pytest.fixture
-def lights(tmp_path: Path) -> Path:
-    path = tmp_path / "lights.gpkg"
-    gpd.GeoDataFrame(
-        {
-            "light_id": [1, 2, 3],
-            "street_id": ["a", "a", "b"],
-            "system_id": ["street_led_medium", "street_led_small", "road_hps"],
-            "heading": [90.0, 270.0, 0.0],
-            "mounting_height": [10.0, None, 12.0],
-            "arm_length": [1.0, 0.5, None],
-            "tilt": [0.0, 5.0, 0.0],
-            "side": ["left", "right", "center"],
-            "arrangement": ["opposite", "opposite", "central"],
-        },
-        geometry=[Point(385_000, 6_672_000), Point(385_020, 6_672_000), Point(385_010, 6_672_040)],
-        crs=CRS,
-    ).to_file(path, layer="lights", driver="GPKG")
-    return path
-
-
-def test_irradiance_then_emission(lights: Path, tmp_path: Path) -> None:
-    runner = CliRunner()
+def test_irradiance_bands_per_sensor(lights: Path, tmp_path: Path) -> None:
     out = tmp_path / "e.tif"
-    result = runner.invoke(
+    result = CliRunner().invoke(
         cli,
         [
             "irradiance",
@@ -58,6 +35,7 @@ def test_irradiance_then_emission(lights: Path, tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code == 0, result.output
+    assert "3 lights" in result.output
     with rasterio.open(out) as dataset:
         assert dataset.descriptions == ("photopic", "scotopic")
         assert dataset.units == ("lx", "W m-2")
@@ -67,26 +45,6 @@ def test_irradiance_then_emission(lights: Path, tmp_path: Path) -> None:
     # Sensor band = k x lux per light; k(scotopic) is within (0, 1/683 * 2.5) for these SPDs.
     ratio = scotopic[photopic > 1] / photopic[photopic > 1]
     assert np.all((ratio > 0) & (ratio < 2.5 / 683))
-    emission_out = tmp_path / "m.tif"
-    result = runner.invoke(
-        cli,
-        [
-            "emission",
-            str(out),
-            str(lights),
-            str(emission_out),
-            "--resolution",
-            "20",
-            "--albedo",
-            "0.1",
-        ],
-    )
-    assert result.exit_code == 0, result.output
-    with rasterio.open(emission_out) as dataset:
-        assert dataset.descriptions == ("reflected", "uplight")
-        reflected, uplight = dataset.read().astype(float)
-    assert reflected.sum() * 400 == pytest.approx(0.1 * photopic.sum() * 4, rel=1e-4)
-    assert uplight.sum() > 0  # street_led_medium has ~50 lm of uplight
 
 
 def test_irradiance_with_area_sources(lights: Path, tmp_path: Path) -> None:
@@ -100,6 +58,7 @@ def test_irradiance_with_area_sources(lights: Path, tmp_path: Path) -> None:
         [
             "irradiance",
             str(lights),
+            "--output",
             str(out),
             "--resolution",
             "2",
@@ -137,31 +96,46 @@ def test_errors_are_one_line(lights: Path, tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code != 0 and "threshold" in result.output
-    result = runner.invoke(cli, ["emission", "a.tif", "--resolution", "10"])
-    assert result.exit_code != 0 and "IRRADIANCE.tif LIGHTS OUT.tif" in result.output
     assert not (tmp_path / "e.tif").exists()
 
 
-def test_emission_from_viirs(tmp_path: Path) -> None:
-    source = tmp_path / "dnb.tif"
-    with rasterio.open(
-        source,
-        "w",
-        driver="GTiff",
-        height=4,
-        width=5,
-        count=1,
-        dtype="float32",
-        crs="EPSG:32635",
-        transform=Affine(500, 0, 385_000, 0, -500, 6_673_000),
-    ) as dataset:
-        dataset.write(np.full((1, 4, 5), 25.0, np.float32))
-    out = tmp_path / "up.tif"
-    result = CliRunner().invoke(
-        cli, ["emission", "--from-viirs", str(source), str(out), "--spectrum", "HPS"]
-    )
+def _fake_result() -> SimpleNamespace:
+    return SimpleNamespace(raster=SimpleNamespace(shape=(4, 5)), n_lights=3, n_pairs=60)
+
+
+def test_options_reach_the_stage(fake_stage, lights: Path, tmp_path: Path) -> None:
+    stage = fake_stage("irradiance", _fake_result())
+    out = tmp_path / "e.tif"
+    args = ["irradiance", str(lights), str(out), "--resolution", "2", "--crs", CRS]
+    args += ["--bounds", "0,1,2,3", "--area-height", "5", "--threshold", "none"]
+    result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
-    with rasterio.open(out) as dataset:
-        assert dataset.descriptions == ("upward",)
-        assert dataset.tags()["spectrum"] == "HPS"
-        assert np.allclose(dataset.read(1), dataset.read(1)[0, 0]) and dataset.read(1)[0, 0] > 0
+    assert stage.args == (str(lights), str(out))
+    kwargs = stage.kwargs
+    assert kwargs["crs"] == CRS and kwargs["resolution"] == 2.0
+    assert kwargs["bounds"] == (0.0, 1.0, 2.0, 3.0)
+    assert kwargs["area_options"].height == 5.0
+    assert kwargs["sensors"] == ("photopic",)
+    assert "3 lights, 4 x 5 pixels" in result.output
+
+
+def test_existing_output_is_refused(fake_stage, lights: Path, tmp_path: Path) -> None:
+    stage = fake_stage("irradiance", _fake_result())
+    out = tmp_path / "e.tif"
+    out.write_bytes(b"keep")
+    args = ["irradiance", str(lights), str(out), "--resolution", "2"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 1
+    assert result.output == f"Error: {out}: exists; give --overwrite to replace it\n"
+    assert stage.calls == [] and out.read_bytes() == b"keep"
+    assert CliRunner().invoke(cli, [*args, "--overwrite"]).exit_code == 0
+    assert len(stage.calls) == 1
+
+
+def test_wrong_number_of_paths_is_a_usage_error(lights: Path, tmp_path: Path) -> None:
+    result = CliRunner().invoke(cli, ["irradiance", str(lights), "--resolution", "2"])
+    assert result.exit_code == 2 and "expected LIGHTS OUTPUT" in result.output
+    result = CliRunner().invoke(
+        cli, ["irradiance", str(lights), str(lights), "-o", "x.tif", "--resolution", "2"]
+    )
+    assert result.exit_code == 2 and "expected LIGHTS OUTPUT" in result.output

@@ -1,14 +1,18 @@
-"""CLI: nightlights kernel build."""
+"""``nightlights kernel build``."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from cli.main import cli
-from nightlights.sky.precompute import read_kernel
+from nightlights.sky.store import read_kernel
+
+SMALL = ["--r-max", "5000", "--n-distance", "4", "--n-elevation", "4", "--n-azimuth", "8"]
 
 
 def test_kernel_build_writes_a_kernel(tmp_path: Path) -> None:
@@ -53,9 +57,7 @@ def test_kernel_build_bad_value_is_one_line(tmp_path: Path) -> None:
     )
     assert result.exit_code != 0
     assert "turbidity" in result.output and "Traceback" not in result.output
-    result = CliRunner().invoke(
-        cli, ["kernel", "build", str(tmp_path / "no" / "k.nc"), "--n-distance", "2"]
-    )
+    result = CliRunner().invoke(cli, ["kernel", "build", str(tmp_path / "no" / "k.nc"), *SMALL])
     assert result.exit_code != 0 and "does not exist" in result.output
 
 
@@ -63,8 +65,7 @@ def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
     tables = {}
     for backend in ("numba", "numpy"):
         out = tmp_path / f"kernel_{backend}.nc"
-        args = ["kernel", "build", str(out), "--r-max", "5000", "--n-distance", "4"]
-        args += ["--n-elevation", "4", "--n-azimuth", "8", "--backend", backend]
+        args = ["kernel", "build", str(out), *SMALL, "--backend", backend]
         result = CliRunner().invoke(cli, args)
         assert result.exit_code == 0, result.output
         ds = read_kernel(out)
@@ -75,9 +76,58 @@ def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
 
 def test_kernel_build_without_tables(tmp_path: Path) -> None:
     out = tmp_path / "lean.nc"
-    args = ["kernel", "build", str(out), "--r-max", "5000", "--n-distance", "4"]
-    args += ["--n-elevation", "4", "--n-azimuth", "8", "--no-tables"]
-    result = CliRunner().invoke(cli, args)
+    result = CliRunner().invoke(cli, ["kernel", "build", "-o", str(out), *SMALL, "--no-tables"])
     assert result.exit_code == 0, result.output
     ds = read_kernel(out)
     assert "kernel" not in ds and "coefficient" in ds and ds.attrs["store_tables"] == 0
+
+
+@pytest.fixture
+def fake_build(fake_stage):
+    kernel = SimpleNamespace(
+        sizes={"distance": 1, "elevation": 1, "azimuth": 2, "component": 1},
+        explained_energy=np.ones(1),
+        attrs={"content_hash": "0" * 64},
+    )
+    return fake_stage("build_kernel", SimpleNamespace(kernel=kernel))
+
+
+def test_kernel_build_defaults_are_skyglows_grid(fake_build, tmp_path: Path) -> None:
+    """Same panorama grid as skyglow --n-elevation/--n-azimuth and KernelSpec: 64 x 256."""
+    import nightlights as nl
+
+    result = CliRunner().invoke(cli, ["kernel", "build", str(tmp_path / "k.nc")])
+    assert result.exit_code == 0, result.output
+    (spec, out) = fake_build.args
+    assert out == str(tmp_path / "k.nc")
+    assert (spec.n_elevation, spec.n_azimuth, spec.n_distance) == (64, 256, 64)
+    assert spec == nl.KernelSpec()  # every default of the command is KernelSpec's
+    assert fake_build.kwargs == {"backend": "auto", "progress": True}
+
+
+def test_n_components_and_its_deprecated_spelling(fake_build, tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        cli, ["kernel", "build", str(tmp_path / "a.nc"), "--n-components", "7"]
+    )
+    assert result.exit_code == 0, result.output
+    assert fake_build.calls[-1][0][0].n_components == 7 and result.stderr.count("Deprecation") == 0
+    result = CliRunner().invoke(
+        cli, ["kernel", "build", str(tmp_path / "b.nc"), "--components", "5"]
+    )
+    assert result.exit_code == 0, result.output
+    assert fake_build.calls[-1][0][0].n_components == 5
+    assert "DeprecationWarning: --components is deprecated; use --n-components." in result.stderr
+    both = ["kernel", "build", str(tmp_path / "c.nc"), "--components", "5", "--n-components", "7"]
+    result = CliRunner().invoke(cli, both)
+    assert result.exit_code == 2 and "give only one of" in result.output
+
+
+def test_kernel_build_refuses_an_existing_output(fake_build, tmp_path: Path) -> None:
+    out = tmp_path / "k.nc"
+    out.write_bytes(b"keep")
+    result = CliRunner().invoke(cli, ["kernel", "build", str(out)])
+    assert result.exit_code == 1 and "give --overwrite" in result.output
+    assert fake_build.calls == [] and out.read_bytes() == b"keep"
+    assert CliRunner().invoke(cli, ["kernel", "build", str(out), "--overwrite"]).exit_code == 0
+    result = CliRunner().invoke(cli, ["kernel", "build"])
+    assert result.exit_code == 2 and "missing OUTPUT" in result.output

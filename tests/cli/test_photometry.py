@@ -1,4 +1,4 @@
-"""``nightlights photometry info`` with click's CliRunner."""
+"""``nightlights photometry info``."""
 
 from __future__ import annotations
 
@@ -56,3 +56,16 @@ def test_bad_file_gives_one_line_error(tmp_path):
     assert "PhotometryParseError" in result.output
     assert "line 7" in result.output and "'-1'" in result.output
     assert "Traceback" not in result.output
+
+
+def test_info_plot_refuses_an_existing_file(tmp_path):
+    png = tmp_path / "lobe.png"
+    png.write_bytes(b"keep")
+    args = ["photometry", "info", str(ROADWAY), "--plot", str(png)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 1
+    assert result.output == f"Error: {png}: exists; give --overwrite to replace it\n"
+    assert png.read_bytes() == b"keep"
+    result = CliRunner().invoke(cli, [*args, "--overwrite"])
+    assert result.exit_code == 0, result.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

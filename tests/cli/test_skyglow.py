@@ -1,18 +1,24 @@
-"""CLI: nightlights skyglow."""
+"""``nightlights skyglow``."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from types import SimpleNamespace
+
 import numpy as np
+import pytest
 import xarray as xr
 from affine import Affine
 from click.testing import CliRunner
 
+import nightlights as nl
 from cli.main import cli
 from nightlights.io import RasterBand, write_cog
-from nightlights.sky.precompute import build_kernel, write_kernel
+
+OBSERVER = ["--observer", "501500,6698500"]
 
 
-def _emission(path) -> None:
+def _emission(path: Path) -> Path:
     values = np.zeros((30, 30), np.float32)
     values[10:14, 20:24] = 1.0
     write_cog(
@@ -21,27 +27,30 @@ def _emission(path) -> None:
         transform=Affine(100, 0, 500_000, 0, -100, 6_700_000),
         crs="EPSG:32635",
     )
+    return path
 
 
-def test_skyglow_command_prints_zenith_and_writes_outputs(tmp_path) -> None:
+@pytest.fixture
+def emission(tmp_path: Path) -> Path:
+    return _emission(tmp_path / "emission.tif")
+
+
+def test_skyglow_command_prints_zenith_and_writes_outputs(emission: Path, tmp_path: Path) -> None:
     kernel = tmp_path / "kernel.nc"
-    write_kernel(build_kernel(r_min=5, r_max=6000, n_r=16, n_el=8, n_az=32, progress=False), kernel)
-    src = tmp_path / "emission.tif"
-    _emission(src)
+    spec = nl.KernelSpec(r_min=5, r_max=6000, n_distance=16, n_elevation=8, n_azimuth=32)
+    nl.build_kernel(spec, kernel, progress=False)
     out, png = tmp_path / "pano.nc", tmp_path / "pano.png"
     result = CliRunner().invoke(
         cli,
         [
             "skyglow",
-            str(src),
-            "--observer",
-            "501500,6698500",
+            str(emission),
+            str(out),
+            *OBSERVER,
             "--kernel",
             str(kernel),
             "--observer-height",
             "0",
-            "--out",
-            str(out),
             "--png",
             str(png),
         ],
@@ -57,42 +66,31 @@ def test_skyglow_command_prints_zenith_and_writes_outputs(tmp_path) -> None:
     assert png.stat().st_size > 5000
 
 
-def test_skyglow_command_errors_are_one_line(tmp_path) -> None:
-    src = tmp_path / "emission.tif"
-    _emission(src)
+def test_skyglow_command_errors_are_one_line(emission: Path, tmp_path: Path) -> None:
     result = CliRunner().invoke(
         cli,
         [
             "skyglow",
-            str(src),
-            "--observer",
-            "501500,6698500",
+            str(emission),
+            str(tmp_path / "p.nc"),
+            *OBSERVER,
             "--mode",
             "naive",
             "--kernel",
-            str(src),
-            "--out",
-            str(tmp_path / "p.nc"),
+            str(emission),
         ],
     )
     assert result.exit_code != 0 and "Traceback" not in result.output
     result = CliRunner().invoke(
-        cli,
-        [
-            "skyglow",
-            str(src),
-            "--observer",
-            "nowhere",
-            "--out",
-            str(tmp_path / "p.nc"),
-        ],
+        cli, ["skyglow", str(emission), str(tmp_path / "p.nc"), "--observer", "nowhere"]
     )
     assert result.exit_code == 2 and "expected X,Y" in result.output
 
 
-def test_skyglow_command_over_terrain_uses_absolute_altitudes(tmp_path) -> None:
-    src, dem = tmp_path / "emission.tif", tmp_path / "dem.tif"
-    _emission(src)
+def test_skyglow_command_over_terrain_uses_absolute_altitudes(
+    emission: Path, tmp_path: Path
+) -> None:
+    dem = tmp_path / "dem.tif"
     heights = np.full((30, 30), 120.0, np.float32)
     heights[:, 15:] = 180.0  # the lit block stands on a 60 m higher terrace
     write_cog(
@@ -102,8 +100,8 @@ def test_skyglow_command_over_terrain_uses_absolute_altitudes(tmp_path) -> None:
         crs="EPSG:32635",
     )
     out = tmp_path / "pano.nc"
-    args = ["skyglow", str(src), "--observer", "501250,6698500", "--dem", str(dem)]
-    args += ["--n-azimuth", "32", "--n-elevation", "8", "--out", str(out)]
+    args = ["skyglow", str(emission), "--observer", "501250,6698500", "--dem", str(dem)]
+    args += ["--n-azimuth", "32", "--n-elevation", "8", "-o", str(out)]
     result = CliRunner(env={"NIGHTLIGHTS_CACHE": str(tmp_path / "cache")}).invoke(cli, args)
     assert result.exit_code == 0, result.output
     pano = xr.open_dataset(out, engine="h5netcdf")
@@ -112,3 +110,52 @@ def test_skyglow_command_over_terrain_uses_absolute_altitudes(tmp_path) -> None:
     assert np.atleast_1d(pano.attrs["source_altitude_levels_m"]).tolist() == [180.0]
     assert np.nanmax(pano["luminance"].values) > 0
     pano.close()
+
+
+@pytest.fixture
+def fake_skyglow(fake_stage):
+    result = SimpleNamespace(zenith_luminance=1e-3, zenith_magnitude=20.0, bortle=5, seconds=0.01)
+    return fake_stage("skyglow", result)
+
+
+def test_options_reach_the_stage(fake_skyglow, emission: Path, tmp_path: Path) -> None:
+    out, polar = tmp_path / "p.nc", tmp_path / "polar.nc"
+    args = ["skyglow", str(emission), str(out), *OBSERVER, "--polar-output", str(polar)]
+    result = CliRunner().invoke(cli, [*args, "--components", "3", "--n-distance", "32"])
+    assert result.exit_code == 0, result.output
+    assert fake_skyglow.args == (str(emission), str(out))
+    kwargs = fake_skyglow.kwargs
+    assert kwargs["observer"] == (501500.0, 6698500.0)
+    assert kwargs["polar_output"] == str(polar) and kwargs["components"] == 3
+    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (64, 256, 32)
+    assert "Bortle class 5" in result.output and result.stderr.count("Deprecation") == 0
+
+
+def test_deprecated_out_and_polar_out(fake_skyglow, emission: Path, tmp_path: Path) -> None:
+    out, polar = tmp_path / "p.nc", tmp_path / "polar.nc"
+    args = ["skyglow", str(emission), *OBSERVER, "--out", str(out), "--polar-out", str(polar)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert fake_skyglow.args == (str(emission), str(out))
+    assert fake_skyglow.kwargs["polar_output"] == str(polar)
+    assert "DeprecationWarning: --out is deprecated; use OUTPUT or -o/--output." in result.stderr
+    assert "DeprecationWarning: --polar-out is deprecated; use --polar-output." in result.stderr
+    both = ["skyglow", str(emission), *OBSERVER, "--out", str(out), "-o", str(out)]
+    result = CliRunner().invoke(cli, both)
+    assert result.exit_code == 2 and "give only one of" in result.output
+
+
+@pytest.mark.parametrize("which", ["output", "--png", "--polar-output"])
+def test_any_existing_output_is_refused(
+    fake_skyglow, emission: Path, tmp_path: Path, which: str
+) -> None:
+    out, png, polar = tmp_path / "p.nc", tmp_path / "p.png", tmp_path / "polar.nc"
+    existing = {"output": out, "--png": png, "--polar-output": polar}[which]
+    existing.write_bytes(b"keep")
+    args = ["skyglow", str(emission), str(out), *OBSERVER, "--png", str(png)]
+    args += ["--polar-output", str(polar)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 1
+    assert result.output == f"Error: {existing}: exists; give --overwrite to replace it\n"
+    assert fake_skyglow.calls == [] and existing.read_bytes() == b"keep"
+    assert CliRunner().invoke(cli, [*args, "--overwrite"]).exit_code == 0
