@@ -30,15 +30,15 @@ KERNEL_BACKENDS = ("auto", "numba", "numpy")
 DEFAULT_VIIRS_SPECTRUM = "LED_4000K"
 #: nightlights.ground.area_lights.AreaLightOptions.height [m]
 DEFAULT_AREA_HEIGHT = 8.0
-#: nightlights.streets._place.PlacementOptions.along_jitter [1]
+#: nightlights.streets.PlacementOptions.along_jitter [1]
 DEFAULT_ALONG_JITTER = 0.05
-#: nightlights.streets._place.PlacementOptions.across_jitter [m]
+#: nightlights.streets.PlacementOptions.across_jitter [m]
 DEFAULT_ACROSS_JITTER = 0.2
-#: nightlights.streets._place.PlacementOptions.merge_fraction [1]
+#: nightlights.streets.PlacementOptions.merge_fraction [1]
 DEFAULT_MERGE_FRACTION = 0.5
-#: nightlights.streets._sample.DEFAULT_CANDIDATES
+#: nightlights.streets.DEFAULT_CANDIDATES
 DEFAULT_CANDIDATES = 128
-#: nightlights.streets._normalize.builtin_mappings()
+#: nightlights.streets.builtin_mappings()
 BUILTIN_MAPPINGS = ("municipal", "osm")
 #: bayesnets.catalog_names() and bayesnets.default_network_name()
 NETWORK_CATALOG = ("europe", "north_america")

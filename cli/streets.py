@@ -31,7 +31,7 @@ from cli.options import (
 )
 
 if TYPE_CHECKING:
-    from nightlights.streets._normalize import NormalizeReport
+    from nightlights.streets import NormalizeReport
 
 _NETWORK_HELP = (
     f"Catalogue network ({', '.join(NETWORK_CATALOG)}; default {DEFAULT_NETWORK}) "
@@ -154,7 +154,7 @@ def print_lighting_summary(streets: Any, dst: str) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from nightlights.streets._sample import lighting_summary
+    from nightlights.streets import lighting_summary
 
     summary = lighting_summary(streets)
     console = Console(stderr=True)

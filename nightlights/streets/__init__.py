@@ -12,26 +12,36 @@ The pure functions they wrap (:func:`normalize_streets`, :func:`fill_lighting`,
 :func:`fit_lighting_network`, :func:`place_lights`) work on GeoDataFrames only.
 """
 
-from nightlights.streets.fit import FitResult, fit, fit_lighting_network
-from nightlights.streets.normalize import (
+from nightlights.streets._fit import FitResult, fit, fit_lighting_network
+from nightlights.streets._normalize import (
     NormalizeReport,
     NormalizeResult,
+    builtin_mappings,
     normalize,
     normalize_streets,
 )
-from nightlights.streets.place import PlacementOptions, PlaceResult, place, place_lights
-from nightlights.streets.sample import SampleResult, fill_lighting, sample
+from nightlights.streets._place import PlacementOptions, PlaceResult, place, place_lights
+from nightlights.streets._sample import (
+    DEFAULT_CANDIDATES,
+    SampleResult,
+    fill_lighting,
+    lighting_summary,
+    sample,
+)
 
 __all__ = [
+    "DEFAULT_CANDIDATES",
     "FitResult",
     "NormalizeReport",
     "NormalizeResult",
     "PlaceResult",
     "PlacementOptions",
     "SampleResult",
+    "builtin_mappings",
     "fill_lighting",
     "fit",
     "fit_lighting_network",
+    "lighting_summary",
     "normalize",
     "normalize_streets",
     "place",

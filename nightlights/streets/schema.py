@@ -1,8 +1,8 @@
 """Canonical street fields shared by the street stages.
 
-:func:`~nightlights.streets.normalize` writes these fields,
-:func:`~nightlights.streets.sample` fills the missing ones and adds the lighting fields,
-:func:`~nightlights.streets.place` reads them.
+:func:`~nightlights.streets._normalize` writes these fields,
+:func:`~nightlights.streets._sample` fills the missing ones and adds the lighting fields,
+:func:`~nightlights.streets._place` reads them.
 """
 
 from __future__ import annotations

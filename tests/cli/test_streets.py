@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from bayesnets.errors import EvidenceRelaxedWarning
 from cli.main import cli
 from nightlights.io import write_gpkg
-from nightlights.streets._normalize import NormalizeReport
+from nightlights.streets import NormalizeReport
 from nightlights.streets.schema import STREET_FIELDS, observed_field
 
 

@@ -9,8 +9,8 @@ import pytest
 
 from bayesnets import load_network, read_network
 from nightlights.errors import OutputError
-from nightlights.streets.fit import fit, fit_lighting_network
-from nightlights.streets.sample import fill_lighting
+from nightlights.streets._fit import fit, fit_lighting_network
+from nightlights.streets._sample import fill_lighting
 from nightlights.streets.schema import STREET_FIELDS, observed_field
 from tests.nightlights.streets.conftest import normalized_layer, write_normalized
 

@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, MappingError
-from nightlights.streets.normalize import (
+from nightlights.streets._normalize import (
     builtin_mappings,
     load_mapping,
     normalize,

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from nightlights.errors import InputError
-from nightlights.streets.place import LIGHT_FIELDS, PlacementOptions, place_lights
+from nightlights.streets._place import LIGHT_FIELDS, PlacementOptions, place_lights
 
 EXACT = PlacementOptions(along_jitter=0.0, across_jitter=0.0)
 

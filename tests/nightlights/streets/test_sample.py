@@ -12,7 +12,7 @@ import pytest
 
 from bayesnets.errors import CatalogError, ImpossibleEvidenceError
 from nightlights.errors import InputError
-from nightlights.streets.sample import fill_lighting, lighting_summary, sample
+from nightlights.streets._sample import fill_lighting, lighting_summary, sample
 from nightlights.streets.schema import (
     ARRANGEMENTS,
     LIGHTING_FIELDS,

@@ -32,7 +32,7 @@ from nightlights.streets import (
     place,
     sample,
 )
-from nightlights.streets.sample import OUTPUT_SCHEMA
+from nightlights.streets._sample import OUTPUT_SCHEMA
 from tests.nightlights.streets.conftest import normalized_layer, write_normalized
 
 ROWS = [

@@ -24,7 +24,7 @@ from bayesnets.errors import BayesNetError
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
 from nightlights.streets._layer import read_layer
-from nightlights.streets.sample import resolve_network
+from nightlights.streets._sample import resolve_network
 from nightlights.streets.schema import observed_field
 
 __all__ = ["FitResult", "fit", "fit_lighting_network", "known_values"]
@@ -113,7 +113,7 @@ class FitResult:
     Attributes
     ----------
     network
-        The fitted network; :func:`~nightlights.streets.sample` takes it as ``network``.
+        The fitted network; :func:`~nightlights.streets._sample` takes it as ``network``.
     path
         The network folder written, or None when no output was asked for.
     """

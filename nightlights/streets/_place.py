@@ -212,7 +212,7 @@ def place(
     Parameters
     ----------
     streets
-        Sampled streets (the result of :func:`~nightlights.streets.sample`): a GeoDataFrame
+        Sampled streets (the result of :func:`~nightlights.streets._sample`): a GeoDataFrame
         or a vector file path. A geographic layer is reprojected to its local UTM zone.
     output
         GeoPackage to write (layer ``lights``), atomically; None writes nothing.

@@ -232,7 +232,7 @@ def sample(
     Parameters
     ----------
     streets
-        Normalised streets (the result of :func:`~nightlights.streets.normalize`): lines
+        Normalised streets (the result of :func:`~nightlights.streets._normalize`): lines
         in a projected CRS [m] with the canonical fields, their ``_observed`` flags and
         ``source_id``. A GeoDataFrame or a vector file path.
     output
