@@ -12,10 +12,10 @@ from affine import Affine
 
 from nightlights.errors import CRSError, InputError, OutputError
 from nightlights.io import (
+    Raster,
     RasterBand,
     atomic_output,
     ensure_projected,
-    read_raster,
     read_vector,
     write_cog,
     write_gpkg,
@@ -65,10 +65,10 @@ def test_write_cog_is_tiled_compressed_with_overviews_and_metadata(tmp_path) -> 
         assert src.crs.to_epsg() == 3067
         assert np.isnan(src.nodata)
         assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
-    back, meta = read_raster(path)
-    assert back.shape == (2, 1200, 1100)
-    assert np.array_equal(back[0], data.astype(np.float64), equal_nan=True)
-    assert meta["units"] == ["lx", "lx"]
+    back = Raster.read(path)
+    assert back.data.shape == (2, 1200, 1100)
+    assert np.array_equal(back.data[0], data.astype(np.float64), equal_nan=True)
+    assert back.units == ("lx", "lx")
 
 
 def test_write_cog_rejects_mismatched_bands(tmp_path) -> None:

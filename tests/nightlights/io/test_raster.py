@@ -1,0 +1,98 @@
+"""The in-memory Raster: file and xarray round trips, and refused shapes and metadata."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from affine import Affine
+from pyproj import CRS
+
+from nightlights.errors import CRSError, InputError, OutputError
+from nightlights.io import Raster, as_raster
+
+TRANSFORM = Affine(2.0, 0, 500_000, 0, -2.0, 6_700_000)
+
+
+@pytest.fixture
+def raster() -> Raster:
+    rng = np.random.default_rng(4)
+    data = rng.uniform(0, 30, (2, 5, 7)).astype(np.float32).astype(np.float64)
+    data[1, 0, 0] = np.nan
+    return Raster(
+        data,
+        TRANSFORM,
+        "EPSG:32635",
+        ("photopic", "scotopic"),
+        ("lx", "W m-2"),
+        {"nightlights_stage": "test", "resolution_m": "2.0"},
+        ({"sensor": "photopic"}, {"sensor": "scotopic"}),
+    )
+
+
+def test_file_round_trip(tmp_path: Path, raster: Raster) -> None:
+    path = raster.write(tmp_path / "r.tif")
+    with rasterio.open(path) as dataset:
+        assert dataset.dtypes == ("float32", "float32")
+        assert dataset.descriptions == ("photopic", "scotopic")
+        assert dataset.units == ("lx", "W m-2")
+    back = Raster.read(path)
+    np.testing.assert_array_equal(back.data, raster.data)
+    assert back.transform == raster.transform
+    assert back.crs is not None and back.crs.to_epsg() == 32635
+    assert back.descriptions == raster.descriptions and back.units == raster.units
+    assert back.tags["nightlights_stage"] == "test" and back.tags["resolution_m"] == "2.0"
+    assert back.band_tags[1]["sensor"] == "scotopic"
+    np.testing.assert_array_equal(as_raster(path).data, raster.data)
+
+
+def test_xarray_round_trip(raster: Raster) -> None:
+    array = raster.to_xarray()
+    assert array.dims == ("band", "y", "x")
+    assert array["x"].values[0] == 500_001.0 and array["y"].values[0] == 6_699_999.0
+    back = Raster.from_xarray(array)
+    np.testing.assert_array_equal(back.data, raster.data)
+    assert back.transform == raster.transform
+    assert back.crs == raster.crs
+    assert back.descriptions == raster.descriptions and back.units == raster.units
+    assert back.tags == raster.tags
+    assert as_raster(array).shape == (5, 7)
+    assert as_raster(raster) is raster
+
+
+def test_properties(raster: Raster) -> None:
+    assert raster.count == 2 and raster.shape == (5, 7) and raster.resolution == 2.0
+    assert raster.bounds == (500_000.0, 6_699_990.0, 500_014.0, 6_700_000.0)
+    assert raster.band_index("scotopic") == 1
+    np.testing.assert_array_equal(raster.band("photopic"), raster.data[0])
+    assert raster.projected_crs() == CRS.from_epsg(32635)
+    single = Raster(np.zeros((3, 4)), TRANSFORM, None)
+    assert single.count == 1 and single.descriptions == ("",) and single.units == ("",)
+
+
+def test_validation_errors(tmp_path: Path, raster: Raster) -> None:
+    with pytest.raises(InputError, match=r"shape \(4,\); expected \(bands, rows, cols\)"):
+        Raster(np.zeros(4), TRANSFORM, None)
+    with pytest.raises(InputError, match="2 bands but 1 descriptions"):
+        Raster(np.zeros((2, 3, 3)), TRANSFORM, None, ("a",))
+    with pytest.raises(InputError, match="2 bands but 3 units"):
+        Raster(np.zeros((2, 3, 3)), TRANSFORM, None, units=("lx", "lx", "lx"))
+    with pytest.raises(InputError, match="no band 'mesopic'"):
+        raster.band("mesopic")
+    with pytest.raises(InputError, match="north-up grid with square pixels"):
+        _ = Raster(np.zeros((1, 2, 2)), Affine(2.0, 0, 0, 0, -3.0, 0), None).resolution
+    with pytest.raises(CRSError, match="expected a projected CRS"):
+        Raster(np.zeros((1, 2, 2)), TRANSFORM, "EPSG:4326").projected_crs()
+    with pytest.raises(OutputError, match="no CRS"):
+        Raster(np.zeros((1, 2, 2)), TRANSFORM, None).write(tmp_path / "x.tif")
+    with pytest.raises(InputError, match="no such file"):
+        Raster.read(tmp_path / "missing.tif")
+    (tmp_path / "bad.tif").write_bytes(b"not a raster")
+    with pytest.raises(InputError, match="cannot read raster"):
+        Raster.read(tmp_path / "bad.tif")
+    with pytest.raises(InputError, match="no 'transform' attribute"):
+        Raster.from_xarray(raster.to_xarray().drop_attrs())
+    with pytest.raises(InputError, match=r"expected a Raster, an xarray\.DataArray or a path"):
+        as_raster(np.zeros((1, 2, 2)))  # type: ignore[arg-type]
