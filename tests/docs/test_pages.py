@@ -117,3 +117,33 @@ def test_pages_cite_papers_not_project_files(page: Path) -> None:
         assert forbidden not in text
     assert not re.search(r"\b[Ii]ssue\s*#?\d+", text)
     assert "[-]" not in text
+
+
+def _griffe_rst():
+    pytest.importorskip("griffe")
+    spec = importlib.util.spec_from_file_location("docs_griffe_rst", DOCS / "griffe_rst.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_numpydoc_math_and_roles_become_markdown() -> None:
+    rst = _griffe_rst()
+    text = (
+        "Ground illuminance :math:`E` of :class:`~nightlights.io.Raster` lights.\n"
+        "\n"
+        "    .. math::\n"
+        "        E = \\frac{I \\cos i}{d^2}\n"
+        "\n"
+        "    Next paragraph, see :func:`other`."
+    )
+    markdown = rst.docstring_to_markdown(text)
+    assert "$E$" in markdown
+    assert (
+        '<autoref optional identifier="nightlights.io.Raster"><code>Raster</code></autoref>'
+        in markdown
+    )
+    assert "    $$\n    E = \\frac{I \\cos i}{d^2}\n    $$\n" in markdown
+    assert "Next paragraph, see <code>other()</code>." in markdown
+    assert ".. math::" not in markdown
