@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import tempfile
 from pathlib import Path
 
 import geopandas as gpd
@@ -32,10 +31,8 @@ import pandas as pd
 import shapely
 from scipy.spatial import cKDTree
 
+import nightlights as nl
 from nightlights.demo import example_path, mapped_street_lamps
-from nightlights.streets.normalize import normalize
-from nightlights.streets.place import place
-from nightlights.streets.sample import sample_streets
 
 VEHICULAR = ("motorway", "arterial", "collector", "local", "service")
 #: A lamp counts as standing along a street when it is this close to its centreline [m].
@@ -82,13 +79,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "figures")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        work = Path(tmp)
-        normalize(example_path(), work / "norm.gpkg", mapping="osm")
-        sample_streets(work / "norm.gpkg", work / "lit.gpkg", seed=args.seed)
-        place(work / "lit.gpkg", work / "lights.gpkg", seed=args.seed)
-        streets = gpd.read_file(work / "lit.gpkg")
-        predicted = gpd.read_file(work / "lights.gpkg")
+    streets = nl.normalize(example_path(), mapping="osm").streets
+    streets = nl.sample(streets, seed=args.seed).streets
+    predicted = nl.place(streets, seed=args.seed).lights
     mapped = mapped_street_lamps(streets.crs)
     poles = predicted.drop_duplicates("pole_id")
     vehicular = streets.loc[streets["street_class"].isin(VEHICULAR)]
