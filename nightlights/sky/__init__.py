@@ -1,10 +1,25 @@
 """Skyglow: sky luminance above an observer caused by ground light sources.
 
-The kernel side (``atmosphere``, ``geometry``, ``quadrature``, ``kernel``, ``precompute``)
-computes single-scattering sky luminance from a unit ground source and tabulates it, compressed
-by PCA and Fourier-transformed in azimuth, following Dobashi, Ishikawa & Iwasaki 2023, Sec. 3.
-The runtime side turns an emission raster into panoramas with those tables.
+The kernel side (``atmosphere``, ``geometry``, ``quadrature``, ``kernel``; ``spec``,
+``build``, ``pca``, ``store``) computes single-scattering sky luminance from a unit ground
+source and tabulates it, compressed by PCA and Fourier-transformed in azimuth, following
+Dobashi, Ishikawa & Iwasaki 2023, Sec. 3. The runtime side (``polar``, ``panorama``, ``scene``)
+turns an emission raster into panoramas with those tables; ``stage`` holds the file stages.
 
 Units: flux [lm] in, luminance [cd m-2] out; angles in degrees, azimuth clockwise from north,
 elevation above the horizon.
 """
+
+from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.spec import KernelSpec
+from nightlights.sky.stage import SkyglowResult, build_kernel, skyglow
+from nightlights.sky.store import KernelResult
+
+__all__ = [
+    "KernelResult",
+    "KernelSpec",
+    "SkyglowResult",
+    "build_kernel",
+    "skyglow",
+    "skyglow_panorama",
+]

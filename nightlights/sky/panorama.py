@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.polar import PolarMap
 
 MODES = ("pca", "exact", "naive")
@@ -303,6 +304,7 @@ def panorama_naive(
     source_altitude: float | FloatArray = 0.0,
     atmosphere: Atmosphere | None = None,
     nodes: int = 24,
+    uplight_exponent: float = UPLIGHT_EXPONENT,
 ) -> FloatArray:
     """Reference panorama: the kernel integrated directly for each lit cell at its centre.
 
@@ -326,6 +328,8 @@ def panorama_naive(
         :class:`nightlights.sky.atmosphere.Atmosphere` (default: its defaults).
     nodes
         Gauss-Legendre nodes per ray half [1].
+    uplight_exponent
+        Exponent n of the uplight lobe sin^n (band 1) [1].
 
     Returns
     -------
@@ -361,5 +365,6 @@ def panorama_naive(
                 atmosphere=atmosphere,
                 emission=kind,
                 nodes=nodes,
+                uplight_exponent=uplight_exponent,
             )
     return result

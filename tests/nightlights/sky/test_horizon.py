@@ -9,8 +9,8 @@ from affine import Affine
 
 from nightlights.errors import CRSError, InputError
 from nightlights.io import RasterBand, write_cog
+from nightlights.sky import skyglow
 from nightlights.sky.horizon import ground_height, horizon_elevation
-from nightlights.sky.stage import skyglow
 
 T = Affine(50.0, 0, 0, 0, -50.0, 8000.0)  # 160 x 160 cells of 50 m
 

@@ -15,7 +15,7 @@ from scipy.special import sici
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.kernel import emission_intensity, sky_luminance
-from nightlights.sky.precompute import panorama_elevations
+from nightlights.sky.spec import panorama_elevations
 
 AOD = 0.1
 

@@ -9,8 +9,9 @@ from scipy.special import erfcx
 from nightlights.errors import InputError
 from nightlights.sky import _kernel_numba
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.build import compute_kernel
 from nightlights.sky.kernel import EMISSION_MODELS, sky_luminance, sky_luminance_grid
-from nightlights.sky.precompute import build_kernel, panorama_elevations
+from nightlights.sky.spec import KernelSpec, panorama_elevations
 
 ATMOSPHERES = {
     "sphere": Atmosphere(),
@@ -108,15 +109,14 @@ def test_kernel_tables_agree_between_backends() -> None:
     kwargs = {
         "r_min": 10.0,
         "r_max": 50_000.0,
-        "n_r": 12,
-        "n_el": 8,
-        "n_az": 64,
+        "n_distance": 12,
+        "n_elevation": 8,
+        "n_azimuth": 64,
         "source_altitudes": (0.0, 200.0),
         "uplight": True,
-        "progress": False,
     }
-    compiled = build_kernel(backend="numba", **kwargs)
-    reference = build_kernel(backend="numpy", **kwargs)
+    compiled = compute_kernel(KernelSpec(**kwargs), backend="numba", progress=False)
+    reference = compute_kernel(KernelSpec(**kwargs), backend="numpy", progress=False)
     assert compiled.attrs["backend"] == "numba" and reference.attrs["backend"] == "numpy"
     assert compiled.attrs["content_hash"] == reference.attrs["content_hash"]
     for name in ("kernel", "kernel_uplight"):

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import RasterBand, write_cog
+from nightlights.sky import skyglow
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.panorama import (
     kernel_slice,
@@ -21,7 +22,6 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map
-from nightlights.sky.stage import skyglow
 
 CELL = 100.0
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, 4000)  # 40 x 40 cells over 4 x 4 km
@@ -230,7 +230,7 @@ def test_stage_writes_panorama_contract(tmp_path, small_kernel) -> None:
         observer_height=0.0,
         png=png,
         projection="fisheye",
-        polar_out=polar_nc,
+        polar_output=polar_nc,
     )
     pano = xr.open_dataset(out, engine="h5netcdf")
     assert pano["luminance"].dims == ("elevation", "azimuth")
@@ -320,9 +320,9 @@ def test_rgb_bands_orange_and_blue_white_lights_colour_the_sky(tmp_path) -> None
             observer=(502_000.0, 6_698_000.0),
             bands="RGB",
             spectrum=spectrum,
-            n_el=8,
-            n_az=32,
-            n_r=16,
+            n_elevation=8,
+            n_azimuth=32,
+            n_distance=16,
             cache_dir=cache,
             progress=False,
             png=tmp_path / f"{spectrum}.png",

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import RasterBand, write_cog
+from nightlights.sky import KernelSpec, build_kernel, skyglow
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.panorama import (
     kernel_levels,
@@ -22,8 +23,7 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map, polar_map_levels, source_level_weights
-from nightlights.sky.precompute import build_kernel
-from nightlights.sky.stage import skyglow, source_levels
+from nightlights.sky.scene import source_levels
 
 LEVELS = np.array([0.0, 100.0, 250.0])
 T = Affine(50.0, 0.0, 0.0, 0.0, -50.0, 4000.0)  # 80 x 80 cells of 50 m
@@ -112,17 +112,17 @@ def test_level_maps_refuse_missing_heights_under_lit_cells() -> None:
 
 @pytest.fixture(scope="module")
 def level_kernel() -> xr.Dataset:
-    return build_kernel(
+    spec = KernelSpec(
         r_min=10.0,
         r_max=20_000.0,
-        n_r=48,
-        n_el=8,
-        n_az=32,
+        n_distance=48,
+        n_elevation=8,
+        n_azimuth=32,
         source_altitudes=tuple(LEVELS),
         observer_altitudes=(300.0,),
         n_components=48,
-        progress=False,
     )
+    return build_kernel(spec, progress=False).kernel
 
 
 def test_per_cell_altitudes_match_the_naive_reference(level_kernel: xr.Dataset) -> None:
@@ -216,9 +216,9 @@ def test_stage_over_terrain_uses_per_cell_levels(tmp_path) -> None:
                 observer=(2000.0, 2000.0),
                 dem=dem_path,
                 mode=mode,
-                n_el=8,
-                n_az=32,
-                n_r=48,
+                n_elevation=8,
+                n_azimuth=32,
+                n_distance=48,
                 cache_dir=tmp_path / "cache",
                 progress=False,
             )

@@ -1,4 +1,4 @@
-"""Kernel precomputation: dataset contract, PCA + FFT, NetCDF round trip and cache."""
+"""Kernel tables: dataset contract, PCA + FFT, NetCDF round trip, cache and specification."""
 
 from __future__ import annotations
 
@@ -10,27 +10,26 @@ import pytest
 import xarray as xr
 
 from nightlights.errors import InputError
-from nightlights.sky import precompute
+from nightlights.sky import store
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.build import compute_kernel
 from nightlights.sky.kernel import sky_luminance
-from nightlights.sky.precompute import (
-    build_kernel,
-    get_or_build_kernel,
-    kernel_cache_path,
-    kernel_parameters,
-    panorama_elevations,
-    pca_compress,
-    read_kernel,
-    relative_azimuths,
-    write_kernel,
-)
+from nightlights.sky.pca import pca_compress
+from nightlights.sky.spec import KernelSpec, panorama_elevations, relative_azimuths
+from nightlights.sky.store import get_or_build_kernel, kernel_cache_path, read_kernel, write_kernel
+
+
+def _tables(*, progress: bool = False, **parameters: object) -> xr.Dataset:
+    """The kernel dataset of ``KernelSpec(**parameters)``."""
+    return compute_kernel(KernelSpec(**parameters), progress=progress)  # type: ignore[arg-type]
+
 
 SMALL = {
     "r_min": 20.0,
     "r_max": 50_000.0,
-    "n_r": 12,
-    "n_el": 8,
-    "n_az": 16,
+    "n_distance": 12,
+    "n_elevation": 8,
+    "n_azimuth": 16,
     "source_altitudes": (0.0, 200.0),
     "observer_altitudes": (0.0, 500.0),
     "nodes": 16,
@@ -39,7 +38,7 @@ SMALL = {
 
 @pytest.fixture(scope="module")
 def small_kernel() -> xr.Dataset:
-    return build_kernel(**SMALL, uplight=True, progress=False)
+    return _tables(**SMALL, uplight=True, progress=False)
 
 
 def test_grids_follow_the_contract() -> None:
@@ -98,10 +97,10 @@ def test_kernel_is_symmetric_in_relative_azimuth(small_kernel: xr.Dataset) -> No
 
 def test_bin_value_is_area_weighted_average_of_point_kernel() -> None:
     edges = np.array([1000.0, 1100.0])
-    ds = build_kernel(
+    ds = _tables(
         distance_edges=edges,
-        n_el=4,
-        n_az=8,
+        n_elevation=4,
+        n_azimuth=8,
         nodes=16,
         sub_distances=2,
         supersample=1,
@@ -158,17 +157,24 @@ def test_pca_compress_energy_and_components() -> None:
 
 
 def test_n_components_respected() -> None:
-    ds = build_kernel(
-        r_min=50.0, r_max=20_000.0, n_r=8, n_el=4, n_az=8, nodes=12, n_components=3, progress=False
+    ds = _tables(
+        r_min=50.0,
+        r_max=20_000.0,
+        n_distance=8,
+        n_elevation=4,
+        n_azimuth=8,
+        nodes=12,
+        n_components=3,
+        progress=False,
     )
     assert ds.sizes["component"] == 3
 
 
 def test_content_hash_deterministic_and_sensitive() -> None:
-    a = kernel_parameters(**SMALL)["content_hash"]
-    assert a == kernel_parameters(**SMALL)["content_hash"]
-    assert a != kernel_parameters(**SMALL, atmosphere=Atmosphere(turbidity=3.0))["content_hash"]
-    assert a != kernel_parameters(**{**SMALL, "n_az": 32})["content_hash"]
+    a = KernelSpec(**SMALL).content_hash
+    assert a == KernelSpec(**SMALL).content_hash
+    assert a != KernelSpec(**SMALL, atmosphere=Atmosphere(turbidity=3.0)).content_hash
+    assert a != KernelSpec(**{**SMALL, "n_azimuth": 32}).content_hash
 
 
 def test_write_read_round_trip(tmp_path: Path, small_kernel: xr.Dataset) -> None:
@@ -194,20 +200,28 @@ def test_read_kernel_errors(tmp_path: Path) -> None:
 
 
 def test_cache_reuses_matching_kernel(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    params = {"r_min": 50.0, "r_max": 10_000.0, "n_r": 4, "n_el": 4, "n_az": 8, "nodes": 8}
+    params = {
+        "r_min": 50.0,
+        "r_max": 10_000.0,
+        "n_distance": 4,
+        "n_elevation": 4,
+        "n_azimuth": 8,
+        "nodes": 8,
+    }
     monkeypatch.setenv("NIGHTLIGHTS_CACHE", str(tmp_path))
-    first = get_or_build_kernel(progress=False, **params)
-    path = kernel_cache_path(kernel_parameters(**params))
-    assert path.is_file() and path.parent == tmp_path / "sky"
+    first = get_or_build_kernel(KernelSpec(**params), progress=False)
+    path = kernel_cache_path(KernelSpec(**params))
+    assert path.is_file() and path.parent == tmp_path / "sky" and first.path == path
 
-    def fail(**_: object) -> None:
+    def fail(*_: object, **__: object) -> None:
         raise AssertionError("rebuilt although a matching cache exists")
 
-    monkeypatch.setattr(precompute, "build_kernel", fail)
-    again = get_or_build_kernel(progress=False, **params)
-    np.testing.assert_array_equal(again.kernel.values, first.kernel.values)
+    monkeypatch.setattr(store, "compute_kernel", fail)
+    again = get_or_build_kernel(KernelSpec(**params), progress=False)
+    np.testing.assert_array_equal(again.kernel.kernel.values, first.kernel.kernel.values)
+    assert again.spec == first.spec
     with pytest.raises(AssertionError, match="rebuilt"):
-        get_or_build_kernel(progress=False, **{**params, "n_r": 5})
+        get_or_build_kernel(KernelSpec(**{**params, "n_distance": 5}), progress=False)
 
 
 @pytest.mark.parametrize(
@@ -215,7 +229,7 @@ def test_cache_reuses_matching_kernel(tmp_path: Path, monkeypatch: pytest.Monkey
     [
         ({"r_min": 0.0}, "distance grid"),
         ({"distance_edges": [10.0, 5.0]}, "distance_edges"),
-        ({"n_az": 7}, "n_az"),
+        ({"n_azimuth": 7}, "n_az"),
         ({"source_altitudes": ()}, "source_altitudes"),
         ({"pca_energy": 1.5}, "pca_energy"),
         ({"sub_distances": 0}, "sub_distances"),
@@ -223,7 +237,7 @@ def test_cache_reuses_matching_kernel(tmp_path: Path, monkeypatch: pytest.Monkey
 )
 def test_bad_parameters(kwargs: dict, match: str) -> None:
     with pytest.raises(InputError, match=match):
-        kernel_parameters(**kwargs)
+        KernelSpec(**kwargs)
 
 
 def test_pixels_next_to_a_visible_source_are_pixel_averaged() -> None:
@@ -233,10 +247,10 @@ def test_pixels_next_to_a_visible_source_are_pixel_averaged() -> None:
     centre sample alone is > 5x too bright; 8 x 8 supersampling is within 10 %.
     """
     edges = np.array([500.0, 520.0])
-    kw = {"distance_edges": edges, "source_altitudes": (300.0,), "n_el": 16, "n_az": 32}
+    kw = {"distance_edges": edges, "source_altitudes": (300.0,), "n_elevation": 16, "n_azimuth": 32}
     kw |= {"sub_distances": 1, "progress": False}
-    centre = build_kernel(supersample=1, **kw).kernel.values[0, 0, 0, 10, 0]
-    averaged = build_kernel(**kw).kernel.values[0, 0, 0, 10, 0]
+    centre = _tables(supersample=1, **kw).kernel.values[0, 0, 0, 10, 0]
+    averaged = _tables(**kw).kernel.values[0, 0, 0, 10, 0]
     m = 64
     off = (np.arange(m) + 0.5) / m - 0.5
     el = panorama_elevations(16)[10] + off[:, None] * 90.0 / 16
@@ -249,23 +263,21 @@ def test_pixels_next_to_a_visible_source_are_pixel_averaged() -> None:
 
 
 def test_altitude_levels_are_sorted_and_distinct() -> None:
-    ds = build_kernel(
+    ds = _tables(
         r_min=10.0,
         r_max=1000.0,
-        n_r=2,
-        n_el=2,
-        n_az=4,
+        n_distance=2,
+        n_elevation=2,
+        n_azimuth=4,
         source_altitudes=(100.0, 0.0),
         observer_altitudes=(50.0, 0.0),
         progress=False,
     )
     assert ds.source_altitude.values.tolist() == [0.0, 100.0]
     assert ds.observer_altitude.values.tolist() == [0.0, 50.0]
-    assert kernel_parameters(source_altitudes=(100.0, 0.0)) == kernel_parameters(
-        source_altitudes=(0.0, 100.0)
-    )
+    assert KernelSpec(source_altitudes=(100.0, 0.0)) == KernelSpec(source_altitudes=(0.0, 100.0))
     with pytest.raises(InputError, match="distinct"):
-        kernel_parameters(source_altitudes=(0.0, 0.0))
+        KernelSpec(source_altitudes=(0.0, 0.0))
 
 
 def test_pca_only_kernel_is_smaller_and_renders_the_same(tmp_path: Path) -> None:
@@ -275,8 +287,8 @@ def test_pca_only_kernel_is_smaller_and_renders_the_same(tmp_path: Path) -> None
     from nightlights.sky.polar import polar_map
 
     kwargs = {**SMALL, "uplight": True, "progress": False}
-    full = build_kernel(**kwargs)
-    lean = build_kernel(store_tables=False, **kwargs)
+    full = _tables(**kwargs)
+    lean = _tables(store_tables=False, **kwargs)
     assert "kernel" not in lean and "kernel_uplight" not in lean
     assert "coefficient_uplight" in lean and lean.attrs["store_tables"] == 0
     assert lean.attrs["content_hash"] != full.attrs["content_hash"]

@@ -1,0 +1,307 @@
+"""Skyglow kernel tables: the bin images over distance, source and observer altitude.
+
+Each bin image is the area-weighted average of :func:`nightlights.sky.kernel.sky_luminance`
+over ``sub_distances`` Gauss-Legendre nodes in ln r inside the bin (weights r^2 d ln r, i.e.
+flux spread evenly over the annulus; 1 = the geometric bin centre), optionally averaged over
+``sub_pixels`` x ``sub_pixels`` directions inside each pixel (solid-angle weights). Pixels next
+to the source direction, where rays graze the source, are always averaged over ``supersample``
+x ``supersample`` directions and at least 4 distances. Relative azimuths are symmetric: only
+0-180 deg are computed and mirrored. The tables are then compressed
+(:func:`nightlights.sky.pca.compress_kernel`).
+
+Dataset layout (read by :mod:`nightlights.sky.panorama`): coordinates ``observer_altitude``,
+``source_altitude``, ``distance`` (bin centres; edges in ``distance_edges``), ``elevation``
+(pixel centres 90 - (i + 0.5) 90 / n_elevation), ``azimuth`` (relative to the source,
+k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``),
+``basis``, ``coefficient`` (+ ``coefficient_uplight``), ``basis_fft_real``,
+``basis_fft_imag``, ``explained_energy``; attributes from :meth:`KernelSpec.to_attrs`.
+
+References
+----------
+Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
+the Night Sky", ACM TOG 42(6) 219, Sec. 3.3-3.4.1.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from nightlights._typing import FloatArray
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.geometry import source_frame
+from nightlights.sky.kernel import sky_luminance_grid
+from nightlights.sky.pca import compress_kernel
+from nightlights.sky.quadrature import gauss_legendre
+from nightlights.sky.spec import KernelSpec
+
+__all__ = ["SUPERSAMPLE_DISTANCES", "compute_kernel"]
+
+log = logging.getLogger(__name__)
+
+#: Distances per bin (Gauss-Legendre in ln r) averaged in the supersampled pixels next to the
+#: source direction, at least: there the image changes fastest with distance (the source moves
+#: across the pixel within one bin).
+SUPERSAMPLE_DISTANCES = 4
+
+
+def _sub_distances(edges: FloatArray, n: int) -> tuple[FloatArray, FloatArray]:
+    """Gauss-Legendre nodes in ln r inside each bin and their area weights.
+
+    The bin image is the mean over the annulus, int b r^2 d ln r / int r^2 d ln r; with n
+    Gauss-Legendre nodes x_i in ln r the weights are w_i r_i^2 normalised per bin (n = 1: the
+    geometric bin centre). Returns distances and weights, shapes ``(n_bins, n)`` [m], [1].
+    """
+    x, w = gauss_legendre(n)
+    frac = 0.5 * (x + 1.0)
+    log_e = np.log(edges)
+    r_sub = np.exp(log_e[:-1, None] + frac[None, :] * np.diff(log_e)[:, None])
+    weight = w[None, :] * r_sub**2
+    return r_sub, weight / np.sum(weight, axis=1, keepdims=True)
+
+
+def _bin_images(
+    edges: FloatArray,
+    h_c: float,
+    h_o: float,
+    elevations: FloatArray,
+    half_azimuths: FloatArray,
+    *,
+    n_el: int,
+    n_az: int,
+    atmosphere: Atmosphere,
+    emission: str,
+    nodes: int,
+    leg_nodes: int | None,
+    core_radius: float,
+    sub_distances: int,
+    sub_pixels: int,
+    supersample: int,
+    uplight_exponent: float,
+    backend: str = "auto",
+) -> FloatArray:
+    """Bin-averaged images, shape (n_bins, n_el, len(half_azimuths))."""
+    r_sub, w_r = _sub_distances(edges, sub_distances)
+    offs = (np.arange(sub_pixels) + 0.5) / sub_pixels - 0.5
+    el = elevations[:, None] + offs[None, :] * (90.0 / n_el)  # (e, p)
+    w_el = np.cos(np.radians(el))
+    w_el = w_el / w_el.sum(axis=1, keepdims=True)
+    az = half_azimuths[:, None] + offs[None, :] * (360.0 / n_az)  # (a, q)
+    b = sky_luminance_grid(
+        el.ravel(),
+        az.ravel(),
+        r_sub.ravel(),
+        source_altitude=h_c,
+        observer_altitude=h_o,
+        atmosphere=atmosphere,
+        emission=emission,
+        nodes=nodes,
+        leg_nodes=leg_nodes,
+        core_radius=core_radius,
+        uplight_exponent=uplight_exponent,
+        backend=backend,
+    ).reshape(el.shape + az.shape + r_sub.shape)  # (e, p, a, q, r, s)
+    img = np.einsum("epaqrs,ep,rs->rea", b, w_el, w_r) / sub_pixels
+    if supersample > sub_pixels:
+        _supersample_source_pixels(
+            img,
+            *_sub_distances(edges, max(sub_distances, SUPERSAMPLE_DISTANCES)),
+            h_c,
+            h_o,
+            elevations,
+            half_azimuths,
+            n_el=n_el,
+            n_az=n_az,
+            supersample=supersample,
+            atmosphere=atmosphere,
+            kwargs={
+                "emission": emission,
+                "nodes": nodes,
+                "leg_nodes": leg_nodes,
+                "core_radius": core_radius,
+                "uplight_exponent": uplight_exponent,
+                "backend": backend,
+            },
+        )
+    return img
+
+
+def _supersample_source_pixels(
+    img: FloatArray,
+    r_sub: FloatArray,
+    w_r: FloatArray,
+    h_c: float,
+    h_o: float,
+    elevations: FloatArray,
+    half_azimuths: FloatArray,
+    *,
+    n_el: int,
+    n_az: int,
+    supersample: int,
+    atmosphere: Atmosphere,
+    kwargs: dict[str, Any],
+) -> None:
+    """Average, in place, the pixels next to the source direction over m x m directions.
+
+    The source is seen at relative azimuth 0 and elevation el_s(r); pixels of the first two
+    azimuth columns whose centre lies within one pixel height of el_s hold the sharp peak of
+    rays grazing the source and are averaged over ``supersample``^2 directions (solid-angle
+    weights) instead of sampled at their centre.
+    """
+    d_el = 90.0 / n_el
+    d_az = 360.0 / n_az
+    pos, _ = source_frame(
+        r_sub, h_c, earth_radius=atmosphere.earth_radius, flat_earth=atmosphere.flat_earth
+    )
+    el_src = np.degrees(np.arctan2(pos[..., 2] - h_o, np.hypot(pos[..., 0], pos[..., 1])))
+    near = np.any(np.abs(elevations[None, :, None] - el_src[:, None, :]) < d_el, axis=-1)
+    r_idx, e_idx = np.nonzero(near)
+    if r_idx.size == 0:
+        return
+    cols = np.arange(min(2, half_azimuths.size))
+    offs = (np.arange(supersample) + 0.5) / supersample - 0.5
+    az = (half_azimuths[cols][:, None] + offs[None, :] * d_az).ravel()  # (a q)
+    for e in np.unique(e_idx):  # one grid per pixel row: its bins near the source share rays
+        rows = r_idx[e_idx == e]
+        el = elevations[e] + offs * d_el  # (p,)
+        b = sky_luminance_grid(
+            el,
+            az,
+            r_sub[rows].ravel(),
+            source_altitude=h_c,
+            observer_altitude=h_o,
+            atmosphere=atmosphere,
+            **kwargs,
+        ).reshape(supersample, cols.size, supersample, rows.size, r_sub.shape[1])
+        w_el = np.cos(np.radians(el))
+        w_el = w_el / w_el.sum()
+        img[rows[:, None], e, cols[None, :]] = (
+            np.einsum("paqns,p,ns->na", b, w_el, w_r[rows]) / supersample
+        )
+
+
+def compute_kernel(
+    spec: KernelSpec | None = None, *, backend: str = "auto", progress: bool = True
+) -> xr.Dataset:
+    """Precompute a skyglow kernel table and compress it by PCA and FFT (in memory).
+
+    Parameters
+    ----------
+    spec
+        What to tabulate; default ``KernelSpec()``.
+    backend
+        Line-of-sight integrator, one of :data:`nightlights.sky.kernel.BACKENDS`; not part of
+        the content hash (the backends agree to ~1e-5) but recorded in the attributes.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    xarray.Dataset
+        Kernel dataset (layout in the module docstring) [cd m-2 lm-1].
+
+    References
+    ----------
+    Dobashi et al. 2023, Sec. 3.3-3.4 (precomputation, PCA, FFT).
+
+    Examples
+    --------
+    >>> spec = KernelSpec(r_min=10.0, r_max=1000.0, n_distance=4, n_elevation=4, n_azimuth=8)
+    >>> ds = compute_kernel(spec, progress=False)
+    >>> ds["kernel"].shape, ds.attrs["content_hash"] == spec.content_hash
+    ((1, 1, 4, 4, 8), True)
+    """
+    spec = spec if spec is not None else KernelSpec()
+    atm = spec.atmosphere
+    n_el, n_az = spec.n_elevation, spec.n_azimuth
+    edges = spec.edges
+    h_c = np.asarray(spec.source_altitudes, dtype=float)
+    h_o = np.asarray(spec.observer_altitudes, dtype=float)
+    n_r_bins = edges.size - 1
+    elevations = spec.elevations
+    azimuths = spec.azimuths
+    half = azimuths[: n_az // 2 + 1]
+    mirror = np.minimum(np.arange(n_az), n_az - np.arange(n_az))
+    emissions = spec.emissions
+    shape = (h_o.size, h_c.size, n_r_bins, n_el, n_az)
+    tables = {e: np.zeros(shape, dtype=np.float32) for e in emissions}
+    if backend == "numpy" or spec.leg_nodes is not None:  # bound the numpy path's temporaries
+        pixels = n_el * half.size * spec.sub_pixels**2 * spec.sub_distances
+        r_chunk = min(max(1, int(2_000 // max(1, pixels // 64))), n_r_bins)
+    else:  # the compiled grid makes no temporaries: all bins at once (one table per row)
+        r_chunk = n_r_bins
+    steps = [
+        (o, c, e, lo)
+        for o in range(h_o.size)
+        for c in range(h_c.size)
+        for e in emissions
+        for lo in range(0, n_r_bins, r_chunk)
+    ]
+    start = time.perf_counter()
+    columns = (
+        TextColumn("kernel"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, disable=not progress, transient=True) as bar:
+        task = bar.add_task("kernel", total=len(steps))
+        for o, c, e, lo in steps:
+            sl = slice(lo, min(lo + r_chunk, n_r_bins))
+            img = _bin_images(
+                edges[sl.start : sl.stop + 1],
+                float(h_c[c]),
+                float(h_o[o]),
+                elevations,
+                half,
+                n_el=n_el,
+                n_az=n_az,
+                atmosphere=atm,
+                emission=e,
+                nodes=spec.nodes,
+                leg_nodes=spec.leg_nodes,
+                core_radius=spec.core_radius,
+                sub_distances=spec.sub_distances,
+                sub_pixels=spec.sub_pixels,
+                supersample=spec.supersample,
+                uplight_exponent=spec.uplight_exponent,
+                backend=backend,
+            )
+            tables[e][o, c, sl] = img[:, :, mirror]
+            bar.advance(task)
+    log.info("kernel images computed in %.1f s", time.perf_counter() - start)
+    ds = compress_kernel(
+        tables["lambertian"],
+        tables.get("uplight"),
+        pca_energy=spec.pca_energy,
+        n_components=spec.n_components,
+        store_tables=spec.store_tables,
+    )
+    ds = ds.assign_coords(
+        observer_altitude=("observer_altitude", h_o, {"units": "m"}),
+        source_altitude=("source_altitude", h_c, {"units": "m"}),
+        distance=(
+            "distance",
+            spec.distances,
+            {"units": "m", "long_name": "bin centre (geometric)"},
+        ),
+        elevation=("elevation", elevations, {"units": "deg"}),
+        azimuth=("azimuth", azimuths, {"units": "deg", "long_name": "relative to the source"}),
+    )
+    ds["distance_edges"] = ("distance_edge", edges, {"units": "m"})
+    ds.attrs.update(spec.to_attrs())
+    ds.attrs["pca_centered"] = 0
+    ds.attrs["pca_row_normalised"] = 1
+    ds.attrs["units"] = "cd m-2 lm-1"
+    ds.attrs["emission"] = "lambertian (kernel); sin^n lobe (kernel_uplight)"
+    ds.attrs["description"] = (
+        "Single-scattering sky luminance per lumen of upward flux of a ground source "
+        "(nightlights.sky, Dobashi et al. 2023 Sec. 3)"
+    )
+    ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
+    return ds

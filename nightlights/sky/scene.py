@@ -1,0 +1,647 @@
+"""The skyglow panorama of a scene: an emission raster, an observer, a kernel and a terrain.
+
+:func:`skyglow_panorama` is the in-memory form of the ``skyglow`` stage: a raster of upward flux
+density in, an :class:`xarray.Dataset` of sky luminance and brightness out, no output files.
+It resamples the emission into the observer's polar grid (:mod:`nightlights.sky.polar`) and
+convolves it in azimuth with the kernel (:mod:`nightlights.sky.panorama`).
+
+References
+----------
+Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
+the Night Sky", ACM TOG 42(6) 219, Sec. 3.3.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+from affine import Affine
+from numpy.typing import ArrayLike
+from pyproj import CRS, Transformer
+from scipy.ndimage import map_coordinates
+
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.io import Raster, as_raster
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
+from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
+from nightlights.sky.horizon import ground_height, horizon_elevation
+from nightlights.sky.kernel import UPLIGHT_EXPONENT
+from nightlights.sky.panorama import (
+    MODES,
+    KernelSlice,
+    kernel_levels,
+    panorama_exact,
+    panorama_naive,
+    panorama_pca,
+)
+from nightlights.sky.polar import PolarMap, polar_map_levels
+from nightlights.sky.spec import KernelSpec
+from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+
+__all__ = [
+    "MAX_KERNEL_RANGE",
+    "MAX_SOURCE_LEVELS",
+    "SOURCE_LEVEL_SPACING",
+    "SkyglowScene",
+    "compute_scene",
+    "scene_kernel_spec",
+    "skyglow_panorama",
+    "source_levels",
+]
+
+#: Largest source distance a scene-sized kernel covers [m] (spherical Earth; beyond it
+#: sources sit well below the observer's horizon and contribute little).
+MAX_KERNEL_RANGE = 300_000.0
+
+#: Largest spacing of the source-altitude levels of a scene kernel over terrain [m] (Dobashi
+#: et al. 2023 use 62.5 m); at most :data:`MAX_SOURCE_LEVELS` levels span the lit cells.
+SOURCE_LEVEL_SPACING = 50.0
+MAX_SOURCE_LEVELS = 16
+
+#: What a stage accepts as a raster input.
+RasterInput = Raster | xr.DataArray | PathLike
+
+
+def source_levels(
+    heights: ArrayLike,
+    *,
+    spacing: float = SOURCE_LEVEL_SPACING,
+    max_levels: int = MAX_SOURCE_LEVELS,
+) -> FloatArray:
+    """Source-altitude levels of a scene kernel spanning the altitudes of the lit cells.
+
+    Parameters
+    ----------
+    heights
+        Altitudes of the lit cells (NaN ignored) [m].
+    spacing
+        Largest spacing between levels [m].
+    max_levels
+        Most levels (the spacing grows beyond it) [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Increasing levels from the lowest to the highest lit cell; one level when they all
+        stand within 1 m [m].
+
+    Examples
+    --------
+    >>> source_levels([20.0, 120.0])
+    array([ 20.,  70., 120.])
+    """
+    h = np.asarray(heights, dtype=float)
+    h = h[np.isfinite(h)]
+    if h.size == 0:
+        return np.zeros(1)
+    low, high = float(h.min()), float(h.max())
+    if high - low < 1.0:
+        return np.array([0.5 * (low + high)])
+    count = int(np.clip(np.ceil((high - low) / spacing) + 1, 2, max_levels))
+    return np.linspace(low, high, count)
+
+
+def scene_kernel_spec(
+    raster: Raster,
+    observer: tuple[float, float],
+    *,
+    observer_altitude: float,
+    turbidity: float,
+    n_elevation: int,
+    n_azimuth: int,
+    n_distance: int,
+    uplight: bool,
+    source_altitudes: ArrayLike = (0.0,),
+) -> KernelSpec:
+    """Kernel sized to the scene: distances from 10 m to the farthest raster corner (at most
+    :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
+
+    Parameters
+    ----------
+    raster
+        Emission raster (its grid sets the range).
+    observer
+        Observer (x, y) in the raster's CRS [m].
+    observer_altitude
+        Observer altitude above sea level [m].
+    turbidity
+        Atmospheric turbidity [1].
+    n_elevation, n_azimuth, n_distance
+        Panorama rows and columns and distance bins [1].
+    uplight
+        Tabulate the uplight lobe too.
+    source_altitudes
+        Source-altitude levels [m].
+
+    Returns
+    -------
+    KernelSpec
+        The specification.
+    """
+    transform = raster.transform
+    rows, cols = raster.shape
+    corners = [
+        (transform.c + transform.a * c, transform.f + transform.e * r)
+        for c in (0, cols)
+        for r in (0, rows)
+    ]
+    far = max(np.hypot(x - observer[0], y - observer[1]) for x, y in corners)
+    r_max = float(min(MAX_KERNEL_RANGE, max(far * 1.01, 100.0)))
+    return KernelSpec(
+        r_min=10.0,
+        r_max=r_max,
+        n_distance=n_distance,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        observer_altitudes=(float(observer_altitude),),
+        source_altitudes=tuple(float(h) for h in np.ravel(source_altitudes)),
+        atmosphere=Atmosphere(turbidity=turbidity),
+        uplight=uplight,
+    )
+
+
+@dataclass(frozen=True)
+class SkyglowScene:
+    """A panorama with what the file stage writes next to it.
+
+    Attributes
+    ----------
+    panorama
+        Dataset of :func:`skyglow_panorama`.
+    polar
+        The observer's polar flux map, all source levels together [lm].
+    seconds
+        Time of the panorama computation after the polar map [s].
+    """
+
+    panorama: xr.Dataset
+    polar: PolarMap
+    seconds: float
+
+
+@dataclass(frozen=True)
+class _Terrain:
+    dem: FloatArray
+    transform: Affine
+    eye_altitude: float
+    source_altitude: float  # flux-weighted mean
+    heights: FloatArray  # terrain height of every emission cell (NaN where unlit)
+
+
+def _label(source: object, name: str) -> str:
+    return str(source) if isinstance(source, (str, os.PathLike)) else f"in-memory {name}"
+
+
+def skyglow_panorama(
+    emission: RasterInput,
+    observer: tuple[float, float],
+    kernel: KernelResult | xr.Dataset | PathLike | None = None,
+    dem: RasterInput | None = None,
+    *,
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    turbidity: float | None = None,
+    mode: str = "pca",
+    components: int | None = None,
+    bands: str = "V",
+    spectrum: str = "LED_4000K",
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    n_distance: int = 64,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> xr.Dataset:
+    """What an observer sees: the skyglow panorama of an emission raster, in memory.
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] in a projected CRS (a
+        :class:`~nightlights.io.Raster`, a DataArray or a path); one band = Lambertian, two
+        bands = Lambertian + direct uplight (the ``emission`` stage's output).
+    observer
+        Observer position (x, y) in ``observer_crs`` [m or deg].
+    kernel
+        Precomputed kernel (:class:`~nightlights.sky.store.KernelResult`, dataset or path);
+        default: built for the scene, or reused from the kernel cache in ``cache_dir``.
+    dem
+        Terrain heights above sea level [m] in the emission's CRS: the observer stands
+        ``observer_height`` above it, every lit cell emits from its own terrain height (the
+        kernel is tabulated at :func:`source_levels` and interpolated linearly per cell), and
+        the panorama is masked below the terrain horizon (``terrain_mask``).
+    observer_crs
+        CRS of ``observer`` (default: the raster's).
+    observer_height
+        Observer height above the ground [m].
+    turbidity
+        Atmospheric turbidity (Preetham 1999) [1]; default 2, or the given kernel's.
+    mode
+        ``pca`` (fast), ``exact`` (no PCA) or ``naive`` (direct integration with the kernel's
+        atmosphere, slow reference).
+    components
+        PCA bases used in ``pca`` mode (default: all the kernel stores) [1].
+    bands
+        ``V`` (luminance only) or ``RGB``: CIE X, Y, Z panoramas with wavelength-dependent
+        scattering and the emission colour of ``spectrum`` (needs scene kernels, so no
+        ``kernel``).
+    spectrum
+        Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
+    n_elevation, n_azimuth, n_distance
+        Panorama rows and columns and distance bins of a scene kernel [1].
+    cache_dir
+        Kernel cache folder (scene kernels are cached there).
+    progress
+        Progress bar while building a kernel.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``luminance`` [cd m-2], ``sky_brightness`` [mag arcsec-2] and ``terrain_mask`` over
+        (elevation, azimuth) [deg] (and ``X``, ``Y``, ``Z`` [cd m-2] for ``RGB``), with the
+        observer, kernel and zenith figures in the attributes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
+    >>> kernel = build_kernel(spec, progress=False)
+    >>> pano = skyglow_panorama(raster, (1000.0, 1000.0), kernel, observer_height=0.0)
+    >>> pano["luminance"].shape, bool(pano.attrs["zenith_luminance_cd_m2"] > 0)
+    ((8, 16), True)
+    """
+    return compute_scene(
+        emission,
+        observer,
+        kernel,
+        dem,
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        mode=mode,
+        components=components,
+        bands=bands,
+        spectrum=spectrum,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+        cache_dir=cache_dir,
+        progress=progress,
+    ).panorama
+
+
+def compute_scene(
+    emission: RasterInput,
+    observer: tuple[float, float],
+    kernel: KernelResult | xr.Dataset | PathLike | None = None,
+    dem: RasterInput | None = None,
+    *,
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    turbidity: float | None = None,
+    mode: str = "pca",
+    components: int | None = None,
+    bands: str = "V",
+    spectrum: str = "LED_4000K",
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    n_distance: int = 64,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> SkyglowScene:
+    """:func:`skyglow_panorama` with the polar map and the timing (for the file stage).
+
+    Parameters and errors are those of :func:`skyglow_panorama`.
+
+    Returns
+    -------
+    SkyglowScene
+        Panorama, polar flux map [lm] and computation time [s].
+    """
+    if mode not in MODES:
+        raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")
+    label = _label(emission, "emission raster")
+    raster = as_raster(emission)
+    data = raster.data
+    if raster.crs is None or not raster.crs.is_projected:
+        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+    if data.shape[0] > 2:
+        raise InputError(
+            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+        )
+    if np.nanmin(data) < 0:
+        raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
+    xy = _observer_xy(observer, observer_crs, raster.crs)
+    if observer_height < 0:
+        raise InputError(f"observer height {observer_height} m; expected >= 0")
+    terrain = _terrain(dem, raster, xy, observer_height) if dem is not None else None
+    # Altitudes above sea level: without terrain the ground is at 0 m.
+    observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
+    heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
+    if bands not in ("V", "RGB"):
+        raise InputError(f"bands {bands!r}; expected V or RGB")
+    if bands == "RGB" and (kernel is not None or mode == "naive"):
+        raise InputError(
+            "--bands RGB builds one scene kernel per tristimulus band: give no --kernel and "
+            "use mode pca or exact"
+        )
+    spec: KernelSpec | None = None
+    if kernel is not None:
+        table = load_kernel(kernel)
+    else:
+        spec = scene_kernel_spec(
+            raster,
+            xy,
+            observer_altitude=observer_altitude,
+            source_altitudes=source_levels(heights[np.any(np.nan_to_num(data) != 0, axis=0)]),
+            turbidity=2.0 if turbidity is None else turbidity,
+            n_elevation=n_elevation,
+            n_azimuth=n_azimuth,
+            n_distance=n_distance,
+            uplight=data.shape[0] == 2,
+        )
+        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
+    if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
+        raise InputError(
+            f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
+            "omit --turbidity or build a kernel for it"
+        )
+    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
+    offset = _level_offset(heights, data, levels)
+    heights = heights - offset
+    observer_altitude -= offset
+    slices = kernel_levels(table, observer_altitude=observer_altitude)
+    tables = slices[0]
+    polars = polar_map_levels(
+        data,
+        raster.transform,
+        xy,
+        source_altitude=heights,
+        levels=levels,
+        distance_edges=tables.distance_edges,
+        n_az=tables.n_az,
+    )
+    polar = _total(polars)
+    band_tables: dict[str, list[KernelSlice]] = {}
+    if bands == "RGB" and spec is not None:
+        for band, wavelength in TRISTIMULUS_WAVELENGTHS.items():
+            band_spec = dataclasses.replace(
+                spec, atmosphere=dataclasses.replace(spec.atmosphere, wavelength_nm=wavelength)
+            )
+            band_tables[band] = kernel_levels(
+                get_or_build_kernel(band_spec, cache_dir=cache_dir, progress=progress).kernel,
+                observer_altitude=observer_altitude,
+            )
+    start = time.perf_counter()
+    if mode == "pca":
+        luminance = panorama_pca(polars, slices, components=components)
+    elif mode == "exact":
+        luminance = panorama_exact(polars, slices)
+    else:
+        luminance = panorama_naive(
+            data,
+            raster.transform,
+            xy,
+            elevation=tables.elevation,
+            n_az=tables.n_az,
+            observer_altitude=observer_altitude,
+            source_altitude=np.nan_to_num(heights),
+            atmosphere=_kernel_atmosphere(table),
+            uplight_exponent=float(table.attrs.get("uplight_exponent", UPLIGHT_EXPONENT)),
+        )
+    xyz = None
+    if bands == "RGB":
+        ratios = tristimulus_flux_ratios(spectrum)
+        channels = []
+        for band, table_c in band_tables.items():
+            scaled = [
+                PolarMap(
+                    p.flux * ratios[band],
+                    p.distance_edges,
+                    p.n_az,
+                    p.dropped_flux * ratios[band],
+                    p.total_flux * ratios[band],
+                )
+                for p in polars
+            ]
+            if mode == "pca":
+                channels.append(panorama_pca(scaled, table_c, components=components))
+            else:
+                channels.append(panorama_exact(scaled, table_c))
+        xyz = np.maximum(np.stack(channels, axis=-1), 0.0)
+        luminance = xyz[..., 1]
+    seconds = time.perf_counter() - start
+    luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
+    below_terrain = np.zeros(luminance.shape, dtype=bool)
+    if terrain is not None:
+        horizon = horizon_elevation(
+            terrain.dem,
+            terrain.transform,
+            xy,
+            eye_altitude=terrain.eye_altitude,
+            n_az=tables.n_az,
+        )
+        below_terrain = tables.elevation[:, None] < horizon[None, :]
+        luminance = np.where(below_terrain, np.nan, luminance)
+        if xyz is not None:
+            xyz = np.where(below_terrain[..., None], np.nan, xyz)
+    dataset = _panorama_dataset(luminance, below_terrain, tables.elevation, xyz)
+    dataset.attrs = {
+        "observer_x": xy[0],
+        "observer_y": xy[1],
+        "crs": raster.crs.to_wkt(),
+        "observer_height_m": observer_height,
+        "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
+        "source_altitude_levels_m": levels,
+        "observer_altitude_m": observer_altitude + offset,
+        "kernel_altitude_offset_m": offset,
+        "turbidity": kernel_turbidity,
+        "kernel_hash": str(table.attrs.get("content_hash", "")),
+        "mode": mode,
+        "emission": label,
+        "emitted_flux_lm": float(polar.total_flux.sum()),
+        "flux_beyond_kernel_lm": float(polar.dropped_flux.sum()),
+        **dataset.attrs,
+        "note": "artificial skyglow only (no natural sky background), single scattering",
+    }
+    if xyz is not None:
+        dataset.attrs["spectrum"] = spectrum
+    dataset.attrs["bands"] = bands
+    return SkyglowScene(dataset, polar, seconds)
+
+
+def _panorama_dataset(
+    luminance: FloatArray,
+    below_terrain: np.ndarray,
+    elevation: FloatArray,
+    xyz: FloatArray | None,
+) -> xr.Dataset:
+    """Panorama variables and coordinates, with the zenith figures in the attributes."""
+    n_az = luminance.shape[1]
+    azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
+    magnitude = luminance_to_magnitude(luminance)
+    zenith = float(np.nanmean(luminance[0])) if np.isfinite(luminance[0]).any() else 0.0
+    zenith_mag = float(luminance_to_magnitude(zenith))
+    dataset = xr.Dataset(
+        {
+            "luminance": (
+                ("elevation", "azimuth"),
+                luminance,
+                {"units": "cd m-2", "long_name": "artificial sky luminance"},
+            ),
+            "sky_brightness": (
+                ("elevation", "azimuth"),
+                magnitude,
+                {"units": "mag arcsec-2", "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"},
+            ),
+            "terrain_mask": (
+                ("elevation", "azimuth"),
+                below_terrain.astype(np.int8),
+                {"long_name": "1 where the terrain (DEM) hides the sky"},
+            ),
+        },
+        coords={
+            "elevation": (
+                "elevation",
+                elevation,
+                {"units": "degree", "long_name": "elevation of pixel centre"},
+            ),
+            "azimuth": (
+                "azimuth",
+                azimuth,
+                {"units": "degree", "long_name": "azimuth clockwise from north"},
+            ),
+        },
+        attrs={
+            "zenith_luminance_cd_m2": zenith,
+            "zenith_sky_brightness": zenith_mag,
+            "bortle_class_zenith": int(bortle_class(zenith_mag)),
+        },
+    )
+    if xyz is not None:
+        for index, band in enumerate(TRISTIMULUS_WAVELENGTHS):
+            dataset[band] = (
+                ("elevation", "azimuth"),
+                xyz[..., index],
+                {
+                    "units": "cd m-2",
+                    "long_name": f"CIE 1931 {band} tristimulus luminance",
+                    "scattering_wavelength_nm": TRISTIMULUS_WAVELENGTHS[band],
+                },
+            )
+    return dataset
+
+
+def _kernel_atmosphere(table: xr.Dataset) -> Atmosphere:
+    """The atmosphere a kernel was built with, from its attributes."""
+    if "turbidity" not in table.attrs:
+        raise InputError(
+            "the kernel has no atmosphere attributes; naive mode integrates with the kernel's "
+            "atmosphere"
+        )
+    return Atmosphere.from_parameters(table.attrs)
+
+
+def _total(polars: list[PolarMap]) -> PolarMap:
+    """The polar map of all source levels together."""
+    return PolarMap(
+        np.sum([p.flux for p in polars], axis=0),
+        polars[0].distance_edges,
+        polars[0].n_az,
+        np.sum([p.dropped_flux for p in polars], axis=0),
+        np.sum([p.total_flux for p in polars], axis=0),
+    )
+
+
+def _level_offset(heights: FloatArray, data: FloatArray, levels: FloatArray) -> float:
+    """Common shift of all altitudes that brings the lit cells within a kernel's source levels.
+
+    A scene kernel always covers them (0 is returned). A given kernel may not (e.g. one built
+    with sources at 0 m used over terrain): then observer and sources are shifted together so
+    that the observer keeps its height above the sources (the air density is then that of the
+    kernel's levels), with a warning.
+    """
+    lit = np.any(np.nan_to_num(data) != 0, axis=0)
+    if not lit.any():
+        return 0.0
+    low, high = float(np.nanmin(heights[lit])), float(np.nanmax(heights[lit]))
+    bottom, top = float(levels.min()), float(levels.max())
+    if low >= bottom - 5.0 and high <= top + 5.0:
+        return 0.0
+    if high - low <= top - bottom:
+        offset = low - bottom if low < bottom else high - top
+    else:
+        offset = 0.5 * (low + high) - 0.5 * (bottom + top)
+    warnings.warn(
+        f"lit cells stand at {low:g}-{high:g} m but the kernel's source levels span "
+        f"{bottom:g}-{top:g} m; observer and sources are shifted by {-offset:+g} m together "
+        "(relative heights kept; cells still outside take the nearest level)",
+        DataQualityWarning,
+        stacklevel=4,
+    )
+    return offset
+
+
+def _terrain(
+    dem: RasterInput,
+    raster: Raster,
+    xy: tuple[float, float],
+    observer_height: float,
+) -> _Terrain:
+    """Read the DEM; eye altitude, terrain height under every lit cell and their mean [m]."""
+    label = _label(dem, "DEM")
+    relief = as_raster(dem)
+    if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
+        raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
+    heights = relief.data[0]
+    ground = ground_height(heights, relief.transform, *xy)
+    # Terrain height under each lit emission cell, weighted by its flux.
+    flux = np.nansum(np.nan_to_num(raster.data, nan=0.0), axis=0)
+    rows, cols = np.nonzero(flux)
+    source_altitude = 0.0
+    cell_heights = np.full(flux.shape, np.nan)
+    if rows.size:
+        t = raster.transform
+        cx = t.c + t.a * (cols + 0.5)
+        cy = t.f + t.e * (rows + 0.5)
+        inv = ~relief.transform
+        dcol = inv.a * cx + inv.b * cy + inv.c
+        drow = inv.d * cx + inv.e * cy + inv.f
+        z = map_coordinates(
+            np.nan_to_num(heights, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
+        )
+        source_altitude = float(np.average(z, weights=flux[rows, cols]))
+        cell_heights[rows, cols] = z
+    return _Terrain(
+        heights, relief.transform, ground + observer_height, source_altitude, cell_heights
+    )
+
+
+def _observer_xy(
+    observer: tuple[float, float], observer_crs: str | None, raster_crs: CRS
+) -> tuple[float, float]:
+    x, y = (float(v) for v in observer)
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise InputError(f"observer {observer!r}; expected two finite numbers")
+    if observer_crs is None:
+        return x, y
+    try:
+        source = CRS.from_user_input(observer_crs)
+    except Exception as exc:  # pyproj raises its own CRSError
+        raise CRSError(f"observer CRS {observer_crs!r} is not a CRS: {exc}") from exc
+    transformer = Transformer.from_crs(source, raster_crs, always_xy=True)
+    tx, ty = transformer.transform(x, y)
+    return float(tx), float(ty)

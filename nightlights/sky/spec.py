@@ -1,0 +1,433 @@
+"""What a skyglow kernel is: :class:`KernelSpec` and the axes it spans.
+
+A kernel table holds, for each observer altitude h_o, source altitude h_c and distance bin r,
+the panorama b(elevation, relative azimuth) [cd m-2 lm-1] of sky luminance per lumen emitted
+upwards by a ground source in that bin (Dobashi et al. 2023, Sec. 3.4.1). Its specification
+holds every parameter that changes the numbers: the axes, the atmosphere, the emission
+components, the quadrature and the compression. The content hash of the specification keys the
+kernel cache; :meth:`KernelSpec.to_attrs` and :meth:`KernelSpec.from_attrs` carry it through the
+NetCDF attributes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike
+
+from nightlights._typing import FloatArray
+from nightlights.errors import InputError
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import UPLIGHT_EXPONENT
+
+__all__ = [
+    "KERNEL_FORMAT_VERSION",
+    "KernelSpec",
+    "distance_grid",
+    "panorama_elevations",
+    "relative_azimuths",
+]
+
+#: Bumped whenever the physics or the file layout changes, so that caches are rebuilt.
+KERNEL_FORMAT_VERSION = 2
+
+
+def panorama_elevations(n_elevation: int) -> FloatArray:
+    """Elevation pixel centres of the panorama, zenith first: 90 - (i + 0.5) 90 / n [deg].
+
+    Parameters
+    ----------
+    n_elevation
+        Number of elevation rows [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_elevation,)`` [deg].
+
+    Examples
+    --------
+    >>> panorama_elevations(3)
+    array([75., 45., 15.])
+    """
+    return 90.0 - (np.arange(n_elevation) + 0.5) * 90.0 / n_elevation
+
+
+def relative_azimuths(n_azimuth: int) -> FloatArray:
+    """Kernel azimuths relative to the source direction, k 360 / n [deg].
+
+    Parameters
+    ----------
+    n_azimuth
+        Number of azimuth columns [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_azimuth,)`` [deg].
+    """
+    return np.arange(n_azimuth) * 360.0 / n_azimuth
+
+
+def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
+    """Log-spaced distance bin edges.
+
+    Parameters
+    ----------
+    r_min
+        Inner edge of the first bin, > 0 [m].
+    r_max
+        Outer edge of the last bin [m].
+    n_distance
+        Number of bins [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_distance + 1,)`` [m].
+
+    Examples
+    --------
+    >>> distance_grid(10.0, 1000.0, 2)
+    array([  10.,  100., 1000.])
+    """
+    if not (0 < r_min < r_max) or n_distance < 1:
+        raise InputError(
+            f"distance grid r_min={r_min!r} m, r_max={r_max!r} m, n_distance={n_distance!r}; "
+            "expected 0 < r_min < r_max and n_distance >= 1"
+        )
+    return np.geomspace(r_min, r_max, n_distance + 1)
+
+
+def _check_edges(edges: ArrayLike) -> FloatArray:
+    e = np.asarray(edges, dtype=float).ravel()
+    if e.size < 2 or e[0] <= 0 or np.any(np.diff(e) <= 0) or not np.all(np.isfinite(e)):
+        raise InputError(
+            f"distance_edges {e.tolist()!r}; expected >= 2 increasing finite values > 0 m"
+        )
+    return e
+
+
+def _levels(values: ArrayLike, name: str) -> tuple[float, ...]:
+    levels = np.sort(np.asarray(values, dtype=float).ravel())
+    if levels.size == 0:
+        raise InputError(f"{name}: expected at least one altitude")
+    if np.any(np.diff(levels) <= 0) or not np.all(np.isfinite(levels)):
+        raise InputError(f"{name} {levels.tolist()!r} m; expected distinct finite altitudes")
+    return tuple(float(x) for x in levels)
+
+
+@dataclass(frozen=True)
+class KernelSpec:
+    """Every parameter of a skyglow kernel: axes, atmosphere, emission, quadrature, compression.
+
+    Parameters
+    ----------
+    distance_edges
+        Distance bin edges, increasing, > 0; default log-spaced from ``r_min`` to ``r_max`` in
+        ``n_distance`` bins (then ``r_min``, ``r_max`` and ``n_distance`` are set from the
+        edges) [m].
+    r_min, r_max
+        Range of the default distance grid [m].
+    n_distance
+        Number of distance bins of the default grid [1].
+    source_altitudes
+        Source altitudes h_c above sea level, sorted on creation [m].
+    observer_altitudes
+        Observer altitudes h_o above sea level, sorted on creation [m].
+    n_elevation, n_azimuth
+        Panorama rows (elevation, 0-90 deg) and columns (even; azimuth, 0-360 deg) [1].
+    atmosphere
+        Atmosphere model; default :class:`~nightlights.sky.atmosphere.Atmosphere`.
+    uplight
+        Also tabulate ``kernel_uplight`` for the low-angle direct-uplight lobe.
+    uplight_exponent
+        Exponent n of the uplight lobe sin^n [1].
+    nodes
+        Gauss-Legendre nodes on each side of the closest approach [1].
+    leg_nodes
+        None: closed-form leg optical depths; an integer: Gauss nodes per leg [1].
+    core_radius
+        Softening radius of the point source [m].
+    sub_distances
+        Gauss-Legendre distances in ln r averaged per bin (area weighted); 1 = the geometric
+        bin centre (within 0.4 % of the converged bin mean at 64-128 bins, 2: 0.07 %); the
+        pixels next to the source direction always average at least 4 [1].
+    sub_pixels
+        Directions per pixel side averaged (solid-angle weighted) [1].
+    supersample
+        Directions per pixel side averaged in the pixels next to the source direction, where
+        rays graze the source (observer next to a lit cell, sources above the observer) [1].
+    pca_energy
+        Explained-energy target choosing the number of components [1].
+    n_components
+        Number of components (overrides ``pca_energy``) [1].
+    store_tables
+        Keep the raw images (``kernel``, ``kernel_uplight``) next to the PCA bases; they are
+        needed only by ``exact`` mode and are most of the file (2.2 of 2.9 GB for Dobashi's
+        configuration).
+
+    Examples
+    --------
+    >>> spec = KernelSpec(r_min=10.0, r_max=1000.0, n_distance=2, n_elevation=8, n_azimuth=16)
+    >>> spec.distance_edges
+    (10.0, 100.0, 1000.0)
+    >>> KernelSpec.from_attrs(spec.to_attrs()) == spec
+    True
+    >>> len(spec.content_hash)
+    64
+    """
+
+    distance_edges: Sequence[float] | None = None
+    r_min: float = 10.0
+    r_max: float = 100_000.0
+    n_distance: int = 64
+    source_altitudes: Sequence[float] = (0.0,)
+    observer_altitudes: Sequence[float] = (0.0,)
+    n_elevation: int = 64
+    n_azimuth: int = 256
+    atmosphere: Atmosphere = field(default_factory=Atmosphere)
+    uplight: bool = False
+    uplight_exponent: float = UPLIGHT_EXPONENT
+    nodes: int = 12
+    leg_nodes: int | None = None
+    core_radius: float = 1.0
+    sub_distances: int = 1
+    sub_pixels: int = 1
+    supersample: int = 8
+    pca_energy: float = 0.999999
+    n_components: int | None = None
+    store_tables: bool = True
+
+    def __post_init__(self) -> None:
+        edges = _check_edges(
+            distance_grid(self.r_min, self.r_max, self.n_distance)
+            if self.distance_edges is None
+            else self.distance_edges
+        )
+        setattr_ = object.__setattr__
+        setattr_(self, "distance_edges", tuple(float(x) for x in edges))
+        setattr_(self, "r_min", float(edges[0]))
+        setattr_(self, "r_max", float(edges[-1]))
+        setattr_(self, "n_distance", int(edges.size - 1))
+        setattr_(self, "source_altitudes", _levels(self.source_altitudes, "source_altitudes"))
+        setattr_(self, "observer_altitudes", _levels(self.observer_altitudes, "observer_altitudes"))
+        if not isinstance(self.atmosphere, Atmosphere):
+            raise InputError(
+                f"atmosphere of type {type(self.atmosphere).__name__}; expected an Atmosphere"
+            )
+        if self.n_elevation < 1 or self.n_azimuth < 2 or self.n_azimuth % 2:
+            raise InputError(
+                f"n_elevation={self.n_elevation!r}, n_azimuth={self.n_azimuth!r}; expected "
+                "n_elevation >= 1 and an even n_azimuth >= 2"
+            )
+        if self.sub_distances < 1 or self.sub_pixels < 1:
+            raise InputError(
+                f"sub_distances={self.sub_distances!r}, sub_pixels={self.sub_pixels!r}; "
+                "expected >= 1"
+            )
+        if self.n_components is None and not 0 < self.pca_energy <= 1:
+            raise InputError(f"pca_energy {self.pca_energy!r}; expected 0 < energy <= 1")
+        if self.n_components is not None and self.n_components < 1:
+            raise InputError(f"n_components {self.n_components!r}; expected >= 1")
+        for name in ("n_elevation", "n_azimuth", "nodes", "sub_distances", "sub_pixels"):
+            setattr_(self, name, int(getattr(self, name)))
+        setattr_(self, "supersample", int(self.supersample))
+        for name in ("uplight", "store_tables"):
+            setattr_(self, name, bool(getattr(self, name)))
+        for name in ("uplight_exponent", "core_radius", "pca_energy"):
+            setattr_(self, name, float(getattr(self, name)))
+        for name in ("leg_nodes", "n_components"):
+            value = getattr(self, name)
+            setattr_(self, name, None if value is None else int(value))
+
+    # -- derived axes --------------------------------------------------------------------
+
+    @property
+    def edges(self) -> FloatArray:
+        """Distance bin edges as an array, shape ``(n_distance + 1,)`` [m]."""
+        return np.asarray(self.distance_edges, dtype=float)
+
+    @property
+    def distances(self) -> FloatArray:
+        """Geometric bin centres, shape ``(n_distance,)`` [m]."""
+        e = self.edges
+        return np.sqrt(e[:-1] * e[1:])
+
+    @property
+    def elevations(self) -> FloatArray:
+        """Elevation pixel centres, zenith first, shape ``(n_elevation,)`` [deg]."""
+        return panorama_elevations(self.n_elevation)
+
+    @property
+    def azimuths(self) -> FloatArray:
+        """Azimuths relative to the source, shape ``(n_azimuth,)`` [deg]."""
+        return relative_azimuths(self.n_azimuth)
+
+    @property
+    def emissions(self) -> tuple[str, ...]:
+        """The emission components tabulated: ``lambertian`` (and ``uplight``)."""
+        return ("lambertian", "uplight") if self.uplight else ("lambertian",)
+
+    # -- identity ------------------------------------------------------------------------
+
+    def parameters(self) -> dict[str, Any]:
+        """Normalised, JSON-serialisable description hashed into :attr:`content_hash`.
+
+        Returns
+        -------
+        dict
+            Every parameter and grid (the key names are those of kernel format 2, so that
+            cached kernels keep their hash).
+        """
+        return {
+            "kernel_format_version": KERNEL_FORMAT_VERSION,
+            "distance_edges": list(self.distance_edges or ()),
+            "source_altitudes": list(self.source_altitudes),
+            "observer_altitudes": list(self.observer_altitudes),
+            "n_el": self.n_elevation,
+            "n_az": self.n_azimuth,
+            "atmosphere": self.atmosphere.parameters(),
+            "nodes": self.nodes,
+            "leg_nodes": self.leg_nodes,
+            "core_radius": self.core_radius,
+            "sub_distances": self.sub_distances,
+            "sub_pixels": self.sub_pixels,
+            "supersample": self.supersample,
+            "uplight": self.uplight,
+            "uplight_exponent": self.uplight_exponent,
+            "pca_energy": self.pca_energy,
+            "n_components": self.n_components,
+            "store_tables": self.store_tables,
+        }
+
+    @cached_property
+    def content_hash(self) -> str:
+        """sha256 (hex) of :meth:`parameters`: equal specifications, equal kernels."""
+        text = json.dumps(self.parameters(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def to_attrs(self) -> dict[str, Any]:
+        """NetCDF-safe attributes describing the kernel (None -> -1, bool -> int).
+
+        Returns
+        -------
+        dict
+            The atmosphere's parameters, the axes, the knobs and ``content_hash``.
+        """
+        attrs: dict[str, Any] = dict(self.atmosphere.parameters())
+        attrs["distance_edges"] = np.asarray(self.distance_edges, dtype=float)
+        attrs["source_altitudes"] = np.asarray(self.source_altitudes, dtype=float)
+        attrs["observer_altitudes"] = np.asarray(self.observer_altitudes, dtype=float)
+        attrs["n_elevation"] = self.n_elevation
+        attrs["n_azimuth"] = self.n_azimuth
+        attrs["leg_nodes"] = -1 if self.leg_nodes is None else self.leg_nodes
+        for key in (
+            "nodes",
+            "core_radius",
+            "sub_distances",
+            "sub_pixels",
+            "supersample",
+            "uplight_exponent",
+            "pca_energy",
+        ):
+            attrs[key] = getattr(self, key)
+        attrs["kernel_format_version"] = KERNEL_FORMAT_VERSION
+        attrs["content_hash"] = self.content_hash
+        attrs["uplight"] = int(self.uplight)
+        attrs["store_tables"] = int(self.store_tables)
+        attrs["n_components_requested"] = -1 if self.n_components is None else self.n_components
+        return attrs
+
+    @classmethod
+    def from_attrs(cls, attrs: Mapping[str, Any]) -> KernelSpec:
+        """The specification written by :meth:`to_attrs`.
+
+        Parameters
+        ----------
+        attrs
+            A kernel's attributes.
+
+        Returns
+        -------
+        KernelSpec
+            The specification.
+
+        Raises
+        ------
+        InputError
+            The attributes lack the axes (kernels written before they were recorded: use
+            :meth:`from_kernel`) or another parameter.
+        """
+        missing = [
+            key
+            for key in ("distance_edges", "source_altitudes", "observer_altitudes", "n_elevation")
+            if key not in attrs
+        ]
+        if missing:
+            raise InputError(
+                f"kernel attributes lack {missing}; read the axes from the dataset with "
+                "KernelSpec.from_kernel"
+            )
+
+        def number(key: str) -> Any:
+            if key not in attrs:
+                raise InputError(f"kernel attributes lack {key!r}")
+            value = attrs[key]
+            return value.item() if isinstance(value, np.generic) else value
+
+        def optional(key: str) -> int | None:
+            value = int(number(key))
+            return None if value < 0 else value
+
+        return cls(
+            distance_edges=np.atleast_1d(attrs["distance_edges"]).tolist(),
+            source_altitudes=np.atleast_1d(attrs["source_altitudes"]).tolist(),
+            observer_altitudes=np.atleast_1d(attrs["observer_altitudes"]).tolist(),
+            n_elevation=int(number("n_elevation")),
+            n_azimuth=int(number("n_azimuth")),
+            atmosphere=Atmosphere.from_parameters(attrs),
+            uplight=bool(number("uplight")),
+            uplight_exponent=float(number("uplight_exponent")),
+            nodes=int(number("nodes")),
+            leg_nodes=optional("leg_nodes"),
+            core_radius=float(number("core_radius")),
+            sub_distances=int(number("sub_distances")),
+            sub_pixels=int(number("sub_pixels")),
+            supersample=int(number("supersample")),
+            pca_energy=float(number("pca_energy")),
+            n_components=optional("n_components_requested"),
+            store_tables=bool(number("store_tables")),
+        )
+
+    @classmethod
+    def from_kernel(cls, kernel: xr.Dataset) -> KernelSpec:
+        """The specification of a kernel dataset, its axes read from its coordinates.
+
+        Parameters
+        ----------
+        kernel
+            A kernel dataset (:func:`~nightlights.sky.build.compute_kernel`), also one written
+            before the axes were recorded in the attributes.
+
+        Returns
+        -------
+        KernelSpec
+            The specification; its :attr:`content_hash` equals the kernel's when the kernel
+            was built from it.
+        """
+        attrs = dict(kernel.attrs)
+        attrs.setdefault("distance_edges", np.asarray(kernel["distance_edges"].values))
+        attrs.setdefault("source_altitudes", np.asarray(kernel["source_altitude"].values))
+        attrs.setdefault("observer_altitudes", np.asarray(kernel["observer_altitude"].values))
+        attrs.setdefault("n_elevation", int(kernel.sizes["elevation"]))
+        n_frequency = int(kernel.sizes["frequency"])
+        attrs.setdefault("n_azimuth", int(kernel.sizes.get("azimuth", 2 * (n_frequency - 1))))
+        return cls.from_attrs(attrs)
