@@ -296,7 +296,23 @@ class IntensityTable:
         vertical_step: float = 0.5,
         horizontal_step: float = 1.0,
     ) -> IntensityTable:
-        """Sample ``intensity(vertical, horizontal)`` [cd] on a regular grid [deg]."""
+        """Sample an intensity function on a regular type C grid.
+
+        Parameters
+        ----------
+        intensity
+            ``intensity(vertical, horizontal)`` [cd] of angles [deg].
+        vertical_step
+            Step of the vertical angle; must divide 180 [deg].
+        horizontal_step
+            Step of the horizontal angle; must divide 360 [deg].
+
+        Examples
+        --------
+        >>> table = IntensityTable.from_function(lambda v, h: 100.0 + 0 * v, vertical_step=5.0)
+        >>> table.candela.shape, float(table.lookup(42.0, 17.0))
+        ((361, 37), 100.0)
+        """
         vertical = np.linspace(0.0, 180.0, round(180.0 / vertical_step) + 1)
         horizontal = np.linspace(0.0, 360.0, round(360.0 / horizontal_step) + 1)
         v, h = np.meshgrid(vertical, horizontal)
@@ -310,6 +326,12 @@ class IntensityTable:
     @classmethod
     def from_photometry(cls, photometry: PhotometryLike) -> IntensityTable:
         """Sample a photometry on the coarsest regular grid that refines its own grid.
+
+        Parameters
+        ----------
+        photometry
+            Type C photometry with ``vertical_angles``, ``horizontal_angles`` [deg] and
+            ``intensity(vertical, horizontal)`` [cd].
 
         Raises
         ------

@@ -66,7 +66,26 @@ class InfluenceThreshold:
 
     @classmethod
     def parse(cls, text: str, *, max_radius: float = 1000.0) -> InfluenceThreshold:
-        """Parse ``energy:0.01``, ``floor:0.05`` or ``none``."""
+        """Parse ``energy:FRACTION``, ``floor:LUX`` or ``none`` (the CLI's ``--threshold``).
+
+        Parameters
+        ----------
+        text
+            ``energy:0.01`` (flux fraction [1]), ``floor:0.05`` (illuminance [lx]) or
+            ``none``.
+        max_radius
+            Cap on the radius [m].
+
+        Raises
+        ------
+        InputError
+            Unknown kind or a value out of range.
+
+        Examples
+        --------
+        >>> InfluenceThreshold.parse("floor:0.05")
+        InfluenceThreshold(kind='floor', value=0.05, max_radius=1000.0)
+        """
         kind, _, value = text.partition(":")
         kind = kind.strip().lower()
         if kind == "none":

@@ -143,7 +143,13 @@ class Luminaires:
         return len(self.light_id)
 
     def flux_profile(self, index: int) -> FluxProfile:
-        """World-frame flux profile of light ``index``, cached per table and rounded angles."""
+        """World-frame flux profile of light ``index``, cached per table and rounded angles.
+
+        Parameters
+        ----------
+        index
+            Light index.
+        """
         tilt, roll, azimuth = (
             float(np.round(value[index] / PROFILE_ANGLE_STEP) * PROFILE_ANGLE_STEP)
             for value in (self.tilt, self.roll, self.street_azimuth)
@@ -169,7 +175,13 @@ class Luminaires:
         ]
 
     def radius(self, threshold: InfluenceThreshold) -> FloatArray:
-        """Region-of-influence radius per light [m]."""
+        """Region-of-influence radius per light [m].
+
+        Parameters
+        ----------
+        threshold
+            Energy fraction or illuminance floor.
+        """
         radius = np.zeros(len(self))
         for profile, members in self.profile_groups():
             radius[members] = influence_radius(
@@ -200,7 +212,13 @@ class Luminaires:
         return flux
 
     def subset(self, keep: NDArray[np.bool_]) -> Luminaires:
-        """The lights where ``keep`` is true."""
+        """The lights where ``keep`` is true.
+
+        Parameters
+        ----------
+        keep
+            Boolean mask (n,).
+        """
         return Luminaires(
             self.light_id[keep],
             self.light_point[keep],
@@ -220,7 +238,13 @@ class Luminaires:
 
     @staticmethod
     def concatenate(parts: Sequence[Luminaires]) -> Luminaires:
-        """Join luminaire sets, renumbering their tables."""
+        """Join luminaire sets, renumbering their tables.
+
+        Parameters
+        ----------
+        parts
+            Luminaire sets, each with its own tables.
+        """
         offsets = np.cumsum([0] + [len(part.tables) for part in parts[:-1]])
         return Luminaires(
             np.concatenate([p.light_id for p in parts]),
@@ -240,7 +264,13 @@ class Luminaires:
 
 
 def load_database(catalog: str | os.PathLike[str] | None) -> DatabaseLike:
-    """The luminaire database of the ``ies`` package (bundled, or the folder ``catalog``)."""
+    """The luminaire database of the ``ies`` package.
+
+    Parameters
+    ----------
+    catalog
+        Database folder; ``None`` for the bundled one.
+    """
     return load_library(catalog)
 
 
@@ -369,7 +399,20 @@ def resolve_luminaires(
 
 
 def describe_ids(ids: NDArray[Any], limit: int = 10) -> str:
-    """The first ``limit`` ids and their number, for messages: ``[3, 8] (2 in all)``."""
+    """The first ``limit`` ids and their number, for messages.
+
+    Parameters
+    ----------
+    ids
+        Identifiers.
+    limit
+        How many to list.
+
+    Examples
+    --------
+    >>> describe_ids(np.array([3, 8]))
+    '[3, 8] (2 in all)'
+    """
     listed = ", ".join(str(i) for i in ids[:limit])
     return f"[{listed}{', ...' if len(ids) > limit else ''}] ({len(ids)} in all)"
 
@@ -420,7 +463,13 @@ def sensor_factors(
 
 
 def band_unit(sensor: str) -> str:
-    """Unit of a sensor band: ``lx`` for photopic, ``W m-2`` otherwise."""
+    """Unit of a sensor band: ``lx`` for photopic, ``W m-2`` otherwise.
+
+    Parameters
+    ----------
+    sensor
+        Sensor name (``photopic`` or one of ``ies.spectra.SENSORS``).
+    """
     return "lx" if sensor == "photopic" else "W m-2"
 
 

@@ -70,7 +70,14 @@ class RasterGrid:
 
     @classmethod
     def from_transform(cls, transform: Affine, shape: tuple[int, int]) -> RasterGrid:
-        """The grid of a north-up ``transform`` with square pixels and ``shape`` (rows, cols).
+        """The grid of a north-up transform with square pixels.
+
+        Parameters
+        ----------
+        transform
+            Affine transform of the top-left pixel corner [m].
+        shape
+            (rows, cols) [pixels].
 
         Raises
         ------
@@ -97,7 +104,13 @@ class RasterGrid:
         )
 
     def centres(self, tile: Tile) -> tuple[FloatArray, FloatArray]:
-        """Pixel-centre coordinates of a tile: x (cols,) and y (rows,) [m]."""
+        """Pixel-centre coordinates of a tile: x (cols,) and y (rows,) [m].
+
+        Parameters
+        ----------
+        tile
+            A window of this grid.
+        """
         x = self.x_min + (tile.col0 + np.arange(tile.cols) + 0.5) * self.resolution
         y = self.y_max - (tile.row0 + np.arange(tile.rows) + 0.5) * self.resolution
         return x.astype(np.float64), y.astype(np.float64)
@@ -149,7 +162,20 @@ def grid_from_bounds(bounds: Sequence[float], resolution: float) -> RasterGrid:
 
 
 def make_tiles(grid: RasterGrid, tile_size: int) -> list[Tile]:
-    """Cut ``grid`` into square tiles of ``tile_size`` pixels (smaller at the east/south edge)."""
+    """Cut ``grid`` into square tiles (smaller at the east and south edges).
+
+    Parameters
+    ----------
+    grid
+        Output grid.
+    tile_size
+        Tile edge [pixels].
+
+    Returns
+    -------
+    list of Tile
+        Row-major order.
+    """
     if tile_size < 1:
         raise InputError(f"tile_size={tile_size}; expected at least 1 pixel")
     return [

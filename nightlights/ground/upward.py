@@ -194,7 +194,21 @@ def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> Floa
 
 
 def flux_density_to_viirs_radiance(flux_density: ArrayLike, efficacy: float) -> FloatArray:
-    """Inverse of :func:`viirs_radiance_to_flux_density` [nW cm-2 sr-1]."""
+    """DNB radiance of an upward luminous flux density; the inverse of
+    :func:`viirs_radiance_to_flux_density`.
+
+    Parameters
+    ----------
+    flux_density
+        Upward luminous flux density [lm m-2].
+    efficacy
+        Lumens per DNB watt of the source spectrum [lm W-1].
+
+    Returns
+    -------
+    numpy.ndarray
+        DNB radiance [nW cm-2 sr-1].
+    """
     return np.asarray(flux_density, dtype=float) / (np.pi * NANOWATT_PER_CM2 * efficacy)
 
 

@@ -34,7 +34,15 @@ __all__ = ["raster_on_grid", "sample_raster"]
 
 
 def source_label(source: Raster | xr.DataArray | str | os.PathLike[str], name: str) -> str:
-    """How messages name a raster input: its path, or ``in-memory <name>``."""
+    """How messages name a raster input: its path, or ``in-memory <name>``.
+
+    Parameters
+    ----------
+    source
+        The raster input.
+    name
+        What it is (``DEM``, ``albedo raster``).
+    """
     if isinstance(source, (str, os.PathLike)):
         return str(source)
     return f"in-memory {name}"
@@ -92,9 +100,8 @@ def raster_on_grid(
     >>> from pyproj import CRS
     >>> dem = Raster(np.full((1, 4, 4), 250.0), Affine(10, 0, 0, 0, -10, 40), "EPSG:32633")
     >>> raster_on_grid(dem, transform=Affine(5, 0, 0, 0, -5, 40), shape=(2, 3),
-    ...                crs=CRS.from_epsg(32633), name="DEM")
-    array([[250., 250., 250.],
-           [250., 250., 250.]])
+    ...                crs=CRS.from_epsg(32633), name="DEM").tolist()
+    [[250.0, 250.0, 250.0], [250.0, 250.0, 250.0]]
     """
     label = source_label(source, name)
     raster = as_raster(source)
@@ -164,8 +171,8 @@ def sample_raster(
     >>> from affine import Affine
     >>> dem = Raster(np.arange(4.0).reshape(1, 2, 2), Affine(10, 0, 0, 0, -10, 20), "EPSG:32633")
     >>> points = gpd.GeoSeries.from_xy([5.0, 15.0, 99.0], [15.0, 5.0, 5.0], crs="EPSG:32633")
-    >>> sample_raster(dem, points)
-    array([ 0.,  3., nan])
+    >>> sample_raster(dem, points).tolist()
+    [0.0, 3.0, nan]
     """
     label = source_label(source, name)
     raster = as_raster(source)
