@@ -252,10 +252,3 @@ target_crs_option = click.option(
     help="Projected output CRS in metres (default: the input's if projected, else its local "
     "UTM zone).",
 )
-dem_option = click.option(
-    "--dem",
-    default=None,
-    type=click.Path(exists=True, dir_okay=False),
-    help="Terrain heights above sea level [m] (raster).",
-)
-resolution_option = click.option("--resolution", type=float, default=None, help="Pixel size [m].")
