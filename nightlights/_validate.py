@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 from nightlights.errors import InputError
 
@@ -17,8 +18,8 @@ def check_resolution(value: object, *, name: str = "resolution") -> float:
     name
         Name of the option in the message.
     """
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InputError(f"{name}={value!r} m; expected a positive number of metres")
-    if not (math.isfinite(value) and value > 0):
+    if not (math.isfinite(float(value)) and value > 0):
         raise InputError(f"{name}={value!r} m; expected a positive number of metres")
     return float(value)
