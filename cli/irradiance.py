@@ -44,7 +44,12 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
     help="Band per sensor (repeat): photopic [lx], scotopic, cie_x/y/z, melanopic, "
     "nvis_class_a/b [W m-2].",
 )
-@click.option("--bounds", default=None, help="xmin,ymin,xmax,ymax in the lights' CRS [m].")
+@click.option(
+    "--bounds",
+    default=None,
+    metavar="XMIN,YMIN,XMAX,YMAX",
+    help="Output extent in the lights' CRS [m].",
+)
 @click.option(
     "--margin",
     type=float,

@@ -33,7 +33,13 @@ def kernel() -> None:
     default=None,
     help="Vertical aerosol optical depth (overrides --turbidity).",
 )
-@click.option("--wavelength", type=float, default=550.0, show_default=True, help="[nm].")
+@click.option(
+    "--wavelength",
+    type=float,
+    default=550.0,
+    show_default=True,
+    help="Wavelength of the single band [nm].",
+)
 @click.option("--r-min", type=float, default=10.0, show_default=True, help="Inner distance [m].")
 @click.option(
     "--r-max", type=float, default=100_000.0, show_default=True, help="Outer distance [m]."
@@ -52,14 +58,14 @@ def kernel() -> None:
     "source_altitudes",
     type=float,
     multiple=True,
-    help="[m], repeatable (default 0).",
+    help="Source altitude above sea level [m]; repeat for several levels (default 0).",
 )
 @click.option(
     "--observer-altitude",
     "observer_altitudes",
     type=float,
     multiple=True,
-    help="[m], repeatable (default 0).",
+    help="Observer altitude above sea level [m]; repeat for several levels (default 0).",
 )
 @click.option(
     "--nodes", type=int, default=12, show_default=True, help="Gauss nodes per line-of-sight panel."

@@ -33,8 +33,10 @@ def parse_pair(text: str) -> tuple[float, float]:
     "--out", "old_out", type=click.Path(dir_okay=False), replacement="OUTPUT or -o/--output"
 )
 @overwrite_option
-@click.option("--observer", required=True, help="Observer X,Y (in --observer-crs).")
-@click.option("--observer-crs", default=None, help="CRS of --observer (default: the raster's).")
+@click.option("--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs).")
+@click.option(
+    "--observer-crs", default=None, metavar="CRS", help="CRS of --observer (default: the raster's)."
+)
 @click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
 @click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
 @click.option(
@@ -43,7 +45,14 @@ def parse_pair(text: str) -> tuple[float, float]:
     default=None,
     help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.",
 )
-@click.option("--mode", type=click.Choice(SKYGLOW_MODES), default="pca", show_default=True)
+@click.option(
+    "--mode",
+    type=click.Choice(SKYGLOW_MODES),
+    default="pca",
+    show_default=True,
+    help="pca: fast; exact: the raw tables, no PCA (a kernel built with --tables); naive: "
+    "direct integration, the slow reference.",
+)
 @click.option(
     "--components",
     type=int,
@@ -52,7 +61,11 @@ def parse_pair(text: str) -> tuple[float, float]:
 )
 @click.option("--png", default=None, type=click.Path(dir_okay=False), help="False-colour PNG.")
 @click.option(
-    "--projection", type=click.Choice(PROJECTIONS), default="equirectangular", show_default=True
+    "--projection",
+    type=click.Choice(PROJECTIONS),
+    default="equirectangular",
+    show_default=True,
+    help="Projection of the --png picture.",
 )
 @click.option(
     "--polar-output",
