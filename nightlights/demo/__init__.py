@@ -14,6 +14,7 @@ import geopandas as gpd
 from pyproj import CRS
 
 from nightlights.io import ensure_projected, read_vector
+from nightlights.sky.spec import KernelSpec
 
 
 def example_path(name: str = "helsinki.osm.pbf") -> Path:
@@ -63,15 +64,15 @@ DEMO_OBSERVERS = (
 )
 #: Kernel of the demo: 48 distance bins from 10 m to 10 km, 32 x 128 panorama, Lambertian
 #: and uplight tables, observer eye height 1.7 m, turbidity 2 (cached after the first run).
-DEMO_KERNEL: dict = {
-    "r_min": 10.0,
-    "r_max": 10_000.0,
-    "n_r": 48,
-    "n_el": 32,
-    "n_az": 128,
-    "uplight": True,
-    "observer_altitudes": (1.7,),
-}
+DEMO_KERNEL = KernelSpec(
+    r_min=10.0,
+    r_max=10_000.0,
+    n_distance=48,
+    n_elevation=32,
+    n_azimuth=128,
+    uplight=True,
+    observer_altitudes=(1.7,),
+)
 #: Window enlarged in the demo's map (around the Esplanadi park) [m, EPSG:32635].
 DEMO_ZOOM = (385850.0, 6671700.0, 386150.0, 6672000.0)
 
@@ -86,62 +87,61 @@ def run_demo(out_dir: str | os.PathLike[str], *, seed: int = 2011) -> DemoResult
     seed
         Random seed for sampling and placement.
     """
-    from nightlights.emission import emission
-    from nightlights.irradiance import irradiance
+    import nightlights as nl
     from nightlights.maps import plot_raster_map
-    from nightlights.sky.precompute import get_or_build_kernel
-    from nightlights.sky.stage import skyglow
-    from nightlights.streets.normalize import normalize
-    from nightlights.streets.place import place
-    from nightlights.streets.sample import sample_streets
+    from nightlights.sky.store import get_or_build_kernel
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     result = DemoResult()
-    streets_norm = out / "streets_norm.gpkg"
-    normalize(example_path(), streets_norm, mapping="osm")
-    result.outputs["streets_norm"] = streets_norm
-    streets_lit = out / "streets_lit.gpkg"
-    sample_streets(streets_norm, streets_lit, seed=seed)
-    result.outputs["streets_lit"] = streets_lit
-    lights = out / "lights.gpkg"
-    poles = place(streets_lit, lights, seed=seed)
-    result.outputs["lights"] = lights
-    irradiance_tif = out / "irradiance.tif"
-    irradiance(
+    paths = {
+        name: out / f"{name}.{ext}"
+        for name, ext in (
+            ("streets_norm", "gpkg"),
+            ("streets_lit", "gpkg"),
+            ("lights", "gpkg"),
+            ("irradiance", "tif"),
+            ("emission", "tif"),
+        )
+    }
+    streets = nl.normalize(example_path(), paths["streets_norm"], mapping="osm").streets
+    streets = nl.sample(streets, paths["streets_lit"], seed=seed).streets
+    lights = nl.place(streets, paths["lights"], seed=seed).lights
+    ground = nl.irradiance(
         lights,
-        irradiance_tif,
+        paths["irradiance"],
         resolution=DEMO_IRRADIANCE_RESOLUTION,
         sensors=("photopic", "scotopic"),
         progress=False,
-    )
-    result.outputs["irradiance"] = irradiance_tif
+    ).raster
+    result.outputs.update({name: paths[name] for name in ("streets_norm", "streets_lit")})
+    result.outputs["lights"] = paths["lights"]
+    result.outputs["irradiance"] = paths["irradiance"]
     result.outputs["irradiance_map"] = plot_raster_map(
-        irradiance_tif,
+        ground,
         out / "irradiance.png",
-        points=poles.drop_duplicates("pole_id"),
+        points=lights.drop_duplicates("pole_id"),
         title="Helsinki: predicted poles and ground illuminance",
         credit=CREDIT,
         zoom=DEMO_ZOOM,
     )
-    emission_tif = out / "emission.tif"
-    emission(
-        irradiance_tif,
-        lights,
-        emission_tif,
+    upward = nl.emission(
+        ground,
+        paths["emission"],
+        lights=lights,
         resolution=DEMO_EMISSION_RESOLUTION,
         albedo=DEMO_ALBEDO,
-    )
-    result.outputs["emission"] = emission_tif
-    kernel = get_or_build_kernel(progress=False, **DEMO_KERNEL)
+    ).raster
+    result.outputs["emission"] = paths["emission"]
+    kernel = get_or_build_kernel(DEMO_KERNEL, progress=False)
     for name, (lon, lat), projection in DEMO_OBSERVERS:
         panorama = out / f"skyglow_{name}.nc"
-        sky = skyglow(
-            emission_tif,
+        sky = nl.skyglow(
+            upward,
             panorama,
             observer=(lon, lat),
             observer_crs="EPSG:4326",
-            observer_height=DEMO_KERNEL["observer_altitudes"][0],
+            observer_height=DEMO_KERNEL.observer_altitudes[0],
             kernel=kernel,
             png=out / f"skyglow_{name}.png",
             projection=projection,
