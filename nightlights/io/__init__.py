@@ -7,7 +7,7 @@ is atomic: the output appears complete or not at all.
 
 from nightlights.io.atomic import atomic_output
 from nightlights.io.crs import ensure_projected
-from nightlights.io.raster import Raster, RasterBand, as_raster, read_raster, write_cog
+from nightlights.io.raster import Raster, RasterBand, as_raster, write_cog
 from nightlights.io.terrain import raster_on_grid, sample_raster
 from nightlights.io.vector import read_vector, write_gpkg
 
@@ -18,7 +18,6 @@ __all__ = [
     "atomic_output",
     "ensure_projected",
     "raster_on_grid",
-    "read_raster",
     "read_vector",
     "sample_raster",
     "write_cog",

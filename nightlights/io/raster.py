@@ -125,35 +125,6 @@ def write_cog(
     return Path(path)
 
 
-def read_raster(path: str | os.PathLike[str]) -> tuple[np.ndarray, dict[str, Any]]:
-    """Read every band of a raster as float64 with nodata as NaN.
-
-    Returns
-    -------
-    data : numpy.ndarray
-        Array (bands, rows, cols).
-    meta : dict
-        ``transform``, ``crs`` (pyproj CRS or None), ``descriptions``, ``units``, ``tags``.
-    """
-    source = Path(path)
-    if not source.exists():
-        raise InputError(f"{source}: no such file")
-    try:
-        with rasterio.open(source) as dataset:
-            data = dataset.read(masked=True).astype(np.float64).filled(np.nan)
-            meta = {
-                "transform": dataset.transform,
-                "crs": CRS.from_user_input(dataset.crs.to_wkt()) if dataset.crs else None,
-                "descriptions": list(dataset.descriptions),
-                "units": list(dataset.units),
-                "tags": dataset.tags(),
-                "band_tags": [dataset.tags(i) for i in range(1, dataset.count + 1)],
-            }
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"{source}: cannot read raster: {exc}") from exc
-    return data, meta
-
-
 @dataclass(frozen=True, eq=False)
 class Raster:
     """A geo-referenced multi-band raster in memory.
