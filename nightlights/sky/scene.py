@@ -95,8 +95,8 @@ def source_levels(
 
     Examples
     --------
-    >>> source_levels([20.0, 120.0])
-    array([ 20.,  70., 120.])
+    >>> source_levels([20.0, 120.0]).tolist()
+    [20.0, 70.0, 120.0]
     """
     h = np.asarray(heights, dtype=float)
     h = h[np.isfinite(h)]

@@ -54,8 +54,8 @@ def panorama_elevations(n_elevation: int) -> FloatArray:
 
     Examples
     --------
-    >>> panorama_elevations(3)
-    array([75., 45., 15.])
+    >>> panorama_elevations(3).tolist()
+    [75.0, 45.0, 15.0]
     """
     return 90.0 - (np.arange(n_elevation) + 0.5) * 90.0 / n_elevation
 
@@ -95,8 +95,8 @@ def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
 
     Examples
     --------
-    >>> distance_grid(10.0, 1000.0, 2)
-    array([  10.,  100., 1000.])
+    >>> distance_grid(10.0, 1000.0, 2).tolist()
+    [10.0, 100.0, 1000.0]
     """
     if not (0 < r_min < r_max) or n_distance < 1:
         raise InputError(

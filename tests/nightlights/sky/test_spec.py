@@ -1,0 +1,124 @@
+"""KernelSpec: attribute round trip, content hash, and the kernel it describes."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from nightlights.errors import InputError
+from nightlights.sky import KernelResult, KernelSpec, build_kernel
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.store import read_kernel
+
+TINY = {"r_min": 20.0, "r_max": 2000.0, "n_distance": 4, "n_elevation": 4, "n_azimuth": 8}
+
+#: One changed value per field (every field of KernelSpec is here: checked below).
+CHANGES = {
+    "distance_edges": (20.0, 200.0, 2000.0),
+    "r_min": 30.0,
+    "r_max": 3000.0,
+    "n_distance": 5,
+    "source_altitudes": (0.0, 100.0),
+    "observer_altitudes": (10.0,),
+    "n_elevation": 6,
+    "n_azimuth": 10,
+    "atmosphere": Atmosphere(flat_earth=True),
+    "uplight": True,
+    "uplight_exponent": 3.0,
+    "nodes": 16,
+    "leg_nodes": 6,
+    "core_radius": 2.0,
+    "sub_distances": 2,
+    "sub_pixels": 2,
+    "supersample": 4,
+    "pca_energy": 0.99,
+    "n_components": 2,
+    "store_tables": False,
+}
+
+
+def test_every_field_is_covered() -> None:
+    assert set(CHANGES) == {f.name for f in dataclasses.fields(KernelSpec)}
+
+
+def test_defaults_match_skyglow() -> None:
+    spec = KernelSpec()
+    assert (spec.n_elevation, spec.n_azimuth, spec.n_distance) == (64, 256, 64)
+    assert spec.distance_edges[0] == 10.0 and spec.distance_edges[-1] == 100_000.0
+
+
+@pytest.mark.parametrize("field", sorted(CHANGES))
+def test_hash_is_sensitive_to_every_field(field: str) -> None:
+    base = KernelSpec(**TINY)
+    changed = KernelSpec(**{**TINY, field: CHANGES[field]})
+    assert changed != base
+    assert changed.content_hash != base.content_hash
+
+
+def test_hash_is_stable() -> None:
+    """Equal specifications, equal hashes; the value of the default kernel is pinned so that
+    caches written by earlier versions (same parameters) stay valid."""
+    assert KernelSpec(**TINY).content_hash == KernelSpec(**TINY).content_hash
+    assert KernelSpec(source_altitudes=(5.0, 0.0)) == KernelSpec(source_altitudes=[0.0, 5.0])
+    spec = KernelSpec(n_elevation=32, n_azimuth=128)
+    # kernel_parameters() of the former precompute module gave this hash for its defaults
+    assert spec.content_hash == "4553b69d7a4a1aa7bd5c9af95a6bf709645715d328479bf0db2f6e1783f6b36b"
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [
+        KernelSpec(**TINY),
+        KernelSpec(**{**TINY, **{k: v for k, v in CHANGES.items() if k not in TINY}}),
+        KernelSpec(
+            distance_edges=[1.0, 7.5, 100.0],
+            atmosphere=Atmosphere(aerosol_optical_depth=0.4, rayleigh_optical_depth=0.0),
+        ),
+    ],
+)
+def test_attrs_round_trip(spec: KernelSpec) -> None:
+    back = KernelSpec.from_attrs(spec.to_attrs())
+    assert back == spec and back.content_hash == spec.content_hash
+
+
+def test_from_attrs_without_axes_points_to_from_kernel() -> None:
+    attrs = KernelSpec(**TINY).to_attrs()
+    del attrs["distance_edges"]
+    with pytest.raises(InputError, match="from_kernel"):
+        KernelSpec.from_attrs(attrs)
+
+
+def test_kernel_file_round_trip(tmp_path: Path) -> None:
+    spec = KernelSpec(**TINY, uplight=True)
+    result = build_kernel(spec, tmp_path / "k.nc", progress=False)
+    assert isinstance(result, KernelResult) and result.path == tmp_path / "k.nc"
+    back = read_kernel(result.path)
+    assert back.attrs["content_hash"] == spec.content_hash
+    assert KernelSpec.from_attrs(back.attrs) == spec
+    # kernels written before the axes were in the attributes: from the coordinates
+    old = back.copy()
+    for key in ("distance_edges", "source_altitudes", "observer_altitudes", "n_elevation"):
+        old.attrs.pop(key)
+    old.attrs.pop("n_azimuth")
+    assert KernelSpec.from_kernel(old) == spec
+    xr.testing.assert_allclose(back["coefficient"], result.kernel["coefficient"])
+
+
+def test_build_kernel_writes_nothing_without_output(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = build_kernel(KernelSpec(**TINY), progress=False)
+    assert result.path is None and list(tmp_path.iterdir()) == []
+    assert result.spec == KernelSpec(**TINY)
+    with pytest.raises(InputError, match="does not exist"):
+        build_kernel(KernelSpec(**TINY), tmp_path / "missing" / "k.nc", progress=False)
+
+
+def test_spec_axes() -> None:
+    spec = KernelSpec(**TINY)
+    np.testing.assert_allclose(spec.edges, np.geomspace(20.0, 2000.0, 5))
+    np.testing.assert_allclose(spec.distances, np.sqrt(spec.edges[:-1] * spec.edges[1:]))
+    assert spec.elevations.shape == (4,) and spec.azimuths.shape == (8,)
