@@ -20,6 +20,7 @@ def check_resolution(value: object, *, name: str = "resolution") -> float:
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InputError(f"{name}={value!r} m; expected a positive number of metres")
-    if not (math.isfinite(float(value)) and value > 0):
+    size = float(value)
+    if not (math.isfinite(size) and size > 0):
         raise InputError(f"{name}={value!r} m; expected a positive number of metres")
-    return float(value)
+    return size
