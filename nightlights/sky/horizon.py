@@ -2,17 +2,22 @@
 
 For each azimuth the horizon elevation is the largest angle under which the observer sees the
 terrain along that azimuth, with the Earth's curvature (and standard refraction, k = 0.13)
-lowering distant terrain by d^2 (1 - k) / (2 R).
+lowering distant terrain by d^2 (1 - k) / (2 R). :func:`scene_terrain` reads a scene's DEM:
+the observer's eye altitude and the terrain height under every lit emission cell.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+import xarray as xr
 from affine import Affine
 from scipy.ndimage import map_coordinates
 
-from nightlights._typing import FloatArray
-from nightlights.errors import InputError
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import CRSError, InputError
+from nightlights.io import Raster, as_raster
 
 #: Mean Earth radius [m].
 EARTH_RADIUS = 6.371e6
@@ -100,3 +105,69 @@ def horizon_elevation(
     angle = np.where(inside & (height > -1e8), angle, -90.0)
     per_ray = angle.max(axis=1)
     return per_ray.reshape(n_az, samples_per_bin).max(axis=1)
+
+
+@dataclass(frozen=True)
+class SceneTerrain:
+    """The terrain of a scene: the DEM, the eye altitude and the heights of the lit cells [m]."""
+
+    dem: FloatArray
+    transform: Affine
+    eye_altitude: float
+    source_altitude: float  # flux-weighted mean
+    heights: FloatArray  # terrain height of every emission cell (NaN where unlit)
+
+
+def scene_terrain(
+    dem: Raster | xr.DataArray | PathLike,
+    raster: Raster,
+    xy: tuple[float, float],
+    observer_height: float,
+    *,
+    label: str = "DEM",
+) -> SceneTerrain:
+    """Read the DEM; eye altitude, terrain height under every lit cell and their mean.
+
+    Parameters
+    ----------
+    dem
+        Terrain heights above sea level [m] in the emission raster's CRS.
+    raster
+        Emission raster [lm m-2].
+    xy
+        Observer (x, y) in the raster's CRS [m].
+    observer_height
+        Eye height above the ground [m].
+    label
+        How messages name the DEM.
+
+    Returns
+    -------
+    SceneTerrain
+        DEM, eye altitude [m], flux-weighted source altitude [m], per-cell heights [m].
+    """
+    relief = as_raster(dem)
+    if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
+        raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
+    heights = relief.data[0]
+    ground = ground_height(heights, relief.transform, *xy)
+    # Terrain height under each lit emission cell, weighted by its flux.
+    flux = np.nansum(np.nan_to_num(raster.data, nan=0.0), axis=0)
+    rows, cols = np.nonzero(flux)
+    source_altitude = 0.0
+    cell_heights = np.full(flux.shape, np.nan)
+    if rows.size:
+        t = raster.transform
+        cx = t.c + t.a * (cols + 0.5)
+        cy = t.f + t.e * (rows + 0.5)
+        inv = ~relief.transform
+        dcol = inv.a * cx + inv.b * cy + inv.c
+        drow = inv.d * cx + inv.e * cy + inv.f
+        z = map_coordinates(
+            np.nan_to_num(heights, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
+        )
+        source_altitude = float(np.average(z, weights=flux[rows, cols]))
+        cell_heights[rows, cols] = z
+    return SceneTerrain(
+        heights, relief.transform, ground + observer_height, source_altitude, cell_heights
+    )

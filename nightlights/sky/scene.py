@@ -21,10 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
-from affine import Affine
 from numpy.typing import ArrayLike
 from pyproj import CRS, Transformer
-from scipy.ndimage import map_coordinates
 
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
@@ -32,7 +30,7 @@ from nightlights.io import Raster, as_raster
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
-from nightlights.sky.horizon import ground_height, horizon_elevation
+from nightlights.sky.horizon import horizon_elevation, scene_terrain
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.panorama import (
     MODES,
@@ -187,15 +185,6 @@ class SkyglowScene:
     seconds: float
 
 
-@dataclass(frozen=True)
-class _Terrain:
-    dem: FloatArray
-    transform: Affine
-    eye_altitude: float
-    source_altitude: float  # flux-weighted mean
-    heights: FloatArray  # terrain height of every emission cell (NaN where unlit)
-
-
 def _label(source: object, name: str) -> str:
     return str(source) if isinstance(source, (str, os.PathLike)) else f"in-memory {name}"
 
@@ -346,7 +335,11 @@ def compute_scene(
     xy = _observer_xy(observer, observer_crs, raster.crs)
     if observer_height < 0:
         raise InputError(f"observer height {observer_height} m; expected >= 0")
-    terrain = _terrain(dem, raster, xy, observer_height) if dem is not None else None
+    terrain = (
+        scene_terrain(dem, raster, xy, observer_height, label=_label(dem, "DEM"))
+        if dem is not None
+        else None
+    )
     # Altitudes above sea level: without terrain the ground is at 0 m.
     observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
     heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
@@ -593,41 +586,6 @@ def _level_offset(heights: FloatArray, data: FloatArray, levels: FloatArray) -> 
         stacklevel=4,
     )
     return offset
-
-
-def _terrain(
-    dem: RasterInput,
-    raster: Raster,
-    xy: tuple[float, float],
-    observer_height: float,
-) -> _Terrain:
-    """Read the DEM; eye altitude, terrain height under every lit cell and their mean [m]."""
-    label = _label(dem, "DEM")
-    relief = as_raster(dem)
-    if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
-        raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
-    heights = relief.data[0]
-    ground = ground_height(heights, relief.transform, *xy)
-    # Terrain height under each lit emission cell, weighted by its flux.
-    flux = np.nansum(np.nan_to_num(raster.data, nan=0.0), axis=0)
-    rows, cols = np.nonzero(flux)
-    source_altitude = 0.0
-    cell_heights = np.full(flux.shape, np.nan)
-    if rows.size:
-        t = raster.transform
-        cx = t.c + t.a * (cols + 0.5)
-        cy = t.f + t.e * (rows + 0.5)
-        inv = ~relief.transform
-        dcol = inv.a * cx + inv.b * cy + inv.c
-        drow = inv.d * cx + inv.e * cy + inv.f
-        z = map_coordinates(
-            np.nan_to_num(heights, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
-        )
-        source_altitude = float(np.average(z, weights=flux[rows, cols]))
-        cell_heights[rows, cols] = z
-    return _Terrain(
-        heights, relief.transform, ground + observer_height, source_altitude, cell_heights
-    )
 
 
 def _observer_xy(
