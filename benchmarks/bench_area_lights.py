@@ -5,34 +5,33 @@ pseudo-lights per area source (Chuang 2011, Sec. 5.2). Two sources, each a horiz
 Lambertian panel with uniform luminous exitance: a 40 x 20 m parking lot at 8 m and a
 105 x 68 m sports field at 15 m. The reference is exact: the illuminance under a uniform
 Lambertian rectangle from the view factor of a differential element to a parallel rectangle
-(Howell's catalogue, factor B-3; ``nightlights.area_lights.rectangle_illuminance``),
+(Howell's catalogue, factor B-3; ``nightlights.ground.rectangle_illuminance``),
 evaluated at the pixel centres of a 1 m grid that extends 3 heights beyond the panel. For
 each spacing (as a fraction of the height) the script measures the time of the irradiance
 kernel, the largest and the mean absolute error relative to the peak illuminance, and the
 ground flux on the grid against the exact one.
 
-Run: ``.venv/bin/python benchmarks/bench_area_lights.py [--quick]``.
-Writes ``benchmarks/results/area_lights.json`` and ``.png``.
+Run: ``python benchmarks/bench_area_lights.py [--quick] [--out DIR]`` (``--quick``: every
+other spacing). Writes ``area_lights.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import platform
-import time
-from pathlib import Path
 
+import _harness as harness
 import numpy as np
 import shapely
 
-from nightlights.area_lights import area_luminaires, pseudo_lights, rectangle_illuminance
-from nightlights.irradiance import compute_irradiance
-from nightlights.tiling import grid_from_bounds
+from nightlights.ground import (
+    area_luminaires,
+    compute_irradiance,
+    grid_from_bounds,
+    pseudo_lights,
+    rectangle_illuminance,
+)
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
 SOURCES = {
     "parking lot 40 x 20 m at 8 m": ((0.0, 0.0, 40.0, 20.0), 8.0, 20.0),
     "sports field 105 x 68 m at 15 m": ((0.0, 0.0, 105.0, 68.0), 15.0, 300.0),
@@ -49,22 +48,21 @@ def run(bounds, height: float, exitance: float, fraction: float) -> dict:
     x = grid.x_min + np.arange(grid.cols) + 0.5
     y = grid.y_max - np.arange(grid.rows) - 0.5
     exact = rectangle_illuminance(x[None, :], y[:, None], bounds, exitance=exitance, height=height)
-    start = time.perf_counter()
-    lights = pseudo_lights([shapely.box(*bounds)], [exitance], spacing=fraction * height)
-    luminaires = area_luminaires(lights, height=height)
-    result = compute_irradiance(
-        grid,
-        luminaires,
-        luminaires.intensity_scale[:, None],
-        np.full(len(lights.x), np.inf),
-        progress=False,
-    )
-    elapsed = time.perf_counter() - start
+    with harness.Stopwatch() as watch:
+        lights = pseudo_lights([shapely.box(*bounds)], [exitance], spacing=fraction * height)
+        luminaires = area_luminaires(lights, height=height)
+        result = compute_irradiance(
+            grid,
+            luminaires,
+            luminaires.intensity_scale[:, None],
+            np.full(len(lights.x), np.inf),
+            progress=False,
+        )
     error = result.bands[0].astype(float) - exact
     return {
         "spacing_over_height": fraction,
         "pseudo_lights": len(lights.x),
-        "time_s": elapsed,
+        "time_s": watch.seconds,
         "max_error_over_peak": float(np.abs(error).max() / exact.max()),
         "mean_abs_error_over_peak": float(np.abs(error).mean() / exact.max()),
         "flux_error": float(result.bands[0].astype(float).sum() / exact.sum() - 1),
@@ -72,9 +70,7 @@ def run(bounds, height: float, exitance: float, fraction: float) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer spacings")
-    args = parser.parse_args()
+    args = harness.parse_args(harness.argument_parser(__doc__, quick="every other spacing"))
     fractions = SPACING_FRACTIONS[::2] if args.quick else SPACING_FRACTIONS
     results = {}
     run(*SOURCES[next(iter(SOURCES))], 1.0)  # warm-up: first calls pay for imports and caches
@@ -85,20 +81,14 @@ def main() -> None:
     payload = {
         "reference": "exact view factor of a parallel rectangle (Howell B-3)",
         "default_spacing_over_height": DEFAULT_FRACTION,
-        "machine": f"{platform.machine()} {platform.processor()} (shared 2 cores, noisy)",
+        "note": "timings from a shared 2-core machine, noisy",
         "sources": results,
     }
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "area_lights.json").write_text(json.dumps(payload, indent=2))
-    plot(payload, RESULTS / "area_lights.png")
+    harness.write_results(args.out, "area_lights", payload, quick=args.quick, plot=plot, dpi=120)
 
 
-def plot(payload: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(payload: dict):
+    plt = harness.pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for name, rows in payload["sources"].items():
         n = [r["pseudo_lights"] for r in rows]
@@ -137,7 +127,7 @@ def plot(payload: dict, path: Path) -> None:
         axis.legend(fontsize=7)
     fig.suptitle("Area sources as Voronoi pseudo-lights (Chuang 2011, Sec. 5.2)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    return fig
 
 
 if __name__ == "__main__":

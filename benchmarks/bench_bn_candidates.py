@@ -10,25 +10,15 @@ inference (pgmpy variable elimination). Error: total-variation distance
 Time: sampling all patterns, and a realistic 1e5-segment layer (see
 ``bench_bn_throughput.py``), at each N.
 
-Writes ``benchmarks/results/bn_candidates.json`` and ``.png``.
-Run: ``.venv/bin/python benchmarks/bench_bn_candidates.py [--quick]``.
+Run: ``python benchmarks/bench_bn_candidates.py [--quick] [--out DIR] [--network NAME]
+[--records N]`` (``--quick``: 10,000 records per pattern, N = 1, 4, 16, 64, 200).
+Writes ``bn_candidates.json`` and ``.png`` (see ``_harness.py`` for where).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
-import time
-from pathlib import Path
-
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+import _harness as harness
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).parent))
 from bench_bn_throughput import realistic_frame
 
 from bayesnets import (
@@ -38,7 +28,6 @@ from bayesnets import (
     sample_frame,
 )
 
-RESULTS = Path(__file__).parent / "results"
 CANDIDATES = [1, 2, 4, 8, 16, 32, 64, 128, 200]
 
 #: Evidence patterns (field values) whose unobserved ancestors carry the weight.
@@ -56,8 +45,7 @@ def total_variation(p: np.ndarray, q: np.ndarray) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="fewer records and N values")
+    parser = harness.argument_parser(__doc__, quick="fewer records and N values")
     parser.add_argument("--network", default="europe")
     parser.add_argument(
         "--records",
@@ -65,7 +53,7 @@ def main() -> None:
         default=None,
         help="records per pattern (default 40000; 10000 with --quick)",
     )
-    args = parser.parse_args()
+    args = harness.parse_args(parser)
     records = args.records or (10_000 if args.quick else 40_000)
     candidates = [1, 4, 16, 64, 200] if args.quick else CANDIDATES
     network = load_network(args.network)
@@ -88,28 +76,30 @@ def main() -> None:
     rows = []
     for n_candidates in candidates:
         per_pattern = {}
-        start = time.perf_counter()
-        for index, (name, (codes, marginals)) in enumerate(exact.items()):
-            evidence = {v: np.full(records, c) for v, c in codes.items()}
-            samples = likelihood_weighted_sample(
-                network,
-                evidence,
-                candidates=n_candidates,
-                rng=np.random.default_rng(100 + index),
+        with harness.Stopwatch() as patterns_watch:
+            for index, (name, (codes, marginals)) in enumerate(exact.items()):
+                evidence = {v: np.full(records, c) for v, c in codes.items()}
+                samples = likelihood_weighted_sample(
+                    network,
+                    evidence,
+                    candidates=n_candidates,
+                    rng=np.random.default_rng(100 + index),
+                )
+                errors = {
+                    v: total_variation(np.bincount(samples[v], minlength=len(p)) / records, p)
+                    for v, p in marginals.items()
+                }
+                per_pattern[name] = {
+                    "mean_tv": float(np.mean(list(errors.values()))),
+                    "max_tv": float(max(errors.values())),
+                    "worst_field": network.field_of(max(errors, key=errors.get)),
+                }
+        pattern_seconds = patterns_watch.seconds
+        _, layer_seconds = harness.timed(
+            lambda n=n_candidates: sample_frame(
+                network, layer, candidates=n, rng=np.random.default_rng(2)
             )
-            errors = {
-                v: total_variation(np.bincount(samples[v], minlength=len(p)) / records, p)
-                for v, p in marginals.items()
-            }
-            per_pattern[name] = {
-                "mean_tv": float(np.mean(list(errors.values()))),
-                "max_tv": float(max(errors.values())),
-                "worst_field": network.field_of(max(errors, key=errors.get)),
-            }
-        pattern_seconds = time.perf_counter() - start
-        start = time.perf_counter()
-        sample_frame(network, layer, candidates=n_candidates, rng=np.random.default_rng(2))
-        layer_seconds = time.perf_counter() - start
+        )
         error = float(np.mean([r["mean_tv"] for r in per_pattern.values()]))
         rows.append(
             {
@@ -127,7 +117,6 @@ def main() -> None:
             f"{layer_seconds:.2f} s for 1e5 realistic segments"
         )
     result = {
-        "benchmark": "bn_candidates",
         "network": network.name,
         "records_per_pattern": records,
         "patterns": PATTERNS,
@@ -137,9 +126,15 @@ def main() -> None:
         "note": "timings on a shared 2-core machine are noisy",
         "rows": rows,
     }
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "bn_candidates.json").write_text(json.dumps(result, indent=2))
+    harness.write_results(args.out, "bn_candidates", result, quick=args.quick, plot=plot, dpi=120)
 
+
+def plot(result: dict):
+    plt = harness.pyplot()
+    rows = result["rows"]
+    records = result["records_per_pattern"]
+    noise_floor = result["noise_floor_mean_tv"]
+    n_patterns = len(result["patterns"])
     figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
     n = [r["candidates"] for r in rows]
     left.loglog(n, [r["mean_tv"] for r in rows], "o-", label="mean over fields and patterns")
@@ -154,7 +149,7 @@ def main() -> None:
         [r["pattern_seconds"] for r in rows],
         [r["mean_tv"] for r in rows],
         "o-",
-        label=f"{len(PATTERNS)} x {records} weighted segments",
+        label=f"{n_patterns} x {records} weighted segments",
     )
     right.semilogy(
         [r["realistic_1e5_seconds"] for r in rows],
@@ -177,7 +172,7 @@ def main() -> None:
     right.grid(True, which="both", alpha=0.3)
     right.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(RESULTS / "bn_candidates.png", dpi=120)
+    return figure
 
 
 if __name__ == "__main__":

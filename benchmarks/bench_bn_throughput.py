@@ -3,23 +3,15 @@
 Records are drawn from the network itself and then masked with the observation rates of
 the bundled Helsinki OSM extract after ``streets normalize`` (street class always, lanes
 34 %, oneway 28 %, lit 65 %, width 3 %), so the evidence is realistic and consistent.
-Writes ``benchmarks/results/bn_throughput.json`` and ``.png``.
 
-Run: ``.venv/bin/python benchmarks/bench_bn_throughput.py [--quick] [--network NAME]``.
+Run: ``python benchmarks/bench_bn_throughput.py [--quick] [--out DIR] [--network NAME]
+[--candidates N]`` (``--quick``: stop at 1e5 segments).
+Writes ``bn_throughput.json`` and ``.png`` (see ``_harness.py`` for where).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
-import time
-from pathlib import Path
-
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+import _harness as harness
 import numpy as np
 import pandas as pd
 
@@ -31,8 +23,6 @@ from bayesnets import (
     load_network,
     sample_frame,
 )
-
-RESULTS = Path(__file__).parent / "results"
 
 #: Share of segments with each field observed (Helsinki extract, ``streets normalize``:
 #: 1637 segments; street_class 1637, lanes 552, width 43, oneway 457, lit 1062 observed).
@@ -61,11 +51,10 @@ def realistic_frame(network, n: int, rng: np.random.Generator) -> pd.DataFrame:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="stop at 1e5 segments")
+    parser = harness.argument_parser(__doc__, quick="stop at 1e5 segments")
     parser.add_argument("--network", default="europe")
     parser.add_argument("--candidates", type=int, default=DEFAULT_CANDIDATES)
-    args = parser.parse_args()
+    args = harness.parse_args(parser)
     network = load_network(args.network)
     sizes = [100, 1_000, 10_000, 100_000] + ([] if args.quick else [1_000_000])
     rows = []
@@ -74,20 +63,23 @@ def main() -> None:
         codes = encode_frame(network, frame)
         patterns = len(np.unique(np.stack(list(codes.values()), axis=1), axis=0))
         repeats = 3 if n <= 100_000 else 1
-        times = []
-        for repeat in range(repeats):
-            start = time.perf_counter()
-            sample_frame(
-                network, frame, candidates=args.candidates, rng=np.random.default_rng(repeat)
-            )
-            times.append(time.perf_counter() - start)
+        times = [
+            harness.timed(
+                lambda frame=frame, seed=seed: sample_frame(
+                    network, frame, candidates=args.candidates, rng=np.random.default_rng(seed)
+                )
+            )[1]
+            for seed in range(repeats)
+        ]
         best = min(times)
         # Worst case: width observed on every segment and nothing else, so the hidden
         # street class and lane count are drawn N times per segment and weighted.
         widths = pd.DataFrame({"width": np.round(np.random.default_rng(n).uniform(3, 25, n), 1)})
-        start = time.perf_counter()
-        sample_frame(network, widths, candidates=args.candidates, rng=np.random.default_rng(9))
-        weighted = time.perf_counter() - start
+        _, weighted = harness.timed(
+            lambda widths=widths: sample_frame(
+                network, widths, candidates=args.candidates, rng=np.random.default_rng(9)
+            )
+        )
         rows.append(
             {
                 "segments": n,
@@ -103,24 +95,26 @@ def main() -> None:
             f"all weighted {weighted:8.3f} s"
         )
     result = {
-        "benchmark": "bn_throughput",
         "network": network.name,
         "candidates": args.candidates,
         "observed_rate": OBSERVED_RATE,
         "target_seconds_1e6": TARGET_SECONDS,
-        "machine": f"{platform.machine()}, {platform.processor() or 'cpu'}, shared 2 cores "
-        "(timings are noisy: other jobs share the machine)",
+        "note": "shared 2 cores (timings are noisy: other jobs share the machine)",
         "rows": rows,
     }
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "bn_throughput.json").write_text(json.dumps(result, indent=2))
+    harness.write_results(args.out, "bn_throughput", result, quick=args.quick, plot=plot, dpi=120)
+
+
+def plot(result: dict):
+    plt = harness.pyplot()
+    rows = result["rows"]
     figure, axis = plt.subplots(figsize=(6, 4))
     x = [r["segments"] for r in rows]
     axis.loglog(
         x,
         [r["seconds"] for r in rows],
         "o-",
-        label=f"realistic evidence mix ({network.name}, N={args.candidates})",
+        label=f"realistic evidence mix ({result['network']}, N={result['candidates']})",
     )
     axis.loglog(
         x,
@@ -131,14 +125,16 @@ def main() -> None:
     axis.loglog(
         x, [r["segments"] / 1e6 * 1.0 for r in rows], ":", color="grey", label="1 µs per segment"
     )
-    axis.axhline(TARGET_SECONDS, color="tab:red", ls="--", label="target: 1e6 in 30 s")
+    axis.axhline(
+        result["target_seconds_1e6"], color="tab:red", ls="--", label="target: 1e6 in 30 s"
+    )
     axis.set_xlabel("street segments")
     axis.set_ylabel("sampling time [s] (best of 3; 1 run at 1e6)")
     axis.set_title("Likelihood-weighted sampling throughput")
     axis.grid(True, which="both", alpha=0.3)
     axis.legend()
     figure.tight_layout()
-    figure.savefig(RESULTS / "bn_throughput.png", dpi=120)
+    return figure
 
 
 if __name__ == "__main__":

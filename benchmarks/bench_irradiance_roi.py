@@ -1,7 +1,7 @@
 """Benchmark: region-of-influence threshold of the irradiance stage, time against error.
 
 Knob: the threshold that sets each luminaire's region of influence
-(``nightlights.irradiance.InfluenceThreshold``): the truncated-energy fraction (``energy``)
+(``nightlights.ground.InfluenceThreshold``): the truncated-energy fraction (``energy``)
 or the illuminance floor (``floor``). The scene is a 600 x 600 m square with 360 lights
 (1,000 per km2, the density of the 100,000-luminaire target) drawn from the bundled
 luminaire database (all five systems, random headings, tilts 0-10 deg), on a 1 m grid.
@@ -10,33 +10,29 @@ threshold the script measures the wall time (best of 2) and the errors against t
 reference: lost ground flux (fraction), mean and maximum absolute pixel error [lx], and the
 99th percentile of the relative error over pixels lit above 0.5 lx.
 
-Run: ``.venv/bin/python benchmarks/bench_irradiance_roi.py [--quick]``.
-Writes ``benchmarks/results/irradiance_roi.json`` and ``.png``.
+Run: ``python benchmarks/bench_irradiance_roi.py [--quick] [--out DIR]`` (``--quick``: a
+300 m square, every other threshold, one timing run).
+Writes ``irradiance_roi.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import platform
-import time
-from pathlib import Path
 
+import _harness as harness
 import geopandas as gpd
 import numpy as np
 
 from ies.library import load_library
-from nightlights.irradiance import (
+from nightlights.ground import (
     InfluenceThreshold,
     compute_irradiance,
+    grid_from_bounds,
     resolve_luminaires,
     sensor_factors,
 )
-from nightlights.tiling import grid_from_bounds
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
 ENERGY = (0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001)
 FLOOR = (3.0, 1.0, 0.3, 0.1, 0.03, 0.01, 0.003)
 DEFAULT = InfluenceThreshold()
@@ -63,19 +59,18 @@ def scene(side: float, density: float, seed: int = 0):
 
 def run(luminaires, grid, threshold: InfluenceThreshold, repeats: int):
     weights = sensor_factors(luminaires.spectra, ["photopic"])[luminaires.table_index]
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        radius = luminaires.radius(threshold)
-        result = compute_irradiance(grid, luminaires, weights, radius, progress=False)
-        best = min(best, time.perf_counter() - start)
-    return best, result
+    timing = harness.repeat(
+        lambda: compute_irradiance(
+            grid, luminaires, weights, luminaires.radius(threshold), progress=False
+        ),
+        repeats,
+    )
+    return timing.best, timing.value
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="smaller scene, fewer thresholds")
-    args = parser.parse_args()
+    parser = harness.argument_parser(__doc__, quick="smaller scene, fewer thresholds")
+    args = harness.parse_args(parser)
     side = 300.0 if args.quick else 600.0
     repeats = 1 if args.quick else 2
     luminaires = scene(side, 1000.0)
@@ -118,20 +113,14 @@ def main() -> None:
         },
         "reference": {"time_s": ref_time, "pairs": ref.n_pairs, "mean_lx": float(reference.mean())},
         "default": {"kind": DEFAULT.kind, "value": DEFAULT.value},
-        "machine": f"{platform.machine()} {platform.processor()} (shared 2 cores, noisy)",
+        "note": "timings from a shared 2-core machine, noisy",
         "rows": rows,
     }
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "irradiance_roi.json").write_text(json.dumps(payload, indent=2))
-    plot(payload, RESULTS / "irradiance_roi.png")
+    harness.write_results(args.out, "irradiance_roi", payload, quick=args.quick, plot=plot, dpi=120)
 
 
-def plot(payload: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(payload: dict):
+    plt = harness.pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     markers = {"energy": "o-", "floor": "s-"}
     for kind in ("energy", "floor"):
@@ -177,7 +166,7 @@ def plot(payload: dict, path: Path) -> None:
         fontsize=10,
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    return fig
 
 
 if __name__ == "__main__":

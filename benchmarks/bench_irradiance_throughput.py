@@ -15,36 +15,35 @@ is *extrapolated* from the largest measured scene (pairs and write time scale li
 area at fixed density), labelled as such in the JSON and the chart. ``--full`` also runs the
 full 10 x 10 km target once through the stage (about 5 min and 1 GB of memory).
 
-Run: ``.venv/bin/python benchmarks/bench_irradiance_throughput.py [--quick] [--full]``.
-Writes ``benchmarks/results/irradiance_throughput.json`` and ``.png``.
+Run: ``python benchmarks/bench_irradiance_throughput.py [--quick] [--out DIR] [--full]``
+(``--quick``: scenes up to 1 km2, resolutions 1-4 m, a 1 km COG for the write time).
+Writes ``irradiance_throughput.json`` and ``.png`` (see ``_harness.py`` for where); without
+``--full`` the last measured full target is kept from the previous results.
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import platform
 import tempfile
 import time
 from pathlib import Path
 
+import _harness as harness
 import geopandas as gpd
 import numpy as np
 
 from ies.library import load_library
-from nightlights.io import RasterBand, write_cog
-from nightlights.irradiance import (
+from nightlights.ground import (
     InfluenceThreshold,
     compute_irradiance,
+    grid_from_bounds,
     irradiance,
     resolve_luminaires,
     sensor_factors,
 )
-from nightlights.tiling import grid_from_bounds
+from nightlights.io import RasterBand, write_cog
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
 DENSITY = 1000.0  # luminaires per km2 (100,000 over 10 x 10 km)
 TARGET_SIDE = 10_000.0  # [m]
 TARGET_LIMIT_S = 300.0
@@ -71,17 +70,17 @@ def scene_frame(side: float, seed: int = 0) -> gpd.GeoDataFrame:
 def measure(side: float, resolution: float, threads: int | None) -> dict:
     """Time one scene: luminaire setup, radii and tiles (no file output)."""
     database = load_library()
-    start = time.perf_counter()
-    luminaires = resolve_luminaires(scene_frame(side), database)
-    radius = luminaires.radius(InfluenceThreshold())
-    weights = sensor_factors(luminaires.spectra, ["photopic"])[luminaires.table_index]
-    setup = time.perf_counter() - start
+    with harness.Stopwatch() as setup_watch:
+        luminaires = resolve_luminaires(scene_frame(side), database)
+        radius = luminaires.radius(InfluenceThreshold())
+        weights = sensor_factors(luminaires.spectra, ["photopic"])[luminaires.table_index]
+    setup = setup_watch.seconds
     grid = grid_from_bounds((0, 0, side, side), resolution)
-    start = time.perf_counter()
-    result = compute_irradiance(
-        grid, luminaires, weights, radius, num_workers=threads, progress=False
+    result, elapsed = harness.timed(
+        lambda: compute_irradiance(
+            grid, luminaires, weights, radius, num_workers=threads, progress=False
+        )
     )
-    elapsed = time.perf_counter() - start
     return {
         "side_m": side,
         "lights": len(luminaires),
@@ -101,14 +100,15 @@ def write_time(side: float) -> float:
     data = np.random.default_rng(0).gamma(0.5, 2.0, (pixels, pixels)).astype(np.float32)
     grid = grid_from_bounds((0, 0, side, side), 1.0)
     with tempfile.TemporaryDirectory() as folder:
-        start = time.perf_counter()
-        write_cog(
-            Path(folder) / "w.tif",
-            [RasterBand(data, "photopic", "lx")],
-            transform=grid.transform,
-            crs="EPSG:32633",
+        _, seconds = harness.timed(
+            lambda: write_cog(
+                Path(folder) / "w.tif",
+                [RasterBand(data, "photopic", "lx")],
+                transform=grid.transform,
+                crs="EPSG:32633",
+            )
         )
-        return time.perf_counter() - start
+        return seconds
 
 
 def full_target() -> dict:
@@ -116,15 +116,15 @@ def full_target() -> dict:
     with tempfile.TemporaryDirectory() as folder:
         lights = Path(folder) / "lights.gpkg"
         scene_frame(TARGET_SIDE).to_file(lights, driver="GPKG")
-        start = time.perf_counter()
-        result = irradiance(
-            lights,
-            Path(folder) / "e.tif",
-            resolution=1.0,
-            bounds=(0, 0, TARGET_SIDE, TARGET_SIDE),
-            progress=False,
+        result, elapsed = harness.timed(
+            lambda: irradiance(
+                lights,
+                Path(folder) / "e.tif",
+                resolution=1.0,
+                bounds=(0, 0, TARGET_SIDE, TARGET_SIDE),
+                progress=False,
+            )
         )
-        elapsed = time.perf_counter() - start
     return {
         "lights": result.n_lights,
         "pairs": result.n_pairs,
@@ -134,10 +134,9 @@ def full_target() -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="smaller scenes")
+    parser = harness.argument_parser(__doc__, quick="smaller scenes")
     parser.add_argument("--full", action="store_true", help="also run the full target")
-    args = parser.parse_args()
+    args = harness.parse_args(parser)
     sides = (500.0, 1000.0) if args.quick else (500.0, 1000.0, 1500.0, 2000.0)
     resolutions = (1.0, 2.0, 4.0) if args.quick else (0.5, 1.0, 2.0, 4.0)
     by_lights = [measure(side, 1.0, None) for side in sides]
@@ -172,32 +171,28 @@ def main() -> None:
             "limit_s": TARGET_LIMIT_S,
         },
         "threshold": "floor:0.01 (default)",
-        "machine": f"{platform.machine()} {platform.processor()} (shared 2 cores, noisy)",
+        "note": "timings from a shared 2-core machine, noisy",
         "by_lights": by_lights,
         "by_resolution": by_resolution,
         "by_threads": by_threads,
         "extrapolated_target": extrapolated,
     }
-    previous = RESULTS / "irradiance_throughput.json"
+    previous = harness.previous_results("irradiance_throughput", args.out)
     if args.full:
         payload["full_target"] = full_target()
         payload["full_target"]["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
         print(json.dumps(payload["full_target"]))
-    elif previous.exists() and "full_target" in json.loads(previous.read_text()):
+    elif previous is not None and "full_target" in previous:
         # Keep the last full run (a real measurement, dated) when only the sweep is rerun.
-        payload["full_target"] = json.loads(previous.read_text())["full_target"]
+        payload["full_target"] = previous["full_target"]
     print(json.dumps(extrapolated))
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "irradiance_throughput.json").write_text(json.dumps(payload, indent=2))
-    plot(payload, RESULTS / "irradiance_throughput.png")
+    harness.write_results(
+        args.out, "irradiance_throughput", payload, quick=args.quick, plot=plot, dpi=120
+    )
 
 
-def plot(payload: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(payload: dict):
+    plt = harness.pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     rows = payload["by_lights"]
     axes[0].plot(
@@ -253,7 +248,7 @@ def plot(payload: dict, path: Path) -> None:
     axes[0].legend(fontsize=7)
     fig.suptitle("Irradiance throughput, numpy kernel, shared 2-core machine (noisy)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    return fig
 
 
 if __name__ == "__main__":

@@ -9,20 +9,18 @@ measures the time per 1e6 random lookups (best of 3), the error at the measured 
 and maximum, relative to the peak intensity) and the error of the integrated flux. At step 1
 both methods reproduce the nodes exactly (error 0; not drawn on the log axes).
 
-Run: ``.venv/bin/python benchmarks/bench_photometry_interpolation.py [--quick]``.
-Writes ``benchmarks/results/photometry_interpolation.json`` and ``.png``.
+Run: ``python benchmarks/bench_photometry_interpolation.py [--quick] [--out DIR]``
+(``--quick``: 2e5 lookups instead of 1e6).
+Writes ``photometry_interpolation.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
-import time
 import warnings
 from pathlib import Path
 
+import _harness as harness
 import numpy as np
 
 import ies
@@ -37,7 +35,6 @@ FINE_FILE = (
     / "fglichttechnik__Radiance-RoadLighting-Simulation-Framework"
     / "HellaEcoLight_2070lm_LDT.ies"
 )
-RESULTS = ROOT / "benchmarks" / "results"
 STEPS = (1, 2, 5, 10)  # grid step [deg] (every k-th angle of the 1-deg file)
 METHODS = ("bilinear", "cubic")
 
@@ -53,20 +50,9 @@ def subsample(photometry: ies.Photometry, step: int) -> ies.Photometry:
     )
 
 
-def best_time(function, repeats: int = 3) -> float:
-    """Best wall time of ``repeats`` calls [s]."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="2e5 lookups instead of 1e6")
-    args = parser.parse_args()
+    parser = harness.argument_parser(__doc__, quick="2e5 lookups instead of 1e6")
+    args = harness.parse_args(parser)
     n_lookups = 200_000 if args.quick else 1_000_000
 
     with warnings.catch_warnings():
@@ -87,9 +73,9 @@ def main() -> None:
         coarse = subsample(fine, step)
         for method in METHODS:
             coarse.intensity(vertical[:10], horizontal[:10], method=method)  # build spline
-            seconds = best_time(
-                lambda c=coarse, m=method: c.intensity(vertical, horizontal, method=m)
-            )
+            seconds = harness.repeat(
+                lambda c=coarse, m=method: c.intensity(vertical, horizontal, method=m), 3
+            ).best
             values = coarse.intensity(node_v, node_h, method=method)
             error = values - reference
             rows.append(
@@ -111,25 +97,23 @@ def main() -> None:
             )
 
     result = {
-        "benchmark": "photometry_interpolation",
         "file": FINE_FILE.name,
         "reference": "measured candela at every node of the 1-deg file",
         "n_lookups": n_lookups,
         "peak_candela": peak,
         "reference_flux_lm": reference_flux,
-        "machine": f"{platform.machine()} python {platform.python_version()}",
         "note": (
             "wall times on a shared 2-core machine, best of 3; noisy. Errors are at the "
             "measured nodes of the 1-deg file; at step 1 both interpolants reproduce them."
         ),
         "rows": rows,
     }
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "photometry_interpolation.json").write_text(json.dumps(result, indent=2) + "\n")
-    plot(result, RESULTS / "photometry_interpolation.png")
+    harness.write_results(
+        args.out, "photometry_interpolation", result, quick=args.quick, plot=plot, dpi=110
+    )
 
 
-def plot(result: dict, path: Path) -> None:
+def plot(result: dict):
     """Time per 1e6 lookups against RMS error, one line per method, labelled by step."""
     from matplotlib.figure import Figure
 
@@ -171,7 +155,7 @@ def plot(result: dict, path: Path) -> None:
     right.set_title(f"error at the measured 1-deg nodes: {result['file']}", fontsize=9)
     right.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
+    return figure
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
 Knob 1, number of PCA bases: a kernel of 64 distance bins (10 m - 100 km) x 32 x 128 pixels for
 source altitudes 0, 250, 500 m and one observer altitude (0 m) is compressed with 1-64 bases
-(:func:`nightlights.sky.precompute.compress_kernel`); error = mean relative error of the
+(:func:`nightlights.sky.pca.compress_kernel`); error = mean relative error of the
 reconstructed images over pixels brighter than 1 % of each image's maximum (issue 4 target:
 <= 2 % at 64 bases; Dobashi et al. 2023 report < 5 %), also the 99th percentile.
 
@@ -11,31 +11,21 @@ the image of the bin that holds the source (16-256 log-spaced bins) against the 
 image :func:`nightlights.sky.kernel.sky_luminance` at that distance; same error measure. This is
 a worst case: flux spread over a bin (the runtime's polar map) averages the bin error down.
 
-Run: ``.venv/bin/python benchmarks/bench_sky_kernel_pca.py [--quick]``.
-Writes ``benchmarks/results/sky_kernel_pca.json`` and ``.png``.
+Run: ``python benchmarks/bench_sky_kernel_pca.py [--quick] [--out DIR]`` (``--quick``:
+16 x 64 pixel images, 60 point sources).
+Writes ``sky_kernel_pca.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
-import time
-from pathlib import Path
-
+import _harness as harness
 import numpy as np
 
+from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.kernel import sky_luminance
-from nightlights.sky.precompute import (
-    build_kernel,
-    compress_kernel,
-    panorama_elevations,
-    relative_azimuths,
-)
-
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
+from nightlights.sky.pca import compress_kernel
+from nightlights.sky.spec import panorama_elevations, relative_azimuths
 
 
 def bright_error(approx: np.ndarray, exact: np.ndarray) -> np.ndarray:
@@ -44,25 +34,22 @@ def bright_error(approx: np.ndarray, exact: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="smaller kernels")
-    args = parser.parse_args()
+    parser = harness.argument_parser(__doc__, quick="smaller kernels")
+    args = harness.parse_args(parser)
     n_el, n_az = (16, 64) if args.quick else (32, 128)
-    ds = build_kernel(
+    spec = KernelSpec(
         r_min=10.0,
         r_max=100_000.0,
-        n_r=64,
-        n_el=n_el,
-        n_az=n_az,
+        n_distance=64,
+        n_elevation=n_el,
+        n_azimuth=n_az,
         source_altitudes=(0.0, 250.0, 500.0),
-        progress=False,
     )
+    ds = build_kernel(spec, progress=False).kernel
     full = ds.kernel.values.astype(float)
     bases = []
     for k in (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64):
-        start = time.perf_counter()
-        comp = compress_kernel(full, n_components=k)
-        seconds = time.perf_counter() - start
+        comp, seconds = harness.timed(lambda k=k: compress_kernel(full, n_components=k))
         rec = np.einsum("ocrk,oke...->ocre...", comp.coefficient.values, comp.basis.values)
         err = bright_error(rec, full)
         bases.append(
@@ -85,11 +72,20 @@ def main() -> None:
     exact = np.moveaxis(sky_luminance(el, az, r_src[None, None, :]), -1, 0)
     bins = []
     for n_r in (16, 32, 64, 128, 256):
-        start = time.perf_counter()
-        kd = build_kernel(
-            r_min=10.0, r_max=100_000.0, n_r=n_r, n_el=n_el, n_az=n_az, progress=False
+        kd, seconds = harness.timed(
+            lambda n_r=n_r: (
+                build_kernel(
+                    KernelSpec(
+                        r_min=10.0,
+                        r_max=100_000.0,
+                        n_distance=n_r,
+                        n_elevation=n_el,
+                        n_azimuth=n_az,
+                    ),
+                    progress=False,
+                ).kernel
+            )
         )
-        seconds = time.perf_counter() - start
         edges = kd.distance_edges.values
         idx = np.clip(np.searchsorted(edges, r_src) - 1, 0, n_r - 1)
         approx = kd.kernel.values[0, 0, idx][..., : n_az // 2 + 1].astype(float)
@@ -105,7 +101,6 @@ def main() -> None:
         )
         print(bins[-1])
     out = {
-        "machine": platform.processor() or platform.machine(),
         "kernel": (
             f"64 r (10 m-100 km) x {n_el} el x {n_az} az, h_c 0/250/500 m, h_o 0 m, turbidity 2"
         ),
@@ -115,14 +110,13 @@ def main() -> None:
         "distance_bins": bins,
         "note": "Timings from a shared 2-core machine, noisy.",
     }
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "sky_kernel_pca.json").write_text(json.dumps(out, indent=2))
+    harness.write_results(args.out, "sky_kernel_pca", out, quick=args.quick, plot=plot, dpi=110)
 
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(out: dict):
+    plt = harness.pyplot()
+    bases, bins = out["bases"], out["distance_bins"]
+    default_components = out["default_energy_components"]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     ax1.semilogy(
         [b["bases"] for b in bases], [b["mean_rel_error"] for b in bases], "o-", label="mean"
@@ -152,7 +146,7 @@ def main() -> None:
     ax2.legend(fontsize=7)
     fig.suptitle("Skyglow kernel: PCA bases and distance bins")
     fig.tight_layout()
-    fig.savefig(RESULTS / "sky_kernel_pca.png", dpi=110)
+    return fig
 
 
 if __name__ == "__main__":

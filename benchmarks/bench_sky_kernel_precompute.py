@@ -1,7 +1,7 @@
 """Benchmark: skyglow kernel precomputation time against grid size, and Dobashi's configuration.
 
 Knob: the kernel grid (distance bins x elevation rows x azimuth columns, source and observer
-altitudes). Each configuration runs :func:`nightlights.sky.precompute.build_kernel` with the
+altitudes). Each configuration runs :func:`nightlights.sky.build_kernel` with the
 defaults (12 Gauss nodes per panel, 1 distance per bin, 8 x 8 supersampling of the pixels next
 to the source, PCA at 0.999999 energy), with the compiled (numba) line-of-sight integrator and,
 for the smaller grids, the numpy reference integrator.
@@ -12,61 +12,56 @@ on a Quadro RTX 6000. This script builds that configuration IN FULL (all 256 alt
 images + PCA + FFT; measured, not extrapolated) and times writing it to NetCDF separately.
 The first bin runs from 1 m (our grid needs edges > 0; Dobashi's first sample is at r = 0).
 
-Run: ``python benchmarks/bench_sky_kernel_precompute.py [--quick]`` (``--quick`` skips the
-Dobashi configuration, which takes ~10 minutes on 2 cores).
-Writes ``benchmarks/results/sky_kernel_precompute.json`` and ``.png``.
+Run: ``python benchmarks/bench_sky_kernel_precompute.py [--quick] [--out DIR] [--keep-dobashi]``
+(``--quick`` skips the Dobashi configuration, which takes ~10 minutes on 2 cores).
+Writes ``sky_kernel_precompute.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
 import tempfile
-import time
 from pathlib import Path
 
+import _harness as harness
 import numpy as np
 
+from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.precompute import build_kernel, write_kernel
-
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
+from nightlights.sky.store import write_kernel
 
 
-def timed(**kwargs: object) -> tuple[float, object]:
-    start = time.perf_counter()
-    ds = build_kernel(progress=False, **kwargs)  # type: ignore[arg-type]
-    return time.perf_counter() - start, ds
+def timed(spec: KernelSpec, backend: str = "auto") -> tuple[float, object]:
+    """Seconds to build the kernel of ``spec``, and the kernel dataset."""
+    result, seconds = harness.timed(lambda: build_kernel(spec, backend=backend, progress=False))
+    return seconds, result.kernel
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="skip Dobashi's configuration")
+    parser = harness.argument_parser(__doc__, quick="skip Dobashi's configuration")
     parser.add_argument(
         "--keep-dobashi",
         action="store_true",
         help="skip Dobashi's configuration but keep its last full measurement from the JSON",
     )
-    args = parser.parse_args()
-    previous = RESULTS / "sky_kernel_precompute.json"
+    args = harness.parse_args(parser)
     kept = None
-    if args.keep_dobashi and previous.is_file():
-        kept = json.loads(previous.read_text()).get("dobashi_configuration")
+    if args.keep_dobashi:
+        previous = harness.previous_results("sky_kernel_precompute", args.out)
+        kept = None if previous is None else previous.get("dobashi_configuration")
     # compile both numba paths (per-ray and grid) before timing anything
-    build_kernel(n_r=2, n_el=2, n_az=4, progress=False)
-    build_kernel(n_r=64, n_el=2, n_az=16, progress=False)
+    build_kernel(KernelSpec(n_distance=2, n_elevation=2, n_azimuth=4), progress=False)
+    build_kernel(KernelSpec(n_distance=64, n_elevation=2, n_azimuth=16), progress=False)
     grids = [(16, 8, 32), (32, 16, 64), (64, 32, 128), (128, 32, 128), (128, 64, 256)]
     sweep = []
     for n_r, n_el, n_az in grids:
         for backend in ("numba", "numpy"):
             if backend == "numpy" and n_r * n_el * n_az > 64 * 32 * 128:
                 continue
-            seconds, ds = timed(
-                r_min=10.0, r_max=100_000.0, n_r=n_r, n_el=n_el, n_az=n_az, backend=backend
+            spec = KernelSpec(
+                r_min=10.0, r_max=100_000.0, n_distance=n_r, n_elevation=n_el, n_azimuth=n_az
             )
+            seconds, ds = timed(spec, backend)
             rays = n_r * n_el * (n_az // 2 + 1)
             sweep.append(
                 {
@@ -82,7 +77,6 @@ def main() -> None:
             )
             print(sweep[-1], flush=True)
     out: dict = {
-        "machine": platform.processor() or platform.machine(),
         "defaults": {"nodes": 12, "sub_distances": 1, "supersample": 8, "pca_energy": 0.999999},
         "sweep_one_altitude_pair": sweep,
         "flat_terrain_64x32x128_seconds": next(
@@ -97,18 +91,19 @@ def main() -> None:
     elif not args.quick and not args.keep_dobashi:
         altitudes = np.arange(16) * 62.5
         edges = np.concatenate([[1.0], (np.arange(1, 129)) * 78.125])
-        seconds, ds = timed(
+        spec = KernelSpec(
             distance_edges=edges,
             source_altitudes=altitudes,
             observer_altitudes=altitudes,
-            n_el=64,
-            n_az=256,
+            n_elevation=64,
+            n_azimuth=256,
             atmosphere=Atmosphere(turbidity=1.3),
         )
+        seconds, ds = timed(spec)
         with tempfile.TemporaryDirectory() as tmp:
-            start = time.perf_counter()
-            path = write_kernel(ds, Path(tmp) / "dobashi.nc")  # type: ignore[arg-type]
-            write_seconds = time.perf_counter() - start
+            path, write_seconds = harness.timed(
+                lambda: write_kernel(ds, Path(tmp) / "dobashi.nc")  # type: ignore[arg-type]
+            )
             size = path.stat().st_size
         out["dobashi_configuration"] = {
             "grid": "256 az x 64 el, 128 r (78.125 m steps to 10 km), 16 h_c x 16 h_o "
@@ -124,14 +119,14 @@ def main() -> None:
         }
         print(out["dobashi_configuration"], flush=True)
     out["note"] = "Timings from a shared 2-core machine, noisy."
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "sky_kernel_precompute.json").write_text(json.dumps(out, indent=2))
+    harness.write_results(
+        args.out, "sky_kernel_precompute", out, quick=args.quick, plot=plot, dpi=110
+    )
 
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(out: dict):
+    plt = harness.pyplot()
+    sweep = out["sweep_one_altitude_pair"]
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for backend, marker in (("numba", "o-"), ("numpy", "s--")):
         rows = [s for s in sweep if s["backend"] == backend]
@@ -162,7 +157,7 @@ def main() -> None:
     ax.legend(fontsize=7)
     ax.set_title("Skyglow kernel precomputation (2-core CPU)")
     fig.tight_layout()
-    fig.savefig(RESULTS / "sky_kernel_precompute.png", dpi=110)
+    return fig
 
 
 if __name__ == "__main__":

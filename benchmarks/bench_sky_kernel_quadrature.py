@@ -12,28 +12,22 @@ Baseline (Dobashi et al. 2023, Sec. 3.2): uniform steps along the ray (midpoint 
 1 km steps, as far as the top of the model atmosphere) on a subset of 4 x 3 x 4 rays, same
 integrand (:func:`nightlights.sky.kernel.line_of_sight_integrand`).
 
-Run: ``.venv/bin/python benchmarks/bench_sky_kernel_quadrature.py [--quick]``.
-Writes ``benchmarks/results/sky_kernel_quadrature.json`` and ``.png``.
+Run: ``python benchmarks/bench_sky_kernel_quadrature.py [--quick] [--out DIR]`` (``--quick``:
+8 x 5 x 6 rays, every fourth uniform-step ray).
+Writes ``sky_kernel_quadrature.json`` and ``.png`` (see ``_harness.py`` for where).
 Timings come from a shared 2-core machine and are noisy.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
-import time
-from pathlib import Path
-
+import _harness as harness
 import numpy as np
 
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import ray_exit_distance
 from nightlights.sky.kernel import line_of_sight_integrand, sky_luminance
-from nightlights.sky.precompute import panorama_elevations
+from nightlights.sky.spec import panorama_elevations
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
 NODES = (4, 6, 8, 12, 16, 24, 32, 48, 64)
 PAIRS = ((0.0, 0.0), (500.0, 0.0), (0.0, 500.0))
 
@@ -46,17 +40,17 @@ def rays(near: bool, n_el: int, n_az: int, n_r: int) -> tuple[np.ndarray, ...]:
 
 
 def timed(nodes: int, grid: tuple[np.ndarray, ...], backend: str) -> tuple[float, dict]:
-    best, values = np.inf, {}
-    for _ in range(2):
-        start = time.perf_counter()
-        values = {
+    """Best of 2 wall times of all altitude pairs [s], and their luminances."""
+    timing = harness.repeat(
+        lambda: {
             p: sky_luminance(
                 *grid, source_altitude=p[0], observer_altitude=p[1], nodes=nodes, backend=backend
             )
             for p in PAIRS
-        }
-        best = min(best, time.perf_counter() - start)
-    return best, values
+        },
+        2,
+    )
+    return timing.best, timing.value
 
 
 def measure(nodes: int, ref: dict, grid: tuple[np.ndarray, ...]) -> dict:
@@ -95,18 +89,19 @@ def uniform_steps(quick: bool) -> list[dict]:
         errs, seconds = [], 0.0
         for el, az, r in rays:
             ref = float(sky_luminance(el, az, r, nodes=256))
-            start = time.perf_counter()
-            top = float(
-                ray_exit_distance(
-                    el, 0.0, atm.top_altitude, earth_radius=atm.earth_radius, flat_earth=False
+            with harness.Stopwatch() as watch:
+                top = float(
+                    ray_exit_distance(
+                        el, 0.0, atm.top_altitude, earth_radius=atm.earth_radius, flat_earth=False
+                    )
                 )
-            )
-            u_all = np.arange(0.5 * step, top, step)
-            total = 0.0
-            for lo in range(0, u_all.size, 1_000_000):
-                u = u_all[lo : lo + 1_000_000]
-                total += float(line_of_sight_integrand(u, el, az, r, atmosphere=atm).sum()) * step
-            seconds += time.perf_counter() - start
+                u_all = np.arange(0.5 * step, top, step)
+                total = 0.0
+                for lo in range(0, u_all.size, 1_000_000):
+                    u = u_all[lo : lo + 1_000_000]
+                    integrand = line_of_sight_integrand(u, el, az, r, atmosphere=atm)
+                    total += float(integrand.sum()) * step
+            seconds += watch.seconds
             if ref > 0:
                 errs.append(abs(total / ref - 1.0))
         err = np.array(errs)
@@ -123,11 +118,10 @@ def uniform_steps(quick: bool) -> list[dict]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer rays")
-    args = parser.parse_args()
+    parser = harness.argument_parser(__doc__, quick="fewer rays")
+    args = harness.parse_args(parser)
     shape = (8, 5, 6) if args.quick else (16, 9, 12)
-    out: dict = {"machine": platform.processor() or platform.machine(), "reference_nodes": 256}
+    out: dict = {"reference_nodes": 256}
     for label, near in (("far", False), ("near", True)):
         grid = rays(near, *shape)
         ref = {
@@ -140,14 +134,16 @@ def main() -> None:
         "far: sources 100 m - 300 km; near: sources 10-100 m (observer next to a lit cell). "
         "Timings from a shared 2-core machine, noisy."
     )
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "sky_kernel_quadrature.json").write_text(json.dumps(out, indent=2))
+    harness.write_results(
+        args.out, "sky_kernel_quadrature", out, quick=args.quick, plot=plot, dpi=110
+    )
+    for label in ("far", "near"):
+        for r in out[label]:
+            print(label, r)
 
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(out: dict):
+    plt = harness.pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     for label, style in (("far", "-"), ("near", "--")):
         rows = out[label]
@@ -199,10 +195,7 @@ def main() -> None:
     ax2.legend(fontsize=7)
     fig.suptitle("Skyglow kernel: line-of-sight quadrature (tan substitution, 3 panels)")
     fig.tight_layout()
-    fig.savefig(RESULTS / "sky_kernel_quadrature.png", dpi=110)
-    for label in ("far", "near"):
-        for r in out[label]:
-            print(label, r)
+    return fig
 
 
 if __name__ == "__main__":

@@ -9,30 +9,21 @@ FFT panorama (no PCA, so only the polar map differs) over pixels brighter than 1
 maximum, and the largest relative error in the 20 deg above the horizon, where the observer's
 own neighbourhood dominates. Time: the polar map (best of 3).
 
-Writes benchmarks/results/sky_polar_supersampling.{json,png}.
-
-    python benchmarks/bench_sky_polar_supersampling.py
+Run: ``python benchmarks/bench_sky_polar_supersampling.py [--quick] [--out DIR]``
+(``--quick``: max_samples 1, 4, 16, 64).
+Writes ``sky_polar_supersampling.json`` and ``.png`` (see ``_harness.py`` for where).
 """
 
 from __future__ import annotations
 
-import json
-import time
-from pathlib import Path
-
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+import _harness as harness
 import numpy as np
 from affine import Affine
 
+from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.panorama import kernel_slice, panorama_exact
 from nightlights.sky.polar import polar_map
-from nightlights.sky.precompute import build_kernel
 
-HERE = Path(__file__).parent
-RESULTS = HERE / "results"
 CELL = 10.0
 SIZE = 800  # 8 km square
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, SIZE * CELL)
@@ -55,30 +46,32 @@ def error(test: np.ndarray, reference: np.ndarray, rows: np.ndarray | slice) -> 
 
 
 def main() -> None:
-    RESULTS.mkdir(exist_ok=True)
-    kernel = build_kernel(r_min=5.0, r_max=12_000.0, n_r=64, n_el=32, n_az=256, progress=False)
+    parser = harness.argument_parser(__doc__, quick="every other max_samples")
+    args = harness.parse_args(parser)
+    samples_sweep = SAMPLES[::2] if args.quick else SAMPLES
+    spec = KernelSpec(r_min=5.0, r_max=12_000.0, n_distance=64, n_elevation=32, n_azimuth=256)
+    kernel = build_kernel(spec, progress=False).kernel
     tables = kernel_slice(kernel, observer_altitude=1.7)
     emission = scene()
     low_rows = tables.elevation < 20.0
 
     def panorama(samples: int) -> tuple[np.ndarray, float]:
-        best = np.inf
-        for _ in range(3):
-            start = time.perf_counter()
-            polar = polar_map(
+        timing = harness.repeat(
+            lambda: polar_map(
                 emission,
                 TRANSFORM,
                 OBSERVER,
                 distance_edges=tables.distance_edges,
                 n_az=tables.n_az,
                 max_samples=samples,
-            )
-            best = min(best, time.perf_counter() - start)
-        return panorama_exact(polar, tables), best
+            ),
+            3,
+        )
+        return panorama_exact(timing.value, tables), timing.best
 
     reference, ref_seconds = panorama(128)
     rows = []
-    for samples in SAMPLES:
+    for samples in samples_sweep:
         pano, seconds = panorama(samples)
         mean, worst_low = error(pano, reference, low_rows)
         rows.append(
@@ -91,15 +84,20 @@ def main() -> None:
         )
         print(rows[-1], flush=True)
     result = {
-        "benchmark": "sky_polar_supersampling",
         "scene": "4 x 4 km town of 10 m cells around the observer + a town 4 km away",
         "reference": {"max_samples": 128, "polar_map_seconds": ref_seconds},
         "default_max_samples": 16,
         "rows": rows,
         "note": "Timings from a shared 2-core machine, noisy.",
     }
-    (RESULTS / "sky_polar_supersampling.json").write_text(json.dumps(result, indent=2))
+    harness.write_results(
+        args.out, "sky_polar_supersampling", result, quick=args.quick, plot=plot, dpi=110
+    )
 
+
+def plot(result: dict):
+    plt = harness.pyplot()
+    rows = result["rows"]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     n = [r["max_samples"] for r in rows]
     ax1.loglog(n, [max(r["mean_rel_error"], 1e-12) for r in rows], "o-", label="mean")
@@ -117,7 +115,7 @@ def main() -> None:
     ax2.set_ylabel("mean relative error")
     fig.suptitle("Polar map: sub-cell supersampling near the observer (observer inside a town)")
     fig.tight_layout()
-    fig.savefig(RESULTS / "sky_polar_supersampling.png", dpi=110)
+    return fig
 
 
 if __name__ == "__main__":

@@ -3,30 +3,24 @@
 Knobs: PCA bases used (reference: the exact FFT panorama), distance bins n_r and azimuth
 resolution n_az (reference: the naive panorama, direct integration per lit cell). Error is the
 mean relative error over pixels brighter than 1 % of the maximum (issue 4's measure).
-Writes benchmarks/results/sky_runtime_accuracy.{json,png}.
 
-    python benchmarks/bench_sky_runtime_accuracy.py
+Run: ``python benchmarks/bench_sky_runtime_accuracy.py [--quick] [--out DIR]`` (``--quick``:
+distance bins 12-48, azimuth bins 32 and 64).
+Writes ``sky_runtime_accuracy.json`` and ``.png`` (see ``_harness.py`` for where).
 """
 
 from __future__ import annotations
 
 import json
-import time
-from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+import _harness as harness
 import numpy as np
 from affine import Affine
 
+from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.panorama import kernel_slice, panorama_exact, panorama_naive, panorama_pca
 from nightlights.sky.polar import polar_map
-from nightlights.sky.precompute import build_kernel
 
-HERE = Path(__file__).parent
-RESULTS = HERE / "results"
 CELL = 200.0
 SIZE = 100  # 20 km square
 OBSERVER = (SIZE * CELL / 2 + 30.0, SIZE * CELL / 2 - 70.0)
@@ -48,31 +42,29 @@ def scene() -> np.ndarray:
     return emission
 
 
-def timed(function):
-    start = time.perf_counter()
-    value = function()
-    return value, time.perf_counter() - start
-
-
 def main() -> None:
-    RESULTS.mkdir(exist_ok=True)
+    parser = harness.argument_parser(__doc__, quick="fewer distance and azimuth bins")
+    args = harness.parse_args(parser)
     emission = scene()
     result: dict = {
-        "benchmark": "sky_runtime_accuracy",
         "measure": "mean relative error, pixels > 1 % of max",
         "series": {},
     }
     # (a) PCA bases, with a kernel over three source altitudes (more structure to compress).
-    kernel, build_s = timed(
-        lambda: build_kernel(
-            r_min=10,
-            r_max=15_000,
-            n_r=48,
-            n_el=N_EL,
-            n_az=128,
-            source_altitudes=(0, 250, 500),
-            n_components=64,
-            progress=False,
+    kernel, build_s = harness.timed(
+        lambda: (
+            build_kernel(
+                KernelSpec(
+                    r_min=10,
+                    r_max=15_000,
+                    n_distance=48,
+                    n_elevation=N_EL,
+                    n_azimuth=128,
+                    source_altitudes=(0, 250, 500),
+                    n_components=64,
+                ),
+                progress=False,
+            ).kernel
         )
     )
     tables = kernel_slice(kernel, observer_altitude=0.0, source_altitude=250.0)
@@ -84,7 +76,7 @@ def main() -> None:
     for k in (1, 2, 4, 8, 16, 32, 64):
         if k > tables.coefficient.shape[-1]:
             break
-        pano, seconds = timed(lambda k=k: panorama_pca(polar, tables, components=k))
+        pano, seconds = harness.timed(lambda k=k: panorama_pca(polar, tables, components=k))
         bases.append({"knob": k, "error": error(pano, exact), "seconds": seconds})
     result["series"]["pca_bases"] = bases
     # (b) distance bins and (c) azimuth resolution against the naive reference.
@@ -103,15 +95,20 @@ def main() -> None:
         return naive_cache[n_az]
 
     distance_series = []
-    for n_r in (12, 24, 48, 96):
-        k, build = timed(
-            lambda n_r=n_r: build_kernel(
-                r_min=10, r_max=15_000, n_r=n_r, n_el=N_EL, n_az=64, progress=False
+    for n_r in (12, 24, 48) if args.quick else (12, 24, 48, 96):
+        k, build = harness.timed(
+            lambda n_r=n_r: (
+                build_kernel(
+                    KernelSpec(
+                        r_min=10, r_max=15_000, n_distance=n_r, n_elevation=N_EL, n_azimuth=64
+                    ),
+                    progress=False,
+                ).kernel
             )
         )
         t = kernel_slice(k, observer_altitude=0.0)
         p = polar_map(emission, TRANSFORM, OBSERVER, distance_edges=t.distance_edges, n_az=64)
-        pano, seconds = timed(lambda p=p, t=t: panorama_exact(p, t))
+        pano, seconds = harness.timed(lambda p=p, t=t: panorama_exact(p, t))
         distance_series.append(
             {
                 "knob": n_r,
@@ -122,15 +119,20 @@ def main() -> None:
         )
     result["series"]["distance_bins"] = distance_series
     azimuth_series = []
-    for n_az in (32, 64, 128):
-        k, build = timed(
-            lambda n_az=n_az: build_kernel(
-                r_min=10, r_max=15_000, n_r=48, n_el=N_EL, n_az=n_az, progress=False
+    for n_az in (32, 64) if args.quick else (32, 64, 128):
+        k, build = harness.timed(
+            lambda n_az=n_az: (
+                build_kernel(
+                    KernelSpec(
+                        r_min=10, r_max=15_000, n_distance=48, n_elevation=N_EL, n_azimuth=n_az
+                    ),
+                    progress=False,
+                ).kernel
             )
         )
         t = kernel_slice(k, observer_altitude=0.0)
         p = polar_map(emission, TRANSFORM, OBSERVER, distance_edges=t.distance_edges, n_az=n_az)
-        pano, seconds = timed(lambda p=p, t=t: panorama_exact(p, t))
+        pano, seconds = harness.timed(lambda p=p, t=t: panorama_exact(p, t))
         azimuth_series.append(
             {
                 "knob": n_az,
@@ -141,7 +143,14 @@ def main() -> None:
         )
     result["series"]["azimuth_bins"] = azimuth_series
     result["pca_kernel_build_seconds"] = build_s
-    (RESULTS / "sky_runtime_accuracy.json").write_text(json.dumps(result, indent=2) + "\n")
+    harness.write_results(
+        args.out, "sky_runtime_accuracy", result, quick=args.quick, plot=plot, dpi=110
+    )
+    print(json.dumps(result, indent=1))
+
+
+def plot(result: dict):
+    plt = harness.pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), layout="constrained")
     for ax, (name, series) in zip(axes, result["series"].items(), strict=True):
         ax.loglog([s["knob"] for s in series], [max(s["error"], 1e-8) for s in series], "o-")
@@ -155,8 +164,7 @@ def main() -> None:
     axes[0].set_title("PCA bases vs exact FFT")
     axes[1].set_title("distance bins vs naive")
     axes[2].set_title("azimuth bins vs naive")
-    fig.savefig(RESULTS / "sky_runtime_accuracy.png", dpi=110)
-    print(json.dumps(result, indent=1))
+    return fig
 
 
 if __name__ == "__main__":

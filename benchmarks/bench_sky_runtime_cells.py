@@ -3,26 +3,23 @@
 Issue 4 targets: >= 1000x speed-up of the PCA+FFT panorama over the naive reference (direct
 integration of the kernel for every lit cell, with the compiled integrator; measured at 1-64
 cells and at 2,048 cells in full, about 3 minutes) at 2,048 lit cells, and one 256 x 64 panorama in
-<= 5 ms at 128 bases after the polar map. Writes benchmarks/results/sky_runtime_cells.{json,png}.
+<= 5 ms at 128 bases after the polar map. Times are medians of repeated calls.
 
-    python benchmarks/bench_sky_runtime_cells.py [--quick]
+Run: ``python benchmarks/bench_sky_runtime_cells.py [--quick] [--out DIR]`` (``--quick``: up
+to 16,384 cells; the naive time at 2,048 cells extrapolated from 1-64 cells).
+Writes ``sky_runtime_cells.json`` and ``.png`` (see ``_harness.py`` for where).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import platform
-import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+import _harness as harness
 import numpy as np
 from affine import Affine
 
+from nightlights.sky import KernelSpec
 from nightlights.sky.panorama import (
     KernelSlice,
     kernel_slice,
@@ -31,23 +28,18 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map
-from nightlights.sky.precompute import get_or_build_kernel
+from nightlights.sky.store import get_or_build_kernel
 
 HERE = Path(__file__).parent
-RESULTS = HERE / "results"
 CELL = 25.0
 SIZE = 2000  # raster of 2000 x 2000 cells of 25 m: 50 km square around the observer
 OBSERVER = (SIZE * CELL / 2, SIZE * CELL / 2)
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, SIZE * CELL)
 
 
-def best_of(function, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return float(np.median(times))
+def median_time(function, repeats: int) -> float:
+    """Median wall time of ``repeats`` calls [s]."""
+    return harness.repeat(function, repeats).median
 
 
 def scene(n_cells: int, rng: np.random.Generator) -> np.ndarray:
@@ -77,19 +69,10 @@ def accumulate_images(emission: np.ndarray, tables: KernelSlice) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer cell counts")
-    args = parser.parse_args()
-    RESULTS.mkdir(exist_ok=True)
-    kernel = get_or_build_kernel(
-        cache_dir=HERE / ".cache",
-        r_min=10.0,
-        r_max=30_000.0,
-        n_r=64,
-        n_el=64,
-        n_az=256,
-        progress=False,
-    )
+    parser = harness.argument_parser(__doc__, quick="fewer cell counts")
+    args = harness.parse_args(parser)
+    spec = KernelSpec(r_min=10.0, r_max=30_000.0, n_distance=64, n_elevation=64, n_azimuth=256)
+    kernel = get_or_build_kernel(spec, cache_dir=HERE / ".cache", progress=False).kernel
     tables = kernel_slice(kernel, observer_altitude=0.0)
     stored = tables.coefficient.shape[-1]
     counts = [1, 8, 64, 512, 2048, 16384] + ([] if args.quick else [131072, 1_000_000])
@@ -102,19 +85,19 @@ def main() -> None:
         )
         row = {
             "lit_cells": n,
-            "polar_map_s": best_of(
+            "polar_map_s": median_time(
                 lambda e=emission: polar_map(
                     e, TRANSFORM, OBSERVER, distance_edges=tables.distance_edges, n_az=tables.n_az
                 ),
                 3,
             ),
-            "pca_s": best_of(lambda p=polar: panorama_pca(p, tables), 50),
-            "exact_s": best_of(lambda p=polar: panorama_exact(p, tables), 5),
+            "pca_s": median_time(lambda p=polar: panorama_pca(p, tables), 50),
+            "exact_s": median_time(lambda p=polar: panorama_exact(p, tables), 5),
         }
         if n <= 16384:
-            row["accumulate_s"] = best_of(lambda e=emission: accumulate_images(e, tables), 1)
+            row["accumulate_s"] = median_time(lambda e=emission: accumulate_images(e, tables), 1)
         if n <= 64 or (n == 2048 and not args.quick):
-            row["naive_s"] = best_of(
+            row["naive_s"] = median_time(
                 lambda e=emission: panorama_naive(
                     e,
                     TRANSFORM,
@@ -150,10 +133,9 @@ def main() -> None:
         distance_edges=tables.distance_edges,
         n_az=tables.n_az,
     )
-    pca_128 = best_of(lambda: panorama_pca(polar, synthetic), 200)
+    pca_128 = median_time(lambda: panorama_pca(polar, synthetic), 200)
     result = {
-        "benchmark": "sky_runtime_cells",
-        "machine": f"{platform.machine()}, 2 shared cores (noisy timings)",
+        "note": "2 shared cores (noisy timings)",
         "panorama": "64 x 256 (elevation x azimuth), 64 distance bins to 30 km",
         "stored_bases": stored,
         "rows": rows,
@@ -166,7 +148,16 @@ def main() -> None:
         "pca_panorama_128_bases_ms": 1000 * pca_128,
         "targets": {"speedup_2048": 1000, "panorama_128_bases_ms": 5},
     }
-    (RESULTS / "sky_runtime_cells.json").write_text(json.dumps(result, indent=2) + "\n")
+    harness.write_results(args.out, "sky_runtime_cells", result, quick=args.quick, plot=plot)
+    summary = {k: v for k, v in result.items() if k != "rows"}
+    print(json.dumps(summary, indent=2))
+
+
+def plot(result: dict):
+    plt = harness.pyplot()
+    rows, stored = result["rows"], result["stored_bases"]
+    naive_per_cell = result["naive_seconds_per_cell"]
+    pca_128 = result["pca_panorama_128_bases_ms"] / 1000
     fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
     n = np.array([r["lit_cells"] for r in rows])
     for key, label in (
@@ -189,8 +180,7 @@ def main() -> None:
     ax.set_ylabel("time [s]")
     ax.set_title("Skyglow panorama 64 x 256: time against lit cells")
     ax.legend(fontsize=7)
-    fig.savefig(RESULTS / "sky_runtime_cells.png", dpi=110)
-    print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2))
+    return fig
 
 
 if __name__ == "__main__":
