@@ -1,6 +1,6 @@
 """Source-level spacing of scene kernels over terrain: build time against interpolation error.
 
-Knob: the spacing of the source-altitude levels (:data:`nightlights.sky.scene.SOURCE_LEVEL_SPACING`,
+Knob: the spacing of the source-altitude levels (:data:`nightlights.sky.spec.SOURCE_LEVEL_SPACING`,
 default 50 m) at which a scene kernel is tabulated; each lit cell's image is the linear blend
 of the two levels around its altitude. Worst case: a source halfway between two levels. For
 spacings of 200-12.5 m the image interpolated between levels 0 and `spacing` is compared with
@@ -20,7 +20,7 @@ import _harness as harness
 import numpy as np
 
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.scene import SOURCE_LEVEL_SPACING, source_levels
+from nightlights.sky.spec import SOURCE_LEVEL_SPACING, source_levels
 
 SPACINGS = (200.0, 100.0, 50.0, 25.0, 12.5)
 DISTANCES = (200.0, 500.0, 2000.0, 10_000.0)

@@ -9,8 +9,8 @@ terms) are computed once per ray instead of once per node. Rays run in parallel 
 Only the closed-form leg optical depths are compiled; ``leg_nodes`` (Gauss quadrature of the
 legs, a reference) stays on the numpy path.
 
-(this module is ~600 lines: one compiled ray loop and the closed-form leg optical depths it
-inlines, kept together so that numba compiles them as one unit)
+Length: about 610 lines, because one compiled ray loop and the closed-form leg optical
+depths it inlines are kept together so that numba compiles them as one unit.
 """
 
 from __future__ import annotations

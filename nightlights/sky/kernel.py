@@ -23,8 +23,8 @@ Gauss-Legendre nodes after the substitution u = u_p + d tan t. A ray passing thr
 in closed form (:func:`slant_optical_depth`: exact on a flat Earth, second-order altitude on a
 sphere); :func:`optical_depth` integrates a chord with Gauss-Legendre nodes as a reference.
 
-(this module is ~620 lines: the numpy reference of the line-of-sight integral and its
-validated helpers belong together; the compiled twin is :mod:`nightlights.sky._kernel_numba`)
+Length: about 630 lines, because the numpy reference of the line-of-sight integral and its
+validated helpers belong together; the compiled twin is :mod:`nightlights.sky._kernel_numba`.
 """
 
 from __future__ import annotations

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike
 from pyproj import CRS, Transformer
 
 from nightlights._typing import FloatArray, PathLike
@@ -41,129 +40,17 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import PolarMap, polar_map_levels
-from nightlights.sky.spec import KernelSpec
+from nightlights.sky.spec import KernelSpec, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
 __all__ = [
-    "MAX_KERNEL_RANGE",
-    "MAX_SOURCE_LEVELS",
-    "SOURCE_LEVEL_SPACING",
     "SkyglowScene",
     "compute_scene",
-    "scene_kernel_spec",
     "skyglow_panorama",
-    "source_levels",
 ]
-
-#: Largest source distance a scene-sized kernel covers [m] (spherical Earth; beyond it
-#: sources sit well below the observer's horizon and contribute little).
-MAX_KERNEL_RANGE = 300_000.0
-
-#: Largest spacing of the source-altitude levels of a scene kernel over terrain [m] (Dobashi
-#: et al. 2023 use 62.5 m); at most :data:`MAX_SOURCE_LEVELS` levels span the lit cells.
-SOURCE_LEVEL_SPACING = 50.0
-MAX_SOURCE_LEVELS = 16
 
 #: What a stage accepts as a raster input.
 RasterInput = Raster | xr.DataArray | PathLike
-
-
-def source_levels(
-    heights: ArrayLike,
-    *,
-    spacing: float = SOURCE_LEVEL_SPACING,
-    max_levels: int = MAX_SOURCE_LEVELS,
-) -> FloatArray:
-    """Source-altitude levels of a scene kernel spanning the altitudes of the lit cells.
-
-    Parameters
-    ----------
-    heights
-        Altitudes of the lit cells (NaN ignored) [m].
-    spacing
-        Largest spacing between levels [m].
-    max_levels
-        Most levels (the spacing grows beyond it) [1].
-
-    Returns
-    -------
-    numpy.ndarray
-        Increasing levels from the lowest to the highest lit cell; one level when they all
-        stand within 1 m [m].
-
-    Examples
-    --------
-    >>> source_levels([20.0, 120.0]).tolist()
-    [20.0, 70.0, 120.0]
-    """
-    h = np.asarray(heights, dtype=float)
-    h = h[np.isfinite(h)]
-    if h.size == 0:
-        return np.zeros(1)
-    low, high = float(h.min()), float(h.max())
-    if high - low < 1.0:
-        return np.array([0.5 * (low + high)])
-    count = int(np.clip(np.ceil((high - low) / spacing) + 1, 2, max_levels))
-    return np.linspace(low, high, count)
-
-
-def scene_kernel_spec(
-    raster: Raster,
-    observer: tuple[float, float],
-    *,
-    observer_altitude: float,
-    turbidity: float,
-    n_elevation: int,
-    n_azimuth: int,
-    n_distance: int,
-    uplight: bool,
-    source_altitudes: ArrayLike = (0.0,),
-) -> KernelSpec:
-    """Kernel sized to the scene: distances from 10 m to the farthest raster corner (at most
-    :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
-
-    Parameters
-    ----------
-    raster
-        Emission raster (its grid sets the range).
-    observer
-        Observer (x, y) in the raster's CRS [m].
-    observer_altitude
-        Observer altitude above sea level [m].
-    turbidity
-        Atmospheric turbidity [1].
-    n_elevation, n_azimuth, n_distance
-        Panorama rows and columns and distance bins [1].
-    uplight
-        Tabulate the uplight lobe too.
-    source_altitudes
-        Source-altitude levels [m].
-
-    Returns
-    -------
-    KernelSpec
-        The specification.
-    """
-    transform = raster.transform
-    rows, cols = raster.shape
-    corners = [
-        (transform.c + transform.a * c, transform.f + transform.e * r)
-        for c in (0, cols)
-        for r in (0, rows)
-    ]
-    far = max(np.hypot(x - observer[0], y - observer[1]) for x, y in corners)
-    r_max = float(min(MAX_KERNEL_RANGE, max(far * 1.01, 100.0)))
-    return KernelSpec(
-        r_min=10.0,
-        r_max=r_max,
-        n_distance=n_distance,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        observer_altitudes=(float(observer_altitude),),
-        source_altitudes=tuple(float(h) for h in np.ravel(source_altitudes)),
-        atmosphere=Atmosphere(turbidity=turbidity),
-        uplight=uplight,
-    )
 
 
 @dataclass(frozen=True)

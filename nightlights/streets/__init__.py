@@ -13,10 +13,10 @@ The pure functions they wrap (:func:`normalize_streets`, :func:`fill_lighting`,
 """
 
 from nightlights.streets._fit import FitResult, fit, fit_lighting_network
+from nightlights.streets._mapping import builtin_mappings
 from nightlights.streets._normalize import (
     NormalizeReport,
     NormalizeResult,
-    builtin_mappings,
     normalize,
     normalize_streets,
 )

@@ -32,7 +32,7 @@ def test_mirrored_constants_equal_the_library() -> None:
     from nightlights.sky.kernel import BACKENDS
     from nightlights.sky.panorama import MODES
     from nightlights.sky.render import PROJECTIONS
-    from nightlights.streets._normalize import builtin_mappings
+    from nightlights.streets import builtin_mappings
     from nightlights.streets._place import PlacementOptions
     from nightlights.streets._sample import DEFAULT_CANDIDATES
 

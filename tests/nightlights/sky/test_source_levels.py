@@ -23,7 +23,7 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map, polar_map_levels, source_level_weights
-from nightlights.sky.scene import source_levels
+from nightlights.sky.spec import source_levels
 
 LEVELS = np.array([0.0, 100.0, 250.0])
 T = Affine(50.0, 0.0, 0.0, 0.0, -50.0, 4000.0)  # 80 x 80 cells of 50 m

@@ -13,15 +13,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, MappingError
-from nightlights.streets._normalize import (
+from nightlights.streets._mapping import (
     builtin_mappings,
     load_mapping,
-    normalize,
-    normalize_streets,
     parse_length,
     parse_mapping,
     parse_packed_tags,
 )
+from nightlights.streets._normalize import normalize, normalize_streets
 from nightlights.streets.schema import STREET_FIELDS, observed_field
 
 LINE = shapely.LineString([(0, 0), (100, 0)])
