@@ -74,7 +74,7 @@ class BUGRating:
     Attributes
     ----------
     backlight, uplight, glare : int
-        Ratings 0 (best) to 5 [-].
+        Ratings 0 (best) to 5.
     zone_lumens : Mapping[str, float]
         Luminous flux in each TM-15 zone (see :data:`BUG_ZONES`) [lm].
     """
@@ -101,7 +101,7 @@ def rating_class(values: Mapping[str, float], limits: Mapping[str, tuple[float, 
     Returns
     -------
     int
-        The class, 5 when class 4 is exceeded [-].
+        The class, 5 when class 4 is exceeded.
     """
     worst = 0
     for zone, maxima in limits.items():
@@ -122,7 +122,7 @@ def bug_rating_from_zones(zone_lumens: Mapping[str, float]) -> BUGRating:
     Returns
     -------
     BUGRating
-        The backlight, uplight and glare ratings [-].
+        The backlight, uplight and glare ratings.
 
     References
     ----------

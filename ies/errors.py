@@ -13,13 +13,13 @@ class PhotometryParseError(PhotometryError):
     Parameters
     ----------
     message : str
-        What is wrong and what was expected [-].
+        What is wrong and what was expected.
     source : str
-        File name (or ``"<string>"``) the text came from [-].
+        File name (or ``"<string>"``) the text came from.
     line : int or None
-        1-based line number of the offending token, None when unknown [-].
+        1-based line number of the offending token, None when unknown [1].
     token : str or None
-        The offending token as it appears in the file, None at end of file [-].
+        The offending token as it appears in the file, None at end of file.
     """
 
     def __init__(

@@ -77,14 +77,14 @@ def parse_ldt(text: str, *, source: str = "<string>") -> Photometry:
     Parameters
     ----------
     text : str
-        File contents [-].
+        File contents.
     source : str
-        Name used in messages and stored on the result [-].
+        Name used in messages and stored on the result.
 
     Returns
     -------
     Photometry
-        Type C table in absolute candela, unfolded to 0..360 deg [-].
+        Type C table in absolute candela, unfolded to 0..360 deg.
 
     Raises
     ------
@@ -251,11 +251,11 @@ def read_ldt(path: str | os.PathLike[str]) -> Photometry:
     Parameters
     ----------
     path : str or os.PathLike
-        The ``.ldt`` file [-].
+        The ``.ldt`` file.
 
     Returns
     -------
     Photometry
-        See :func:`parse_ldt` [-].
+        See :func:`parse_ldt`.
     """
     return parse_ldt(read_text(path), source=os.fspath(path))

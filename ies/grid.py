@@ -42,7 +42,7 @@ def unfold_type_c(
     symmetry : str
         ``"rotational"`` (one plane), ``"0-90"`` (quadrant), ``"0-180"`` (bilateral about
         the 0-180 plane), ``"90-270"`` (bilateral about the 90-270 plane), ``"0-360"``
-        (none) or ``"0-360 (360 missing)"`` [-].
+        (none) or ``"0-360 (360 missing)"``.
 
     Raises
     ------
@@ -123,7 +123,7 @@ def bilinear(
     vertical, horizontal : array_like
         Directions to look up, broadcast against each other [deg].
     periodic : bool
-        Wrap ``horizontal`` modulo 360 (type C) instead of returning 0 outside [-].
+        Wrap ``horizontal`` modulo 360 (type C) instead of returning 0 outside.
 
     Returns
     -------
@@ -176,7 +176,7 @@ class CubicTable:
     candela : ndarray, shape (n_h, n_v)
         Intensities [cd].
     periodic : bool
-        Whether the horizontal axis wraps at 360 deg [-].
+        Whether the horizontal axis wraps at 360 deg.
     """
 
     def __init__(
@@ -225,7 +225,7 @@ def node_weights(angles_deg: NDArray[np.float64], kernel: Kernel) -> NDArray[np.
     angles_deg : ndarray, shape (n,)
         Ascending node angles [deg].
     kernel : {"one", "sin", "cos"}
-        Weight function of the solid-angle element [-].
+        Weight function of the solid-angle element [1].
 
     Returns
     -------

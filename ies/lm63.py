@@ -48,14 +48,14 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
     Parameters
     ----------
     text : str
-        File contents [-].
+        File contents.
     source : str
-        Name used in messages and stored on the result [-].
+        Name used in messages and stored on the result.
 
     Returns
     -------
     Photometry
-        Absolute candela table, type C unfolded to 0..360 deg [-].
+        Absolute candela table, type C unfolded to 0..360 deg.
 
     Raises
     ------
@@ -277,11 +277,11 @@ def read_ies(path: str | os.PathLike[str]) -> Photometry:
     Parameters
     ----------
     path : str or os.PathLike
-        The ``.ies`` file [-].
+        The ``.ies`` file.
 
     Returns
     -------
     Photometry
-        See :func:`parse_ies` [-].
+        See :func:`parse_ies`.
     """
     return parse_ies(read_text(path), source=os.fspath(path))

@@ -32,7 +32,7 @@ logger = logging.getLogger(__name__)
 PhotometricType = Literal["A", "B", "C"]
 InterpolationMethod = Literal["bilinear", "cubic"]
 
-#: Relative difference between declared and integrated flux above which readers warn [-].
+#: Relative difference between declared and integrated flux above which readers warn.
 FLUX_MISMATCH_TOLERANCE = 0.05
 
 
@@ -49,7 +49,7 @@ class Photometry:
     Attributes
     ----------
     photometric_type : {"C", "B", "A"}
-        LM-63 photometric type [-].
+        LM-63 photometric type.
     vertical_angles : ndarray, shape (n_v,)
         Ascending vertical angles; type C: 0 = nadir, 180 = zenith [deg].
     horizontal_angles : ndarray, shape (n_h,)
@@ -59,30 +59,30 @@ class Photometry:
     declared_lumens : float or None
         Rated lamp flux, lumens per lamp x number of lamps; None for absolute photometry [lm].
     source : str
-        File the table came from [-].
+        File the table came from.
     format : str
-        ``"IES LM-63-2002"``, ``"EULUMDAT"``, ... [-].
+        ``"IES LM-63-2002"``, ``"EULUMDAT"``, ....
     version : str
-        Format version (``"1986"``, ``"1991"``, ``"1995"``, ``"2002"``, ``"2019"``, ``""``) [-].
+        Format version (``"1986"``, ``"1991"``, ``"1995"``, ``"2002"``, ``"2019"``, ``""``).
     keywords : Mapping[str, str]
-        Header keywords (``[MANUFAC]`` -> ``"MANUFAC"``) or EULUMDAT header fields [-].
+        Header keywords (``[MANUFAC]`` -> ``"MANUFAC"``) or EULUMDAT header fields.
     symmetry : str
-        Horizontal symmetry of the file (see :func:`ies.grid.unfold_type_c`) [-].
+        Horizontal symmetry of the file (see :func:`ies.grid.unfold_type_c`).
     luminous_opening : tuple of float
         Width, length, height of the luminous opening; negative values code round shapes as
         in LM-63 [m].
     warnings : tuple of str
-        Problems found while reading (each also issued as a :class:`PhotometryWarning`) [-].
+        Problems found while reading (each also issued as a :class:`PhotometryWarning`).
     ballast_factor : float
-        Ballast factor (and, up to LM-63-1995, ballast-lamp photometric factor) applied [-].
+        Ballast factor (and, up to LM-63-1995, ballast-lamp photometric factor) applied [1].
     candela_multiplier : float
-        File multiplier applied to the raw values [-].
+        File multiplier applied to the raw values [1].
     input_watts : float or None
         Luminaire input power [W].
     declared_light_output_ratio : float or None
-        Light output ratio stated by the file (EULUMDAT LORL) [-].
+        Light output ratio stated by the file (EULUMDAT LORL) [1].
     tilt_angles, tilt_factors : tuple of float
-        LM-63 TILT=INCLUDE table: lamp tilt [deg] and lamp-output multiplier [-].
+        LM-63 TILT=INCLUDE table: lamp tilt [deg] and lamp-output multiplier [1].
     """
 
     photometric_type: PhotometricType
@@ -147,7 +147,7 @@ class Photometry:
     # ------------------------------------------------------------------ lookups
     @property
     def is_absolute(self) -> bool:
-        """True for absolute photometry (no declared lamp lumens) [-]."""
+        """True for absolute photometry (no declared lamp lumens)."""
         return self.declared_lumens is None
 
     @cached_property
@@ -176,7 +176,7 @@ class Photometry:
             Horizontal angle, broadcast against ``vertical``; type C wraps modulo 360 [deg].
         method : {"bilinear", "cubic"}
             Bilinear interpolation of the unfolded grid (Chuang 2011, Eq. 4), or a bicubic
-            interpolating spline clipped at 0 cd [-].
+            interpolating spline clipped at 0 cd.
 
         Returns
         -------
@@ -320,7 +320,7 @@ class Photometry:
         return self.declared_lumens * self.ballast_factor
 
     def light_output_ratio(self) -> float:
-        """Integrated luminaire flux over lamp flux (1 for absolute photometry) [-]."""
+        """Integrated luminaire flux over lamp flux (1 for absolute photometry)."""
         lamp = self.lamp_flux
         return self.luminous_flux() / lamp if lamp > 0 else float("nan")
 
@@ -334,7 +334,7 @@ class Photometry:
         Returns
         -------
         float
-            Upward light output ratio [-].
+            Upward light output ratio [1].
         """
         lamp = self.lamp_flux
         return self.upward_flux() / lamp if lamp > 0 else 0.0
@@ -367,7 +367,7 @@ class Photometry:
         Returns
         -------
         BUGRating
-            Ratings and zone lumens [-].
+            Ratings and zone lumens.
 
         References
         ----------
@@ -394,12 +394,12 @@ class Photometry:
         Parameters
         ----------
         factor : float
-            Non-negative multiplier [-].
+            Non-negative multiplier [1].
 
         Returns
         -------
         Photometry
-            Scaled copy [-].
+            Scaled copy.
         """
         if not np.isfinite(factor) or factor < 0:
             raise PhotometryError(f"scale factor {factor!r}: expected a finite value >= 0")
@@ -417,7 +417,7 @@ class Photometry:
         Returns
         -------
         float
-            Multiplier, linearly interpolated; 1 without a table [-].
+            Multiplier, linearly interpolated; 1 without a table [1].
         """
         if not self.tilt_angles:
             return 1.0
@@ -435,14 +435,14 @@ class Photometry:
         Returns
         -------
         Photometry
-            Copy with the lamp-output multiplier applied [-].
+            Copy with the lamp-output multiplier applied [1].
         """
         base = self.tilt_factor(0.0)
         factor = self.tilt_factor(tilt) / base if base > 0 else 1.0
         return replace(self, candela=self.candela * factor)
 
     def summary(self) -> dict[str, object]:
-        """Plain-data summary (format, grid, fluxes, ULOR, BUG, warnings) for reports [-]."""
+        """Plain-data summary (format, grid, fluxes, ULOR, BUG, warnings) for reports [1]."""
         rating = self.bug_rating() if self.photometric_type == "C" else None
         return {
             "source": self.source,
@@ -474,14 +474,14 @@ def check_declared_flux(photometry: Photometry, *, found: list[str]) -> Photomet
     Parameters
     ----------
     photometry : Photometry
-        A freshly read table [-].
+        A freshly read table.
     found : list of str
-        Warnings already collected by the reader; issued here and stored on the result [-].
+        Warnings already collected by the reader; issued here and stored on the result.
 
     Returns
     -------
     Photometry
-        ``photometry`` with ``warnings`` filled in [-].
+        ``photometry`` with ``warnings`` filled in.
     """
     import warnings as _warnings
 
@@ -516,7 +516,7 @@ def forward_azimuth(photometry: Photometry, *, step: float = 1.0) -> float:
     Parameters
     ----------
     photometry : Photometry
-        Type C table [-].
+        Type C table.
     step : float
         Midpoint-rule step of the evaluation grid [deg].
 

@@ -21,14 +21,14 @@ def polar_candela_figure(photometry: Photometry, *, title: str | None = None) ->
     Parameters
     ----------
     photometry : Photometry
-        Type C table [-].
+        Type C table.
     title : str or None
-        Figure title; default the file name [-].
+        Figure title; default the file name.
 
     Returns
     -------
     matplotlib.figure.Figure
-        The figure (not yet saved) [-].
+        The figure (not yet saved).
     """
     from matplotlib.figure import Figure
 
@@ -59,14 +59,14 @@ def write_polar_plot(photometry: Photometry, path: str | os.PathLike[str]) -> Pa
     Parameters
     ----------
     photometry : Photometry
-        Type C table [-].
+        Type C table.
     path : str or os.PathLike
-        Output PNG [-].
+        Output PNG.
 
     Returns
     -------
     Path
-        The written file [-].
+        The written file.
     """
     target = Path(path)
     figure = polar_candela_figure(photometry)

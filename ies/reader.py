@@ -11,7 +11,7 @@ from ies.text import read_text
 
 
 def looks_like_ies(text: str) -> bool:
-    """True when some line starts with ``TILT=`` (every LM-63 file has one) [-]."""
+    """True when some line starts with ``TILT=`` (every LM-63 file has one)."""
     return any(_TILT_LINE.match(line) for line in text.splitlines()[:400])
 
 
@@ -21,14 +21,14 @@ def parse_photometry(text: str, *, source: str = "<string>") -> Photometry:
     Parameters
     ----------
     text : str
-        File contents [-].
+        File contents.
     source : str
-        Name used in messages [-].
+        Name used in messages.
 
     Returns
     -------
     Photometry
-        The parsed table [-].
+        The parsed table.
     """
     if looks_like_ies(text):
         return parse_ies(text, source=source)
@@ -41,12 +41,12 @@ def read_photometry(path: str | os.PathLike[str]) -> Photometry:
     Parameters
     ----------
     path : str or os.PathLike
-        The file [-].
+        The file.
 
     Returns
     -------
     Photometry
-        The parsed table [-].
+        The parsed table.
 
     Raises
     ------

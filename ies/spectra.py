@@ -48,13 +48,13 @@ class Spectrum:
     Attributes
     ----------
     name : str
-        Identifier [-].
+        Identifier.
     wavelengths : ndarray
         Ascending wavelengths [nm].
     values : ndarray
-        Spectral power (relative) or sensor response (peak-normalised) [-].
+        Spectral power (relative) or sensor response (peak-normalised).
     description : str
-        Provenance [-].
+        Provenance.
     """
 
     name: str
@@ -63,7 +63,7 @@ class Spectrum:
     description: str = ""
 
     def on(self, wavelengths: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Linear interpolation onto ``wavelengths``, zero outside the sampled range [-]."""
+        """Linear interpolation onto ``wavelengths``, zero outside the sampled range."""
         return np.interp(wavelengths, self.wavelengths, self.values, left=0.0, right=0.0)
 
 
@@ -193,12 +193,12 @@ def get_spd(name: str) -> Spectrum:
     Parameters
     ----------
     name : str
-        E.g. ``"HPS"``, ``"LED_4000K"`` [-].
+        E.g. ``"HPS"``, ``"LED_4000K"``.
 
     Returns
     -------
     Spectrum
-        Relative spectral power [-].
+        Relative spectral power.
     """
     return _build(name, _SPD_SOURCES, "SPD")
 
@@ -210,12 +210,12 @@ def get_sensor(name: str) -> Spectrum:
     Parameters
     ----------
     name : str
-        E.g. ``"photopic"``, ``"scotopic"``, ``"melanopic"``, ``"nvis_class_a"`` [-].
+        E.g. ``"photopic"``, ``"scotopic"``, ``"melanopic"``, ``"nvis_class_a"``.
 
     Returns
     -------
     Spectrum
-        Relative spectral response [-].
+        Relative spectral response.
     """
     return _build(name, _SENSOR_SOURCES, "sensor")
 
@@ -287,7 +287,7 @@ def scotopic_photopic_ratio(spd: SpectrumLike) -> float:
     Returns
     -------
     float
-        :math:`1700 \\int S V' / (683 \\int S V)` [-].
+        :math:`1700 \\int S V' / (683 \\int S V)`.
 
     References
     ----------

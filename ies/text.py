@@ -25,12 +25,12 @@ def decode_photometric_bytes(data: bytes) -> str:
     Parameters
     ----------
     data : bytes
-        Raw file contents [-].
+        Raw file contents.
 
     Returns
     -------
     str
-        Text with a leading byte-order mark removed [-].
+        Text with a leading byte-order mark removed.
     """
     try:
         text = data.decode("utf-8")
@@ -45,12 +45,12 @@ def read_text(path: str | os.PathLike[str]) -> str:
     Parameters
     ----------
     path : str or os.PathLike
-        File to read [-].
+        File to read.
 
     Returns
     -------
     str
-        The decoded text [-].
+        The decoded text.
     """
     with open(path, "rb") as handle:
         return decode_photometric_bytes(handle.read())
@@ -70,16 +70,16 @@ def tokenize(lines: list[str], first_line: int, *, decimal_comma: bool = False) 
     Parameters
     ----------
     lines : list of str
-        Lines of text (no line ends) [-].
+        Lines of text (no line ends).
     first_line : int
-        1-based line number of ``lines[0]`` in the file [-].
+        1-based line number of ``lines[0]`` in the file [1].
     decimal_comma : bool
-        Read ``,`` as a decimal mark (EULUMDAT, one value per line) instead of a separator [-].
+        Read ``,`` as a decimal mark (EULUMDAT, one value per line) instead of a separator.
 
     Returns
     -------
     list of Token
-        Tokens in file order [-].
+        Tokens in file order.
     """
     tokens = []
     separators = _WHITESPACE if decimal_comma else _SEPARATORS
@@ -98,9 +98,9 @@ class TokenStream:
     Parameters
     ----------
     tokens : list of Token
-        Tokens to read [-].
+        Tokens to read.
     source : str
-        Name of the file, for error messages [-].
+        Name of the file, for error messages.
     """
 
     def __init__(self, tokens: list[Token], source: str) -> None:
@@ -110,19 +110,19 @@ class TokenStream:
 
     @property
     def remaining(self) -> int:
-        """Number of tokens not read yet [-]."""
+        """Number of tokens not read yet [1]."""
         return len(self._tokens) - self._position
 
     def peek(self) -> Token | None:
-        """The next token without consuming it, None at end [-]."""
+        """The next token without consuming it, None at end [1]."""
         return self._tokens[self._position] if self.remaining else None
 
     def last_line(self) -> int | None:
-        """Line of the last token in the stream, None when empty [-]."""
+        """Line of the last token in the stream, None when empty."""
         return self._tokens[-1].line if self._tokens else None
 
     def error(self, message: str, token: Token | None = None) -> PhotometryParseError:
-        """An error naming the file, the token's line and the token [-]."""
+        """An error naming the file, the token's line and the token."""
         if token is None:
             return PhotometryParseError(message, source=self.source, line=self.last_line())
         return PhotometryParseError(message, source=self.source, line=token.line, token=token.text)
@@ -136,7 +136,7 @@ class TokenStream:
         return token
 
     def read_float(self, what: str) -> float:
-        """Consume one finite number (``.21``, ``1e3``, ``3.0`` all accepted) [-]."""
+        """Consume one finite number (``.21``, ``1e3``, ``3.0`` all accepted) [1]."""
         token = self.next_token(what)
         try:
             value = float(token.text)
@@ -147,7 +147,7 @@ class TokenStream:
         return value
 
     def read_int(self, what: str) -> int:
-        """Consume one integer; ``3.0`` is accepted as 3, ``3.5`` is an error [-]."""
+        """Consume one integer; ``3.0`` is accepted as 3, ``3.5`` is an error [1]."""
         token = self.next_token(what)
         try:
             value = float(token.text)
@@ -158,18 +158,18 @@ class TokenStream:
         return int(value)
 
     def read_floats(self, count: int, what: str) -> list[float]:
-        """Consume ``count`` finite numbers [-]."""
+        """Consume ``count`` finite numbers [1]."""
         return [self.read_float(f"{what} (value {k + 1} of {count})") for k in range(count)]
 
     def last_token(self) -> Token | None:
-        """The most recently consumed token [-]."""
+        """The most recently consumed token [1]."""
         return self._tokens[self._position - 1] if self._position else None
 
     def token_at(self, index: int) -> Token:
-        """The token at absolute position ``index`` [-]."""
+        """The token at absolute position ``index`` [1]."""
         return self._tokens[index]
 
     @property
     def position(self) -> int:
-        """Index of the next token [-]."""
+        """Index of the next token [1]."""
         return self._position

@@ -26,7 +26,7 @@ CUT_ON = {"nvis_class_a": 625.0, "nvis_class_b": 665.0}  # MIL-STD-3009 classes 
 
 
 def photocathode(wavelength: np.ndarray) -> np.ndarray:
-    """Relative Gen III photocathode response [-]."""
+    """Relative Gen III photocathode response."""
     rise = 0.5 - 0.5 * np.cos(
         np.pi * np.clip((wavelength - LIMITS[0]) / (PLATEAU[0] - LIMITS[0]), 0, 1)
     )
@@ -37,7 +37,7 @@ def photocathode(wavelength: np.ndarray) -> np.ndarray:
 
 
 def response(wavelength: np.ndarray, cut_on: float) -> np.ndarray:
-    """Photocathode x minus-blue filter, peak-normalised [-]."""
+    """Photocathode x minus-blue filter, peak-normalised."""
     values = photocathode(wavelength) / (1.0 + np.exp(-(wavelength - cut_on) / EDGE_WIDTH))
     return values / values.max()
 

@@ -44,9 +44,9 @@ class LightSystem:
     Attributes
     ----------
     id : str
-        Identifier used by the street layers [-].
+        Identifier used by the street layers.
     description : str
-        What the system is and where it is used [-].
+        What the system is and where it is used.
     mounting_height : float
         Height of the light centre above the ground [m].
     arm_length : float
@@ -56,13 +56,13 @@ class LightSystem:
     street_azimuth : float
         Photometric horizontal angle (C-plane) that faces the street [deg].
     photometry_file : str
-        Photometric file, relative to the database folder [-].
+        Photometric file, relative to the database folder.
     spd : str
-        Name of the spectral power distribution (:data:`ies.spectra.SPDS`) [-].
+        Name of the spectral power distribution (:data:`ies.spectra.SPDS`).
     lumens : float
         Integrated luminous flux of the luminaire as used [lm].
     provenance : str
-        Source of the photometric data and of any assumption [-].
+        Source of the photometric data and of any assumption [1].
     luminaire_lumens : float or None
         If set, the file's candela are scaled so that the integrated flux equals it [lm].
     """
@@ -86,9 +86,9 @@ class LuminaireDatabase:
     Parameters
     ----------
     systems : dict of str to LightSystem
-        Systems by id [-].
+        Systems by id.
     root : Path
-        Folder that photometric file names are relative to [-].
+        Folder that photometric file names are relative to.
     """
 
     def __init__(self, systems: dict[str, LightSystem], root: Path) -> None:
@@ -105,12 +105,12 @@ class LuminaireDatabase:
         Parameters
         ----------
         system_id : str
-            Identifier [-].
+            Identifier.
 
         Returns
         -------
         LightSystem
-            The system [-].
+            The system.
 
         Raises
         ------
@@ -131,12 +131,12 @@ class LuminaireDatabase:
         Parameters
         ----------
         system_id : str
-            Identifier [-].
+            Identifier.
 
         Returns
         -------
         Photometry
-            Absolute candela distribution [-].
+            Absolute candela distribution.
         """
         system = self.get(system_id)
         if system_id not in self._photometry:
@@ -201,12 +201,12 @@ def load_library(path: str | os.PathLike[str] | None = None) -> LuminaireDatabas
     Parameters
     ----------
     path : str, os.PathLike or None
-        A ``systems.toml`` file or the folder holding one; None for the bundled database [-].
+        A ``systems.toml`` file or the folder holding one; None for the bundled database.
 
     Returns
     -------
     LuminaireDatabase
-        The light systems [-].
+        The light systems.
 
     Raises
     ------

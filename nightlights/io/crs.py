@@ -1,4 +1,4 @@
-"""Coordinate reference system policy (DESIGN.md, Conventions: Geometry).
+"""Coordinate reference system policy.
 
 Computation happens in a projected CRS in metres. Geographic input is reprojected to its
 local UTM zone; input without a CRS is an error unless the user names one.
