@@ -147,3 +147,14 @@ def test_numpydoc_math_and_roles_become_markdown() -> None:
     assert "    $$\n    E = \\frac{I \\cos i}{d^2}\n    $$\n" in markdown
     assert "Next paragraph, see <code>other()</code>." in markdown
     assert ".. math::" not in markdown
+
+
+def test_site_loads_nothing_from_the_network() -> None:
+    config = _text(ROOT / "mkdocs.yml")
+    scripts = re.findall(r"^extra_(?:javascript|css):\n((?:\s+- .+\n)+)", config, re.M)
+    entries = [line.strip()[2:] for block in scripts for line in block.splitlines()]
+    assert entries
+    for entry in entries:
+        assert not entry.startswith(("http://", "https://", "//")), entry
+        assert (DOCS / entry).is_file(), entry
+    assert re.search(r"^\s+font: false", config, re.M), "web fonts would load from a CDN"
