@@ -34,7 +34,7 @@ OBSERVED_RATE = {
     "lit": 1062 / 1637,
     "has_median": 0.0,
 }
-TARGET_SECONDS = 30.0  # issue 2: 1e6 segments in <= 30 s on the 2-core machine
+TARGET_SECONDS = 30.0  # target: 1e6 segments in <= 30 s on the 2-core machine
 
 
 def realistic_frame(network, n: int, rng: np.random.Generator) -> pd.DataFrame:

@@ -1,6 +1,6 @@
 """Benchmark: irradiance throughput and scaling with lights, resolution and threads.
 
-Target (issue 3): 100,000 luminaires at 1 m over 10 x 10 km in <= 5 min on this 2-core
+Target: 100,000 luminaires at 1 m over 10 x 10 km in <= 5 min on this 2-core
 machine. That is a density of 1,000 luminaires per km2. The script measures, on scenes of
 the same density built from the bundled luminaire database (all five systems, random
 headings, tilts 0/5/10 deg, default region of influence ``floor:0.01`` lx):

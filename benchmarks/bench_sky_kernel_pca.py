@@ -3,7 +3,7 @@
 Knob 1, number of PCA bases: a kernel of 64 distance bins (10 m - 100 km) x 32 x 128 pixels for
 source altitudes 0, 250, 500 m and one observer altitude (0 m) is compressed with 1-64 bases
 (:func:`nightlights.sky.pca.compress_kernel`); error = mean relative error of the
-reconstructed images over pixels brighter than 1 % of each image's maximum (issue 4 target:
+reconstructed images over pixels brighter than 1 % of each image's maximum (target:
 <= 2 % at 64 bases; Dobashi et al. 2023 report < 5 %), also the 99th percentile.
 
 Knob 2, distance bins: for 200 point sources at log-uniform random distances (10 m - 100 km),

@@ -2,7 +2,7 @@
 
 Knobs: PCA bases used (reference: the exact FFT panorama), distance bins n_r and azimuth
 resolution n_az (reference: the naive panorama, direct integration per lit cell). Error is the
-mean relative error over pixels brighter than 1 % of the maximum (issue 4's measure).
+mean relative error over pixels brighter than 1 % of the maximum (the target's measure).
 
 Run: ``python benchmarks/bench_sky_runtime_accuracy.py [--quick] [--out DIR]`` (``--quick``:
 distance bins 12-48, azimuth bins 32 and 64).

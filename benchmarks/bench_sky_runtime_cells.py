@@ -1,6 +1,6 @@
 """Skyglow runtime against the number of lit cells: PCA+FFT, exact FFT, per-cell baselines.
 
-Issue 4 targets: >= 1000x speed-up of the PCA+FFT panorama over the naive reference (direct
+Targets: >= 1000x speed-up of the PCA+FFT panorama over the naive reference (direct
 integration of the kernel for every lit cell, with the compiled integrator; measured at 1-64
 cells and at 2,048 cells in full, about 3 minutes) at 2,048 lit cells, and one 256 x 64 panorama in
 <= 5 ms at 128 bases after the polar map. Times are medians of repeated calls.
