@@ -140,16 +140,20 @@ class KernelSpec:
         Distance bin edges, increasing, > 0; default log-spaced from ``r_min`` to ``r_max`` in
         ``n_distance`` bins (then ``r_min``, ``r_max`` and ``n_distance`` are set from the
         edges) [m].
-    r_min, r_max
-        Range of the default distance grid [m].
+    r_min
+        Inner edge of the default distance grid [m].
+    r_max
+        Outer edge of the default distance grid [m].
     n_distance
         Number of distance bins of the default grid [1].
     source_altitudes
         Source altitudes h_c above sea level, sorted on creation [m].
     observer_altitudes
         Observer altitudes h_o above sea level, sorted on creation [m].
-    n_elevation, n_azimuth
-        Panorama rows (elevation, 0-90 deg) and columns (even; azimuth, 0-360 deg) [1].
+    n_elevation
+        Panorama rows, elevation 0-90 deg [1].
+    n_azimuth
+        Panorama columns (even), azimuth 0-360 deg [1].
     atmosphere
         Atmosphere model; default :class:`~nightlights.sky.atmosphere.Atmosphere`.
     uplight
