@@ -7,6 +7,7 @@ function-level import counts as a circle.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -161,3 +162,20 @@ def test_the_graph_sees_imports() -> None:
     graph = _graph()
     assert "nightlights.errors" in graph["nightlights.io.raster"]
     assert "ies.frames" in graph["nightlights.ground.frames"]
+
+
+#: Where the code and its tests live (the docs pages have their own check).
+CODE_FOLDERS = (*PACKAGES, "tests", "benchmarks", "examples")
+#: A citation of an issue number, or of a capitalised project file other than the README.
+CITATION = re.compile(r"\b[Ii]ssue\s*#?\d+|\b(?!README\.md)[A-Z]{4,}\.md\b|\bSTYLE rule")
+
+
+def test_code_cites_papers_not_issues_or_outside_files() -> None:
+    hits = [
+        f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+        for folder in CODE_FOLDERS
+        for path in sorted((ROOT / folder).rglob("*.py"))
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1)
+        if CITATION.search(line)
+    ]
+    assert hits == []

@@ -71,7 +71,8 @@ def test_width_ratio_is_width_over_mounting_height(net: BayesNet) -> None:
 
 def test_arrangement_follows_width_to_height_rule(net: BayesNet) -> None:
     # One-sided when width <= height, staggered at 1-1.5x, opposite above 1.5x, central on
-    # divided roads (issue 2; Chuang 2011 Fig. 10 for the table layout).
+    # divided roads (the road-lighting arrangement rule cited in bayesnets/catalog/README.md;
+    # Chuang 2011 Fig. 10 for the table layout).
     most_likely = {
         ("F", "le1"): "single_sided",
         ("F", "1to1.5"): "staggered",

@@ -45,7 +45,7 @@ def test_zenith_of_point_source_matches_exact_solution(scale_height: float) -> N
     ground distance D, scattering coefficient sigma0 exp(-z/H), isotropic phase 1/(4 pi):
     L = sigma0 / (8 pi^2) int_0^inf exp(-z/H) / (D^2 + z^2) dz = sigma0 f(D/H) / (8 pi^2 D),
     f(x) = Ci(x) sin x - (Si(x) - pi/2) cos x (Abramowitz & Stegun 5.2.12 / 5.2.13).
-    Tolerance 0.5 % from D = 0.5 to 200 km (issue 4); the kernel reaches ~3e-6.
+    Tolerance 0.5 % from D = 0.5 to 200 km; the kernel reaches ~3e-6.
     """
     atm = _exact_atmosphere(scale_height)
     distance = np.geomspace(500.0, 200_000.0, 15)
@@ -160,7 +160,7 @@ def test_spherical_and_flat_earth() -> None:
 
 
 def test_quadrature_converges_with_nodes() -> None:
-    """16-32 Gauss nodes per panel against 256 (DESIGN.md: 1e-5 relative).
+    """16-32 Gauss nodes per panel against 256 (1e-5 relative, Dobashi et al. 2023, Sec. 3.2).
 
     Sources 100 m to 300 km, observer and source at 0 or 500 m, 16 x 9 directions: 32 nodes
     reach 1e-5 relative everywhere, 16 nodes in the median; nearer sources (observer next to

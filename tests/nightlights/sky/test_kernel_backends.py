@@ -1,4 +1,4 @@
-"""The compiled (numba) line-of-sight integrator against the numpy reference (STYLE rule 6)."""
+"""The compiled (numba) line-of-sight integrator against the numpy reference."""
 
 from __future__ import annotations
 

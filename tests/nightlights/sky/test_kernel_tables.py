@@ -132,7 +132,7 @@ def test_pca_reconstructs_kernel(small_kernel: xr.Dataset) -> None:
             rec = np.einsum("crk,kea->crea", ds[coef].values[o], basis[o])
             bright = k > 0.01 * k.max(axis=(-2, -1), keepdims=True)
             rel = np.abs(rec - k)[bright] / k[bright]
-            assert rel.mean() < 0.02  # issue 4 target: 2 % mean over pixels > 1 % of max
+            assert rel.mean() < 0.02  # target: 2 % mean over pixels > 1 % of max
 
 
 def test_basis_fft_is_rfft_over_azimuth(small_kernel: xr.Dataset) -> None:

@@ -32,7 +32,7 @@ OBSERVER = (2000.0, 2000.0)
 
 
 def test_22_mag_is_171_microcandela() -> None:
-    """DESIGN.md: 22.0 mag arcsec-2 = 171 ucd m-2 (Cinzano 2005 zero point 1.08e5 cd m-2)."""
+    """22.0 mag arcsec-2 = 171 ucd m-2 (Cinzano 2005 zero point 1.08e5 cd m-2)."""
     assert magnitude_to_luminance(22.0) == pytest.approx(171e-6, rel=2e-3)
     assert luminance_to_magnitude(171e-6) == pytest.approx(22.0, abs=2e-3)
 
