@@ -34,7 +34,7 @@ from nightlights._typing import FloatArray
 from nightlights.errors import EmptyInputError, InputError
 from nightlights.ground.frames import IntensityTable, luminaire_rotation
 from nightlights.ground.luminaires import Luminaires, sample_elevation
-from nightlights.io import ensure_projected, read_vector
+from nightlights.io import as_vector, ensure_projected
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -265,10 +265,7 @@ def read_area_lights(
         Missing field, non-polygon features, negative or non-numeric exitance (naming the
         features).
     """
-    if isinstance(areas, gpd.GeoDataFrame):
-        path, frame = "area sources", areas
-    else:
-        path, frame = str(areas), read_vector(areas)
+    frame, path = as_vector(areas, name="area sources")
     if frame.empty:
         raise EmptyInputError(f"{path}: the area-source layer holds no polygons")
     frame = ensure_projected(frame, source=path).to_crs(crs)

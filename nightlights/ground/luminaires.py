@@ -36,7 +36,7 @@ from nightlights.ground.frames import (
     luminaire_rotation,
 )
 from nightlights.ground.influence import InfluenceThreshold, influence_radius
-from nightlights.io.terrain import sample_raster, source_label
+from nightlights.io import sample_raster, source_label
 
 if TYPE_CHECKING:
     import xarray as xr

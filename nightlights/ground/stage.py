@@ -35,7 +35,7 @@ from nightlights.ground.luminaires import (
     sensor_factors,
 )
 from nightlights.ground.tiles import RasterGrid, compute_irradiance, grid_from_bounds
-from nightlights.io import Raster, ensure_projected, raster_on_grid, read_vector
+from nightlights.io import Raster, as_vector, ensure_projected, raster_on_grid
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -191,8 +191,7 @@ def irradiance(
     check_resolution(resolution)
     if not sensors:
         raise InputError("no sensors requested; expected at least one (e.g. photopic)")
-    label = "lights" if isinstance(lights, gpd.GeoDataFrame) else str(lights)
-    frame = lights if isinstance(lights, gpd.GeoDataFrame) else read_vector(lights)
+    frame, label = as_vector(lights, name="lights")
     frame = ensure_projected(frame, source=label, assume_crs=crs)
     layer_crs = CRS.from_user_input(frame.crs)
     if frame.empty and area_sources is None:

@@ -38,8 +38,14 @@ from nightlights._validate import check_resolution
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
-from nightlights.io import Raster, as_raster, ensure_projected, raster_on_grid, read_vector
-from nightlights.io.terrain import source_label
+from nightlights.io import (
+    Raster,
+    as_raster,
+    as_vector,
+    ensure_projected,
+    raster_on_grid,
+    source_label,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -342,8 +348,7 @@ def emission(
     grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
     uplight = np.zeros_like(reflected)
     if lights is not None:
-        lights_label = "lights" if isinstance(lights, gpd.GeoDataFrame) else str(lights)
-        frame = lights if isinstance(lights, gpd.GeoDataFrame) else read_vector(lights)
+        frame, lights_label = as_vector(lights, name="lights")
         if frame.empty:
             raise EmptyInputError(f"{lights_label}: the light layer holds no lights")
         frame = ensure_projected(frame, source=lights_label, assume_crs=crs)

@@ -7,19 +7,21 @@ is atomic: the output appears complete or not at all.
 
 from nightlights.io.atomic import atomic_output
 from nightlights.io.crs import ensure_projected
-from nightlights.io.raster import Raster, RasterBand, as_raster, write_cog
+from nightlights.io.raster import Raster, RasterBand, as_raster, source_label, write_cog
 from nightlights.io.terrain import raster_on_grid, sample_raster
-from nightlights.io.vector import read_vector, write_gpkg
+from nightlights.io.vector import as_vector, read_vector, write_gpkg
 
 __all__ = [
     "Raster",
     "RasterBand",
     "as_raster",
+    "as_vector",
     "atomic_output",
     "ensure_projected",
     "raster_on_grid",
     "read_vector",
     "sample_raster",
+    "source_label",
     "write_cog",
     "write_gpkg",
 ]

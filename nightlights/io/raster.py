@@ -354,3 +354,18 @@ def as_raster(source: Raster | xr.DataArray | str | os.PathLike[str]) -> Raster:
         f"raster input of type {type(source).__name__}; expected a Raster, an xarray.DataArray "
         "or a path"
     )
+
+
+def source_label(source: Raster | xr.DataArray | str | os.PathLike[str], name: str) -> str:
+    """How messages name a raster input: its path, or ``in-memory <name>``.
+
+    Parameters
+    ----------
+    source
+        The raster input.
+    name
+        What it is (``DEM``, ``albedo raster``).
+    """
+    if isinstance(source, (str, os.PathLike)):
+        return str(source)
+    return f"in-memory {name}"

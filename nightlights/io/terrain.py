@@ -25,27 +25,12 @@ from rasterio.warp import Resampling, reproject
 
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError
-from nightlights.io.raster import Raster, as_raster
+from nightlights.io.raster import Raster, as_raster, source_label
 
 if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["raster_on_grid", "sample_raster"]
-
-
-def source_label(source: Raster | xr.DataArray | str | os.PathLike[str], name: str) -> str:
-    """How messages name a raster input: its path, or ``in-memory <name>``.
-
-    Parameters
-    ----------
-    source
-        The raster input.
-    name
-        What it is (``DEM``, ``albedo raster``).
-    """
-    if isinstance(source, (str, os.PathLike)):
-        return str(source)
-    return f"in-memory {name}"
 
 
 def raster_on_grid(

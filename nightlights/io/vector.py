@@ -60,6 +60,49 @@ def read_vector(
     return frame
 
 
+def as_vector(
+    source: gpd.GeoDataFrame | str | os.PathLike[str],
+    *,
+    layer: str | None = None,
+    name: str = "layer",
+) -> tuple[gpd.GeoDataFrame, str]:
+    """A vector input of a stage, in memory or read from a file, and how messages name it.
+
+    Parameters
+    ----------
+    source
+        A GeoDataFrame (used as it is, not copied) or a path to any vector file GDAL reads.
+    layer
+        Layer inside the file (default: the first; ``lines`` for OSM files). Only for paths.
+    name
+        What the input is (``streets``, ``lights``), for messages about an in-memory layer.
+
+    Returns
+    -------
+    frame : geopandas.GeoDataFrame
+        The layer.
+    label : str
+        The path, or ``in-memory <name>``.
+
+    Raises
+    ------
+    InputError
+        ``source`` is neither a GeoDataFrame nor a path, a layer name was given with a
+        GeoDataFrame, or the file cannot be read.
+    """
+    if isinstance(source, gpd.GeoDataFrame):
+        if layer is not None:
+            raise InputError(
+                f"layer={layer!r} names a layer inside a file, but the {name} are a GeoDataFrame"
+            )
+        return source, f"in-memory {name}"
+    if not isinstance(source, str | os.PathLike):
+        raise InputError(
+            f"{name}: got {type(source).__name__}; expected a GeoDataFrame or a vector file path"
+        )
+    return read_vector(source, layer=layer), str(source)
+
+
 def write_gpkg(
     frame: gpd.GeoDataFrame,
     path: str | os.PathLike[str],

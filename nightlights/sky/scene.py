@@ -14,7 +14,6 @@ the Night Sky", ACM TOG 42(6) 219, Sec. 3.3.
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 import warnings
 from dataclasses import dataclass
@@ -25,7 +24,7 @@ from pyproj import CRS, Transformer
 
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
-from nightlights.io import Raster, as_raster
+from nightlights.io import Raster, as_raster, source_label
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
@@ -70,10 +69,6 @@ class SkyglowScene:
     panorama: xr.Dataset
     polar: PolarMap
     seconds: float
-
-
-def _label(source: object, name: str) -> str:
-    return str(source) if isinstance(source, (str, os.PathLike)) else f"in-memory {name}"
 
 
 def skyglow_panorama(
@@ -208,7 +203,7 @@ def compute_scene(
     """
     if mode not in MODES:
         raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")
-    label = _label(emission, "emission raster")
+    label = source_label(emission, "emission raster")
     raster = as_raster(emission)
     data = raster.data
     if raster.crs is None or not raster.crs.is_projected:
@@ -223,7 +218,7 @@ def compute_scene(
     if observer_height < 0:
         raise InputError(f"observer height {observer_height} m; expected >= 0")
     terrain = (
-        scene_terrain(dem, raster, xy, observer_height, label=_label(dem, "DEM"))
+        scene_terrain(dem, raster, xy, observer_height, label=source_label(dem, "DEM"))
         if dem is not None
         else None
     )

@@ -23,7 +23,7 @@ from bayesnets import BayesNet, fit_network, write_network
 from bayesnets.errors import BayesNetError
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
-from nightlights.streets._layer import read_layer
+from nightlights.io import as_vector
 from nightlights.streets._sample import resolve_network
 from nightlights.streets.schema import observed_field
 
@@ -188,7 +188,7 @@ def fit(
     target = Path(output) if output is not None else None
     if target is not None and target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise OutputError(f"{target}: exists and is not an empty folder")
-    frame, source = read_layer(streets)
+    frame, source = as_vector(streets, name="streets")
     if frame.empty:
         raise EmptyInputError(f"{source}: no features to fit a network from")
     if name is None and target is not None:

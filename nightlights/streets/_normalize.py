@@ -23,9 +23,8 @@ from pyproj import CRS
 
 from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError
-from nightlights.io import ensure_projected, write_gpkg
+from nightlights.io import as_vector, ensure_projected, write_gpkg
 from nightlights.io.vector import FieldType
-from nightlights.streets._layer import read_layer
 from nightlights.streets._mapping import (
     FieldRule,
     StreetMapping,
@@ -246,7 +245,7 @@ def normalize(
     (2, None)
     """
     rules = load_mapping(mapping)
-    frame, source = read_layer(streets, name=layer)
+    frame, source = as_vector(streets, layer=layer, name="streets")
     if frame.empty:
         raise EmptyInputError(f"{source}: the layer has no features")
     frame = ensure_projected(frame, source=source, assume_crs=crs, target_crs=target_crs)

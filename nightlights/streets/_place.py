@@ -21,9 +21,8 @@ from scipy.spatial import cKDTree
 
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, InputError
-from nightlights.io import ensure_projected, write_gpkg
+from nightlights.io import as_vector, ensure_projected, write_gpkg
 from nightlights.io.vector import FieldType
-from nightlights.streets._layer import read_layer
 from nightlights.streets.schema import ARRANGEMENTS, STREET_CLASSES
 
 #: Fields of the output light layer and their types.
@@ -276,7 +275,7 @@ def place(
     True
     """
     options = _placement_options(options, along_jitter, across_jitter, merge_fraction)
-    frame, source = read_layer(streets)
+    frame, source = as_vector(streets, name="streets")
     if frame.empty:
         raise EmptyInputError(f"{source}: the layer has no streets")
     if frame.crs is None or not frame.crs.is_projected:

@@ -23,9 +23,8 @@ from bayesnets.errors import BayesNetError
 from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict
 from nightlights._typing import PathLike
 from nightlights.errors import InputError
-from nightlights.io import write_gpkg
+from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
-from nightlights.streets._layer import read_layer
 from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, observed_field
 
 __all__ = [
@@ -286,7 +285,7 @@ def sample(
     >>> result.path is None
     True
     """
-    frame, source = read_layer(streets)
+    frame, source = as_vector(streets, name="streets")
     if frame.crs is None or not frame.crs.is_projected:
         raise InputError(
             f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "

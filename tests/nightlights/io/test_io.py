@@ -131,3 +131,19 @@ def test_crs_policy() -> None:
     feet = gpd.GeoDataFrame(geometry=[shapely.Point(0, 0)], crs="EPSG:2227")  # US survey feet
     assert ensure_projected(feet).crs.is_projected
     assert ensure_projected(feet).crs.to_epsg() != 2227
+
+
+def test_as_vector_takes_frames_and_paths(tmp_path) -> None:
+    from nightlights.io import as_vector
+
+    frame = gpd.GeoDataFrame({"a": [1]}, geometry=[shapely.Point(0, 0)], crs="EPSG:32635")
+    same, label = as_vector(frame, name="lights")
+    assert same is frame and label == "in-memory lights"
+    path = tmp_path / "points.gpkg"
+    frame.to_file(path)
+    read, label = as_vector(path, name="lights")
+    assert label == str(path) and list(read["a"]) == [1]
+    with pytest.raises(InputError, match="names a layer inside a file"):
+        as_vector(frame, layer="lines")
+    with pytest.raises(InputError, match="expected a GeoDataFrame or a vector file path"):
+        as_vector(42, name="streets")
