@@ -10,7 +10,7 @@ Units: flux [lm] in, luminance [cd m-2] out; angles in degrees, azimuth clockwis
 elevation above the horizon.
 """
 
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.scene import SkyglowScene, skyglow_panorama
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.stage import SkyglowResult, build_kernel, skyglow
 from nightlights.sky.store import KernelResult
@@ -19,6 +19,7 @@ __all__ = [
     "KernelResult",
     "KernelSpec",
     "SkyglowResult",
+    "SkyglowScene",
     "build_kernel",
     "skyglow",
     "skyglow_panorama",

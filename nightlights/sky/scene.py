@@ -1,7 +1,8 @@
 """The skyglow panorama of a scene: an emission raster, an observer, a kernel and a terrain.
 
 :func:`skyglow_panorama` is the in-memory form of the ``skyglow`` stage: a raster of upward flux
-density in, an :class:`xarray.Dataset` of sky luminance and brightness out, no output files.
+density in, a :class:`SkyglowScene` out (an :class:`xarray.Dataset` of sky luminance and
+brightness, and the polar flux map it came from), no output files.
 It resamples the emission into the observer's polar grid (:mod:`nightlights.sky.polar`) and
 convolves it in azimuth with the kernel (:mod:`nightlights.sky.panorama`).
 
@@ -44,7 +45,6 @@ from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
 __all__ = [
     "SkyglowScene",
-    "compute_scene",
     "skyglow_panorama",
 ]
 
@@ -54,12 +54,12 @@ RasterInput = Raster | xr.DataArray | PathLike
 
 @dataclass(frozen=True)
 class SkyglowScene:
-    """A panorama with what the file stage writes next to it.
+    """What :func:`skyglow_panorama` computed: the panorama and the polar map it came from.
 
     Attributes
     ----------
     panorama
-        Dataset of :func:`skyglow_panorama`.
+        Sky luminance and brightness over (elevation, azimuth).
     polar
         The observer's polar flux map, all source levels together [lm].
     seconds
@@ -89,7 +89,7 @@ def skyglow_panorama(
     n_distance: int = 64,
     cache_dir: PathLike | None = None,
     progress: bool = True,
-) -> xr.Dataset:
+) -> SkyglowScene:
     """What an observer sees: the skyglow panorama of an emission raster, in memory.
 
     Parameters
@@ -134,10 +134,12 @@ def skyglow_panorama(
 
     Returns
     -------
-    xarray.Dataset
-        ``luminance`` [cd m-2], ``sky_brightness`` [mag arcsec-2] and ``terrain_mask`` over
-        (elevation, azimuth) [deg] (and ``X``, ``Y``, ``Z`` [cd m-2] for ``RGB``), with the
-        observer, kernel and zenith figures in the attributes.
+    SkyglowScene
+        ``panorama``: a Dataset of ``luminance`` [cd m-2], ``sky_brightness``
+        [mag arcsec-2] and ``terrain_mask`` over (elevation, azimuth) [deg] (and ``X``, ``Y``,
+        ``Z`` [cd m-2] for ``RGB``), with the observer, kernel and zenith figures in the
+        attributes; ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
+        the panorama after the polar map [s].
 
     Examples
     --------
@@ -149,57 +151,10 @@ def skyglow_panorama(
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
     >>> kernel = build_kernel(spec, progress=False)
-    >>> pano = skyglow_panorama(raster, (1000.0, 1000.0), kernel, observer_height=0.0)
+    >>> scene = skyglow_panorama(raster, (1000.0, 1000.0), kernel, observer_height=0.0)
+    >>> pano = scene.panorama
     >>> pano["luminance"].shape, bool(pano.attrs["zenith_luminance_cd_m2"] > 0)
     ((8, 16), True)
-    """
-    return compute_scene(
-        emission,
-        observer,
-        kernel,
-        dem,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
-        mode=mode,
-        components=components,
-        bands=bands,
-        spectrum=spectrum,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
-        cache_dir=cache_dir,
-        progress=progress,
-    ).panorama
-
-
-def compute_scene(
-    emission: RasterInput,
-    observer: tuple[float, float],
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
-    dem: RasterInput | None = None,
-    *,
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    turbidity: float | None = None,
-    mode: str = "pca",
-    components: int | None = None,
-    bands: str = "V",
-    spectrum: str = "LED_4000K",
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
-    cache_dir: PathLike | None = None,
-    progress: bool = True,
-) -> SkyglowScene:
-    """:func:`skyglow_panorama` with the polar map and the timing (for the file stage).
-
-    Parameters and errors are those of :func:`skyglow_panorama`.
-
-    Returns
-    -------
-    SkyglowScene
-        Panorama, polar flux map [lm] and computation time [s].
     """
     if mode not in MODES:
         raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")

@@ -20,7 +20,7 @@ from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.render import render_panorama
-from nightlights.sky.scene import RasterInput, compute_scene
+from nightlights.sky.scene import RasterInput, skyglow_panorama
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.store import KernelResult, write_kernel
 
@@ -202,7 +202,7 @@ def skyglow(
     (True, True)
     """
     target = _check_output(output)
-    scene = compute_scene(
+    scene = skyglow_panorama(
         emission,
         observer,
         kernel,

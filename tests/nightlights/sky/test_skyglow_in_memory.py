@@ -40,10 +40,10 @@ def test_raster_dataarray_and_file_give_one_panorama(
     options = {"observer_height": 1.75, "kernel": small_kernel, "dem": _dem()}
     in_memory = skyglow(raster, observer=OBSERVER, **options)
     assert in_memory.path is None and list(tmp_path.iterdir()) == []
-    pure = skyglow_panorama(raster, OBSERVER, small_kernel, _dem(), observer_height=1.75)
+    pure = skyglow_panorama(raster, OBSERVER, small_kernel, _dem(), observer_height=1.75).panorama
     from_array = skyglow_panorama(
         raster.to_xarray(), OBSERVER, small_kernel, _dem().to_xarray(), observer_height=1.75
-    )
+    ).panorama
     assert list(tmp_path.iterdir()) == []
     src, dem = tmp_path / "emission.tif", tmp_path / "dem.tif"
     raster.write(src)
@@ -76,7 +76,7 @@ def test_kernel_result_dataset_and_path_are_one_kernel(
     path = tmp_path / "k.nc"
     small_kernel.to_netcdf(path, engine="h5netcdf")
     panoramas = [
-        skyglow_panorama(_raster(), OBSERVER, kernel, observer_height=0.0)["luminance"].values
+        skyglow_panorama(_raster(), OBSERVER, kernel, observer_height=0.0).panorama["luminance"]
         for kernel in (result, small_kernel, path)
     ]
     np.testing.assert_array_equal(panoramas[0], panoramas[1])
