@@ -73,6 +73,201 @@ def supersampling(
     return np.clip(needed, 1, max_samples).astype(np.int64)
 
 
+@dataclass(frozen=True)
+class PolarCells:
+    """The lit cells of a raster and where their sub-points fall in an observer's polar grid.
+
+    The one geometry behind :func:`polar_map` (flux per bin) and the per-cell inverse
+    quantities (:mod:`nightlights.inverse`): every lit cell is split into k x k sub-points
+    (:func:`supersampling`), each carrying ``share = 1 / k**2`` of the cell's flux into one
+    (distance, azimuth) bin. Sub-points beyond the last distance edge are left out.
+
+    Attributes
+    ----------
+    rows, cols
+        Raster row and column of each lit cell, shape ``(n_cells,)``.
+    flux
+        Shape ``(bands, n_cells)``: upward flux of each lit cell [lm].
+    cell
+        Shape ``(n_sub,)``: the lit cell each kept sub-point belongs to.
+    distance_bin, azimuth_bin
+        Shape ``(n_sub,)``: the sub-point's bin.
+    share
+        Shape ``(n_sub,)``: the fraction of its cell's flux the sub-point carries [1].
+    distance_edges
+        Shape ``(n_r + 1,)`` [m].
+    n_az
+        Azimuth bins [1].
+    total_flux
+        Flux of the whole raster per band [lm].
+    """
+
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    flux: FloatArray
+    cell: NDArray[np.int64]
+    distance_bin: NDArray[np.int64]
+    azimuth_bin: NDArray[np.int64]
+    share: FloatArray
+    distance_edges: FloatArray
+    n_az: int
+    total_flux: FloatArray
+
+    @property
+    def n_cells(self) -> int:
+        """Number of lit cells."""
+        return int(self.rows.size)
+
+    def bin_index(self) -> NDArray[np.int64]:
+        """Flat (distance, azimuth) bin of each sub-point, shape ``(n_sub,)``."""
+        return self.distance_bin * self.n_az + self.azimuth_bin
+
+    def binned(self, weights: FloatArray | None = None) -> FloatArray:
+        """Flux per (band, distance, azimuth) bin, each cell's flux scaled by ``weights``.
+
+        Parameters
+        ----------
+        weights
+            Shape ``(n_cells,)``: factor on each cell's flux (default 1) [1].
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(bands, n_r, n_az)`` [lm].
+        """
+        bands = self.flux.shape[0]
+        n_r = self.distance_edges.size - 1
+        out = np.zeros((bands, n_r, self.n_az))
+        if self.cell.size == 0:
+            return out
+        index = self.bin_index()
+        scale = self.share if weights is None else self.share * weights[self.cell]
+        for band in range(bands):
+            out[band] = np.bincount(
+                index, weights=self.flux[band, self.cell] * scale, minlength=n_r * self.n_az
+            ).reshape(n_r, self.n_az)
+        return out
+
+    def per_cell(self, table: FloatArray) -> FloatArray:
+        """A quantity per unit flux in each bin, summed over each cell's sub-points.
+
+        Parameters
+        ----------
+        table
+            Shape ``(bands, n_r, n_az)`` or ``(bands, n_r)`` (the same for every azimuth):
+            the quantity per lumen in each bin [unit lm-1].
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(n_cells,)``: sum over bands and sub-points of flux x share x table [unit].
+        """
+        values = np.asarray(table, dtype=float)
+        out = np.zeros(self.n_cells)
+        if self.cell.size == 0:
+            return out
+        for band in range(self.flux.shape[0]):
+            if values.ndim == 2:
+                per_lumen = values[band, self.distance_bin]
+            else:
+                per_lumen = values[band, self.distance_bin, self.azimuth_bin]
+            out += np.bincount(
+                self.cell,
+                weights=per_lumen * self.share * self.flux[band, self.cell],
+                minlength=self.n_cells,
+            )
+        return out
+
+
+def polar_cells(
+    emission: FloatArray,
+    transform: Affine,
+    observer: tuple[float, float],
+    *,
+    distance_edges: FloatArray,
+    n_az: int,
+    max_samples: int = 16,
+) -> PolarCells:
+    """Split the lit cells of an emission raster into sub-points of the observer's polar grid.
+
+    Parameters
+    ----------
+    emission
+        Shape ``(bands, rows, cols)`` or ``(rows, cols)``: upward flux density [lm m-2];
+        NaN counts as no emission.
+    transform
+        Affine transform of the raster (square cells, north up) [m].
+    observer
+        Observer position (x, y) in the raster CRS [m].
+    distance_edges
+        Distance bin edges [m], increasing.
+    n_az
+        Azimuth bins [1].
+    max_samples
+        Largest number of sub-points per cell side [1].
+
+    Returns
+    -------
+    PolarCells
+        Sub-points nearer than the first edge (the observer's own cell) go into the first
+        distance bin, at their own azimuth; sub-points beyond the last edge are left out.
+    """
+    data = np.asarray(emission, dtype=float)
+    if data.ndim == 2:
+        data = data[None]
+    if data.ndim != 3:
+        raise InputError(f"emission must be (bands, rows, cols); got shape {data.shape}")
+    if (
+        transform.b != 0
+        or transform.d != 0
+        or abs(abs(transform.a) - abs(transform.e)) > 1e-9 * abs(transform.a)
+    ):
+        raise InputError("emission raster must have square, north-up cells")
+    edges = np.asarray(distance_edges, dtype=float)
+    cell = abs(transform.a)
+    values = np.nan_to_num(data, nan=0.0)
+    rows, cols = np.nonzero(np.any(values != 0, axis=0))
+    total = values.sum(axis=(1, 2)) * cell * cell
+    cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
+    cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
+    cell_flux = values[:, rows, cols] * cell * cell
+    k = supersampling(
+        cell, np.hypot(cx - observer[0], cy - observer[1]), n_az, max_samples=max_samples
+    )
+    members_all, d_all, a_all, share_all = [], [], [], []
+    for samples in np.unique(k):
+        members = np.nonzero(k == samples)[0]
+        offsets = (np.arange(samples) + 0.5) / samples - 0.5
+        ox, oy = np.meshgrid(offsets * cell, offsets * cell)
+        px = (cx[members, None] + ox.ravel()[None, :]) - observer[0]
+        py = (cy[members, None] + oy.ravel()[None, :]) - observer[1]
+        r = np.hypot(px, py).ravel()
+        azimuth = np.degrees(np.arctan2(px, py)).ravel() % 360.0
+        d_bin = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, None)
+        inside = d_bin < edges.size - 1
+        a_bin = np.minimum((azimuth * n_az / 360.0).astype(np.int64), n_az - 1)
+        members_all.append(np.repeat(members, samples**2)[inside])
+        d_all.append(d_bin[inside])
+        a_all.append(a_bin[inside])
+        share_all.append(np.full(int(inside.sum()), 1.0 / samples**2))
+
+    def join(parts: list[np.ndarray], dtype: type) -> np.ndarray:
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+    return PolarCells(
+        rows=rows.astype(np.int64),
+        cols=cols.astype(np.int64),
+        flux=cell_flux,
+        cell=join(members_all, np.int64),
+        distance_bin=join(d_all, np.int64),
+        azimuth_bin=join(a_all, np.int64),
+        share=join(share_all, np.float64),
+        distance_edges=edges,
+        n_az=int(n_az),
+        total_flux=total,
+    )
+
+
 def polar_map(
     emission: FloatArray,
     transform: Affine,
@@ -110,53 +305,28 @@ def polar_map(
         Sub-points nearer than the first edge (the observer's own cell) go into the first
         bin, at their own azimuth; sub-points beyond the last edge are dropped and counted.
     """
-    data = np.asarray(emission, dtype=float)
-    if data.ndim == 2:
-        data = data[None]
-    if data.ndim != 3:
-        raise InputError(f"emission must be (bands, rows, cols); got shape {data.shape}")
-    if (
-        transform.b != 0
-        or transform.d != 0
-        or abs(abs(transform.a) - abs(transform.e)) > 1e-9 * abs(transform.a)
-    ):
-        raise InputError("emission raster must have square, north-up cells")
-    edges = np.asarray(distance_edges, dtype=float)
-    cell = abs(transform.a)
-    bands = data.shape[0]
-    values = np.nan_to_num(data, nan=0.0)
-    lit = np.nonzero(np.any(values != 0, axis=0))
-    total = values.sum(axis=(1, 2)) * cell * cell
-    flux = np.zeros((bands, edges.size - 1, n_az))
-    if lit[0].size == 0:
-        return PolarMap(flux, edges, n_az, np.zeros(bands), total)
-    rows, cols = lit
-    cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
-    cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
-    cell_flux = values[:, rows, cols] * cell * cell
-    centre_distance = np.hypot(cx - observer[0], cy - observer[1])
-    k = supersampling(cell, centre_distance, n_az, max_samples=max_samples)
-    for samples in np.unique(k):
-        members = np.nonzero(k == samples)[0]
-        offsets = (np.arange(samples) + 0.5) / samples - 0.5
-        ox, oy = np.meshgrid(offsets * cell, offsets * cell)
-        px = (cx[members, None] + ox.ravel()[None, :]) - observer[0]
-        py = (cy[members, None] + oy.ravel()[None, :]) - observer[1]
-        r = np.hypot(px, py).ravel()
-        azimuth = np.degrees(np.arctan2(px, py)).ravel() % 360.0
-        weight = np.repeat(cell_flux[:, members] / samples**2, samples**2, axis=1)
-        d_bin = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, None)
-        inside = d_bin < edges.size - 1
-        a_bin = np.minimum((azimuth * n_az / 360.0).astype(np.int64), n_az - 1)
-        index = d_bin[inside] * n_az + a_bin[inside]
-        for band in range(bands):
-            flux[band] += np.bincount(
-                index, weights=weight[band, inside], minlength=flux[band].size
-            ).reshape(flux[band].shape)
+    cells = polar_cells(
+        emission,
+        transform,
+        observer,
+        distance_edges=distance_edges,
+        n_az=n_az,
+        max_samples=max_samples,
+    )
+    return _map_of(cells, None, warn=warn)
+
+
+def _map_of(cells: PolarCells, weights: FloatArray | None, *, warn: bool) -> PolarMap:
+    """The polar map of the cells' flux scaled by ``weights`` (default 1)."""
+    flux = cells.binned(weights)
+    if weights is None:
+        total = cells.total_flux
+    else:
+        total = (cells.flux * weights[None, :]).sum(axis=1)
     dropped = total - flux.sum(axis=(1, 2))
     if warn:
-        _warn_dropped(dropped, total, edges)
-    return PolarMap(flux, edges, n_az, dropped, total)
+        _warn_dropped(dropped, total, cells.distance_edges)
+    return PolarMap(flux, cells.distance_edges, cells.n_az, dropped, total)
 
 
 def _warn_dropped(dropped: FloatArray, total: FloatArray, edges: FloatArray) -> None:
@@ -258,28 +428,19 @@ def polar_map_levels(
     lit = np.any(np.nan_to_num(data, nan=0.0) != 0, axis=0)
     if np.any(lit & ~np.isfinite(heights)):
         raise InputError("source altitude missing (NaN) under lit emission cells")
-    weights = source_level_weights(np.where(lit, heights, 0.0), levels)
-    edges = np.asarray(distance_edges, dtype=float)
-    bands = data.shape[0]
-    maps = [
-        polar_map(
-            data * weights[level][None],
-            transform,
-            observer,
-            distance_edges=edges,
-            n_az=n_az,
-            max_samples=max_samples,
-            warn=False,
-        )
-        if np.any(weights[level][lit] > 0)
-        else PolarMap(  # no cell near this level: an empty map, without scanning the raster
-            np.zeros((bands, edges.size - 1, n_az)), edges, n_az, np.zeros(bands), np.zeros(bands)
-        )
-        for level in range(weights.shape[0])
-    ]
+    cells = polar_cells(
+        data,
+        transform,
+        observer,
+        distance_edges=distance_edges,
+        n_az=n_az,
+        max_samples=max_samples,
+    )
+    weights = source_level_weights(heights[cells.rows, cells.cols], levels)
+    maps = [_map_of(cells, weights[level], warn=False) for level in range(weights.shape[0])]
     _warn_dropped(
         np.sum([m.dropped_flux for m in maps], axis=0),
         np.sum([m.total_flux for m in maps], axis=0),
-        edges,
+        cells.distance_edges,
     )
     return maps

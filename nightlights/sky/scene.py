@@ -29,7 +29,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
-from nightlights.sky.horizon import horizon_elevation, scene_terrain
+from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.panorama import (
     MODES,
@@ -39,12 +39,20 @@ from nightlights.sky.panorama import (
     panorama_naive,
     panorama_pca,
 )
-from nightlights.sky.polar import PolarMap, polar_map_levels
+from nightlights.sky.polar import (
+    PolarCells,
+    PolarMap,
+    polar_cells,
+    polar_map_levels,
+    source_level_weights,
+)
 from nightlights.sky.spec import KernelSpec, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
 __all__ = [
+    "SceneSetup",
     "SkyglowScene",
+    "prepare_scene",
     "skyglow_panorama",
 ]
 
@@ -158,28 +166,6 @@ def skyglow_panorama(
     """
     if mode not in MODES:
         raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")
-    label = source_label(emission, "emission raster")
-    raster = as_raster(emission)
-    data = raster.data
-    if raster.crs is None or not raster.crs.is_projected:
-        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
-    if data.shape[0] > 2:
-        raise InputError(
-            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
-        )
-    if np.nanmin(data) < 0:
-        raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
-    xy = _observer_xy(observer, observer_crs, raster.crs)
-    if observer_height < 0:
-        raise InputError(f"observer height {observer_height} m; expected >= 0")
-    terrain = (
-        scene_terrain(dem, raster, xy, observer_height, label=source_label(dem, "DEM"))
-        if dem is not None
-        else None
-    )
-    # Altitudes above sea level: without terrain the ground is at 0 m.
-    observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
-    heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
     if bands not in ("V", "RGB"):
         raise InputError(f"bands {bands!r}; expected V or RGB")
     if bands == "RGB" and (kernel is not None or mode == "naive"):
@@ -187,33 +173,30 @@ def skyglow_panorama(
             "--bands RGB builds one scene kernel per tristimulus band: give no --kernel and "
             "use mode pca or exact"
         )
-    spec: KernelSpec | None = None
-    if kernel is not None:
-        table = load_kernel(kernel)
-    else:
-        spec = scene_kernel_spec(
-            raster,
-            xy,
-            observer_altitude=observer_altitude,
-            source_altitudes=source_levels(heights[np.any(np.nan_to_num(data) != 0, axis=0)]),
-            turbidity=2.0 if turbidity is None else turbidity,
-            n_elevation=n_elevation,
-            n_azimuth=n_azimuth,
-            n_distance=n_distance,
-            uplight=data.shape[0] == 2,
-        )
-        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    setup = prepare_scene(
+        emission,
+        observer,
+        kernel,
+        dem,
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+        cache_dir=cache_dir,
+        progress=progress,
+    )
+    raster, data, xy, table, levels = (
+        setup.raster,
+        setup.data,
+        setup.xy,
+        setup.table,
+        setup.levels,
+    )
+    label, terrain, spec, heights = setup.label, setup.terrain, setup.spec, setup.heights
+    observer_altitude, offset, slices = setup.observer_altitude, setup.offset, setup.slices
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
-    if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
-        raise InputError(
-            f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
-            "omit --turbidity or build a kernel for it"
-        )
-    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
-    offset = _level_offset(heights, data, levels)
-    heights = heights - offset
-    observer_altitude -= offset
-    slices = kernel_levels(table, observer_altitude=observer_altitude)
     tables = slices[0]
     polars = polar_map_levels(
         data,
@@ -275,16 +258,8 @@ def skyglow_panorama(
         luminance = xyz[..., 1]
     seconds = time.perf_counter() - start
     luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
-    below_terrain = np.zeros(luminance.shape, dtype=bool)
+    below_terrain = setup.below_terrain()
     if terrain is not None:
-        horizon = horizon_elevation(
-            terrain.dem,
-            terrain.transform,
-            xy,
-            eye_altitude=terrain.eye_altitude,
-            n_az=tables.n_az,
-        )
-        below_terrain = tables.elevation[:, None] < horizon[None, :]
         luminance = np.where(below_terrain, np.nan, luminance)
         if xyz is not None:
             xyz = np.where(below_terrain[..., None], np.nan, xyz)
@@ -292,7 +267,7 @@ def skyglow_panorama(
     dataset.attrs = {
         "observer_x": xy[0],
         "observer_y": xy[1],
-        "crs": raster.crs.to_wkt(),
+        "crs": setup.crs.to_wkt(),
         "observer_height_m": observer_height,
         "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
         "source_altitude_levels_m": levels,
@@ -311,6 +286,189 @@ def skyglow_panorama(
         dataset.attrs["spectrum"] = spectrum
     dataset.attrs["bands"] = bands
     return SkyglowScene(dataset, polar, seconds)
+
+
+@dataclass(frozen=True)
+class SceneSetup:
+    """An emission raster, an observer and a kernel made ready for a panorama.
+
+    What :func:`skyglow_panorama` and the inverse quantities (:mod:`nightlights.inverse`)
+    share: the checked raster, the observer in its CRS, the terrain, the kernel and one
+    kernel slice per source-altitude level at the observer's altitude. Altitudes here are
+    the kernel's (shifted by ``offset`` when a given kernel's levels do not cover the scene).
+
+    Attributes
+    ----------
+    label
+        How the emission is named in messages.
+    raster
+        The emission raster.
+    data
+        Its ``(bands, rows, cols)`` upward flux density [lm m-2].
+    xy
+        Observer (x, y) in the raster's CRS [m].
+    observer_height
+        Observer height above the ground [m].
+    observer_altitude
+        Observer altitude in the kernel's frame [m].
+    heights
+        Source altitude of every cell in the kernel's frame, ``(rows, cols)`` [m].
+    offset
+        Shift subtracted from all altitudes to fit the kernel's levels [m].
+    terrain
+        The scene terrain, or None without a DEM.
+    table
+        The kernel dataset.
+    spec
+        The scene kernel's specification (None for a given kernel).
+    levels
+        The kernel's source-altitude levels, increasing [m].
+    slices
+        One kernel slice per level at the observer's altitude.
+    """
+
+    label: str
+    raster: Raster
+    data: FloatArray
+    xy: tuple[float, float]
+    observer_height: float
+    observer_altitude: float
+    heights: FloatArray
+    offset: float
+    terrain: SceneTerrain | None
+    table: xr.Dataset
+    spec: KernelSpec | None
+    levels: FloatArray
+    slices: list[KernelSlice]
+
+    @property
+    def crs(self) -> CRS:
+        """The raster's (projected) CRS."""
+        assert self.raster.crs is not None  # checked by prepare_scene
+        return self.raster.crs
+
+    def polar_cells(self) -> PolarCells:
+        """The lit cells split into the observer's polar bins (:func:`polar_cells`)."""
+        first = self.slices[0]
+        return polar_cells(
+            self.data,
+            self.raster.transform,
+            self.xy,
+            distance_edges=first.distance_edges,
+            n_az=first.n_az,
+        )
+
+    def level_weights(self, cells: PolarCells) -> FloatArray:
+        """Shape ``(n_levels, n_cells)``: each lit cell's share of every source level [1]."""
+        return source_level_weights(self.heights[cells.rows, cells.cols], self.levels)
+
+    def below_terrain(self) -> np.ndarray:
+        """Boolean ``(n_el, n_az)``: True where the terrain hides the sky (all False
+        without a DEM)."""
+        first = self.slices[0]
+        if self.terrain is None:
+            return np.zeros((first.elevation.size, first.n_az), dtype=bool)
+        horizon = horizon_elevation(
+            self.terrain.dem,
+            self.terrain.transform,
+            self.xy,
+            eye_altitude=self.terrain.eye_altitude,
+            n_az=first.n_az,
+        )
+        return first.elevation[:, None] < horizon[None, :]
+
+
+def prepare_scene(
+    emission: RasterInput,
+    observer: tuple[float, float],
+    kernel: KernelResult | xr.Dataset | PathLike | None = None,
+    dem: RasterInput | None = None,
+    *,
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    turbidity: float | None = None,
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    n_distance: int = 64,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> SceneSetup:
+    """Check an emission raster and an observer, and load or build the kernel for them.
+
+    Parameters
+    ----------
+    emission, observer, kernel, dem, observer_crs, observer_height, turbidity
+        As :func:`skyglow_panorama`.
+    n_elevation, n_azimuth, n_distance, cache_dir, progress
+        As :func:`skyglow_panorama`, for a scene kernel.
+
+    Returns
+    -------
+    SceneSetup
+        The checked scene with one kernel slice per source level.
+    """
+    label = source_label(emission, "emission raster")
+    raster = as_raster(emission)
+    data = raster.data
+    if raster.crs is None or not raster.crs.is_projected:
+        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+    if data.shape[0] > 2:
+        raise InputError(
+            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+        )
+    if np.isfinite(data).any() and np.nanmin(data) < 0:
+        raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
+    xy = _observer_xy(observer, observer_crs, raster.crs)
+    if observer_height < 0:
+        raise InputError(f"observer height {observer_height} m; expected >= 0")
+    terrain = (
+        scene_terrain(dem, raster, xy, observer_height, label=source_label(dem, "DEM"))
+        if dem is not None
+        else None
+    )
+    # Altitudes above sea level: without terrain the ground is at 0 m.
+    observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
+    heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
+    spec: KernelSpec | None = None
+    if kernel is not None:
+        table = load_kernel(kernel)
+    else:
+        spec = scene_kernel_spec(
+            raster,
+            xy,
+            observer_altitude=observer_altitude,
+            source_altitudes=source_levels(heights[np.any(np.nan_to_num(data) != 0, axis=0)]),
+            turbidity=2.0 if turbidity is None else turbidity,
+            n_elevation=n_elevation,
+            n_azimuth=n_azimuth,
+            n_distance=n_distance,
+            uplight=data.shape[0] == 2,
+        )
+        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
+    if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
+        raise InputError(
+            f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
+            "omit --turbidity or build a kernel for it"
+        )
+    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
+    offset = _level_offset(heights, data, levels)
+    slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
+    return SceneSetup(
+        label=label,
+        raster=raster,
+        data=data,
+        xy=xy,
+        observer_height=float(observer_height),
+        observer_altitude=observer_altitude - offset,
+        heights=heights - offset,
+        offset=offset,
+        terrain=terrain,
+        table=table,
+        spec=spec,
+        levels=levels,
+        slices=slices,
+    )
 
 
 def _panorama_dataset(
