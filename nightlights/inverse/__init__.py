@@ -1,0 +1,66 @@
+"""Inverse investigation: which lights cause the glow, and the least dimming that removes it.
+
+Dobashi et al. (2023, Sec. 4) map, for an observer, each lit cell's share of the light pollution
+(Q_i, Eqs. 10-11) and of the skyglow in a region of the sky (S_i, Eqs. 13-14), and dim the cells
+by those maps (Eq. 12). This package computes them as rasters on the emission grid, with
+physical variants (each cell's part of the zenith or hemispherical sky luminance), the dimming
+that meets sky-brightness targets while removing the least flux (a linear program: skyglow is
+linear in the emission), and the region-wide zenith darkness map.
+
+References
+----------
+Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
+the Night Sky", ACM TOG 42(6) 219, Sec. 4.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_LAZY: dict[str, str] = {
+    "SkyRegion": "nightlights.inverse._region",
+    "dimming_fraction": "nightlights.inverse._dimming",
+    "least_flux_dimming": "nightlights.inverse._dimming",
+    "DimmingPlan": "nightlights.inverse._dimming",
+    "InfeasibleTargetError": "nightlights.inverse._dimming",
+    "darkness": "nightlights.inverse._darkness",
+    "DarknessResult": "nightlights.inverse._darkness",
+    "inverse_q": "nightlights.inverse.stage",
+    "inverse_s": "nightlights.inverse.stage",
+    "inverse_reduce": "nightlights.inverse.stage",
+    "least_dimming": "nightlights.inverse.stage",
+    "InfluenceResult": "nightlights.inverse.stage",
+    "ReduceResult": "nightlights.inverse.stage",
+}
+
+if TYPE_CHECKING:
+    from nightlights.inverse._darkness import DarknessResult, darkness
+    from nightlights.inverse._dimming import (
+        DimmingPlan,
+        InfeasibleTargetError,
+        dimming_fraction,
+        least_flux_dimming,
+    )
+    from nightlights.inverse._region import SkyRegion
+    from nightlights.inverse.stage import (
+        InfluenceResult,
+        ReduceResult,
+        inverse_q,
+        inverse_reduce,
+        inverse_s,
+        least_dimming,
+    )
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nightlights.inverse' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
