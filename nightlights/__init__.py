@@ -61,6 +61,16 @@ _LAZY: dict[str, str] = {
     "skyglow": "nightlights.sky",
     "KernelResult": "nightlights.sky",
     "SkyglowResult": "nightlights.sky",
+    # the inverse: which lights cause the glow, and how to dim them
+    "inverse_q": "nightlights.inverse",
+    "inverse_s": "nightlights.inverse",
+    "inverse_reduce": "nightlights.inverse",
+    "least_dimming": "nightlights.inverse",
+    "darkness": "nightlights.inverse",
+    "SkyRegion": "nightlights.inverse",
+    "InfluenceResult": "nightlights.inverse",
+    "ReduceResult": "nightlights.inverse",
+    "DarknessResult": "nightlights.inverse",
     # data types
     "Raster": "nightlights.io",
 }
@@ -72,6 +82,17 @@ if TYPE_CHECKING:
         emission,
         emission_from_viirs,
         irradiance,
+    )
+    from nightlights.inverse import (
+        DarknessResult,
+        InfluenceResult,
+        ReduceResult,
+        SkyRegion,
+        darkness,
+        inverse_q,
+        inverse_reduce,
+        inverse_s,
+        least_dimming,
     )
     from nightlights.io import Raster
     from nightlights.sky import (
@@ -108,10 +129,12 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "CRSError",
+    "DarknessResult",
     "DataQualityWarning",
     "EmissionResult",
     "EmptyInputError",
     "FitResult",
+    "InfluenceResult",
     "InputError",
     "IrradianceResult",
     "KernelResult",
@@ -122,14 +145,21 @@ __all__ = [
     "OutputError",
     "PlaceResult",
     "Raster",
+    "ReduceResult",
     "SampleResult",
+    "SkyRegion",
     "SkyglowResult",
     "__version__",
     "build_kernel",
+    "darkness",
     "emission",
     "emission_from_viirs",
     "fit",
+    "inverse_q",
+    "inverse_reduce",
+    "inverse_s",
     "irradiance",
+    "least_dimming",
     "normalize",
     "place",
     "sample",

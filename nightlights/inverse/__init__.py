@@ -28,10 +28,10 @@ _LAZY: dict[str, str] = {
     "DarknessResult": "nightlights.inverse._darkness",
     "inverse_q": "nightlights.inverse.stage",
     "inverse_s": "nightlights.inverse.stage",
-    "inverse_reduce": "nightlights.inverse.stage",
-    "least_dimming": "nightlights.inverse.stage",
+    "inverse_reduce": "nightlights.inverse.plan",
+    "least_dimming": "nightlights.inverse.plan",
     "InfluenceResult": "nightlights.inverse.stage",
-    "ReduceResult": "nightlights.inverse.stage",
+    "ReduceResult": "nightlights.inverse.plan",
 }
 
 if TYPE_CHECKING:
@@ -43,16 +43,24 @@ if TYPE_CHECKING:
         least_flux_dimming,
     )
     from nightlights.inverse._region import SkyRegion
-    from nightlights.inverse.stage import (
-        InfluenceResult,
-        ReduceResult,
-        inverse_q,
-        inverse_reduce,
-        inverse_s,
-        least_dimming,
-    )
+    from nightlights.inverse.plan import ReduceResult, inverse_reduce, least_dimming
+    from nightlights.inverse.stage import InfluenceResult, inverse_q, inverse_s
 
-__all__ = sorted(_LAZY)
+__all__ = [
+    "DarknessResult",
+    "DimmingPlan",
+    "InfeasibleTargetError",
+    "InfluenceResult",
+    "ReduceResult",
+    "SkyRegion",
+    "darkness",
+    "dimming_fraction",
+    "inverse_q",
+    "inverse_reduce",
+    "inverse_s",
+    "least_dimming",
+    "least_flux_dimming",
+]
 
 
 def __getattr__(name: str) -> Any:

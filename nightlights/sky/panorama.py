@@ -48,6 +48,11 @@ class KernelSlice:
         ``(n_r + 1,)`` [m].
     elevation
         ``(n_el,)`` pixel centres [deg].
+    observer_altitude
+        The observer altitude the slice is for [m].
+    observer_weights
+        Weights of the observer levels whose components are interleaved (one level: ``(1,)``;
+        between two: ``(1 - w, w)``) [1].
     """
 
     kernel: FloatArray
@@ -56,6 +61,7 @@ class KernelSlice:
     distance_edges: FloatArray
     elevation: FloatArray
     observer_altitude: float = float("nan")
+    observer_weights: tuple[float, ...] = (1.0,)
 
     @cached_property
     def basis_fft_by_frequency(self) -> NDArray[np.complex128]:
@@ -159,6 +165,7 @@ def kernel_slice(
         distance_edges=np.asarray(kernel["distance_edges"].values, dtype=float),
         elevation=np.asarray(kernel["elevation"].values, dtype=float),
         observer_altitude=h_o_value,
+        observer_weights=tuple(float(weight) for _, weight in pieces),
     )
 
 

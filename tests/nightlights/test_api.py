@@ -69,6 +69,11 @@ def test_every_public_name_resolves() -> None:
         "emission_from_viirs",
         "build_kernel",
         "skyglow",
+        "inverse_q",
+        "inverse_s",
+        "inverse_reduce",
+        "least_dimming",
+        "darkness",
     ],
 )
 def test_stage_documented(name: str) -> None:

@@ -1,0 +1,479 @@
+"""Dimming plans: ``inverse_reduce`` (Dobashi et al. 2023, Eq. 12) and ``least_dimming``.
+
+Both dim every lit cell of the emission raster by a fraction (both emission bands alike: a
+dimmed luminaire loses its reflected light and its uplight together), report the flux removed
+and the sky before and after for each observer, and write the dimmed emission, the dimming
+raster, a JSON summary and a before/after picture only when given paths (all checked before
+the computation, each written atomically).
+
+- :func:`inverse_reduce`: the fraction follows a Q or S raster (Eq. 12).
+- :func:`least_dimming`: the fractions that meet zenith or region sky-brightness targets for one
+  or several observers while removing the least flux; skyglow is linear in the emission, so
+  this is a linear program (a fractional knapsack for one target,
+  :func:`~nightlights.inverse.least_flux_dimming`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import InputError
+from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
+from nightlights.inverse._influence import cell_values, region_table, zenith_weights
+from nightlights.inverse._region import SkyRegion
+from nightlights.inverse.stage import (
+    KernelInput,
+    _check_outputs,
+    _lit,
+    _panorama,
+    _panorama_value,
+    _region_weights,
+    _setup,
+    _target_weights,
+)
+from nightlights.io import Raster, as_raster, atomic_output, source_label
+from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
+from nightlights.sky.polar import PolarCells
+from nightlights.sky.scene import RasterInput
+
+__all__ = ["ReduceResult", "inverse_reduce", "least_dimming"]
+
+
+@dataclass(frozen=True)
+class ReduceResult:
+    """What :func:`inverse_reduce` or :func:`least_dimming` computed.
+
+    Attributes
+    ----------
+    raster
+        The dimmed emission, same bands as the input [lm m-2].
+    dimming
+        One band ``dimming``: the fraction of each cell's flux removed, NaN where unlit [1].
+    summary
+        Flux removed [lm, %] and the sky before and after for every observer
+        (JSON-serialisable).
+    path
+        The dimmed emission written, or None.
+    """
+
+    raster: Raster
+    dimming: Raster
+    summary: dict[str, Any]
+    path: Path | None = None
+
+
+def inverse_reduce(
+    emission: RasterInput,
+    output: PathLike | None = None,
+    *,
+    by: RasterInput,
+    qa: float,
+    qb: float,
+    gamma: float = 1.0,
+    dem: RasterInput | None = None,
+    kernel: KernelInput = None,
+    dimming_output: PathLike | None = None,
+    summary_output: PathLike | None = None,
+    png: PathLike | None = None,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> ReduceResult:
+    """Dim the lights by their Q or S (Dobashi et al. 2023, Eq. 12), on both emission bands.
+
+    gamma_i = clip((Q_i - Q_a) / (Q_b - Q_a), 0, 1) gamma_usr and L_i <- (1 - gamma_i) L_i:
+    cells above Q_b lose the fraction gamma_usr of their flux, cells below Q_a keep all of it.
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] (Raster, DataArray or path).
+    output
+        Dimmed emission (COG), written atomically; None writes nothing.
+    by
+        A Q or S raster of :func:`inverse_q` / :func:`inverse_s` on the emission's grid; its
+        tags name the observer (and region) for the before/after figures.
+    qa, qb
+        Q_a < Q_b: influence below which nothing is dimmed and above which gamma_usr is
+        [cd m-2, the unit of ``by``].
+    gamma
+        gamma_usr in [0, 1] [1].
+    dem
+        Terrain for the before/after panoramas (as used for ``by``) [m].
+    kernel
+        Kernel for the before/after panoramas (default: the scene kernel, cached).
+    dimming_output
+        Dimming raster (COG), band ``dimming`` [1].
+    summary_output
+        Summary JSON.
+    png
+        Before/after panoramas side by side.
+    cache_dir, progress
+        Kernel cache folder; progress bar while building a kernel.
+
+    Returns
+    -------
+    ReduceResult
+        The dimmed emission, the dimming and the summary.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.inverse import inverse_q
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 9, 11] = flux[0, 2, 2] = 1.0  # near, far
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> kernel = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... )
+    >>> q = inverse_q(raster, observer=(1000.0, 1000.0), kernel=kernel).raster
+    >>> qa, qb = np.nanmin(q.data), np.nanmax(q.data)
+    >>> result = inverse_reduce(raster, by=q, qa=qa, qb=qb, gamma=0.5, kernel=kernel)
+    >>> float(result.dimming.data[0, 9, 11]), float(result.dimming.data[0, 2, 2])  # near: halved
+    (0.5, 0.0)
+    >>> round(result.summary["flux_removed_percent"], 1)
+    25.0
+    """
+    _check_outputs(output, dimming_output, summary_output, png)
+    raster = as_raster(emission)
+    label = source_label(by, "influence raster")
+    influence = as_raster(by)
+    _same_grid(raster, influence, label)
+    lit = _lit(raster.data)
+    fraction = np.where(lit, dimming_fraction(influence.data[0], qa, qb, gamma), 0.0)
+    tags = influence.tags
+    observer = _tag_observer(tags, label)
+    region = tags.get("region")
+    targets = [("zenith", None)] + ([("region", SkyRegion.parse(region))] if region else [])
+    summary = _summary(
+        raster,
+        fraction,
+        [observer],
+        [targets],
+        weight=tags.get("weight", "solid-angle"),
+        observer_height=float(tags.get("observer_height_m", 1.7)),
+        dem=dem,
+        kernel=kernel,
+        cache_dir=cache_dir,
+        progress=progress,
+        png=png,
+    )
+    summary["rule"] = {
+        "equation": "Dobashi et al. 2023, Eq. 12",
+        "by": label,
+        "metric": tags.get("metric", ""),
+        "qa": float(qa),
+        "qb": float(qb),
+        "gamma": float(gamma),
+    }
+    return _reduce_outputs(raster, fraction, summary, output, dimming_output, summary_output)
+
+
+def least_dimming(
+    emission: RasterInput,
+    output: PathLike | None = None,
+    *,
+    observers: Sequence[tuple[float, float]],
+    target_zenith: float | None = None,
+    target_region: Sequence[tuple[str | PathLike | SkyRegion, float]] = (),
+    max_dimming: float | RasterInput = 1.0,
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    dem: RasterInput | None = None,
+    kernel: KernelInput = None,
+    dimming_output: PathLike | None = None,
+    summary_output: PathLike | None = None,
+    png: PathLike | None = None,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> ReduceResult:
+    """The dimming that meets sky-brightness targets while removing the least flux.
+
+    Skyglow is linear in the emission: dimming cell i by the fraction x_i lowers target j by
+    A_ji x_i, where A_ji is the cell's part of that target (:func:`inverse_q` ``zenith``,
+    :func:`inverse_s`). The plan minimises sum_i flux_i x_i subject to every target being met
+    and 0 <= x_i <= max_dimming_i: a fractional knapsack solved exactly by the greedy rule for
+    one target, a linear program (HiGHS) for several
+    (:func:`~nightlights.inverse.least_flux_dimming`).
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] (Raster, DataArray or path).
+    output
+        Dimmed emission (COG), written atomically; None writes nothing.
+    observers
+        Observer positions (x, y) in ``observer_crs``, inside the raster [m or deg].
+    target_zenith
+        Zenith sky brightness every observer must reach [mag arcsec-2].
+    target_region
+        (region, brightness) pairs: the region's solid-angle-weighted mean luminance every
+        observer must reach [deg, mag arcsec-2].
+    max_dimming
+        Largest fraction of any cell's flux that may be removed: a number in [0, 1] or a
+        raster on the emission grid (safety lighting stays) [1].
+    observer_crs, observer_height, dem, kernel, cache_dir, progress
+        As :func:`inverse_q`.
+    dimming_output, summary_output, png
+        As :func:`inverse_reduce`.
+
+    Returns
+    -------
+    ReduceResult
+        The dimmed emission, the dimming and the summary (with the targets, the sky after,
+        and the solver used).
+
+    Raises
+    ------
+    InfeasibleTargetError
+        When even the largest allowed dimming misses a target (the message names the best
+        reachable value).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 9, 11] = flux[0, 2, 2] = 1.0  # near, far
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> kernel = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... )
+    >>> plan = least_dimming(raster, observers=[(1000.0, 1000.0)], target_zenith=24.0,
+    ...                      kernel=kernel)
+    >>> zenith = plan.summary["observers"][0]["zenith"]
+    >>> round(zenith["before_mag_arcsec2"], 2), round(zenith["after_mag_arcsec2"], 2)
+    (23.65, 24.0)
+    >>> plan.summary["plan"]["method"]
+    'greedy'
+    """
+    if target_zenith is None and not target_region:
+        raise InputError("no target: give target_zenith and/or target_region")
+    if not observers:
+        raise InputError("no observer: the targets are for at least one observer")
+    _check_outputs(output, dimming_output, summary_output, png)
+    raster = as_raster(emission)
+    regions = [(SkyRegion.parse(region), float(mag)) for region, mag in target_region]
+    targets: list[tuple[str, SkyRegion | None, float]] = []
+    if target_zenith is not None:
+        targets.append(("zenith", None, float(target_zenith)))
+    targets += [("region", region, mag) for region, mag in regions]
+    lit = _lit(raster.data)
+    cap = _max_dimming(max_dimming, raster)
+    contributions, before, goal, labels = [], [], [], []
+    scene_cells: PolarCells | None = None
+    for index, observer in enumerate(observers):
+        setup = _setup(
+            raster,
+            observer,
+            kernel,
+            dem,
+            observer_crs=observer_crs,
+            observer_height=observer_height,
+            cache_dir=cache_dir,
+            progress=progress,
+        )
+        cells = setup.polar_cells()
+        scene_cells = cells if scene_cells is None else scene_cells
+        levels = setup.level_weights(cells)
+        for kind, region, mag in targets:
+            weights = _target_weights(setup, kind, region)
+            tables = [region_table(t, weights) for t in setup.slices]
+            contributions.append(cell_values(cells, levels, tables))
+            before.append(_panorama_value(setup, cells, weights))
+            goal.append(float(magnitude_to_luminance(mag)))
+            where = f"observer {index + 1} ({setup.xy[0]:.1f}, {setup.xy[1]:.1f})"
+            labels.append(f"{kind} {region.text if region else ''} at {where}".replace("  ", " "))
+    assert scene_cells is not None
+    flux = scene_cells.flux.sum(axis=0)
+    plan = least_flux_dimming(
+        np.asarray(contributions),
+        flux,
+        np.asarray(before),
+        np.asarray(goal),
+        max_dimming=cap[scene_cells.rows, scene_cells.cols],
+        labels=labels,
+    )
+    fraction = np.zeros(raster.shape)
+    fraction[scene_cells.rows, scene_cells.cols] = plan.fraction
+    fraction = np.where(lit, fraction, 0.0)
+    summary = _summary(
+        raster,
+        fraction,
+        list(observers),
+        [[(kind, region) for kind, region, _ in targets]] * len(observers),
+        weight="solid-angle",
+        observer_height=observer_height,
+        observer_crs=observer_crs,
+        dem=dem,
+        kernel=kernel,
+        cache_dir=cache_dir,
+        progress=progress,
+        png=png,
+    )
+    summary["plan"] = {
+        "method": plan.method,
+        "targets": [
+            {
+                "target": label,
+                "asked_mag_arcsec2": float(luminance_to_magnitude(g)),
+                "before_cd_m2": float(b),
+                "after_cd_m2": float(a),
+                "after_mag_arcsec2": float(luminance_to_magnitude(max(a, 0.0))),
+            }
+            for label, g, b, a in zip(labels, goal, plan.before, plan.after, strict=True)
+        ],
+    }
+    return _reduce_outputs(raster, fraction, summary, output, dimming_output, summary_output)
+
+
+# --- helpers ------------------------------------------------------------------------------------
+
+
+def _same_grid(raster: Raster, other: Raster, label: str) -> None:
+    if other.shape != raster.shape or not other.transform.almost_equals(raster.transform):
+        raise InputError(
+            f"{label}: grid {other.shape} at {tuple(other.transform)[:6]} differs from the "
+            f"emission's {raster.shape} at {tuple(raster.transform)[:6]}; expected the same grid"
+        )
+
+
+def _tag_observer(tags: dict[str, str] | Any, label: str) -> tuple[float, float]:
+    try:
+        return float(tags["observer_x"]), float(tags["observer_y"])
+    except (KeyError, ValueError) as exc:
+        raise InputError(
+            f"{label}: no observer in its tags; expected a raster written by inverse q or inverse s"
+        ) from exc
+
+
+def _max_dimming(value: float | RasterInput, raster: Raster) -> FloatArray:
+    if isinstance(value, bool):
+        raise InputError(f"max dimming {value!r}; expected a number in [0, 1] or a raster")
+    if isinstance(value, int | float):
+        cap = np.full(raster.shape, float(value))
+        label = f"max dimming {value!r}"
+    else:
+        label = source_label(value, "max-dimming raster")
+        other = as_raster(value)
+        _same_grid(raster, other, label)
+        cap = np.nan_to_num(other.data[0], nan=0.0)
+    if not (np.all(np.isfinite(cap)) and cap.min() >= 0.0 and cap.max() <= 1.0):
+        raise InputError(f"{label}: values {cap.min():g}-{cap.max():g}; expected within [0, 1]")
+    return cap
+
+
+def _summary(
+    raster: Raster,
+    fraction: FloatArray,
+    observers: Sequence[tuple[float, float]],
+    targets: Sequence[Sequence[tuple[str, SkyRegion | None]]],
+    *,
+    weight: str,
+    observer_height: float,
+    observer_crs: str | None = None,
+    dem: RasterInput | None,
+    kernel: KernelInput,
+    cache_dir: PathLike | None,
+    progress: bool,
+    png: PathLike | None,
+) -> dict[str, Any]:
+    """Flux removed and, per observer, the zenith (and regions) before and after."""
+    cell_area = raster.resolution**2
+    flux = np.nan_to_num(raster.data).sum(axis=0) * cell_area
+    removed = float(np.sum(flux * fraction))
+    total = float(flux.sum())
+    entries = []
+    pictures = []
+    for observer, wanted in zip(observers, targets, strict=True):
+        setup = _setup(
+            raster,
+            observer,
+            kernel,
+            dem,
+            observer_crs=observer_crs,
+            observer_height=observer_height,
+            cache_dir=cache_dir,
+            progress=progress,
+        )
+        cells = setup.polar_cells()
+        before = _panorama(setup, cells)
+        after = _panorama(setup, cells, 1.0 - fraction[cells.rows, cells.cols])
+        pictures.append((setup, before, after))
+        entry: dict[str, Any] = {"x": setup.xy[0], "y": setup.xy[1]}
+        for _, region in wanted:
+            weights = (
+                zenith_weights(before.shape[0], before.shape[1])
+                if region is None
+                else _region_weights(setup, region, weight)
+            )
+            values = {
+                "before_cd_m2": float(np.nansum(weights * before)),
+                "after_cd_m2": float(np.nansum(weights * after)),
+            }
+            values["before_mag_arcsec2"] = float(luminance_to_magnitude(values["before_cd_m2"]))
+            values["after_mag_arcsec2"] = float(luminance_to_magnitude(values["after_cd_m2"]))
+            if region is None:
+                entry["zenith"] = values
+            else:
+                entry.setdefault("regions", []).append(
+                    {"region": region.text, "weight": weight, **values}
+                )
+        entries.append(entry)
+    if png is not None:
+        from nightlights.inverse._figures import render_before_after
+
+        setup, before, after = pictures[0]
+        render_before_after(before, after, setup.slices[0].elevation, png)
+    return {
+        "flux_before_lm": total,
+        "flux_removed_lm": removed,
+        "flux_removed_percent": 100.0 * removed / total if total > 0 else 0.0,
+        "lit_cells": int(_lit(raster.data).sum()),
+        "dimmed_cells": int(np.sum(fraction > 0)),
+        "observers": entries,
+    }
+
+
+def _reduce_outputs(
+    raster: Raster,
+    fraction: FloatArray,
+    summary: dict[str, Any],
+    output: PathLike | None,
+    dimming_output: PathLike | None,
+    summary_output: PathLike | None,
+) -> ReduceResult:
+    lit = _lit(raster.data)
+    reduced = Raster(
+        raster.data * (1.0 - fraction)[None],
+        raster.transform,
+        raster.crs,
+        raster.descriptions,
+        raster.units,
+        {**raster.tags, "dimmed": "yes", "flux_removed_lm": f"{summary['flux_removed_lm']!r}"},
+        raster.band_tags,
+    )
+    dimming = Raster(
+        np.where(lit, fraction, np.nan)[None],
+        raster.transform,
+        raster.crs,
+        ("dimming",),
+        ("1",),
+        {"meaning": "fraction of each cell's upward flux removed"},
+    )
+    path = reduced.write(output) if output is not None else None
+    if dimming_output is not None:
+        summary["dimming_raster"] = str(dimming.write(dimming_output))
+    if summary_output is not None:
+        with atomic_output(summary_output) as tmp:
+            Path(tmp).write_text(json.dumps(summary, indent=2) + "\n")
+    return ReduceResult(reduced, dimming, summary, path)

@@ -1,0 +1,423 @@
+"""File stages of the inverse maps: ``inverse_q`` and ``inverse_s``.
+
+Each computes in memory on the emission raster's grid and writes its raster (COG, NaN where
+unlit) only when given a path: the output location is checked before the computation and the
+file is written atomically.
+
+- :func:`inverse_q`: each lit cell's light-pollution level for an observer, Q_i (Dobashi et al.
+  2023, Eqs. 10-11), or its part of the zenith or hemisphere-mean sky luminance.
+- :func:`inverse_s`: each cell's part of the skyglow in a region of the sky, S_i (Eqs. 13-14).
+
+The dimming stages that use them are in :mod:`nightlights.inverse.plan`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import InputError
+from nightlights.inverse._influence import (
+    METRICS,
+    cell_values,
+    cell_values_brute,
+    hemisphere_weights,
+    pca_norm_table,
+    region_table,
+    region_weights,
+    zenith_weights,
+)
+from nightlights.inverse._region import SkyRegion
+from nightlights.io import Raster
+from nightlights.sky.panorama import panorama_pca
+from nightlights.sky.polar import PolarCells, PolarMap
+from nightlights.sky.scene import RasterInput, SceneSetup, prepare_scene
+from nightlights.sky.store import KernelResult
+
+__all__ = ["InfluenceResult", "inverse_q", "inverse_s"]
+
+#: What a kernel argument accepts.
+KernelInput = KernelResult | xr.Dataset | PathLike | None
+#: S methods: PCA with FFT cross-correlation, or each cell's raw kernel image (reference).
+S_METHODS = ("pca", "brute")
+
+_BAND = {
+    "pca-norm": ("q_pca_norm", "light-pollution level Q_i, Dobashi et al. 2023 Eq. 11"),
+    "zenith": ("zenith_luminance", "part of the zenith sky luminance"),
+    "hemisphere": ("hemisphere_luminance", "part of the mean luminance of the visible sky"),
+    "region": ("region_luminance", "part of the sky luminance in the region, Eq. 14"),
+}
+
+
+@dataclass(frozen=True)
+class InfluenceResult:
+    """What :func:`inverse_q` or :func:`inverse_s` computed.
+
+    Attributes
+    ----------
+    raster
+        One band on the emission grid, NaN where unlit [cd m-2].
+    metric
+        ``pca-norm``, ``zenith``, ``hemisphere`` or ``region``.
+    total
+        Sum over the cells [cd m-2].
+    panorama_value
+        The same quantity from the forward panorama (zenith luminance, hemisphere or region
+        mean or sum); NaN for ``pca-norm``, which does not add up to a panorama value [cd m-2].
+    seconds
+        Time of the per-cell computation after the scene and kernel were ready [s].
+    path
+        The raster written, or None.
+    """
+
+    raster: Raster
+    metric: str
+    total: float
+    panorama_value: float
+    seconds: float
+    path: Path | None = None
+
+
+def inverse_q(
+    emission: RasterInput,
+    output: PathLike | None = None,
+    *,
+    observer: tuple[float, float],
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    dem: RasterInput | None = None,
+    kernel: KernelInput = None,
+    metric: str = "pca-norm",
+    turbidity: float | None = None,
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    n_distance: int = 64,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> InfluenceResult:
+    """Each lit cell's light-pollution level for an observer (Dobashi et al. 2023, Eqs. 10-11).
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path); one
+        band Lambertian, two bands Lambertian + direct uplight.
+    output
+        Q raster (COG), written atomically; None writes nothing.
+    observer
+        Observer (x, y) in ``observer_crs``, inside the raster [m or deg].
+    observer_crs
+        CRS of ``observer`` (default: the raster's).
+    observer_height
+        Observer height above the ground [m].
+    dem
+        Terrain heights above sea level [m] (see :func:`nightlights.sky.skyglow`).
+    kernel
+        Precomputed kernel (default: a scene kernel, cached).
+    metric
+        ``pca-norm``: Q_i = flux_i sqrt(sum_k c_k^2) (Eqs. 10-11), the L2 norm of the cell's
+        sky image over the panorama's pixels; ``zenith``: the cell's part of the zenith
+        luminance; ``hemisphere``: its part of the solid-angle-weighted mean luminance of the
+        visible sky. The last two add up over the cells to the forward panorama's value.
+    turbidity
+        Atmospheric turbidity [1]; default 2, or the given kernel's.
+    n_elevation, n_azimuth, n_distance
+        Grid of a scene kernel [1].
+    cache_dir
+        Kernel cache folder.
+    progress
+        Progress bar while building a kernel.
+
+    Returns
+    -------
+    InfluenceResult
+        Band ``q_pca_norm``, ``zenith_luminance`` or ``hemisphere_luminance`` [cd m-2].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = flux[0, 12, 3] = 1.0  # [lm m-2]
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> kernel = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... )
+    >>> q = inverse_q(raster, observer=(1000.0, 1000.0), kernel=kernel, metric="zenith")
+    >>> int(np.isfinite(q.raster.data).sum()), bool(np.isclose(q.total, q.panorama_value))
+    (2, True)
+    """
+    if metric not in METRICS:
+        raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
+    _check_outputs(output)
+    setup = _setup(
+        emission,
+        observer,
+        kernel,
+        dem,
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+        cache_dir=cache_dir,
+        progress=progress,
+    )
+    start = time.perf_counter()
+    cells = setup.polar_cells()
+    levels = setup.level_weights(cells)
+    weights: FloatArray | None = None
+    if metric == "pca-norm":
+        tables = [pca_norm_table(t) for t in setup.slices]
+    else:
+        first = setup.slices[0]
+        weights = (
+            zenith_weights(first.elevation.size, first.n_az)
+            if metric == "zenith"
+            else hemisphere_weights(setup.below_terrain(), first.elevation)
+        )
+        tables = [region_table(t, weights) for t in setup.slices]
+    values = cell_values(cells, levels, tables)
+    seconds = time.perf_counter() - start
+    panorama_value = math.nan if weights is None else _panorama_value(setup, cells, weights)
+    result = _influence_result(
+        setup, cells, values, metric, panorama_value, seconds, {"metric": metric}
+    )
+    return _written(result, output)
+
+
+def inverse_s(
+    emission: RasterInput,
+    output: PathLike | None = None,
+    *,
+    observer: tuple[float, float],
+    region: str | PathLike | SkyRegion,
+    weight: str = "solid-angle",
+    method: str = "pca",
+    components: int | None = None,
+    observer_crs: str | None = None,
+    observer_height: float = 1.7,
+    dem: RasterInput | None = None,
+    kernel: KernelInput = None,
+    turbidity: float | None = None,
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    n_distance: int = 64,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> InfluenceResult:
+    """Each lit cell's part of the skyglow in a region of the sky (Dobashi et al. 2023, Eq. 14).
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] (Raster, DataArray or path).
+    output
+        S raster (COG), written atomically; None writes nothing.
+    observer
+        Observer (x, y) in ``observer_crs``, inside the raster [m or deg].
+    region
+        Region of the sky (:class:`~nightlights.inverse.SkyRegion` or its text:
+        ``"az,el az,el ..."`` closed, ``zenith:R``, ``horizon:AZ1,AZ2,EL``, or a GeoJSON/WKT
+        file) [deg].
+    weight
+        ``solid-angle``: S_i is the cell's part of the region's solid-angle-weighted mean
+        luminance; ``pixel``: the unweighted sum over the region's pixels (Eq. 14).
+    method
+        ``pca``: per-basis FFT cross-correlation of the region with the bases (fast);
+        ``brute``: each cell's raw kernel image summed over the region (reference).
+    components
+        PCA bases used (default: all the kernel stores) [1].
+    observer_crs, observer_height, dem, kernel, turbidity, n_elevation, n_azimuth, n_distance, \
+cache_dir, progress
+        As :func:`inverse_q`.
+
+    Returns
+    -------
+    InfluenceResult
+        Band ``region_luminance`` [cd m-2]; ``total`` equals the forward panorama's region
+        value (``panorama_value``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 10, 18] = flux[0, 10, 1] = 1.0  # east, west
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> kernel = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... )
+    >>> s = inverse_s(raster, observer=(1000.0, 950.0), region="horizon:45,135,30", kernel=kernel)
+    >>> bool(s.raster.data[0, 10, 18] > s.raster.data[0, 10, 1])  # the eastern cell leads
+    True
+    """
+    if method not in S_METHODS:
+        raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
+    sky_region = SkyRegion.parse(region)
+    _check_outputs(output)
+    setup = _setup(
+        emission,
+        observer,
+        kernel,
+        dem,
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+        cache_dir=cache_dir,
+        progress=progress,
+    )
+    weights = _region_weights(setup, sky_region, weight)
+    start = time.perf_counter()
+    cells = setup.polar_cells()
+    levels = setup.level_weights(cells)
+    if method == "pca":
+        tables = [region_table(t, weights, components) for t in setup.slices]
+        values = cell_values(cells, levels, tables)
+    else:
+        values = cell_values_brute(cells, levels, setup.slices, weights)
+    seconds = time.perf_counter() - start
+    result = _influence_result(
+        setup,
+        cells,
+        values,
+        "region",
+        _panorama_value(setup, cells, weights),
+        seconds,
+        {"region": sky_region.text, "weight": weight, "method": method},
+    )
+    return _written(result, output)
+
+
+# --- helpers ----------------------------------------------------------------------------------
+
+
+def _setup(
+    emission: RasterInput,
+    observer: tuple[float, float],
+    kernel: KernelInput,
+    dem: RasterInput | None,
+    **options: Any,
+) -> SceneSetup:
+    """The scene for one observer, which must stand inside the raster."""
+    setup = prepare_scene(emission, observer, kernel, dem, **options)
+    left, bottom, right, top = setup.raster.bounds
+    x, y = setup.xy
+    if not (left <= x <= right and bottom <= y <= top):
+        raise InputError(
+            f"observer ({x:.1f}, {y:.1f}) lies outside {setup.label} "
+            f"({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}); the inverse maps are for an "
+            "observer inside the emission raster"
+        )
+    return setup
+
+
+def _region_weights(setup: SceneSetup, region: SkyRegion, weight: str) -> FloatArray:
+    first = setup.slices[0]
+    mask = region.mask(first.elevation, _azimuths(first.n_az)) & ~setup.below_terrain()
+    return region_weights(mask, first.elevation, weight=weight)
+
+
+def _target_weights(setup: SceneSetup, kind: str, region: SkyRegion | None) -> FloatArray:
+    first = setup.slices[0]
+    if region is None:
+        return zenith_weights(first.elevation.size, first.n_az)
+    return _region_weights(setup, region, "solid-angle")
+
+
+def _azimuths(n_az: int) -> FloatArray:
+    return (np.arange(n_az) + 0.5) * 360.0 / n_az
+
+
+def _panorama(setup: SceneSetup, cells: PolarCells, scale: FloatArray | None = None) -> FloatArray:
+    """The forward PCA panorama [cd m-2] (cells' flux scaled by ``scale``), NaN under terrain."""
+    levels = setup.level_weights(cells)
+    maps = []
+    for level in levels:
+        weight = level if scale is None else level * scale
+        maps.append(PolarMap(cells.binned(weight), cells.distance_edges, cells.n_az, *_zeros(2)))
+    luminance = np.maximum(panorama_pca(maps, setup.slices), 0.0)
+    return np.where(setup.below_terrain(), np.nan, luminance)
+
+
+def _zeros(count: int) -> tuple[FloatArray, ...]:
+    return tuple(np.zeros(1) for _ in range(count))
+
+
+def _panorama_value(setup: SceneSetup, cells: PolarCells, weights: FloatArray) -> float:
+    """sum W L of the forward panorama (what the per-cell values add up to)."""
+    return float(np.nansum(weights * _panorama(setup, cells)))
+
+
+def _influence_result(
+    setup: SceneSetup,
+    cells: PolarCells,
+    values: FloatArray,
+    metric: str,
+    panorama_value: float,
+    seconds: float,
+    extra: dict[str, str],
+) -> InfluenceResult:
+    grid = np.full(setup.raster.shape, np.nan)
+    grid[cells.rows, cells.cols] = values
+    name, meaning = _BAND[metric]
+    tags = {
+        "observer_x": f"{setup.xy[0]!r}",
+        "observer_y": f"{setup.xy[1]!r}",
+        "observer_height_m": f"{setup.observer_height!r}",
+        "observer_altitude_m": f"{setup.observer_altitude + setup.offset!r}",
+        "metric": metric,
+        "total_cd_m2": f"{float(values.sum())!r}",
+        "panorama_value_cd_m2": f"{panorama_value!r}",
+        "kernel_hash": str(setup.table.attrs.get("content_hash", "")),
+        "turbidity": str(setup.table.attrs.get("turbidity", "")),
+        "emission": setup.label,
+        "reference": "Dobashi et al. 2023, ACM TOG 42(6) 219, Sec. 4",
+        **extra,
+    }
+    raster = Raster(
+        grid[None],
+        setup.raster.transform,
+        setup.crs,
+        (name,),
+        ("cd m-2",),
+        tags,
+        ({"long_name": meaning},),
+    )
+    return InfluenceResult(raster, metric, float(values.sum()), panorama_value, seconds)
+
+
+def _written(result: InfluenceResult, output: PathLike | None) -> InfluenceResult:
+    if output is None:
+        return result
+    path = result.raster.write(output)
+    return InfluenceResult(
+        result.raster, result.metric, result.total, result.panorama_value, result.seconds, path
+    )
+
+
+def _check_outputs(*paths: PathLike | None) -> None:
+    """Every output's folder exists (checked before any computation)."""
+    for path in paths:
+        if path is None:
+            continue
+        target = Path(path)
+        if not target.parent.is_dir():
+            raise InputError(f"{target}: output folder {target.parent} does not exist")
+
+
+def _lit(data: FloatArray) -> np.ndarray:
+    return np.asarray(np.any(np.nan_to_num(data) != 0, axis=0))
