@@ -25,6 +25,7 @@ COMMAND_MODULES = (
     "cli.emission",
     "cli.kernel",
     "cli.skyglow",
+    "cli.inverse",
     "cli.photometry",
     "cli.demo",
 )
