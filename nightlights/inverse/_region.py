@@ -79,11 +79,10 @@ class SkyRegion:
 
     >>> import numpy as np
     >>> region = SkyRegion.parse("350,0 10,0 10,30 350,30 350,0")
-    >>> region.mask(np.array([15.0, 45.0]), np.array([5.0, 180.0, 355.0])).astype(int)
-    array([[1, 0, 1],
-           [0, 0, 0]])
-    >>> SkyRegion.parse("zenith:20").mask(np.array([80.0, 60.0]), np.array([0.0])).ravel()
-    array([ True, False])
+    >>> region.mask(np.array([15.0, 45.0]), np.array([5.0, 180.0, 355.0])).tolist()
+    [[True, False, True], [False, False, False]]
+    >>> SkyRegion.parse("zenith:20").mask(np.array([80.0, 60.0]), np.array([0.0])).tolist()
+    [[True], [False]]
     """
 
     kind: str
