@@ -70,6 +70,8 @@ def demo(
             f"streetlights alone (Bortle {bortle})",
             soft_wrap=True,
         )
+    for line in result.findings:
+        console.print(f"  {line}", soft_wrap=True)
 
 
 commands = [demo]

@@ -31,6 +31,8 @@ def plot_raster_map(
     title: str | None = None,
     credit: str | None = None,
     zoom: tuple[float, float, float, float] | None = None,
+    points_label: str = "poles",
+    points_size: float = 2.0,
 ) -> Path:
     """Draw one band of a raster on a logarithmic colour scale, with points on top.
 
@@ -52,6 +54,10 @@ def plot_raster_map(
         Data credit printed in the corner.
     zoom
         Optional ``(xmin, ymin, xmax, ymax)`` [m] drawn as a second, enlarged panel.
+    points_label
+        Legend label of the points.
+    points_size
+        Marker size of the points in the main panel [pt^2].
 
     Returns
     -------
@@ -90,10 +96,10 @@ def plot_raster_map(
             ax.scatter(
                 points.geometry.x,
                 points.geometry.y,
-                s=2 if index == 0 else 12,
+                s=points_size if index == 0 else 6 * points_size,
                 c="cyan",
                 linewidths=0,
-                label="poles",
+                label=points_label,
             )
             ax.legend(loc="lower left", markerscale=2)
         if index == 1 and zoom is not None:

@@ -211,7 +211,8 @@ def least_dimming(
     output
         Dimmed emission (COG), written atomically; None writes nothing.
     observers
-        Observer positions (x, y) in ``observer_crs``, inside the raster [m or deg].
+        Observer positions (x, y) in ``observer_crs``, inside the raster or within
+        the kernel's range of it [m or deg].
     target_zenith
         Zenith sky brightness every observer must reach [mag arcsec-2].
     target_region

@@ -112,7 +112,8 @@ def inverse_q(
     output
         Q raster (COG), written atomically; None writes nothing.
     observer
-        Observer (x, y) in ``observer_crs``, inside the raster [m or deg].
+        Observer (x, y) in ``observer_crs``, inside the raster or within the kernel's range
+        of it [m or deg].
     observer_crs
         CRS of ``observer`` (default: the raster's).
     observer_height
@@ -224,7 +225,8 @@ def inverse_s(
     output
         S raster (COG), written atomically; None writes nothing.
     observer
-        Observer (x, y) in ``observer_crs``, inside the raster [m or deg].
+        Observer (x, y) in ``observer_crs``, inside the raster or within the kernel's range
+        of it [m or deg].
     region
         Region of the sky (:class:`~nightlights.inverse.SkyRegion` or its text:
         ``"az,el az,el ..."`` closed, ``zenith:R``, ``horizon:AZ1,AZ2,EL``, or a GeoJSON/WKT
@@ -312,15 +314,23 @@ def _setup(
     dem: RasterInput | None,
     **options: Any,
 ) -> SceneSetup:
-    """The scene for one observer, which must stand inside the raster."""
+    """The scene for one observer, who must stand within the kernel's reach of the raster.
+
+    An observer outside the raster is allowed (a dark site outside the city is a main use),
+    but not one so far that no cell of the raster is within the kernel's range: every
+    influence would be zero, and such an observer is almost always a coordinate mistake.
+    """
     setup = prepare_scene(emission, observer, kernel, dem, **options)
     left, bottom, right, top = setup.raster.bounds
     x, y = setup.xy
-    if not (left <= x <= right and bottom <= y <= top):
+    gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
+    reach = float(setup.slices[0].distance_edges[-1])
+    if gap >= reach:
         raise InputError(
-            f"observer ({x:.1f}, {y:.1f}) lies outside {setup.label} "
-            f"({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}); the inverse maps are for an "
-            "observer inside the emission raster"
+            f"observer ({x:.1f}, {y:.1f}) lies {gap / 1000:.3g} km outside {setup.label} "
+            f"({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond the kernel's range "
+            f"({reach / 1000:.3g} km): no cell can light its sky; check the coordinates and "
+            "--observer-crs"
         )
     return setup
 

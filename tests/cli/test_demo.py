@@ -61,13 +61,40 @@ def test_demo_skyglow_panoramas(demo_out: Path) -> None:
     outside.close()
 
 
+def test_demo_inverse_maps_and_dimming(demo_out: Path) -> None:
+    import json
+
+    import xarray as xr
+
+    with rasterio.open(demo_out / "inverse_q_esplanadi.tif") as src:
+        q = src.read(1)
+        assert src.descriptions == ("zenith_luminance",) and src.units == ("cd m-2",)
+    with rasterio.open(demo_out / "emission.tif") as src:
+        lit = np.any(src.read() > 0, axis=0)
+    assert np.array_equal(np.isfinite(q), lit)
+    centre = xr.open_dataset(demo_out / "skyglow_esplanadi.nc", engine="h5netcdf")
+    # the cells' parts add up to the panorama's zenith (float32 storage of the parts)
+    assert np.nansum(q.astype(float)) == pytest.approx(float(centre["luminance"][0].mean()), 1e-5)
+    centre.close()
+    with rasterio.open(demo_out / "inverse_s_suomenlinna.tif") as src:
+        assert src.tags()["region"].startswith("horizon:")
+        assert np.nanmax(src.read(1)) > 0
+    summary = json.loads((demo_out / "dimming_suomenlinna.json").read_text())
+    region = summary["observers"][0]["regions"][0]
+    assert region["after_mag_arcsec2"] > region["before_mag_arcsec2"]
+    assert 0 < summary["flux_removed_percent"] < 100
+    assert (demo_out / "dimming_suomenlinna.png").stat().st_size > 10_000
+
+
 @pytest.fixture
 def fake_demo(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, int]]:
     calls: list[tuple[str, int]] = []
 
     def run_demo(out_dir: str, *, seed: int) -> SimpleNamespace:
         calls.append((out_dir, seed))
-        return SimpleNamespace(outputs={"lights": Path(out_dir) / "lights.gpkg"}, zenith={})
+        return SimpleNamespace(
+            outputs={"lights": Path(out_dir) / "lights.gpkg"}, zenith={}, findings=[]
+        )
 
     monkeypatch.setattr("nightlights.demo.run_demo", run_demo)
     return calls

@@ -161,6 +161,12 @@ def test_sums_hold_between_kernel_levels(two_level_kernel) -> None:
     assert np.allclose(s.raster.data[lit], brute.raster.data[lit], rtol=1e-4, atol=0)
 
 
+def test_an_observer_outside_the_raster_within_reach_is_fine(kernel) -> None:
+    city = _city()
+    q = inverse_q(city, observer=(4500.0, 2000.0), kernel=kernel, metric="zenith")
+    assert q.total == pytest.approx(q.panorama_value, rel=1e-9) and q.total > 0
+
+
 def test_eastern_region_ranks_the_eastern_cell_first(kernel) -> None:
     data = np.zeros((2, 40, 40))
     data[:, 19, 30] = 1.0  # 1 km east
@@ -296,7 +302,8 @@ def test_infeasible_targets_fail_clearly_and_write_nothing(kernel, tmp_path: Pat
 @pytest.mark.parametrize(
     ("options", "match"),
     [
-        ({"observer": (9000.0, 100.0)}, "outside"),
+        ({"observer": (9000.0, 100.0)}, "outside"),  # 5 km beyond the 4 km kernel
+        ({"observer": (2000.0, 3.0e6)}, "outside"),  # a swapped-coordinates mistake
         ({"metric": "brightest"}, "metric"),
     ],
 )
