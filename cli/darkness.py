@@ -1,0 +1,105 @@
+"""``nightlights darkness``: the artificial zenith sky brightness at every cell of a region."""
+
+from __future__ import annotations
+
+import click
+
+from cli.options import (
+    files_argument,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+    scheduler_option,
+)
+
+
+@click.command("darkness")
+@files_argument("EMISSION OUTPUT")
+@output_option
+@overwrite_option
+@click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
+@click.option(
+    "--dem",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Terrain heights above sea level [m] covering the emission raster: each observer "
+    "stands above its cell, each source at its own height.",
+)
+@click.option(
+    "--kernel",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel "
+    "covering the region (at most 300 km).",
+)
+@click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
+@click.option(
+    "--chunk-size",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Chunk edge [cells] of the Dask computation (default 4096; never below twice the "
+    "kernel radius); a raster within one chunk is one FFT.",
+)
+@scheduler_option
+@click.option(
+    "--n-distance",
+    default=64,
+    show_default=True,
+    help="Distance bins of the scene kernel built when --kernel is not given.",
+)
+@click.option("--n-elevation", default=64, show_default=True, help="Scene kernel rows.")
+@click.option("--n-azimuth", default=256, show_default=True, help="Scene kernel columns.")
+def darkness(
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
+    observer_height: float,
+    dem: str | None,
+    kernel: str | None,
+    turbidity: float | None,
+    chunk_size: int | None,
+    scheduler: str | None,
+    n_distance: int,
+    n_elevation: int,
+    n_azimuth: int,
+) -> None:
+    """Zenith sky brightness (cd m-2, mag arcsec-2) with the observer at every cell of
+    EMISSION [lm m-2]; write OUTPUT (COG, 2 bands)."""
+    import nightlights as nl
+
+    (emission,), out = resolve_inout(
+        files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
+    )
+    result = nl.darkness(
+        emission,
+        out,
+        observer_height=observer_height,
+        dem=dem,
+        kernel=kernel,
+        turbidity=turbidity,
+        chunk_size=chunk_size,
+        scheduler=scheduler,
+        n_distance=n_distance,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+    )
+    import numpy as np
+    from rich.console import Console
+
+    magnitude = result.raster.data[1]
+    finite = magnitude[np.isfinite(magnitude)]
+    rows, cols = result.raster.shape
+    summary = (
+        f"brightest {finite.min():.2f}, median {np.median(finite):.2f}, darkest "
+        f"{magnitude.max():.2f} mag arcsec-2"
+        if finite.size
+        else "no artificial light reaches any cell"
+    )
+    Console(stderr=True).print(
+        f"zenith over {rows} x {cols} cells: {summary} (artificial skyglow only); "
+        f"{result.seconds:.1f} s -> {out}",
+        soft_wrap=True,
+    )
+
+
+commands = [darkness]

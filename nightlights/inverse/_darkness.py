@@ -1,0 +1,636 @@
+"""The region-wide zenith darkness map: the artificial zenith sky brightness at every cell.
+
+The forward panorama's zenith luminance (:func:`~nightlights.sky.scene.skyglow_panorama`, the
+mean of its top row) is linear in the emission and, averaged over azimuth, no longer depends on
+the direction of a source, only on its distance. With the observer at a cell centre ``o`` and
+every lit cell ``s`` split into the k x k sub-points ``p`` of the polar map
+(:func:`~nightlights.sky.polar.polar_cells`), the zenith luminance is a 2-D convolution of the
+flux per cell with a radial stencil:
+
+.. math::
+
+    L_z(o) = \\sum_b \\sum_s F_b(s)\\, W_b(s - o), \\qquad
+    W_b(m) = \\frac{1}{k^2} \\sum_p z_b\\big(d(|m + p|)\\big), \\qquad
+    z_b(d) = \\frac{1}{n_\\phi} \\sum_j b_b(d, \\theta_0, \\phi_j)
+    \\quad [\\mathrm{cd\\,m^{-2}}],
+
+with ``F_b`` the flux of emission band ``b`` (Lambertian, uplight) in a cell [lm], ``d(r)`` the
+kernel's distance bin of a sub-point at distance ``r`` (sub-points beyond the last edge left
+out) and ``z_b`` the azimuth mean of the kernel's top row [cd m-2 lm-1] (Dobashi et al. 2023,
+Eq. 4: the DC term of its PCA form when no raw tables are stored). The stencil samples every
+cell offset exactly as the polar map samples a cell around an observer at a cell centre, so on
+flat terrain the map equals the panorama's zenith at any cell up to float rounding.
+
+Over terrain the emission is split between the kernel's source levels by each cell's height
+(:func:`~nightlights.sky.polar.source_level_weights`), one convolution is made per (source level,
+observer level) pair, and each cell interpolates linearly between the two observer levels
+around its eye altitude: the rule by which the panorama interpolates the kernel
+(:func:`~nightlights.sky.panorama.kernel_slice`). The convolutions are FFTs (one forward
+transform per plane and stencil, one inverse per observer level), chunked with
+:func:`dask.array.map_overlap` (depth = the stencil radius in cells) on local threads or a
+``dask.distributed`` cluster. Beyond Dobashi et al. 2023, who render one observer at a time.
+
+References
+----------
+Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
+the Night Sky", ACM TOG 42(6) 219, Sec. 3.3-3.4.
+Falchi, F. et al. 2016, "The new world atlas of artificial night sky brightness", Sci. Adv. 2,
+e1600377 (the same quantity world-wide, with Garstang's model).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import dask
+import dask.array as da
+import numpy as np
+import scipy.fft
+import xarray as xr
+from numpy.typing import NDArray
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from scipy.ndimage import map_coordinates
+
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.ground.tiles import _compute_distributed, _TileProgress
+from nightlights.io import Raster, as_raster, source_label
+from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights.sky.panorama import KernelSlice, kernel_levels
+from nightlights.sky.polar import source_level_weights, supersampling
+from nightlights.sky.scene import RasterInput, _level_offset
+from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
+from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+
+__all__ = ["DEFAULT_CHUNK_SIZE", "DarknessResult", "darkness", "zenith_per_lumen"]
+
+log = logging.getLogger(__name__)
+
+#: Chunk edge [cells] when ``chunk_size`` is None; a chunk is never smaller than twice the
+#: stencil radius, so that a padded chunk costs at most four times its own FFT.
+DEFAULT_CHUNK_SIZE = 4096
+#: Sub-points per cell side at most, as the polar map (:func:`polar_cells`) [1].
+MAX_SAMPLES = 16
+#: An observer this far outside a given kernel's observer levels is warned about [m] (the
+#: panorama's rule, :func:`~nightlights.sky.panorama.kernel_slice`).
+LEVEL_TOLERANCE = 5.0
+
+
+@dataclass(frozen=True)
+class DarknessResult:
+    """What :func:`darkness` computed.
+
+    Attributes
+    ----------
+    raster
+        Two bands on the emission grid: ``zenith_luminance`` [cd m-2] and
+        ``zenith_sky_brightness`` [mag arcsec-2] (+inf where no flux reaches).
+    seconds
+        Time of the map once the kernel is loaded: stencils and convolutions [s].
+    path
+        The COG written, or None.
+    """
+
+    raster: Raster
+    seconds: float
+    path: Path | None = None
+
+
+def zenith_per_lumen(tables: KernelSlice) -> FloatArray:
+    """Zenith luminance per lumen in each distance bin: the azimuth mean of the top kernel row.
+
+    .. math:: z_b(d) = \\frac{1}{n_\\phi}\\sum_j b_b(d, \\theta_0, \\phi_j)
+        = \\frac{1}{n_\\phi}\\sum_k c_{b,d,k}\\, \\mathrm{Re}\\,\\hat B_k(\\theta_0, 0)
+
+    (the raw tables when the kernel stores them, else the DC term of the PCA bases, Dobashi
+    et al. 2023, Eq. 4).
+
+    Parameters
+    ----------
+    tables
+        A kernel slice (:func:`~nightlights.sky.panorama.kernel_slice`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(bands, n_r)`` [cd m-2 lm-1].
+
+    Examples
+    --------
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky.panorama import kernel_slice
+    >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
+    >>> z = zenith_per_lumen(kernel_slice(build_kernel(spec, progress=False).kernel,
+    ...                                   observer_altitude=0.0))
+    >>> z.shape, bool(z[0, 0] > z[0, -1] > 0)
+    ((1, 8), True)
+    """
+    if tables.has_tables:
+        return np.asarray(tables.kernel[:, :, 0, :].mean(axis=-1), dtype=float)
+    dc = tables.basis_fft[:, 0, 0].real  # (components,)
+    return np.asarray(tables.coefficient @ dc / tables.n_az, dtype=float)
+
+
+class _Stencil:
+    """Where the polar map's sub-points of every cell offset fall in the distance bins.
+
+    Offsets ``(di, dj)`` (source row, column minus the observer's) up to ``half`` cells; an
+    offset sampled by one sub-point (its centre) keeps one bin index (``n_r`` = beyond the
+    last edge), the few near the centre (k > 1) keep a row of bin shares.
+    """
+
+    def __init__(self, cell: float, edges: FloatArray, n_az: int, half: tuple[int, int]) -> None:
+        self.half = half
+        self.n_r = edges.size - 1
+        rows, cols = 2 * half[0] + 1, 2 * half[1] + 1
+        dx = (np.arange(cols) - half[1]) * cell  # east
+        self.bins = np.empty((rows, cols), dtype=np.uint8 if self.n_r < 255 else np.uint16)
+        near: list[NDArray[np.int64]] = []
+        strip = max(1, 2**20 // cols)  # bound the temporaries of a wide stencil
+        for top in range(0, rows, strip):
+            dy = -(np.arange(top, min(top + strip, rows)) - half[0])[:, None] * cell  # north
+            r = np.hypot(dx[None, :], dy)
+            k = supersampling(cell, r, n_az, max_samples=MAX_SAMPLES)
+            d_bin = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, self.n_r)
+            self.bins[top : top + dy.shape[0]] = np.where(k == 1, d_bin, self.n_r)
+            near.append(np.flatnonzero(k > 1) + top * cols)
+        self.near = np.concatenate(near)
+        self.share = np.zeros((self.near.size, self.n_r))
+        if self.near.size == 0:
+            return
+        near_dx = dx[self.near % cols]
+        near_dy = -(self.near // cols - half[0]) * cell
+        k = supersampling(cell, np.hypot(near_dx, near_dy), n_az, max_samples=MAX_SAMPLES)
+        for samples in np.unique(k):  # the sub-points of polar_cells, offset by the observer
+            members = np.flatnonzero(k == samples)
+            offsets = ((np.arange(samples) + 0.5) / samples - 0.5) * cell
+            ox, oy = np.meshgrid(offsets, offsets)
+            px = near_dx[members, None] + ox.ravel()[None, :]
+            py = near_dy[members, None] + oy.ravel()[None, :]
+            d_bin = np.clip(np.searchsorted(edges, np.hypot(px, py), side="right") - 1, 0, None)
+            inside = d_bin < self.n_r
+            index = np.repeat(members, samples**2)[inside.ravel()] * self.n_r + d_bin[inside]
+            self.share += np.bincount(index, minlength=self.share.size).reshape(
+                self.share.shape
+            ) / float(samples**2)
+
+    def weights(self, per_lumen: FloatArray) -> FloatArray:
+        """The stencil W(m) [cd m-2 lm-1] of a zenith table ``(n_r,)``, indexed by offset."""
+        extended = np.append(np.asarray(per_lumen, dtype=float), 0.0)
+        stencil = extended[self.bins]
+        stencil.flat[self.near] = self.share @ extended[:-1]
+        return stencil
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What every chunk needs: the stencil geometry, the zenith tables and the levels."""
+
+    stencil: _Stencil
+    zenith: FloatArray  # (observer levels, source levels, bands, n_r) [cd m-2 lm-1]
+    source_levels: FloatArray  # [m], kernel frame
+    observer_levels: FloatArray  # [m], kernel frame
+    bands: int
+    terrain: bool
+    flat_source: float  # without terrain: the source altitude of every cell [m], kernel frame
+    flat_eye: float  # and the eye altitude of every cell [m], kernel frame
+
+    @property
+    def depth(self) -> tuple[int, int]:
+        """Stencil radius in rows and columns [cells]."""
+        return self.stencil.half
+
+    def spectrum(
+        self, level: int, source: int, band: int, shape: tuple[int, int], workers: int
+    ) -> Any:
+        """rfft2 of the flipped stencil wrapped onto an FFT grid of ``shape``."""
+        a, b = self.depth
+        wrapped = np.zeros(shape)
+        rows = np.arange(-a, a + 1) % shape[0]
+        cols = np.arange(-b, b + 1) % shape[1]
+        # convolution: out(o) = sum_s F(s) K(o - s) with K(m) = W(-m)
+        weights = self.stencil.weights(self.zenith[level, source, band])
+        wrapped[np.ix_(rows, cols)] = weights[::-1, ::-1]
+        return scipy.fft.rfft2(wrapped, workers=workers)
+
+
+def _convolve(
+    flux: list[FloatArray],
+    heights: FloatArray | float,
+    eye: FloatArray | float,
+    plan: _Plan,
+    region: tuple[int, int, int, int],
+    workers: int = 1,
+) -> FloatArray:
+    """The zenith luminance [cd m-2] on ``region`` (row0, row1, col0, col1) of the inputs.
+
+    ``flux``: per band, the flux per cell [lm] on the (padded) input window; ``heights``: the
+    source altitudes there [m]; ``eye``: the eye altitudes on the region [m] (either one value
+    for all cells without terrain). A circular FFT of a size that keeps every needed offset
+    alias-free.
+    """
+    r0, r1, c0, c1 = region
+    rows, cols = flux[0].shape
+    a, b = plan.depth
+    shape = (
+        scipy.fft.next_fast_len(max(r1 - 1, rows - 1 - r0) + a + 1, real=True),
+        scipy.fft.next_fast_len(max(c1 - 1, cols - 1 - c0) + b + 1, real=True),
+    )
+    source_w = source_level_weights(heights, plan.source_levels)  # (n_s, ...) or (n_s,)
+    observer_w = source_level_weights(eye, plan.observer_levels)  # (n_o, ...) or (n_o,)
+    planes = []
+    for s in range(source_w.shape[0]):
+        for band in range(plan.bands):
+            values = source_w[s] * flux[band]
+            if np.any(values):
+                planes.append((s, band, values))
+    levels = [o for o in range(observer_w.shape[0]) if np.any(observer_w[o])]
+    out = np.zeros((r1 - r0, c1 - c0))
+    if not planes or not levels:
+        return out
+
+    def transform(values: FloatArray) -> Any:
+        return scipy.fft.rfft2(values, s=shape, workers=workers)
+
+    def add_level(level: int, spectrum: Any) -> None:
+        full = scipy.fft.irfft2(spectrum, s=shape, workers=workers)
+        out[:] += observer_w[level] * full[r0:r1, c0:c1]
+
+    # Hold min(planes, observer levels) spectra at a time.
+    if len(planes) <= len(levels):
+        inputs = [(s, band, transform(values)) for s, band, values in planes]
+        for level in levels:
+            total = sum(
+                plan.spectrum(level, s, band, shape, workers) * fx for s, band, fx in inputs
+            )
+            add_level(level, total)
+    else:
+        totals: dict[int, Any] = {}
+        for s, band, values in planes:
+            fx = transform(values)
+            for level in levels:
+                product = plan.spectrum(level, s, band, shape, workers) * fx
+                totals[level] = totals[level] + product if level in totals else product
+        for level in levels:
+            add_level(level, totals[level])
+    return np.maximum(out, 0.0)  # FFT rounding can dip just below zero far from any light
+
+
+def _chunk(*arrays: FloatArray, plan: _Plan) -> FloatArray:
+    """One map_overlap block: padded flux planes (and heights), the eye altitudes unpadded."""
+    a, b = plan.depth
+    flux = list(arrays[: plan.bands])
+    heights = arrays[plan.bands] if plan.terrain else plan.flat_source
+    eye = arrays[plan.bands + 1] if plan.terrain else plan.flat_eye
+    rows, cols = flux[0].shape
+    return _convolve(flux, heights, eye, plan, (a, rows - a, b, cols - b))
+
+
+def darkness(
+    emission: RasterInput,
+    output: PathLike | None = None,
+    *,
+    observer_height: float = 1.7,
+    dem: RasterInput | None = None,
+    kernel: KernelResult | xr.Dataset | PathLike | None = None,
+    turbidity: float | None = None,
+    n_distance: int = 64,
+    n_elevation: int = 64,
+    n_azimuth: int = 256,
+    chunk_size: int | None = None,
+    scheduler: str | Any | None = None,
+    cache_dir: PathLike | None = None,
+    progress: bool = True,
+) -> DarknessResult:
+    """The artificial zenith sky brightness with the observer at every cell of a region.
+
+    One FFT convolution of the flux per cell with the radial zenith stencil (module docstring),
+    per (source level, observer level) pair over terrain; chunked with Dask when the raster is
+    larger than ``chunk_size``.
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path); one band
+        = Lambertian, two = Lambertian + direct uplight.
+    output
+        COG to write atomically (2 bands); None writes nothing.
+    observer_height
+        Eye height above the ground at every cell [m].
+    dem
+        Terrain heights above sea level [m] in the emission's CRS covering every cell: each
+        observer stands ``observer_height`` above its cell, each source at its own height.
+    kernel
+        Precomputed kernel; default: a scene kernel over the region's diagonal (at most
+        :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels,
+        cached in ``cache_dir``.
+    turbidity
+        Atmospheric turbidity [1]; default 2, or the given kernel's.
+    n_distance, n_elevation, n_azimuth
+        Distance bins, rows and columns of a scene kernel [1].
+    chunk_size
+        Chunk edge [cells]; default :data:`DEFAULT_CHUNK_SIZE`. A raster within one chunk is
+        one FFT in memory; larger ones are chunked (never below twice the stencil radius).
+    scheduler
+        None: local threads; a ``dask.distributed`` address or ``Client``: that cluster.
+    cache_dir
+        Kernel cache folder.
+    progress
+        Progress bars (kernel build, chunks).
+
+    Returns
+    -------
+    DarknessResult
+        Zenith luminance [cd m-2] and sky brightness [mag arcsec-2] at every cell, the time and
+        the written path.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
+    >>> result = darkness(raster, kernel=build_kernel(spec, progress=False), progress=False)
+    >>> result.raster.descriptions
+    ('zenith_luminance', 'zenith_sky_brightness')
+    >>> zenith = result.raster.data[0]
+    >>> bool(zenith[5, 15] == zenith.max()), bool(np.all(zenith > 0))
+    (True, True)
+    """
+    target = _check_output(output)
+    label = source_label(emission, "emission raster")
+    raster = as_raster(emission)
+    data = _check_emission(raster, label)
+    if not (math.isfinite(observer_height) and observer_height >= 0):
+        raise InputError(f"observer height {observer_height!r} m; expected a finite value >= 0")
+    chunk = _check_chunk_size(chunk_size)
+    cell = raster.resolution
+    rows, cols = raster.shape
+    lit = np.any(data != 0, axis=0)
+    ground = (
+        _terrain(dem, raster, source_label(dem, "DEM")) if dem is not None else np.zeros(lit.shape)
+    )
+    eye = ground + observer_height
+    spec = None
+    if kernel is not None:
+        table = load_kernel(kernel)
+        given = float(table.attrs.get("turbidity", np.nan))
+        if turbidity is not None and not np.isclose(turbidity, given):
+            raise InputError(
+                f"turbidity {turbidity} differs from the kernel's ({given}); omit --turbidity "
+                "or build a kernel for it"
+            )
+    else:
+        spec = dataclasses.replace(
+            scene_kernel_spec(
+                raster,
+                (raster.transform.c, raster.transform.f),  # a corner: range = the diagonal
+                observer_altitude=0.0,
+                source_altitudes=source_levels(ground[lit]),
+                turbidity=2.0 if turbidity is None else turbidity,
+                n_elevation=n_elevation,
+                n_azimuth=n_azimuth,
+                n_distance=n_distance,
+                uplight=data.shape[0] == 2,
+            ),
+            observer_altitudes=tuple(source_levels(eye)),
+        )
+        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    if data.shape[0] == 2 and "coefficient_uplight" not in table:
+        raise InputError(
+            f"{label}: 2 bands (Lambertian + uplight) but the kernel has no uplight table; "
+            "build it with uplight"
+        )
+    start = time.perf_counter()
+    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
+    observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
+    offset = _level_offset(np.where(lit, ground, np.nan), data, levels)
+    eye = eye - offset
+    _warn_outside(eye, observer_levels)
+    edges = np.asarray(table["distance_edges"].values, dtype=float)
+    _warn_range(raster, edges[-1])
+    zenith = np.stack(
+        [
+            np.stack([zenith_per_lumen(t)[: data.shape[0]] for t in slices])
+            for slices in (kernel_levels(table, observer_altitude=h) for h in observer_levels)
+        ]
+    )
+    radius = math.ceil(edges[-1] / cell)
+    plan = _Plan(
+        stencil=_Stencil(
+            cell,
+            edges,
+            2 * (table.sizes["frequency"] - 1),
+            (min(radius, rows - 1), min(radius, cols - 1)),
+        ),
+        zenith=zenith,
+        source_levels=levels,
+        observer_levels=observer_levels,
+        bands=data.shape[0],
+        terrain=dem is not None,
+        flat_source=-offset,
+        flat_eye=float(observer_height - offset),
+    )
+    flux = [data[band] * cell * cell for band in range(data.shape[0])]
+    heights = np.where(lit, ground - offset, levels[0])
+    luminance, n_chunks, used_chunk = _compute(flux, heights, eye, plan, chunk, scheduler, progress)
+    seconds = time.perf_counter() - start
+    tags = {
+        "nightlights_stage": "darkness",
+        "emission": label,
+        "kernel_hash": str(table.attrs.get("content_hash", "")),
+        "kernel_range_m": float(edges[-1]),
+        "turbidity": float(table.attrs.get("turbidity", np.nan)),
+        "observer_height_m": float(observer_height),
+        "terrain": source_label(dem, "DEM") if dem is not None else "flat (0 m)",
+        "source_altitude_levels_m": [float(h) for h in levels],
+        "observer_altitude_levels_m": [float(h) for h in observer_levels],
+        "kernel_altitude_offset_m": offset,
+        "method": "FFT convolution of the flux per cell with the zenith stencil (azimuth mean "
+        "of the kernel's top row, cells sampled as the polar map); terrain: per source and "
+        f"observer level; {n_chunks} chunk(s) of {used_chunk} cells",
+        "note": "artificial skyglow only (no natural sky background), single scattering",
+        "reference": "Dobashi et al. 2023, Sec. 3.3-3.4 (zenith of the forward panorama)",
+    }
+    result = Raster(
+        np.stack([luminance, luminance_to_magnitude(luminance)]),
+        raster.transform,
+        raster.crs,
+        descriptions=("zenith_luminance", "zenith_sky_brightness"),
+        units=("cd m-2", "mag arcsec-2"),
+        tags={key: str(value) for key, value in tags.items()},
+        band_tags=(
+            {"long_name": "artificial zenith sky luminance, observer at the cell centre"},
+            {"long_name": "zenith sky brightness, -2.5 log10(L / 1.08e5)"},
+        ),
+    )
+    if target is not None:
+        result.write(target)
+    return DarknessResult(result, seconds, target)
+
+
+def _compute(
+    flux: list[FloatArray],
+    heights: FloatArray,
+    eye: FloatArray,
+    plan: _Plan,
+    chunk_size: int,
+    scheduler: str | Any | None,
+    progress: bool,
+) -> tuple[FloatArray, int, int]:
+    """The map in one FFT, or chunked with map_overlap; also the chunk count and edge."""
+    rows, cols = flux[0].shape
+    a, b = plan.depth
+    chunk = max(chunk_size, 2 * a, 2 * b, 1)
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
+    terrain = [heights, eye] if plan.terrain else []
+    if rows <= chunk and cols <= chunk:
+        with Progress(*columns, transient=True, disable=not progress) as bar:
+            task = bar.add_task("darkness: one FFT", total=1)
+            h, e = (heights, eye) if plan.terrain else (plan.flat_source, plan.flat_eye)
+            out = _convolve(flux, h, e, plan, (0, rows, 0, cols), workers=-1)
+            bar.advance(task)
+        return out, 1, max(rows, cols)
+    chunks = (_axis_chunks(rows, chunk, a), _axis_chunks(cols, chunk, b))
+    arrays = [da.from_array(x, chunks=chunks) for x in (*flux, *terrain)]
+    depth = [(a, b)] * (len(arrays) - (1 if plan.terrain else 0))
+    if plan.terrain:
+        depth.append((0, 0))  # the eye altitudes are only read on the chunk itself
+    name = f"darkness-{dask.base.tokenize(*arrays, plan.depth, plan.zenith)}"
+    shared = dask.delayed(plan, pure=True)
+    result = da.map_overlap(
+        _chunk,
+        *arrays,
+        depth=depth,
+        boundary=0,
+        trim=False,
+        chunks=arrays[0].chunks,
+        dtype=float,
+        meta=np.empty((0, 0)),
+        name=name,
+        plan=shared,
+    )
+    n_chunks = result.npartitions
+    with Progress(*columns, transient=True, disable=not progress) as bar:
+        task = bar.add_task(f"darkness: {n_chunks} chunks", total=n_chunks)
+        if scheduler is None:
+            with _TileProgress(lambda: bar.advance(task), name):
+                out = result.compute(scheduler="threads")
+        else:
+            blocks = result.to_delayed()
+            values = _compute_distributed(
+                list(blocks.ravel()), scheduler, lambda: bar.advance(task)
+            )
+            grid = np.empty(blocks.shape, dtype=object)
+            for index, value in zip(np.ndindex(blocks.shape), values, strict=True):
+                grid[index] = value
+            out = np.block(grid.tolist())
+    return np.asarray(out, dtype=float), n_chunks, chunk
+
+
+def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
+    """Chunk sizes along an axis, none smaller than ``depth`` (map_overlap would rechunk)."""
+    sizes = [chunk] * (size // chunk)
+    rest = size - chunk * len(sizes)
+    if rest and sizes and rest < depth:
+        sizes[-1] += rest
+    elif rest:
+        sizes.append(rest)
+    return tuple(sizes)
+
+
+def _check_output(output: PathLike | None) -> Path | None:
+    if output is None:
+        return None
+    target = Path(output)
+    if not target.parent.is_dir():
+        raise InputError(f"{target}: output folder {target.parent} does not exist")
+    return target
+
+
+def _check_emission(raster: Raster, label: str) -> FloatArray:
+    """The flux density, NaN as 0, after the checks of the forward panorama."""
+    if raster.crs is None or not raster.crs.is_projected:
+        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+    data = raster.data
+    if data.shape[0] > 2:
+        raise InputError(
+            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+        )
+    if np.isfinite(data).any() and np.nanmin(data) < 0:
+        raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
+    raster.resolution  # noqa: B018  (raises InputError unless square, north-up cells)
+    return np.nan_to_num(data, nan=0.0)
+
+
+def _check_chunk_size(chunk_size: int | None) -> int:
+    if chunk_size is None:
+        return DEFAULT_CHUNK_SIZE
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
+        raise InputError(f"chunk size {chunk_size!r}; expected a whole number of cells >= 1")
+    if chunk_size < 1:
+        raise InputError(f"chunk size {chunk_size}; expected a whole number of cells >= 1")
+    return int(chunk_size)
+
+
+def _terrain(dem: RasterInput, raster: Raster, label: str) -> FloatArray:
+    """Terrain height under every emission cell centre [m], bilinear as the panorama reads it
+    (:func:`~nightlights.sky.horizon.ground_height`, :func:`scene_terrain`)."""
+    relief = as_raster(dem)
+    if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
+        raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
+    rows, cols = raster.shape
+    t, inv = raster.transform, ~relief.transform
+    cx, cy = np.meshgrid(t.c + t.a * (np.arange(cols) + 0.5), t.f + t.e * (np.arange(rows) + 0.5))
+    col = inv.a * cx + inv.b * cy + inv.c
+    row = inv.d * cx + inv.e * cy + inv.f
+    heights = relief.data[0]
+    inside = (row >= 0) & (row < heights.shape[0]) & (col >= 0) & (col < heights.shape[1])
+    values = map_coordinates(heights, [row - 0.5, col - 0.5], order=1, mode="nearest")
+    bad = ~inside | ~np.isfinite(values)
+    if bad.any():
+        raise InputError(
+            f"{label}: no terrain height under {int(bad.sum())} of {bad.size} emission cells "
+            "(outside the DEM or nodata); expected a DEM covering the whole emission raster"
+        )
+    return np.asarray(values, dtype=float)
+
+
+def _warn_outside(eye: FloatArray, levels: FloatArray) -> None:
+    low, high = float(eye.min()), float(eye.max())
+    if low < levels[0] - LEVEL_TOLERANCE or high > levels[-1] + LEVEL_TOLERANCE:
+        warnings.warn(
+            f"eye altitudes {low:g}-{high:g} m lie outside the kernel's observer levels "
+            f"{levels[0]:g}-{levels[-1]:g} m; the nearest level is used there",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+
+
+def _warn_range(raster: Raster, kernel_range: float) -> None:
+    x0, y0, x1, y1 = raster.bounds
+    diagonal = math.hypot(x1 - x0, y1 - y0)
+    if diagonal > kernel_range:
+        limit = " (the limit, MAX_KERNEL_RANGE)" if kernel_range >= MAX_KERNEL_RANGE else ""
+        warnings.warn(
+            f"the region's diagonal ({diagonal / 1000:g} km) exceeds the kernel's range "
+            f"({kernel_range / 1000:g} km{limit}): flux farther than that from a cell is left "
+            "out of its zenith",
+            DataQualityWarning,
+            stacklevel=3,
+        )

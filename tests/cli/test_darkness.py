@@ -1,0 +1,110 @@
+"""``nightlights darkness``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import click
+import numpy as np
+import pytest
+from affine import Affine
+from click.testing import CliRunner
+
+import nightlights
+from cli.darkness import darkness as darkness_command
+from cli.main import NightlightsGroup, cli
+from nightlights.io import Raster, RasterBand, write_cog
+from nightlights.sky import KernelSpec, build_kernel
+
+TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)
+
+
+def command_group() -> click.Group:
+    """The ``nightlights`` group, with ``darkness`` added if it is not registered yet."""
+    if "darkness" in cli.commands:
+        return cli
+    return NightlightsGroup(commands=[darkness_command])
+
+
+@pytest.fixture
+def stage(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``nl.darkness``: the stage itself (the top-level name may not be exported yet)."""
+    from nightlights.inverse import darkness
+
+    if not hasattr(nightlights, "darkness"):
+        monkeypatch.setattr(nightlights, "darkness", darkness, raising=False)
+
+
+def write_emission(path: Path, crs: str = "EPSG:32635") -> Path:
+    values = np.zeros((20, 20), np.float32)
+    values[5:8, 12:15] = 1.0
+    write_cog(path, [RasterBand(values, "reflected", "lm m-2")], transform=TRANSFORM, crs=crs)
+    return path
+
+
+@pytest.fixture
+def emission(tmp_path: Path) -> Path:
+    return write_emission(tmp_path / "emission.tif")
+
+
+@pytest.fixture
+def kernel(tmp_path: Path) -> Path:
+    path = tmp_path / "kernel.nc"
+    spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
+    build_kernel(spec, path, progress=False)
+    return path
+
+
+def test_darkness_command_writes_the_zenith_map(
+    stage: None, emission: Path, kernel: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "zenith.tif"
+    args = ["darkness", str(emission), str(out), "--kernel", str(kernel)]
+    result = CliRunner().invoke(command_group(), [*args, "--observer-height", "0"])
+    assert result.exit_code == 0, result.output
+    assert "mag arcsec-2" in result.output and "20 x 20 cells" in result.output
+    written = Raster.read(out)
+    assert written.descriptions == ("zenith_luminance", "zenith_sky_brightness")
+    assert float(written.tags["observer_height_m"]) == 0.0
+    zenith = written.data[0]
+    assert np.unravel_index(zenith.argmax(), zenith.shape)[0] in (5, 6, 7)
+    # an existing output is refused without --overwrite, replaced with it
+    again = CliRunner().invoke(command_group(), args)
+    assert again.exit_code == 1 and "--overwrite" in again.output
+    replaced = CliRunner().invoke(command_group(), [*args, "--overwrite", "--observer-height", "5"])
+    assert replaced.exit_code == 0, replaced.output
+    assert float(Raster.read(out).tags["observer_height_m"]) == 5.0
+
+
+def test_darkness_command_passes_its_options(fake_stage, emission: Path, tmp_path: Path) -> None:
+    dem = write_emission(tmp_path / "dem.tif")
+    raster = Raster(np.ones((2, 3, 4)), TRANSFORM, "EPSG:32635")
+    recorder = fake_stage("darkness", SimpleNamespace(raster=raster, seconds=0.5))
+    out = tmp_path / "zenith.tif"
+    args = ["darkness", str(emission), "-o", str(out), "--dem", str(dem), "--chunk-size", "512"]
+    args += ["--scheduler", "tcp://127.0.0.1:8786", "--turbidity", "3", "--n-distance", "32"]
+    result = CliRunner().invoke(command_group(), args)
+    assert result.exit_code == 0, result.output
+    assert recorder.args == (str(emission), str(out))
+    kwargs = recorder.kwargs
+    assert kwargs["dem"] == str(dem) and kwargs["chunk_size"] == 512
+    assert kwargs["scheduler"] == "tcp://127.0.0.1:8786" and kwargs["turbidity"] == 3.0
+    assert kwargs["n_distance"] == 32 and kwargs["observer_height"] == 1.7
+    assert kwargs["kernel"] is None
+    assert "3 x 4 cells" in result.output
+
+
+def test_darkness_command_errors_are_one_line(stage: None, tmp_path: Path) -> None:
+    geographic = write_emission(tmp_path / "geographic.tif", crs="EPSG:4326")
+    result = CliRunner().invoke(
+        command_group(), ["darkness", str(geographic), str(tmp_path / "z.tif")]
+    )
+    assert result.exit_code == 1 and "CRSError" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "z.tif").exists()
+    bad_chunk = CliRunner().invoke(
+        command_group(), ["darkness", str(geographic), "-o", "z.tif", "--chunk-size", "0"]
+    )
+    assert bad_chunk.exit_code == 2 and "--chunk-size" in bad_chunk.output
+    missing = CliRunner().invoke(command_group(), ["darkness", "nowhere.tif", "z.tif"])
+    assert missing.exit_code == 2 and "does not exist" in missing.output
