@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "cli.kernel",
     "cli.skyglow",
     "cli.inverse",
+    "cli.darkness",
     "cli.photometry",
     "cli.demo",
 )
