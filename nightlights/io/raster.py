@@ -108,7 +108,7 @@ def write_cog(
         for index, band in enumerate(bands, start=1):
             mem.write(np.asarray(band.data, dtype=np.float32), index)
             mem.set_band_description(index, band.description)
-            mem.update_tags(index, unit=band.unit, **dict(band.tags))
+            mem.update_tags(index, **{**dict(band.tags), "unit": band.unit})
             mem.set_band_unit(index, band.unit)
         if tags:
             mem.update_tags(**{key: str(value) for key, value in tags.items()})

@@ -96,3 +96,21 @@ def test_validation_errors(tmp_path: Path, raster: Raster) -> None:
         Raster.from_xarray(raster.to_xarray().drop_attrs())
     with pytest.raises(InputError, match=r"expected a Raster, an xarray\.DataArray or a path"):
         as_raster(np.zeros((1, 2, 2)))  # type: ignore[arg-type]
+
+
+def test_read_then_write_keeps_units_and_band_tags(tmp_path: Path) -> None:
+    raster = Raster(
+        np.ones((2, 3, 4)),
+        Affine(10, 0, 0, 0, -10, 30),
+        "EPSG:32635",
+        ("reflected", "uplight"),
+        ("lm m-2", "lm m-2"),
+        {"source": "test"},
+        ({"kind": "lambertian"}, {"kind": "uplight"}),
+    )
+    first = Raster.read(raster.write(tmp_path / "a.tif"))
+    again = Raster.read(first.write(tmp_path / "b.tif"))
+    assert again.units == ("lm m-2", "lm m-2")
+    assert again.band_tags[1]["kind"] == "uplight"
+    assert again.tags["source"] == "test"
+    assert np.array_equal(again.data, raster.data)
