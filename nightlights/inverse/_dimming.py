@@ -45,8 +45,15 @@ ROUNDING = 1e-9
 #: Tolerance [1] by which ``before`` may fall short of the sum of the contributions (the two
 #: usually come from different computations of the same sky).
 CONSISTENCY = 1e-6
-#: HiGHS feasibility tolerances, on constraints scaled to a required reduction of 1 [1].
-HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+#: HiGHS options. Presolve is off: on one constraint with many columns it took 130 s at 1e5
+#: cells against 0.25 s without it (benchmarks/bench_inverse_lp.py), and it gains nothing on
+#: these small dense programs. Feasibility tolerances apply to constraints scaled to a required
+#: reduction of 1 [1].
+HIGHS_OPTIONS = {
+    "presolve": False,
+    "primal_feasibility_tolerance": 1e-10,
+    "dual_feasibility_tolerance": 1e-10,
+}
 #: Largest violation of a target [1, relative to its required reduction] accepted from HiGHS.
 SOLVER_SLACK = 1e-7
 
@@ -221,7 +228,7 @@ def least_flux_dimming(
     maximum, and moving that part to the higher-ratio cell keeps the reduction and does not
     increase the flux (Dantzig 1957). Several targets are solved by HiGHS (``scipy.optimize.
     linprog``, ``method="highs"``) with each constraint scaled to a required reduction of 1 and
-    the flux to a total of 1, and a sparse constraint matrix from
+    the flux to a total of 1, presolve off, and a sparse constraint matrix from
     :data:`SPARSE_FROM_CELLS` cells.
 
     References
@@ -411,7 +418,7 @@ def _linear_program(
     scale = float(f[active].sum()) or 1.0
     matrix: Any = -rows
     if active.size >= SPARSE_FROM_CELLS:
-        matrix = sparse.csr_array(matrix)
+        matrix = sparse.csc_array(matrix)  # HiGHS stores columns
     result = linprog(
         f[active] / scale,
         A_ub=matrix,
