@@ -30,6 +30,9 @@ transform per plane and stencil, one inverse per observer level), chunked with
 :func:`dask.array.map_overlap` (depth = the stencil radius in cells) on local threads or a
 ``dask.distributed`` cluster. Beyond Dobashi et al. 2023, who render one observer at a time.
 
+Length: the stage, the stencil geometry, the FFT plan every chunk receives and the Dask
+scheduling share that private plan; apart, each piece would serve only this stage.
+
 References
 ----------
 Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
@@ -381,7 +384,6 @@ def darkness(
         _terrain(dem, raster, source_label(dem, "DEM")) if dem is not None else np.zeros(lit.shape)
     )
     eye = ground + observer_height
-    spec = None
     if kernel is not None:
         table = load_kernel(kernel)
         given = float(table.attrs.get("turbidity", np.nan))
@@ -416,24 +418,23 @@ def darkness(
     observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
     offset = _level_offset(np.where(lit, ground, np.nan), data, levels)
     eye = eye - offset
-    _warn_outside(eye, observer_levels)
+    low, high = float(eye.min()), float(eye.max())
+    if low < observer_levels[0] - LEVEL_TOLERANCE or high > observer_levels[-1] + LEVEL_TOLERANCE:
+        warnings.warn(
+            f"eye altitudes {low:g}-{high:g} m lie outside the kernel's observer levels "
+            f"{observer_levels[0]:g}-{observer_levels[-1]:g} m; the nearest level is used there",
+            DataQualityWarning,
+            stacklevel=2,
+        )
     edges = np.asarray(table["distance_edges"].values, dtype=float)
     _warn_range(raster, edges[-1])
-    zenith = np.stack(
-        [
-            np.stack([zenith_per_lumen(t)[: data.shape[0]] for t in slices])
-            for slices in (kernel_levels(table, observer_altitude=h) for h in observer_levels)
-        ]
-    )
+    by_level = [kernel_levels(table, observer_altitude=h) for h in observer_levels]
+    zenith = [[zenith_per_lumen(t)[: data.shape[0]] for t in slices] for slices in by_level]
     radius = math.ceil(edges[-1] / cell)
+    half = (min(radius, rows - 1), min(radius, cols - 1))
     plan = _Plan(
-        stencil=_Stencil(
-            cell,
-            edges,
-            2 * (table.sizes["frequency"] - 1),
-            (min(radius, rows - 1), min(radius, cols - 1)),
-        ),
-        zenith=zenith,
+        stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),
+        zenith=np.asarray(zenith),
         source_levels=levels,
         observer_levels=observer_levels,
         bands=data.shape[0],
@@ -492,15 +493,9 @@ def _compute(
     rows, cols = flux[0].shape
     a, b = plan.depth
     chunk = max(chunk_size, 2 * a, 2 * b, 1)
-    columns = (
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-    )
     terrain = [heights, eye] if plan.terrain else []
     if rows <= chunk and cols <= chunk:
-        with Progress(*columns, transient=True, disable=not progress) as bar:
+        with _bar(progress) as bar:
             task = bar.add_task("darkness: one FFT", total=1)
             h, e = (heights, eye) if plan.terrain else (plan.flat_source, plan.flat_eye)
             out = _convolve(flux, h, e, plan, (0, rows, 0, cols), workers=-1)
@@ -526,21 +521,22 @@ def _compute(
         plan=shared,
     )
     n_chunks = result.npartitions
-    with Progress(*columns, transient=True, disable=not progress) as bar:
+    with _bar(progress) as bar:
         task = bar.add_task(f"darkness: {n_chunks} chunks", total=n_chunks)
         if scheduler is None:
             with _TileProgress(lambda: bar.advance(task), name):
                 out = result.compute(scheduler="threads")
         else:
             blocks = result.to_delayed()
-            values = _compute_distributed(
-                list(blocks.ravel()), scheduler, lambda: bar.advance(task)
-            )
-            grid = np.empty(blocks.shape, dtype=object)
-            for index, value in zip(np.ndindex(blocks.shape), values, strict=True):
-                grid[index] = value
-            out = np.block(grid.tolist())
+            values = _compute_distributed(list(blocks.flat), scheduler, lambda: bar.advance(task))
+            width = blocks.shape[1]
+            out = np.block([values[i : i + width] for i in range(0, len(values), width)])
     return np.asarray(out, dtype=float), n_chunks, chunk
+
+
+def _bar(progress: bool) -> Progress:
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
+    return Progress(*columns, TimeElapsedColumn(), transient=True, disable=not progress)
 
 
 def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
@@ -581,10 +577,9 @@ def _check_emission(raster: Raster, label: str) -> FloatArray:
 def _check_chunk_size(chunk_size: int | None) -> int:
     if chunk_size is None:
         return DEFAULT_CHUNK_SIZE
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
+    whole = isinstance(chunk_size, (int, np.integer)) and not isinstance(chunk_size, bool)
+    if not whole or chunk_size < 1:
         raise InputError(f"chunk size {chunk_size!r}; expected a whole number of cells >= 1")
-    if chunk_size < 1:
-        raise InputError(f"chunk size {chunk_size}; expected a whole number of cells >= 1")
     return int(chunk_size)
 
 
@@ -609,17 +604,6 @@ def _terrain(dem: RasterInput, raster: Raster, label: str) -> FloatArray:
             "(outside the DEM or nodata); expected a DEM covering the whole emission raster"
         )
     return np.asarray(values, dtype=float)
-
-
-def _warn_outside(eye: FloatArray, levels: FloatArray) -> None:
-    low, high = float(eye.min()), float(eye.max())
-    if low < levels[0] - LEVEL_TOLERANCE or high > levels[-1] + LEVEL_TOLERANCE:
-        warnings.warn(
-            f"eye altitudes {low:g}-{high:g} m lie outside the kernel's observer levels "
-            f"{levels[0]:g}-{levels[-1]:g} m; the nearest level is used there",
-            DataQualityWarning,
-            stacklevel=3,
-        )
 
 
 def _warn_range(raster: Raster, kernel_range: float) -> None:
