@@ -21,10 +21,10 @@ from typing import Any
 import dask
 import numpy as np
 from affine import Affine
-from dask.callbacks import Callback
 from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from nightlights._parallel import TaskProgress, compute_distributed
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.errors import DataQualityWarning, InputError
@@ -240,18 +240,6 @@ def assign_to_tiles(
     ]
 
 
-class _TileProgress(Callback):
-    def __init__(self, advance: Callable[[], None], prefix: str) -> None:
-        super().__init__()
-        self._advance = advance
-        self._prefix = prefix
-
-    def _posttask(self, key: Any, result: Any, dsk: Any, state: Any, worker_id: Any) -> None:
-        name = key[0] if isinstance(key, tuple) else key
-        if str(name).startswith(self._prefix):
-            self._advance()
-
-
 def compute_tiles(
     function: Callable[..., Any],
     per_tile_args: Sequence[tuple[Any, ...]],
@@ -303,34 +291,9 @@ def compute_tiles(
     with Progress(*columns, transient=True, disable=not progress) as bar:
         task_id = bar.add_task(description, total=len(tasks))
         if scheduler is None:
-            with _TileProgress(lambda: bar.advance(task_id), prefix):
+            with TaskProgress(lambda: bar.advance(task_id), prefix):
                 return list(dask.compute(*tasks, scheduler="threads", num_workers=num_workers))
-        return _compute_distributed(tasks, scheduler, lambda: bar.advance(task_id))
-
-
-def _compute_distributed(
-    tasks: list[Any], scheduler: str | Any, advance: Callable[[], None]
-) -> list[Any]:
-    from distributed import Client, as_completed
-
-    own_client = not isinstance(scheduler, Client)
-    client = Client(scheduler, set_as_default=False) if own_client else scheduler
-    assert isinstance(client, Client)
-    try:
-        futures = client.compute(tasks)
-        position = {future.key: index for index, future in enumerate(futures)}
-        results: list[Any] = [None] * len(futures)
-        try:
-            for future in as_completed(futures):
-                results[position[future.key]] = future.result()
-                advance()
-        except BaseException:
-            client.cancel(futures)
-            raise
-        return results
-    finally:
-        if own_client:
-            client.close()
+        return compute_distributed(tasks, scheduler, lambda: bar.advance(task_id))
 
 
 @dataclass(frozen=True)

@@ -61,14 +61,14 @@ from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from scipy.ndimage import map_coordinates
 
+from nightlights._parallel import TaskProgress, compute_distributed
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
-from nightlights.ground.tiles import _compute_distributed, _TileProgress
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.panorama import KernelSlice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
-from nightlights.sky.scene import RasterInput, _level_offset
+from nightlights.sky.scene import RasterInput, level_offset
 from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
@@ -416,7 +416,7 @@ def darkness(
     start = time.perf_counter()
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
-    offset = _level_offset(np.where(lit, ground, np.nan), data, levels)
+    offset = level_offset(np.where(lit, ground, np.nan), lit, levels)
     eye = eye - offset
     low, high = float(eye.min()), float(eye.max())
     if low < observer_levels[0] - LEVEL_TOLERANCE or high > observer_levels[-1] + LEVEL_TOLERANCE:
@@ -524,11 +524,11 @@ def _compute(
     with _bar(progress) as bar:
         task = bar.add_task(f"darkness: {n_chunks} chunks", total=n_chunks)
         if scheduler is None:
-            with _TileProgress(lambda: bar.advance(task), name):
+            with TaskProgress(lambda: bar.advance(task), name):
                 out = result.compute(scheduler="threads")
         else:
             blocks = result.to_delayed()
-            values = _compute_distributed(list(blocks.flat), scheduler, lambda: bar.advance(task))
+            values = compute_distributed(list(blocks.flat), scheduler, lambda: bar.advance(task))
             width = blocks.shape[1]
             out = np.block([values[i : i + width] for i in range(0, len(values), width)])
     return np.asarray(out, dtype=float), n_chunks, chunk

@@ -37,7 +37,7 @@ from nightlights.inverse._influence import (
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.sky.panorama import panorama_pca
-from nightlights.sky.polar import PolarCells, PolarMap
+from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
 from nightlights.sky.scene import RasterInput, SceneSetup, prepare_scene
 from nightlights.sky.store import KernelResult
 
@@ -430,4 +430,4 @@ def _check_outputs(*paths: PathLike | None) -> None:
 
 
 def _lit(data: FloatArray) -> np.ndarray:
-    return np.asarray(np.any(np.nan_to_num(data) != 0, axis=0))
+    return lit_mask(data)

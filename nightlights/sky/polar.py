@@ -49,6 +49,31 @@ class PolarMap:
         return (np.arange(self.n_az) + 0.5) * 360.0 / self.n_az
 
 
+def lit_mask(emission: FloatArray) -> NDArray[np.bool_]:
+    """Cells with non-zero flux in any band (NaN is no emission), without copying the raster.
+
+    Parameters
+    ----------
+    emission
+        Shape ``(bands, rows, cols)`` or ``(rows, cols)`` [lm m-2].
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(rows, cols)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lit_mask(np.array([[[0.0, np.nan, 2.0]], [[0.0, 0.0, 0.0]]])).tolist()
+    [[False, False, True]]
+    """
+    data = np.asarray(emission)
+    if data.ndim == 2:
+        data = data[None]
+    return np.asarray(np.any(data > 0, axis=0) | np.any(data < 0, axis=0))
+
+
 def supersampling(
     cell_size: float, distance: FloatArray, n_az: int, *, max_samples: int = 16
 ) -> NDArray[np.int64]:
@@ -187,6 +212,7 @@ def polar_cells(
     distance_edges: FloatArray,
     n_az: int,
     max_samples: int = 16,
+    lit: NDArray[np.bool_] | None = None,
 ) -> PolarCells:
     """Split the lit cells of an emission raster into sub-points of the observer's polar grid.
 
@@ -205,6 +231,8 @@ def polar_cells(
         Azimuth bins [1].
     max_samples
         Largest number of sub-points per cell side [1].
+    lit
+        The raster's :func:`lit_mask`, when already known.
 
     Returns
     -------
@@ -225,12 +253,11 @@ def polar_cells(
         raise InputError("emission raster must have square, north-up cells")
     edges = np.asarray(distance_edges, dtype=float)
     cell = abs(transform.a)
-    values = np.nan_to_num(data, nan=0.0)
-    rows, cols = np.nonzero(np.any(values != 0, axis=0))
-    total = values.sum(axis=(1, 2)) * cell * cell
+    rows, cols = np.nonzero(lit_mask(data) if lit is None else lit)
+    cell_flux = np.nan_to_num(data[:, rows, cols], nan=0.0) * cell * cell
+    total = cell_flux.sum(axis=1)
     cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
     cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
-    cell_flux = values[:, rows, cols] * cell * cell
     k = supersampling(
         cell, np.hypot(cx - observer[0], cy - observer[1]), n_az, max_samples=max_samples
     )
@@ -425,7 +452,7 @@ def polar_map_levels(
         raise InputError(
             f"source altitudes of shape {heights.shape} do not match the emission {data.shape[1:]}"
         )
-    lit = np.any(np.nan_to_num(data, nan=0.0) != 0, axis=0)
+    lit = lit_mask(data)
     if np.any(lit & ~np.isfinite(heights)):
         raise InputError("source altitude missing (NaN) under lit emission cells")
     cells = polar_cells(
@@ -435,6 +462,7 @@ def polar_map_levels(
         distance_edges=distance_edges,
         n_az=n_az,
         max_samples=max_samples,
+        lit=lit,
     )
     weights = source_level_weights(heights[cells.rows, cells.cols], levels)
     maps = [_map_of(cells, weights[level], warn=False) for level in range(weights.shape[0])]

@@ -42,6 +42,7 @@ from nightlights.sky.panorama import (
 from nightlights.sky.polar import (
     PolarCells,
     PolarMap,
+    lit_mask,
     polar_cells,
     polar_map_levels,
     source_level_weights,
@@ -52,6 +53,7 @@ from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 __all__ = [
     "SceneSetup",
     "SkyglowScene",
+    "level_offset",
     "prepare_scene",
     "skyglow_panorama",
 ]
@@ -325,6 +327,8 @@ class SceneSetup:
         The kernel's source-altitude levels, increasing [m].
     slices
         One kernel slice per level at the observer's altitude.
+    lit
+        Boolean ``(rows, cols)``: the cells with flux (:func:`lit_mask`).
     """
 
     label: str
@@ -340,6 +344,7 @@ class SceneSetup:
     spec: KernelSpec | None
     levels: FloatArray
     slices: list[KernelSlice]
+    lit: np.ndarray
 
     @property
     def crs(self) -> CRS:
@@ -356,6 +361,7 @@ class SceneSetup:
             self.xy,
             distance_edges=first.distance_edges,
             n_az=first.n_az,
+            lit=self.lit,
         )
 
     def level_weights(self, cells: PolarCells) -> FloatArray:
@@ -429,6 +435,7 @@ def prepare_scene(
     # Altitudes above sea level: without terrain the ground is at 0 m.
     observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
     heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
+    lit = lit_mask(data)
     spec: KernelSpec | None = None
     if kernel is not None:
         table = load_kernel(kernel)
@@ -437,7 +444,7 @@ def prepare_scene(
             raster,
             xy,
             observer_altitude=observer_altitude,
-            source_altitudes=source_levels(heights[np.any(np.nan_to_num(data) != 0, axis=0)]),
+            source_altitudes=source_levels(heights[lit]),
             turbidity=2.0 if turbidity is None else turbidity,
             n_elevation=n_elevation,
             n_azimuth=n_azimuth,
@@ -452,7 +459,7 @@ def prepare_scene(
             "omit --turbidity or build a kernel for it"
         )
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
-    offset = _level_offset(heights, data, levels)
+    offset = level_offset(heights, lit, levels)
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
     return SceneSetup(
         label=label,
@@ -468,6 +475,7 @@ def prepare_scene(
         spec=spec,
         levels=levels,
         slices=slices,
+        lit=lit,
     )
 
 
@@ -554,15 +562,28 @@ def _total(polars: list[PolarMap]) -> PolarMap:
     )
 
 
-def _level_offset(heights: FloatArray, data: FloatArray, levels: FloatArray) -> float:
+def level_offset(heights: FloatArray, lit: np.ndarray, levels: FloatArray) -> float:
     """Common shift of all altitudes that brings the lit cells within a kernel's source levels.
 
     A scene kernel always covers them (0 is returned). A given kernel may not (e.g. one built
     with sources at 0 m used over terrain): then observer and sources are shifted together so
     that the observer keeps its height above the sources (the air density is then that of the
     kernel's levels), with a warning.
+
+    Parameters
+    ----------
+    heights
+        Source altitude of every cell, ``(rows, cols)`` [m].
+    lit
+        Boolean ``(rows, cols)``: the cells with flux.
+    levels
+        The kernel's source-altitude levels [m].
+
+    Returns
+    -------
+    float
+        The shift to subtract from every altitude [m].
     """
-    lit = np.any(np.nan_to_num(data) != 0, axis=0)
     if not lit.any():
         return 0.0
     low, high = float(np.nanmin(heights[lit])), float(np.nanmax(heights[lit]))
