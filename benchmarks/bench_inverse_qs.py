@@ -54,7 +54,7 @@ from nightlights.inverse._influence import (
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec
 from nightlights.sky.polar import polar_cells
-from nightlights.sky.scene import prepare_scene
+from nightlights.sky.setup import prepare_scene
 from nightlights.sky.store import get_or_build_kernel
 
 CELL = 10.0  # [m]

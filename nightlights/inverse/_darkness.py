@@ -68,7 +68,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.panorama import KernelSlice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
-from nightlights.sky.scene import RasterInput, level_offset
+from nightlights.sky.setup import RasterInput, level_offset
 from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 

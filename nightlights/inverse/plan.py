@@ -41,7 +41,7 @@ from nightlights.inverse.stage import (
 from nightlights.io import Raster, as_raster, atomic_output, source_label
 from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.polar import PolarCells
-from nightlights.sky.scene import RasterInput
+from nightlights.sky.setup import RasterInput
 
 __all__ = ["ReduceResult", "inverse_reduce", "least_dimming"]
 

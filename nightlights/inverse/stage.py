@@ -38,7 +38,7 @@ from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
-from nightlights.sky.scene import RasterInput, SceneSetup, prepare_scene
+from nightlights.sky.setup import RasterInput, SceneSetup, prepare_scene
 from nightlights.sky.store import KernelResult
 
 __all__ = ["InfluenceResult", "inverse_q", "inverse_s"]

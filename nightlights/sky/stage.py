@@ -20,7 +20,8 @@ from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.render import render_panorama
-from nightlights.sky.scene import RasterInput, skyglow_panorama
+from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.setup import RasterInput
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.store import KernelResult, write_kernel
 
