@@ -32,6 +32,10 @@ class OutputError(NightlightsError, OSError):
     """An output could not be written."""
 
 
+class ResourceError(NightlightsError, MemoryError):
+    """A computation would need more memory (or disk) than allowed."""
+
+
 class NightlightsWarning(UserWarning):
     """Root of the toolkit's warnings."""
 
