@@ -43,12 +43,23 @@ from cli.options import (
 @scheduler_option
 @click.option(
     "--n-distance",
-    default=64,
-    show_default=True,
-    help="Distance bins of the scene kernel built when --kernel is not given.",
+    type=int,
+    default=None,
+    help="Distance bins of the scene kernel built when --kernel is not given (default 64; a "
+    "given --kernel fixes it).",
 )
-@click.option("--n-elevation", default=64, show_default=True, help="Scene kernel rows.")
-@click.option("--n-azimuth", default=256, show_default=True, help="Scene kernel columns.")
+@click.option(
+    "--n-elevation",
+    type=int,
+    default=None,
+    help="Scene kernel rows (default 64; a given --kernel fixes it).",
+)
+@click.option(
+    "--n-azimuth",
+    type=int,
+    default=None,
+    help="Scene kernel columns (default 256; a given --kernel fixes it).",
+)
 def darkness(
     files: tuple[str, ...],
     output: str | None,
@@ -59,9 +70,9 @@ def darkness(
     turbidity: float | None,
     chunk_size: int | None,
     scheduler: str | None,
-    n_distance: int,
-    n_elevation: int,
-    n_azimuth: int,
+    n_distance: int | None,
+    n_elevation: int | None,
+    n_azimuth: int | None,
 ) -> None:
     """Zenith sky brightness (cd m-2, mag arcsec-2) with the observer at every cell of
     EMISSION [lm m-2]; write OUTPUT (COG, 2 bands)."""

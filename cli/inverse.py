@@ -81,13 +81,24 @@ def scene_options(function: F) -> F:
         dem_option,
         kernel_option,
         click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2)."),
-        click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns."),
-        click.option("--n-elevation", default=64, show_default=True, help="Panorama rows."),
+        click.option(
+            "--n-azimuth",
+            type=int,
+            default=None,
+            help="Panorama columns (default 256; a given --kernel fixes it).",
+        ),
+        click.option(
+            "--n-elevation",
+            type=int,
+            default=None,
+            help="Panorama rows (default 64; a given --kernel fixes it).",
+        ),
         click.option(
             "--n-distance",
-            default=64,
-            show_default=True,
-            help="Distance bins of the scene kernel built when --kernel is not given.",
+            type=int,
+            default=None,
+            help="Distance bins of the scene kernel built when --kernel is not given (default "
+            "64; a given --kernel fixes it).",
         ),
     ]
     for decorator in reversed(decorators):
@@ -137,9 +148,9 @@ def q_command(
     dem: str | None,
     kernel: str | None,
     turbidity: float | None,
-    n_azimuth: int,
-    n_elevation: int,
-    n_distance: int,
+    n_azimuth: int | None,
+    n_elevation: int | None,
+    n_distance: int | None,
     metric: str,
 ) -> None:
     """Each lit cell's light-pollution level for an observer: write OUTPUT (one-band COG on
@@ -205,9 +216,9 @@ def s_command(
     dem: str | None,
     kernel: str | None,
     turbidity: float | None,
-    n_azimuth: int,
-    n_elevation: int,
-    n_distance: int,
+    n_azimuth: int | None,
+    n_elevation: int | None,
+    n_distance: int | None,
     region: str,
     weight: str,
     method: str,

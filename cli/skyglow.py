@@ -96,13 +96,24 @@ def parse_pair(text: str) -> tuple[float, float]:
     show_default=True,
     help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
 )
-@click.option("--n-azimuth", default=256, show_default=True, help="Panorama columns.")
-@click.option("--n-elevation", default=64, show_default=True, help="Panorama rows.")
+@click.option(
+    "--n-azimuth",
+    type=int,
+    default=None,
+    help="Panorama columns (default 256; a given --kernel fixes it).",
+)
+@click.option(
+    "--n-elevation",
+    type=int,
+    default=None,
+    help="Panorama rows (default 64; a given --kernel fixes it).",
+)
 @click.option(
     "--n-distance",
-    default=64,
-    show_default=True,
-    help="Distance bins of the scene kernel built when --kernel is not given.",
+    type=int,
+    default=None,
+    help="Distance bins of the scene kernel built when --kernel is not given (default 64; a "
+    "given --kernel fixes it).",
 )
 @click.pass_context
 def skyglow(
@@ -125,9 +136,9 @@ def skyglow(
     dem: str | None,
     bands: str,
     spectrum: str,
-    n_azimuth: int,
-    n_elevation: int,
-    n_distance: int,
+    n_azimuth: int | None,
+    n_elevation: int | None,
+    n_distance: int | None,
 ) -> None:
     """Skyglow panorama (luminance, mag arcsec-2) of EMISSION [lm m-2] for an observer;
     write OUTPUT (NetCDF)."""

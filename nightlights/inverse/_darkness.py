@@ -68,7 +68,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.panorama import KernelSlice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
-from nightlights.sky.setup import RasterInput, level_offset
+from nightlights.sky.setup import RasterInput, check_kernel_grid, level_offset
 from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
@@ -304,9 +304,9 @@ def darkness(
     dem: RasterInput | None = None,
     kernel: KernelResult | xr.Dataset | PathLike | None = None,
     turbidity: float | None = None,
-    n_distance: int = 64,
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
+    n_distance: int | None = None,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
     chunk_size: int | None = None,
     scheduler: str | Any | None = None,
     cache_dir: PathLike | None = None,
@@ -337,7 +337,8 @@ def darkness(
     turbidity
         Atmospheric turbidity [1]; default 2, or the given kernel's.
     n_distance, n_elevation, n_azimuth
-        Distance bins, rows and columns of a scene kernel [1].
+        Distance bins, rows and columns of a scene kernel (default 64, 64, 256); with
+        ``kernel`` None or the kernel's own [1].
     chunk_size
         Chunk edge [cells]; default :data:`DEFAULT_CHUNK_SIZE`. A raster within one chunk is
         one FFT in memory; larger ones are chunked (never below twice the stencil radius).
@@ -386,6 +387,9 @@ def darkness(
     eye = ground + observer_height
     if kernel is not None:
         table = load_kernel(kernel)
+        check_kernel_grid(
+            table, n_elevation=n_elevation, n_azimuth=n_azimuth, n_distance=n_distance
+        )
         given = float(table.attrs.get("turbidity", np.nan))
         if turbidity is not None and not np.isclose(turbidity, given):
             raise InputError(
@@ -400,9 +404,9 @@ def darkness(
                 observer_altitude=0.0,
                 source_altitudes=source_levels(ground[lit]),
                 turbidity=2.0 if turbidity is None else turbidity,
-                n_elevation=n_elevation,
-                n_azimuth=n_azimuth,
-                n_distance=n_distance,
+                n_elevation=64 if n_elevation is None else n_elevation,
+                n_azimuth=256 if n_azimuth is None else n_azimuth,
+                n_distance=64 if n_distance is None else n_distance,
                 uplight=data.shape[0] == 2,
             ),
             observer_altitudes=tuple(source_levels(eye)),
@@ -568,10 +572,23 @@ def _check_emission(raster: Raster, label: str) -> FloatArray:
         raise InputError(
             f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
         )
+    infinite = int(np.count_nonzero(np.isinf(data)))
+    if infinite:
+        raise InputError(
+            f"{label}: {infinite} non-finite (inf) values; expected finite flux densities "
+            "[lm m-2] (nodata as NaN)"
+        )
     if np.isfinite(data).any() and np.nanmin(data) < 0:
         raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
     raster.resolution  # noqa: B018  (raises InputError unless square, north-up cells)
-    return np.nan_to_num(data, nan=0.0)
+    flux = np.nan_to_num(data, nan=0.0)
+    if not flux.any():
+        rows, cols = raster.shape
+        raise InputError(
+            f"{label}: no lit cell (all {rows} x {cols} cells are zero or nodata); nothing "
+            "lights the sky"
+        )
+    return flux
 
 
 def _check_chunk_size(chunk_size: int | None) -> int:

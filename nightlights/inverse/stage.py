@@ -38,7 +38,7 @@ from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
-from nightlights.sky.setup import RasterInput, SceneSetup, prepare_scene
+from nightlights.sky.setup import EmissionInput, RasterInput, SceneSetup, prepare_scene
 from nightlights.sky.store import KernelResult
 
 __all__ = ["InfluenceResult", "inverse_q", "inverse_s"]
@@ -86,7 +86,7 @@ class InfluenceResult:
 
 
 def inverse_q(
-    emission: RasterInput,
+    emission: EmissionInput,
     output: PathLike | None = None,
     *,
     observer: tuple[float, float],
@@ -96,9 +96,9 @@ def inverse_q(
     kernel: KernelInput = None,
     metric: str = "pca-norm",
     turbidity: float | None = None,
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
     cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> InfluenceResult:
@@ -130,7 +130,8 @@ def inverse_q(
     turbidity
         Atmospheric turbidity [1]; default 2, or the given kernel's.
     n_elevation, n_azimuth, n_distance
-        Grid of a scene kernel [1].
+        Grid of a scene kernel (default 64, 256, 64); with ``kernel`` None or the kernel's
+        own [1].
     cache_dir
         Kernel cache folder.
     progress
@@ -197,7 +198,7 @@ def inverse_q(
 
 
 def inverse_s(
-    emission: RasterInput,
+    emission: EmissionInput,
     output: PathLike | None = None,
     *,
     observer: tuple[float, float],
@@ -210,9 +211,9 @@ def inverse_s(
     dem: RasterInput | None = None,
     kernel: KernelInput = None,
     turbidity: float | None = None,
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
     cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> InfluenceResult:
@@ -308,31 +309,16 @@ cache_dir, progress
 
 
 def _setup(
-    emission: RasterInput,
+    emission: EmissionInput,
     observer: tuple[float, float],
     kernel: KernelInput,
     dem: RasterInput | None,
     **options: Any,
 ) -> SceneSetup:
-    """The scene for one observer, who must stand within the kernel's reach of the raster.
-
-    An observer outside the raster is allowed (a dark site outside the city is a main use),
-    but not one so far that no cell of the raster is within the kernel's range: every
-    influence would be zero, and such an observer is almost always a coordinate mistake.
-    """
-    setup = prepare_scene(emission, observer, kernel, dem, **options)
-    left, bottom, right, top = setup.raster.bounds
-    x, y = setup.xy
-    gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
-    reach = float(setup.slices[0].distance_edges[-1])
-    if gap >= reach:
-        raise InputError(
-            f"observer ({x:.1f}, {y:.1f}) lies {gap / 1000:.3g} km outside {setup.label} "
-            f"({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond the kernel's range "
-            f"({reach / 1000:.3g} km): no cell can light its sky; check the coordinates and "
-            "--observer-crs"
-        )
-    return setup
+    """The scene for one observer (:func:`prepare_scene`), who must stand within the
+    kernel's reach of a lit cell: an observer outside the raster is allowed (a dark site
+    outside the city is a main use), one beyond every cell's reach is refused there."""
+    return prepare_scene(emission, observer, kernel, dem, **options)
 
 
 def _region_weights(setup: SceneSetup, region: SkyRegion, weight: str) -> FloatArray:
@@ -381,7 +367,7 @@ def _influence_result(
     seconds: float,
     extra: dict[str, str],
 ) -> InfluenceResult:
-    grid = np.full(setup.raster.shape, np.nan)
+    grid = np.full(setup.shape, np.nan)
     grid[cells.rows, cells.cols] = values
     name, meaning = _BAND[metric]
     tags = {
@@ -400,7 +386,7 @@ def _influence_result(
     }
     raster = Raster(
         grid[None],
-        setup.raster.transform,
+        setup.transform,
         setup.crs,
         (name,),
         ("cd m-2",),

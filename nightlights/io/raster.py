@@ -5,6 +5,11 @@ units) and has a file form that reads and writes one; :func:`as_raster` accepts 
 :class:`Raster`, an :class:`xarray.DataArray` with ``band``/``y``/``x`` dims and
 ``transform``/``crs`` attributes, or a path. Writes are atomic: the output appears complete or
 not at all.
+
+:class:`LitCells` is the sparse form of a raster whose few cells carry a value (an emission
+raster of a city in a large, dark region): :func:`read_lit_cells` reads a file window by window
+and keeps only the cells with a non-zero value, so that memory grows with the lit cells, not
+with the raster.
 """
 
 from __future__ import annotations
@@ -18,7 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import rasterio
 import rasterio.shutil
+import rasterio.windows
 from affine import Affine
+from numpy.typing import NDArray
 from pyproj import CRS
 from rasterio.io import MemoryFile
 
@@ -292,6 +299,10 @@ class Raster:
             path, bands, transform=self.transform, crs=self.crs, tags=self.tags, **options
         )
 
+    def lit_cells(self) -> LitCells:
+        """The sparse form: the cells with a non-zero value in some band (:class:`LitCells`)."""
+        return _raster_lit_cells(self)
+
     def to_xarray(self) -> xr.DataArray:
         """A DataArray (band, y, x) with pixel-centre coordinates; ``transform``, ``crs`` (WKT),
         ``descriptions``, ``units`` and the tags in its attributes."""
@@ -369,3 +380,252 @@ def source_label(source: Raster | xr.DataArray | str | os.PathLike[str], name: s
     if isinstance(source, (str, os.PathLike)):
         return str(source)
     return f"in-memory {name}"
+
+
+#: Cells read at once by :func:`read_lit_cells` (a window of whole block rows) [1].
+WINDOW_CELLS = 4_000_000
+#: GDAL block cache while :func:`read_lit_cells` reads [MB].
+READ_CACHE_MB = 64
+
+
+@dataclass(frozen=True, eq=False)
+class LitCells:
+    """The cells of a raster with a non-zero value in some band: the sparse form of a raster.
+
+    Cells that are zero or nodata (NaN) in every band are left out; a lit cell keeps its
+    values in every band (NaN in a band where it has none). The counts of the cells left out
+    and of the non-finite values seen are kept for the checks of the stages.
+
+    Attributes
+    ----------
+    rows, cols
+        Row and column of each lit cell, row-major order, shape ``(n_cells,)``.
+    values
+        Shape ``(bands, n_cells)``, float64 [band unit].
+    transform
+        Affine transform of the raster [m or deg per pixel].
+    crs
+        Coordinate reference system, or ``None``.
+    shape
+        (rows, cols) of the raster.
+    descriptions, units
+        One per band.
+    nodata_cells
+        Cells that are nodata (NaN) in every band [1].
+    infinite_values
+        Values that are +-inf, all bands together [1].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> data = np.zeros((1, 3, 4)); data[0, 1, 2] = 5.0; data[0, 2, 0] = np.nan
+    >>> cells = Raster(data, Affine(10, 0, 0, 0, -10, 30), "EPSG:32635").lit_cells()
+    >>> cells.rows.tolist(), cells.cols.tolist(), cells.values.tolist(), cells.nodata_cells
+    ([1], [2], [[5.0]], 1)
+    """
+
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    values: FloatArray
+    transform: Affine
+    crs: CRS | None
+    shape: tuple[int, int]
+    descriptions: tuple[str, ...] = ()
+    units: tuple[str, ...] = ()
+    nodata_cells: int = 0
+    infinite_values: int = 0
+
+    @property
+    def count(self) -> int:
+        """Number of bands."""
+        return int(self.values.shape[0])
+
+    @property
+    def n_cells(self) -> int:
+        """Number of lit cells."""
+        return int(self.rows.size)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the raster's pixel edges [CRS unit]."""
+        return _bounds(self.transform, 0, 0, *self.shape)
+
+    def lit_bounds(self) -> tuple[float, float, float, float] | None:
+        """(xmin, ymin, xmax, ymax) of the lit cells' pixel edges, None without lit cells
+        [CRS unit]."""
+        if self.n_cells == 0:
+            return None
+        row0, col0 = int(self.rows.min()), int(self.cols.min())
+        row1, col1 = int(self.rows.max()) + 1, int(self.cols.max()) + 1
+        return _bounds(self.transform, row0, col0, row1 - row0, col1 - col0)
+
+    def centres(self) -> tuple[FloatArray, FloatArray]:
+        """(x, y) of each lit cell's centre [CRS unit]."""
+        t = self.transform
+        x = t.c + t.a * (self.cols + 0.5) + t.b * (self.rows + 0.5)
+        y = t.f + t.d * (self.cols + 0.5) + t.e * (self.rows + 0.5)
+        return x, y
+
+    def dense(self) -> tuple[FloatArray, Affine]:
+        """The lit cells' bounding window as a dense ``(bands, rows, cols)`` array (zero where
+        unlit) and its transform.
+
+        Returns
+        -------
+        tuple
+            The array [band unit] and the window's affine transform.
+        """
+        if self.n_cells == 0:
+            return np.zeros((self.count, 0, 0)), self.transform
+        row0, col0 = int(self.rows.min()), int(self.cols.min())
+        shape = (int(self.rows.max()) + 1 - row0, int(self.cols.max()) + 1 - col0)
+        out = np.zeros((self.count, *shape))
+        out[:, self.rows - row0, self.cols - col0] = self.values
+        return out, self.transform @ Affine.translation(col0, row0)
+
+
+def _bounds(
+    transform: Affine, row: int, col: int, rows: int, cols: int
+) -> tuple[float, float, float, float]:
+    xs = [
+        transform.c + transform.a * c + transform.b * r
+        for c in (col, col + cols)
+        for r in (row, row + rows)
+    ]
+    ys = [
+        transform.f + transform.d * c + transform.e * r
+        for c in (col, col + cols)
+        for r in (row, row + rows)
+    ]
+    return (float(min(xs)), float(min(ys)), float(max(xs)), float(max(ys)))
+
+
+class _LitCollector:
+    """Collects the lit cells of consecutive row windows of a raster."""
+
+    def __init__(self, count: int) -> None:
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.values: list[np.ndarray] = []
+        self.count = count
+        self.nodata_cells = 0
+        self.infinite_values = 0
+
+    def add(self, block: np.ndarray, row0: int, nodata: float | None) -> None:
+        """Add a ``(bands, rows, cols)`` window whose first row is ``row0``."""
+        if not block.any():  # the usual window of a sparse raster: all zero, one fast pass
+            return
+        missing = np.isnan(block) if np.issubdtype(block.dtype, np.floating) else None
+        if nodata is not None and not np.isnan(nodata):
+            missing = block == nodata if missing is None else missing | (block == nodata)
+        if np.issubdtype(block.dtype, np.floating):
+            self.infinite_values += int(np.count_nonzero(np.isinf(block)))
+        lit = block != 0
+        if missing is not None:
+            lit &= ~missing
+            self.nodata_cells += int(np.count_nonzero(missing.all(axis=0)))
+        lit_any = lit.any(axis=0)
+        rows, cols = np.nonzero(lit_any)
+        values = block[:, rows, cols].astype(np.float64)
+        if missing is not None:
+            values[missing[:, rows, cols]] = np.nan
+        self.rows.append(rows.astype(np.int64) + row0)
+        self.cols.append(cols.astype(np.int64))
+        self.values.append(values)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self.rows:
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((self.count, 0)))
+        return (
+            np.concatenate(self.rows),
+            np.concatenate(self.cols),
+            np.concatenate(self.values, axis=1),
+        )
+
+
+def _raster_lit_cells(raster: Raster) -> LitCells:
+    collector = _LitCollector(raster.count)
+    rows = raster.shape[0]
+    step = max(1, WINDOW_CELLS // max(1, raster.shape[1]))
+    for row0 in range(0, rows, step):
+        collector.add(raster.data[:, row0 : row0 + step], row0, None)
+    r, c, v = collector.arrays()
+    return LitCells(
+        r,
+        c,
+        v,
+        raster.transform,
+        raster.crs,
+        raster.shape,
+        raster.descriptions,
+        raster.units,
+        collector.nodata_cells,
+        collector.infinite_values,
+    )
+
+
+def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
+    """Read a raster file window by window, keeping only its lit cells.
+
+    Memory holds one window of whole block rows (about :data:`WINDOW_CELLS` cells per band in
+    the file's data type) and the lit cells, never the whole raster.
+
+    Parameters
+    ----------
+    path
+        Any raster GDAL reads.
+
+    Returns
+    -------
+    LitCells
+        The cells with a non-zero, non-nodata value in some band.
+
+    Raises
+    ------
+    InputError
+        The file does not exist or GDAL cannot read it.
+    """
+    source = Path(path)
+    if not source.exists():
+        raise InputError(f"{source}: no such file")
+    try:
+        # A small block cache (GDAL's default is 5 % of the memory) and threaded decoding.
+        with (
+            rasterio.Env(GDAL_CACHEMAX=READ_CACHE_MB, GDAL_NUM_THREADS="ALL_CPUS"),
+            rasterio.open(source) as dataset,
+        ):
+            collector = _LitCollector(dataset.count)
+            block_rows = dataset.block_shapes[0][0] if dataset.block_shapes else 1
+            per_window = max(1, WINDOW_CELLS // max(1, dataset.width))
+            step = max(block_rows, per_window // block_rows * block_rows)
+            nodata = dataset.nodata
+            for row0 in range(0, dataset.height, step):
+                height = min(step, dataset.height - row0)
+                window = rasterio.windows.Window(0, row0, dataset.width, height)
+                collector.add(dataset.read(window=window), row0, nodata)
+            r, c, v = collector.arrays()
+            return LitCells(
+                r,
+                c,
+                v,
+                dataset.transform,
+                CRS.from_user_input(dataset.crs.to_wkt()) if dataset.crs else None,
+                (dataset.height, dataset.width),
+                tuple(d or "" for d in dataset.descriptions),
+                tuple(u or "" for u in dataset.units),
+                collector.nodata_cells,
+                collector.infinite_values,
+            )
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputError(f"{source}: cannot read raster: {exc}") from exc
+
+
+def as_lit_cells(source: Raster | xr.DataArray | str | os.PathLike[str] | LitCells) -> LitCells:
+    """The :class:`LitCells` of a raster input; a path is read window by window
+    (:func:`read_lit_cells`), never whole."""
+    if isinstance(source, LitCells):
+        return source
+    if isinstance(source, (str, os.PathLike)):
+        return read_lit_cells(source)
+    return as_raster(source).lit_cells()

@@ -43,6 +43,18 @@ __all__ = [
 #: model atmosphere is this many of the largest scale heights [1].
 TOP_E_FOLDINGS = 16.0
 
+#: Largest turbidity accepted: thin fog (visibility 1-2 km) in McCartney's (1976) table that
+#: Preetham et al. (1999) adopt; beyond it the glow of sources past a few hundred metres
+#: underflows and the kernel is all but zero [1].
+MAX_TURBIDITY = 64.0
+#: Largest vertical optical depth accepted (aerosol or molecular), about that of
+#: :data:`MAX_TURBIDITY` at 550 nm (6.3) rounded up [1].
+MAX_OPTICAL_DEPTH = 10.0
+#: Wavelengths accepted: the near ultraviolet to the silicon sensors' near-infrared edge [nm].
+WAVELENGTH_RANGE = (300.0, 1100.0)
+#: Largest scale height accepted (the model atmosphere's top is 16 of them) [m].
+MAX_SCALE_HEIGHT = 100_000.0
+
 
 def rayleigh_optical_depth(wavelength_nm: ArrayLike = 550.0) -> NDArray[np.float64]:
     """Vertical Rayleigh optical depth of the standard atmosphere at sea level.
@@ -277,20 +289,34 @@ class Atmosphere:
     molecular_phase: str = "rayleigh"
 
     def __post_init__(self) -> None:
-        if not self.turbidity >= 1.0:
-            raise InputError(f"turbidity {self.turbidity!r}; expected >= 1 (1 = pure air)")
+        if not 1.0 <= self.turbidity <= MAX_TURBIDITY:
+            raise InputError(
+                f"turbidity {self.turbidity!r}; expected 1 (pure air) to {MAX_TURBIDITY:g} "
+                "(thin fog)"
+            )
         for name in ("molecular_scale_height", "aerosol_scale_height", "earth_radius"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"{name} {value!r} m; expected a positive length")
-        if not self.wavelength_nm > 0:
-            raise InputError(f"wavelength_nm {self.wavelength_nm!r}; expected > 0")
+        for name in ("molecular_scale_height", "aerosol_scale_height"):
+            value = getattr(self, name)
+            if value > MAX_SCALE_HEIGHT:
+                raise InputError(f"{name} {value!r} m; expected at most {MAX_SCALE_HEIGHT:g} m")
+        low, high = WAVELENGTH_RANGE
+        if not low <= self.wavelength_nm <= high:
+            raise InputError(f"wavelength_nm {self.wavelength_nm!r}; expected {low:g}-{high:g} nm")
+        if not (np.isfinite(self.angstrom_exponent) and 0.0 <= self.angstrom_exponent <= 4.0):
+            raise InputError(
+                f"angstrom_exponent {self.angstrom_exponent!r}; expected 0-4 (1.3 typical)"
+            )
         if not -1.0 < self.asymmetry < 1.0:
             raise InputError(f"asymmetry {self.asymmetry!r}; expected -1 < g < 1")
         for name in ("aerosol_optical_depth", "rayleigh_optical_depth"):
             value = getattr(self, name)
-            if value is not None and not (np.isfinite(value) and value >= 0):
-                raise InputError(f"{name} {value!r}; expected a non-negative optical depth")
+            if value is not None and not (0 <= value <= MAX_OPTICAL_DEPTH):
+                raise InputError(
+                    f"{name} {value!r}; expected an optical depth from 0 to {MAX_OPTICAL_DEPTH:g}"
+                )
         if not 0.0 <= self.aerosol_albedo <= 1.0:
             raise InputError(f"aerosol_albedo {self.aerosol_albedo!r}; expected 0..1")
         if self.molecular_phase not in ("rayleigh", "isotropic"):

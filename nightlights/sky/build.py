@@ -33,6 +33,7 @@ import xarray as xr
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._typing import FloatArray
+from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import sky_luminance_grid
@@ -275,6 +276,7 @@ def compute_kernel(
             tables[e][o, c, sl] = img[:, :, mirror]
             bar.advance(task)
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
+    _check_tables(tables, spec)
     ds = compress_kernel(
         tables["lambertian"],
         tables.get("uplight"),
@@ -305,3 +307,18 @@ def compute_kernel(
     )
     ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
     return ds
+
+
+def _check_tables(tables: dict[str, np.ndarray], spec: KernelSpec) -> None:
+    """Refuse a kernel that is zero everywhere or not finite: it would render a black sky
+    for any scene."""
+    for emission, table in tables.items():
+        if not np.all(np.isfinite(table)):
+            raise InputError(f"the {emission} kernel has non-finite values; check the atmosphere")
+        if not np.any(table > 0):
+            atm = spec.atmosphere
+            raise InputError(
+                f"the {emission} kernel is zero everywhere: with turbidity {atm.turbidity:g} "
+                f"(aerosol optical depth {atm.aerosol_depth:.3g}) no light reaches the observer "
+                f"from {spec.r_min:g}-{spec.r_max:g} m; lower the turbidity or optical depth"
+            )

@@ -18,6 +18,7 @@ from scipy.ndimage import map_coordinates
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, InputError
 from nightlights.io import Raster, as_raster
+from nightlights.io.raster import LitCells
 
 #: Mean Earth radius [m].
 EARTH_RADIUS = 6.371e6
@@ -115,12 +116,12 @@ class SceneTerrain:
     transform: Affine
     eye_altitude: float
     source_altitude: float  # flux-weighted mean
-    heights: FloatArray  # terrain height of every emission cell (NaN where unlit)
+    heights: FloatArray  # terrain height under each lit cell, in the order of the LitCells
 
 
 def scene_terrain(
     dem: Raster | xr.DataArray | PathLike,
-    raster: Raster,
+    emission: Raster | LitCells,
     xy: tuple[float, float],
     observer_height: float,
     *,
@@ -132,8 +133,8 @@ def scene_terrain(
     ----------
     dem
         Terrain heights above sea level [m] in the emission raster's CRS.
-    raster
-        Emission raster [lm m-2].
+    emission
+        Emission raster or its lit cells (:class:`~nightlights.io.raster.LitCells`) [lm m-2].
     xy
         Observer (x, y) in the raster's CRS [m].
     observer_height
@@ -144,30 +145,31 @@ def scene_terrain(
     Returns
     -------
     SceneTerrain
-        DEM, eye altitude [m], flux-weighted source altitude [m], per-cell heights [m].
+        DEM, eye altitude [m], flux-weighted source altitude [m], the height under each lit
+        cell of ``emission.lit_cells()`` [m].
     """
+    cells = emission if isinstance(emission, LitCells) else emission.lit_cells()
     relief = as_raster(dem)
-    if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
+    if relief.crs is None or cells.crs is None or not relief.crs.equals(cells.crs):
         raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
     heights = relief.data[0]
     ground = ground_height(heights, relief.transform, *xy)
     # Terrain height under each lit emission cell, weighted by its flux.
-    flux = np.nansum(np.nan_to_num(raster.data, nan=0.0), axis=0)
-    rows, cols = np.nonzero(flux)
+    flux = np.nansum(np.nan_to_num(cells.values, nan=0.0), axis=0)
     source_altitude = 0.0
-    cell_heights = np.full(flux.shape, np.nan)
-    if rows.size:
-        t = raster.transform
-        cx = t.c + t.a * (cols + 0.5)
-        cy = t.f + t.e * (rows + 0.5)
+    cell_heights = np.zeros(0)
+    if cells.n_cells:
+        cx, cy = cells.centres()
         inv = ~relief.transform
         dcol = inv.a * cx + inv.b * cy + inv.c
         drow = inv.d * cx + inv.e * cy + inv.f
-        z = map_coordinates(
+        cell_heights = map_coordinates(
             np.nan_to_num(heights, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
         )
-        source_altitude = float(np.average(z, weights=flux[rows, cols]))
-        cell_heights[rows, cols] = z
+        weights = np.abs(flux)
+        source_altitude = float(
+            np.average(cell_heights, weights=weights) if weights.sum() > 0 else cell_heights.mean()
+        )
     return SceneTerrain(
         heights, relief.transform, ground + observer_height, source_altitude, cell_heights
     )

@@ -245,6 +245,59 @@ def polar_cells(
         data = data[None]
     if data.ndim != 3:
         raise InputError(f"emission must be (bands, rows, cols); got shape {data.shape}")
+    rows, cols = np.nonzero(lit_mask(data) if lit is None else lit)
+    return lit_polar_cells(
+        rows,
+        cols,
+        data[:, rows, cols],
+        transform,
+        observer,
+        distance_edges=distance_edges,
+        n_az=n_az,
+        max_samples=max_samples,
+    )
+
+
+def lit_polar_cells(
+    rows: ArrayLike,
+    cols: ArrayLike,
+    values: ArrayLike,
+    transform: Affine,
+    observer: tuple[float, float],
+    *,
+    distance_edges: FloatArray,
+    n_az: int,
+    max_samples: int = 16,
+) -> PolarCells:
+    """:func:`polar_cells` of the lit cells alone (the sparse form of a raster).
+
+    Parameters
+    ----------
+    rows, cols
+        Raster row and column of each lit cell, shape ``(n_cells,)``.
+    values
+        Shape ``(bands, n_cells)``: their upward flux density [lm m-2]; NaN counts as none.
+    transform
+        Affine transform of the raster (square cells, north up) [m].
+    observer
+        Observer position (x, y) in the raster CRS [m].
+    distance_edges, n_az, max_samples
+        As :func:`polar_cells`.
+
+    Returns
+    -------
+    PolarCells
+        The cells in the order given.
+    """
+    rows = np.asarray(rows, dtype=np.int64).ravel()
+    cols = np.asarray(cols, dtype=np.int64).ravel()
+    density = np.asarray(values, dtype=float)
+    if density.ndim == 1:
+        density = density[None]
+    if density.ndim != 2 or density.shape[1] != rows.size:
+        raise InputError(
+            f"values of shape {density.shape}; expected (bands, {rows.size}) for the lit cells"
+        )
     if (
         transform.b != 0
         or transform.d != 0
@@ -253,8 +306,7 @@ def polar_cells(
         raise InputError("emission raster must have square, north-up cells")
     edges = np.asarray(distance_edges, dtype=float)
     cell = abs(transform.a)
-    rows, cols = np.nonzero(lit_mask(data) if lit is None else lit)
-    cell_flux = np.nan_to_num(data[:, rows, cols], nan=0.0) * cell * cell
+    cell_flux = np.nan_to_num(density, nan=0.0) * cell * cell
     total = cell_flux.sum(axis=1)
     cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
     cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
@@ -464,7 +516,26 @@ def polar_map_levels(
         max_samples=max_samples,
         lit=lit,
     )
-    weights = source_level_weights(heights[cells.rows, cells.cols], levels)
+    return level_maps(cells, source_level_weights(heights[cells.rows, cells.cols], levels))
+
+
+def level_maps(cells: PolarCells, weights: FloatArray) -> list[PolarMap]:
+    """One polar map per source level: each cell's flux scaled by its level weight.
+
+    Parameters
+    ----------
+    cells
+        The lit cells in the observer's polar grid.
+    weights
+        Shape ``(n_levels, n_cells)``: each cell's share of every level
+        (:func:`source_level_weights`) [1].
+
+    Returns
+    -------
+    list of PolarMap
+        One per level; warns (:class:`~nightlights.errors.DataQualityWarning`) once when
+        flux lies beyond the last distance edge.
+    """
     maps = [_map_of(cells, weights[level], warn=False) for level in range(weights.shape[0])]
     _warn_dropped(
         np.sum([m.dropped_flux for m in maps], axis=0),

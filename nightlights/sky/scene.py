@@ -35,11 +35,8 @@ from nightlights.sky.panorama import (
     panorama_naive,
     panorama_pca,
 )
-from nightlights.sky.polar import (
-    PolarMap,
-    polar_map_levels,
-)
-from nightlights.sky.setup import RasterInput, prepare_scene
+from nightlights.sky.polar import PolarMap, level_maps
+from nightlights.sky.setup import EmissionInput, RasterInput, SceneSetup, prepare_scene
 from nightlights.sky.store import KernelResult, get_or_build_kernel
 
 __all__ = ["SkyglowScene", "skyglow_panorama"]
@@ -65,7 +62,7 @@ class SkyglowScene:
 
 
 def skyglow_panorama(
-    emission: RasterInput,
+    emission: EmissionInput,
     observer: tuple[float, float],
     kernel: KernelResult | xr.Dataset | PathLike | None = None,
     dem: RasterInput | None = None,
@@ -77,9 +74,9 @@ def skyglow_panorama(
     components: int | None = None,
     bands: str = "V",
     spectrum: str = "LED_4000K",
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
     cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> SkyglowScene:
@@ -119,7 +116,8 @@ def skyglow_panorama(
     spectrum
         Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
     n_elevation, n_azimuth, n_distance
-        Panorama rows and columns and distance bins of a scene kernel [1].
+        Panorama rows and columns and distance bins of a scene kernel (default 64, 256, 64);
+        with ``kernel`` None or the kernel's own (a given kernel fixes the grid) [1].
     cache_dir
         Kernel cache folder (scene kernels are cached there).
     progress
@@ -172,26 +170,13 @@ def skyglow_panorama(
         cache_dir=cache_dir,
         progress=progress,
     )
-    raster, data, xy, table, levels = (
-        setup.raster,
-        setup.data,
-        setup.xy,
-        setup.table,
-        setup.levels,
-    )
-    label, terrain, spec, heights = setup.label, setup.terrain, setup.spec, setup.heights
+    xy, table, levels = setup.xy, setup.table, setup.levels
+    label, terrain, spec = setup.label, setup.terrain, setup.spec
     observer_altitude, offset, slices = setup.observer_altitude, setup.offset, setup.slices
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
     tables = slices[0]
-    polars = polar_map_levels(
-        data,
-        raster.transform,
-        xy,
-        source_altitude=heights,
-        levels=levels,
-        distance_edges=tables.distance_edges,
-        n_az=tables.n_az,
-    )
+    cells = setup.polar_cells()
+    polars = level_maps(cells, setup.level_weights(cells))
     polar = _total(polars)
     band_tables: dict[str, list[KernelSlice]] = {}
     if bands == "RGB" and spec is not None:
@@ -209,14 +194,16 @@ def skyglow_panorama(
     elif mode == "exact":
         luminance = panorama_exact(polars, slices)
     else:
+        window, window_transform = setup.emission.dense()
+        window_heights = _dense_heights(setup)
         luminance = panorama_naive(
-            data,
-            raster.transform,
+            window,
+            window_transform,
             xy,
             elevation=tables.elevation,
             n_az=tables.n_az,
             observer_altitude=observer_altitude,
-            source_altitude=np.nan_to_num(heights),
+            source_altitude=window_heights,
             atmosphere=_kernel_atmosphere(table),
             uplight_exponent=float(table.attrs.get("uplight_exponent", UPLIGHT_EXPONENT)),
         )
@@ -343,6 +330,18 @@ def _kernel_atmosphere(table: xr.Dataset) -> Atmosphere:
             "atmosphere"
         )
     return Atmosphere.from_parameters(table.attrs)
+
+
+def _dense_heights(setup: SceneSetup) -> FloatArray:
+    """The lit cells' source altitudes on the window of :meth:`LitCells.dense` [m]."""
+    cells = setup.emission
+    if cells.n_cells == 0:
+        return np.zeros((0, 0))
+    row0, col0 = int(cells.rows.min()), int(cells.cols.min())
+    shape = (int(cells.rows.max()) + 1 - row0, int(cells.cols.max()) + 1 - col0)
+    out = np.zeros(shape)
+    out[cells.rows - row0, cells.cols - col0] = setup.heights
+    return out
 
 
 def _total(polars: list[PolarMap]) -> PolarMap:

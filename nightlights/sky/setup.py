@@ -8,26 +8,39 @@ the observer's altitude. :func:`nightlights.sky.scene.skyglow_panorama` and the 
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
+from affine import Affine
 from pyproj import CRS, Transformer
+from pyproj.exceptions import ProjError
 
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
-from nightlights.io import Raster, as_raster, source_label
+from nightlights.io import Raster, source_label
+from nightlights.io.raster import LitCells, as_lit_cells
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
 from nightlights.sky.panorama import KernelSlice, kernel_levels
-from nightlights.sky.polar import PolarCells, lit_mask, polar_cells, source_level_weights
-from nightlights.sky.spec import KernelSpec, scene_kernel_spec, source_levels
+from nightlights.sky.polar import PolarCells, lit_polar_cells, source_level_weights
+from nightlights.sky.spec import (
+    MAX_KERNEL_RANGE,
+    KernelSpec,
+    scene_kernel_spec,
+    source_levels,
+)
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
-__all__ = ["RasterInput", "SceneSetup", "level_offset", "prepare_scene"]
+__all__ = ["EmissionInput", "RasterInput", "SceneSetup", "level_offset", "prepare_scene"]
 
-#: What a stage accepts as a raster input.
+#: What a stage accepts as a raster input (an emission may also be given as its lit cells).
 RasterInput = Raster | xr.DataArray | PathLike
+EmissionInput = Raster | xr.DataArray | PathLike | LitCells
+
+#: Largest absolute coordinates that look like degrees (longitude, latitude) [deg].
+_DEGREE_LIKE = (360.0, 90.0)
 
 
 @dataclass(frozen=True)
@@ -35,18 +48,18 @@ class SceneSetup:
     """An emission raster, an observer and a kernel made ready for a panorama.
 
     What :func:`skyglow_panorama` and the inverse quantities (:mod:`nightlights.inverse`)
-    share: the checked raster, the observer in its CRS, the terrain, the kernel and one
-    kernel slice per source-altitude level at the observer's altitude. Altitudes here are
-    the kernel's (shifted by ``offset`` when a given kernel's levels do not cover the scene).
+    share: the checked lit cells of the emission, the observer in its CRS, the terrain, the
+    kernel and one kernel slice per source-altitude level at the observer's altitude.
+    Altitudes here are the kernel's (shifted by ``offset`` when a given kernel's levels do not
+    cover the scene).
 
     Attributes
     ----------
     label
         How the emission is named in messages.
-    raster
-        The emission raster.
-    data
-        Its ``(bands, rows, cols)`` upward flux density [lm m-2].
+    emission
+        The emission's lit cells, upward flux density [lm m-2] (the raster is never held
+        whole).
     xy
         Observer (x, y) in the raster's CRS [m].
     observer_height
@@ -54,7 +67,7 @@ class SceneSetup:
     observer_altitude
         Observer altitude in the kernel's frame [m].
     heights
-        Source altitude of every cell in the kernel's frame, ``(rows, cols)`` [m].
+        Source altitude of every lit cell in the kernel's frame, ``(n_cells,)`` [m].
     offset
         Shift subtracted from all altitudes to fit the kernel's levels [m].
     terrain
@@ -67,13 +80,10 @@ class SceneSetup:
         The kernel's source-altitude levels, increasing [m].
     slices
         One kernel slice per level at the observer's altitude.
-    lit
-        Boolean ``(rows, cols)``: the cells with flux (:func:`lit_mask`).
     """
 
     label: str
-    raster: Raster
-    data: FloatArray
+    emission: LitCells
     xy: tuple[float, float]
     observer_height: float
     observer_altitude: float
@@ -84,29 +94,44 @@ class SceneSetup:
     spec: KernelSpec | None
     levels: FloatArray
     slices: list[KernelSlice]
-    lit: np.ndarray
 
     @property
     def crs(self) -> CRS:
         """The raster's (projected) CRS."""
-        assert self.raster.crs is not None  # checked by prepare_scene
-        return self.raster.crs
+        assert self.emission.crs is not None  # checked by prepare_scene
+        return self.emission.crs
+
+    @property
+    def transform(self) -> Affine:
+        """The raster's affine transform [m]."""
+        return self.emission.transform
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """The raster's (rows, cols)."""
+        return self.emission.shape
 
     def polar_cells(self) -> PolarCells:
-        """The lit cells split into the observer's polar bins (:func:`polar_cells`)."""
+        """The lit cells split into the observer's polar bins (:func:`lit_polar_cells`), in
+        the order of :attr:`emission`."""
         first = self.slices[0]
-        return polar_cells(
-            self.data,
-            self.raster.transform,
+        return lit_polar_cells(
+            self.emission.rows,
+            self.emission.cols,
+            self.emission.values,
+            self.transform,
             self.xy,
             distance_edges=first.distance_edges,
             n_az=first.n_az,
-            lit=self.lit,
         )
 
     def level_weights(self, cells: PolarCells) -> FloatArray:
         """Shape ``(n_levels, n_cells)``: each lit cell's share of every source level [1]."""
-        return source_level_weights(self.heights[cells.rows, cells.cols], self.levels)
+        if cells.n_cells != self.heights.size:
+            raise InputError(
+                f"{cells.n_cells} cells; expected the scene's {self.heights.size} lit cells"
+            )
+        return source_level_weights(self.heights, self.levels)
 
     def below_terrain(self) -> np.ndarray:
         """Boolean ``(n_el, n_az)``: True where the terrain hides the sky (all False
@@ -125,7 +150,7 @@ class SceneSetup:
 
 
 def prepare_scene(
-    emission: RasterInput,
+    emission: EmissionInput,
     observer: tuple[float, float],
     kernel: KernelResult | xr.Dataset | PathLike | None = None,
     dem: RasterInput | None = None,
@@ -133,19 +158,30 @@ def prepare_scene(
     observer_crs: str | None = None,
     observer_height: float = 1.7,
     turbidity: float | None = None,
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
     cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> SceneSetup:
     """Check an emission raster and an observer, and load or build the kernel for them.
 
+    A file is read window by window keeping only its lit cells
+    (:func:`~nightlights.io.raster.read_lit_cells`). Refused with a one-line
+    :class:`~nightlights.errors.InputError`: infinite or negative flux, no lit cell, an
+    observer whose coordinates are not on the Earth in ``observer_crs``, an observer farther
+    from every lit cell than the kernel reaches (an observer outside the raster within that
+    range is a dark site, and legal), and grid options that differ from a given kernel's.
+
     Parameters
     ----------
     emission, observer, kernel, dem, observer_crs, observer_height, turbidity
-        As :func:`skyglow_panorama`.
-    n_elevation, n_azimuth, n_distance, cache_dir, progress
+        As :func:`skyglow_panorama`; ``emission`` may also be its
+        :class:`~nightlights.io.raster.LitCells`.
+    n_elevation, n_azimuth, n_distance
+        Grid of a scene kernel (default 64, 256, 64); with ``kernel`` they must be None or
+        equal the kernel's [1].
+    cache_dir, progress
         As :func:`skyglow_panorama`, for a scene kernel.
 
     Returns
@@ -153,43 +189,48 @@ def prepare_scene(
     SceneSetup
         The checked scene with one kernel slice per source level.
     """
-    label = source_label(emission, "emission raster")
-    raster = as_raster(emission)
-    data = raster.data
-    if raster.crs is None or not raster.crs.is_projected:
+    label = (
+        "in-memory emission raster"
+        if isinstance(emission, LitCells)
+        else source_label(emission, "emission raster")
+    )
+    cells = as_lit_cells(emission)
+    if cells.crs is None or not cells.crs.is_projected:
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
-    if data.shape[0] > 2:
+    if cells.count > 2:
         raise InputError(
-            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+            f"{label}: {cells.count} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
         )
-    if np.isfinite(data).any() and np.nanmin(data) < 0:
-        raise InputError(f"{label}: negative flux density {np.nanmin(data):g} lm m-2")
-    xy = _observer_xy(observer, observer_crs, raster.crs)
-    if observer_height < 0:
-        raise InputError(f"observer height {observer_height} m; expected >= 0")
+    _check_flux(cells, label)
+    xy = _observer_xy(observer, observer_crs, cells.crs)
+    if not (np.isfinite(observer_height) and observer_height >= 0):
+        raise InputError(f"observer height {observer_height} m; expected a finite value >= 0")
+    _check_reach(cells, xy, MAX_KERNEL_RANGE, label, observer, observer_crs)
     terrain = (
-        scene_terrain(dem, raster, xy, observer_height, label=source_label(dem, "DEM"))
+        scene_terrain(dem, cells, xy, observer_height, label=source_label(dem, "DEM"))
         if dem is not None
         else None
     )
     # Altitudes above sea level: without terrain the ground is at 0 m.
     observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
-    heights = terrain.heights if terrain is not None else np.zeros(data.shape[1:])
-    lit = lit_mask(data)
+    heights = terrain.heights if terrain is not None else np.zeros(cells.n_cells)
     spec: KernelSpec | None = None
     if kernel is not None:
         table = load_kernel(kernel)
+        check_kernel_grid(
+            table, n_elevation=n_elevation, n_azimuth=n_azimuth, n_distance=n_distance
+        )
     else:
         spec = scene_kernel_spec(
-            raster,
+            cells,
             xy,
             observer_altitude=observer_altitude,
-            source_altitudes=source_levels(heights[lit]),
+            source_altitudes=source_levels(heights),
             turbidity=2.0 if turbidity is None else turbidity,
-            n_elevation=n_elevation,
-            n_azimuth=n_azimuth,
-            n_distance=n_distance,
-            uplight=data.shape[0] == 2,
+            n_elevation=64 if n_elevation is None else n_elevation,
+            n_azimuth=256 if n_azimuth is None else n_azimuth,
+            n_distance=64 if n_distance is None else n_distance,
+            uplight=cells.count == 2,
         )
         table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
@@ -199,12 +240,13 @@ def prepare_scene(
             "omit --turbidity or build a kernel for it"
         )
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
-    offset = level_offset(heights, lit, levels)
+    offset = level_offset(heights, None, levels)
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
+    if kernel is not None:
+        _check_reach(cells, xy, float(slices[0].distance_edges[-1]), label, observer, observer_crs)
     return SceneSetup(
         label=label,
-        raster=raster,
-        data=data,
+        emission=cells,
         xy=xy,
         observer_height=float(observer_height),
         observer_altitude=observer_altitude - offset,
@@ -215,11 +257,97 @@ def prepare_scene(
         spec=spec,
         levels=levels,
         slices=slices,
-        lit=lit,
     )
 
 
-def level_offset(heights: FloatArray, lit: np.ndarray, levels: FloatArray) -> float:
+def _check_flux(cells: LitCells, label: str) -> None:
+    """Refuse infinite or negative flux and a raster without a lit cell."""
+    if cells.infinite_values:
+        raise InputError(
+            f"{label}: {cells.infinite_values} non-finite (inf) values; expected finite flux "
+            "densities [lm m-2] (nodata as NaN)"
+        )
+    finite = cells.values[np.isfinite(cells.values)]
+    if finite.size and finite.min() < 0:
+        raise InputError(f"{label}: negative flux density {finite.min():g} lm m-2")
+    if cells.n_cells == 0:
+        rows, cols = cells.shape
+        what = "nodata" if cells.nodata_cells == rows * cols else "zero or nodata"
+        raise InputError(
+            f"{label}: no lit cell (all {rows} x {cols} cells are {what}); nothing lights the sky"
+        )
+
+
+def check_kernel_grid(table: xr.Dataset, **given: int | None) -> None:
+    """Refuse grid options (``n_elevation``, ``n_azimuth``, ``n_distance``) that differ from
+    a given kernel's: the kernel fixes the grid, so they cannot be honoured.
+
+    Parameters
+    ----------
+    table
+        The kernel dataset.
+    **given
+        Each option's value, None when not given [1].
+    """
+    n_frequency = int(table.sizes.get("frequency", 0))
+    actual = {
+        "n_elevation": int(table.sizes["elevation"]),
+        "n_azimuth": int(table.sizes.get("azimuth", 2 * (n_frequency - 1))),
+        "n_distance": int(table.sizes["distance"]),
+    }
+    for name, value in given.items():
+        if value is not None and int(value) != actual[name]:
+            option = "--" + name.replace("_", "-")
+            raise InputError(
+                f"{option} {value}: the kernel fixes the grid ({actual[name]}); omit "
+                f"{option} with --kernel, or build a kernel with it"
+            )
+
+
+def _looks_like_degrees(x: float, y: float) -> bool:
+    return abs(x) <= _DEGREE_LIKE[0] and abs(y) <= _DEGREE_LIKE[1]
+
+
+def _check_reach(
+    cells: LitCells,
+    xy: tuple[float, float],
+    reach: float,
+    label: str,
+    observer: tuple[float, float],
+    observer_crs: str | None,
+) -> None:
+    """Refuse an observer farther from every lit cell than ``reach``; warn about one outside
+    the raster whose coordinates look like degrees without an observer CRS."""
+    bounds = cells.lit_bounds()
+    if bounds is None:
+        return
+    left, bottom, right, top = bounds
+    x, y = xy
+    gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
+    hint = (
+        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give --observer-crs EPSG:4326"
+        if observer_crs is None and _looks_like_degrees(x, y)
+        else "; check the coordinates and --observer-crs"
+    )
+    if gap >= reach:
+        raise InputError(
+            f"observer ({x:.1f}, {y:.1f}) lies {gap / 1000:.4g} km outside the lit cells of "
+            f"{label} ({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond the kernel's "
+            f"range ({reach / 1000:.4g} km): no cell can light its sky{hint}"
+        )
+    r_left, r_bottom, r_right, r_top = cells.bounds
+    outside = not (r_left <= x <= r_right and r_bottom <= y <= r_top)
+    if outside and observer_crs is None and _looks_like_degrees(x, y):
+        warnings.warn(
+            f"observer ({x:g}, {y:g}) lies outside {label} ({r_left:.1f}, {r_bottom:.1f}, "
+            f"{r_right:.1f}, {r_top:.1f}) and its coordinates look like degrees; if they are "
+            "longitude and latitude, give --observer-crs EPSG:4326",
+            DataQualityWarning,
+            stacklevel=4,
+        )
+
+
+def level_offset(heights: FloatArray, lit: np.ndarray | None, levels: FloatArray) -> float:
     """Common shift of all altitudes that brings the lit cells within a kernel's source levels.
 
     A scene kernel always covers them (0 is returned). A given kernel may not (e.g. one built
@@ -230,9 +358,10 @@ def level_offset(heights: FloatArray, lit: np.ndarray, levels: FloatArray) -> fl
     Parameters
     ----------
     heights
-        Source altitude of every cell, ``(rows, cols)`` [m].
+        Source altitude of every cell, ``(rows, cols)``, or of the lit cells alone [m].
     lit
-        Boolean ``(rows, cols)``: the cells with flux.
+        Boolean, the shape of ``heights``: the cells with flux (None: every cell of
+        ``heights``).
     levels
         The kernel's source-altitude levels [m].
 
@@ -241,9 +370,12 @@ def level_offset(heights: FloatArray, lit: np.ndarray, levels: FloatArray) -> fl
     float
         The shift to subtract from every altitude [m].
     """
-    if not lit.any():
+    lit_heights = np.asarray(heights, dtype=float)
+    if lit is not None:
+        lit_heights = lit_heights[lit]
+    if not np.isfinite(lit_heights).any():
         return 0.0
-    low, high = float(np.nanmin(heights[lit])), float(np.nanmax(heights[lit]))
+    low, high = float(np.nanmin(lit_heights)), float(np.nanmax(lit_heights))
     bottom, top = float(levels.min()), float(levels.max())
     if low >= bottom - 5.0 and high <= top + 5.0:
         return 0.0
@@ -273,6 +405,21 @@ def _observer_xy(
         source = CRS.from_user_input(observer_crs)
     except Exception as exc:  # pyproj raises its own CRSError
         raise CRSError(f"observer CRS {observer_crs!r} is not a CRS: {exc}") from exc
-    transformer = Transformer.from_crs(source, raster_crs, always_xy=True)
-    tx, ty = transformer.transform(x, y)
+    if source.is_geographic and not (-360.0 <= x <= 360.0 and -90.0 <= y <= 90.0):
+        raise InputError(
+            f"observer ({x:g}, {y:g}) in {source.name}: expected longitude within +-360 deg "
+            "and latitude within +-90 deg (X,Y = lon,lat)"
+        )
+    try:
+        transformer = Transformer.from_crs(source, raster_crs, always_xy=True)
+        tx, ty = transformer.transform(x, y, errcheck=True)
+    except ProjError as exc:
+        raise CRSError(
+            f"observer ({x:g}, {y:g}) cannot be placed from {source.name} into the raster's "
+            f"CRS: {exc}"
+        ) from exc
+    if not (np.isfinite(tx) and np.isfinite(ty)):
+        raise CRSError(
+            f"observer ({x:g}, {y:g}) in {source.name} has no position in the raster's CRS"
+        )
     return float(tx), float(ty)

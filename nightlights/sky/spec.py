@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
-from nightlights.io import Raster
+from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 
@@ -493,7 +493,7 @@ def source_levels(
 
 
 def scene_kernel_spec(
-    raster: Raster,
+    raster: Raster | LitCells,
     observer: tuple[float, float],
     *,
     observer_altitude: float,
@@ -504,13 +504,13 @@ def scene_kernel_spec(
     uplight: bool,
     source_altitudes: ArrayLike = (0.0,),
 ) -> KernelSpec:
-    """Kernel sized to the scene: distances from 10 m to the farthest raster corner (at most
-    :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
+    """Kernel sized to the scene: distances from 10 m to the farthest corner of the emission
+    (at most :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
 
     Parameters
     ----------
     raster
-        Emission raster (its grid sets the range).
+        Emission raster (its grid sets the range), or its lit cells (their extent sets it).
     observer
         Observer (x, y) in the raster's CRS [m].
     observer_altitude
@@ -529,14 +529,11 @@ def scene_kernel_spec(
     KernelSpec
         The specification.
     """
-    transform = raster.transform
-    rows, cols = raster.shape
-    corners = [
-        (transform.c + transform.a * c, transform.f + transform.e * r)
-        for c in (0, cols)
-        for r in (0, rows)
-    ]
-    far = max(np.hypot(x - observer[0], y - observer[1]) for x, y in corners)
+    bounds = raster.lit_bounds() if isinstance(raster, LitCells) else None
+    left, bottom, right, top = bounds if bounds is not None else raster.bounds
+    far = max(
+        np.hypot(x - observer[0], y - observer[1]) for x in (left, right) for y in (bottom, top)
+    )
     r_max = float(min(MAX_KERNEL_RANGE, max(far * 1.01, 100.0)))
     return KernelSpec(
         r_min=10.0,

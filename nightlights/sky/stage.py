@@ -21,7 +21,7 @@ from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panora
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.render import render_panorama
 from nightlights.sky.scene import skyglow_panorama
-from nightlights.sky.setup import RasterInput
+from nightlights.sky.setup import EmissionInput, RasterInput
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.store import KernelResult, write_kernel
 
@@ -115,7 +115,7 @@ def build_kernel(
 
 
 def skyglow(
-    emission: RasterInput,
+    emission: EmissionInput,
     output: PathLike | None = None,
     *,
     observer: tuple[float, float],
@@ -131,9 +131,9 @@ def skyglow(
     dem: RasterInput | None = None,
     bands: str = "V",
     spectrum: str = "LED_4000K",
-    n_elevation: int = 64,
-    n_azimuth: int = 256,
-    n_distance: int = 64,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
     cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> SkyglowResult:
@@ -176,7 +176,8 @@ def skyglow(
     spectrum
         Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
     n_elevation, n_azimuth, n_distance
-        Panorama rows and columns and distance bins of a scene kernel [1].
+        Panorama rows and columns and distance bins of a scene kernel (default 64, 256, 64);
+        with ``kernel`` None or the kernel's own [1].
     cache_dir
         Kernel cache folder.
     progress

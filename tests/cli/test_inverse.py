@@ -358,7 +358,7 @@ def test_scene_options_reach_inverse_s(
     assert kwargs["observer"] == (501000.0, 6699000.0) and kwargs["region"] == "horizon:300,60,20"
     assert kwargs["observer_crs"] == "EPSG:4326" and kwargs["observer_height"] == 10.0
     assert (kwargs["turbidity"], kwargs["components"], kwargs["method"]) == (3.0, 4, "brute")
-    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (64, 32, 64)
+    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (None, 32, None)
     assert kwargs["weight"] == "solid-angle" and kwargs["kernel"] is None
 
 

@@ -127,7 +127,7 @@ def test_options_reach_the_stage(fake_skyglow, emission: Path, tmp_path: Path) -
     kwargs = fake_skyglow.kwargs
     assert kwargs["observer"] == (501500.0, 6698500.0)
     assert kwargs["polar_output"] == str(polar) and kwargs["components"] == 3
-    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (64, 256, 32)
+    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (None, None, 32)
     assert "Bortle class 5" in result.output and result.stderr.count("Deprecation") == 0
 
 

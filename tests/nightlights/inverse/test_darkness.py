@@ -282,11 +282,23 @@ def test_map_is_linear_symmetric_and_peaks_under_the_light(kernel: xr.Dataset) -
     assert np.all(one > 0)  # every cell within the 6 km kernel sees the light
 
 
-def test_dark_emission_gives_zero_luminance_and_no_nodata(kernel: xr.Dataset) -> None:
-    dark = Raster(np.full((1, 10, 10), np.nan), TRANSFORM, CRS)
-    result = darkness(dark, kernel=kernel, progress=False)
-    assert np.all(result.raster.data[0] == 0) and np.all(np.isinf(result.raster.data[1]))
-    assert not np.isnan(result.raster.data).any()
+def test_dark_emission_is_refused_not_reported_as_a_dark_sky(kernel: xr.Dataset) -> None:
+    for values in (np.nan, 0.0):
+        dark = Raster(np.full((1, 10, 10), values), TRANSFORM, CRS)
+        with pytest.raises(InputError, match="no lit cell"):
+            darkness(dark, kernel=kernel, progress=False)
+
+
+def test_infinite_emission_is_refused_with_its_count(kernel: xr.Dataset) -> None:
+    flux = emission().data.copy()
+    flux[0, 1, 1] = flux[0, 2, 2] = np.inf
+    with pytest.raises(InputError, match="2 non-finite"):
+        darkness(Raster(flux, TRANSFORM, CRS), kernel=kernel, progress=False)
+
+
+def test_grid_options_that_the_kernel_fixes_are_refused(kernel: xr.Dataset) -> None:
+    with pytest.raises(InputError, match="--n-azimuth 0: the kernel fixes the grid"):
+        darkness(emission(), kernel=kernel, n_azimuth=0, progress=False)
 
 
 # --- output ----------------------------------------------------------------------

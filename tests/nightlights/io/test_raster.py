@@ -114,3 +114,74 @@ def test_read_then_write_keeps_units_and_band_tags(tmp_path: Path) -> None:
     assert again.band_tags[1]["kind"] == "uplight"
     assert again.tags["source"] == "test"
     assert np.array_equal(again.data, raster.data)
+
+
+# --- the sparse form: lit cells read window by window -------------------------------------
+
+
+def _sparse_file(path: Path, *, nodata: float | None) -> np.ndarray:
+    """A 2-band float32 file over several windows with zeros, NaN, nodata, inf and values."""
+    data = np.zeros((2, 700, 300), np.float32)
+    data[0, 5, 7] = 2.0
+    data[1, 5, 8] = 3.0  # lit in the second band only
+    data[:, 650, 299] = (1.0, np.nan)  # lit in one band, NaN in the other
+    data[0, 400, 10] = np.inf
+    data[:, 100:110, 0] = np.nan
+    if nodata is not None:
+        data[:, 200:205, 5] = nodata
+    profile = {
+        "driver": "GTiff",
+        "width": 300,
+        "height": 700,
+        "count": 2,
+        "dtype": "float32",
+        "crs": "EPSG:32635",
+        "transform": Affine(10, 0, 0, 0, -10, 7000),
+        "tiled": True,
+        "blockxsize": 64,
+        "blockysize": 64,
+        "compress": "deflate",
+        "nodata": nodata,
+    }
+    with rasterio.open(path, "w", **profile) as dataset:
+        dataset.write(data)
+    return data
+
+
+@pytest.mark.parametrize("nodata", [None, -9999.0])
+def test_read_lit_cells_equals_the_dense_raster(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, nodata: float | None
+) -> None:
+    from nightlights.io import raster as raster_module
+
+    monkeypatch.setattr(raster_module, "WINDOW_CELLS", 300 * 64)  # several windows
+    path = tmp_path / "sparse.tif"
+    _sparse_file(path, nodata=nodata)
+    sparse = raster_module.read_lit_cells(path)
+    dense = Raster.read(path).lit_cells()
+    for name in ("rows", "cols"):
+        np.testing.assert_array_equal(getattr(sparse, name), getattr(dense, name))
+    np.testing.assert_array_equal(sparse.values, dense.values)
+    assert sparse.rows.tolist() == [5, 5, 400, 650] and sparse.cols.tolist() == [7, 8, 10, 299]
+    assert np.isnan(sparse.values[1, 3]) and sparse.values[0, 3] == 1.0
+    assert sparse.infinite_values == dense.infinite_values == 1
+    assert sparse.nodata_cells == dense.nodata_cells == 10 + (5 if nodata is not None else 0)
+    assert sparse.shape == (700, 300) and sparse.crs == CRS.from_epsg(32635)
+    assert sparse.lit_bounds() == (70.0, 7000 - 6510.0, 3000.0, 7000 - 50.0)
+
+
+def test_lit_cells_dense_window_round_trips() -> None:
+    data = np.zeros((1, 50, 60))
+    data[0, 10, 20] = 1.0
+    data[0, 30, 45] = 2.0
+    cells = Raster(data, Affine(10, 0, 0, 0, -10, 500), "EPSG:32635").lit_cells()
+    window, transform = cells.dense()
+    assert window.shape == (1, 21, 26) and window.sum() == 3.0
+    assert (transform.c, transform.f) == (200.0, 400.0) and window[0, 20, 25] == 2.0
+
+
+def test_read_lit_cells_missing_file_is_an_input_error(tmp_path: Path) -> None:
+    from nightlights.io.raster import read_lit_cells
+
+    with pytest.raises(InputError, match="no such file"):
+        read_lit_cells(tmp_path / "missing.tif")
