@@ -30,6 +30,7 @@ import numpy as np
 from ies.errors import PhotometryParseError
 from ies.grid import unfold_type_c
 from ies.photometry import Photometry, check_declared_flux
+from ies.plausibility import check_magnitudes, implausible_flux
 from ies.text import TokenStream, read_text, tokenize
 
 _HEADER_FIELDS = (
@@ -198,6 +199,11 @@ def parse_ldt(text: str, *, source: str = "<string>") -> Photometry:
         scale = flux / 1000.0
         declared = None if absolute else flux
     conversion = numbers["conversion_factor"] if numbers["conversion_factor"] > 0 else 1.0
+    check_magnitudes(
+        values,
+        scale * conversion,
+        error=lambda message, k: stream.error(message, stream.token_at(start + k)),
+    )
     try:
         horizontal, candela, symmetry = unfold_type_c(stored, table)
     except ValueError as exc:
@@ -242,7 +248,8 @@ def parse_ldt(text: str, *, source: str = "<string>") -> Photometry:
         input_watts=watts,
         declared_light_output_ratio=lor if lor > 0 else None,
     )
-    return check_declared_flux(photometry, found=found)
+    too_bright = implausible_flux(photometry)
+    return check_declared_flux(photometry, found=found + ([too_bright] if too_bright else []))
 
 
 def read_ldt(path: str | os.PathLike[str]) -> Photometry:

@@ -23,6 +23,7 @@ import numpy as np
 from ies.errors import PhotometryParseError
 from ies.grid import unfold_type_c
 from ies.photometry import Photometry, check_declared_flux
+from ies.plausibility import check_magnitudes, implausible_flux
 from ies.text import TokenStream, read_text, tokenize
 
 _VERSION_LINE = re.compile(r"^\s*IES(?:NA)?\s*:?\s*(?:LM-63-)?(\d{2,4})\b", re.IGNORECASE)
@@ -194,6 +195,9 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
     if absolute and lumens_per_lamp != -1:
         found.append(f"lumens per lamp {lumens_per_lamp:g} < 0 read as absolute photometry")
     factor = multiplier * ballast_factor * ballast_lamp_factor * tilt_scale
+    check_magnitudes(
+        values, factor, error=lambda message, k: stream.error(message, stream.token_at(start + k))
+    )
     photometry = Photometry(
         photometric_type=photometric_type,  # type: ignore[arg-type]
         vertical_angles=vertical,
@@ -215,7 +219,8 @@ def parse_ies(text: str, *, source: str = "<string>") -> Photometry:
     photometry = replace(
         photometry, keywords={**keywords, "_UNITS": "feet" if units == 1 else "metres"}
     )
-    return check_declared_flux(photometry, found=found)
+    too_bright = implausible_flux(photometry)
+    return check_declared_flux(photometry, found=found + ([too_bright] if too_bright else []))
 
 
 def _read_keywords(lines: list[str]) -> dict[str, str]:

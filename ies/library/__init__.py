@@ -16,6 +16,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 import warnings
@@ -24,6 +25,7 @@ from pathlib import Path
 
 from ies.errors import LuminaireDatabaseError, PhotometryWarning
 from ies.photometry import Photometry
+from ies.plausibility import MAX_LUMINAIRE_FLUX, MOUNTING_RANGES
 from ies.reader import read_photometry
 from ies.spectra import SPDS
 
@@ -145,7 +147,13 @@ class LuminaireDatabase:
                 warnings.simplefilter("ignore", PhotometryWarning)
                 photometry = read_photometry(self.root / system.photometry_file)
             if system.luminaire_lumens is not None:
-                photometry = photometry.scaled(system.luminaire_lumens / photometry.luminous_flux())
+                flux = photometry.luminous_flux()
+                if not flux > 0:
+                    raise LuminaireDatabaseError(
+                        f"{self.root / system.photometry_file}: integrated flux {flux:g} lm; "
+                        f"cannot scale system {system_id!r} to luminaire_lumens"
+                    )
+                photometry = photometry.scaled(system.luminaire_lumens / flux)
             self._photometry[system_id] = photometry
         return self._photometry[system_id]
 
@@ -183,16 +191,41 @@ def _system(system_id: str, table: dict[str, object], where: Path) -> LightSyste
             )
         values[name] = value
     system = LightSystem(**values)  # type: ignore[arg-type]
-    if system.mounting_height <= 0:
-        raise LuminaireDatabaseError(
-            f"{where}: system {system_id!r} mounting_height "
-            f"{system.mounting_height} m, expected > 0"
-        )
+    _check_numbers(system, where)
     if system.spd not in SPDS:
         raise LuminaireDatabaseError(
             f"{where}: system {system_id!r} spd {system.spd!r}, expected one of {', '.join(SPDS)}"
         )
     return system
+
+
+def _check_numbers(system: LightSystem, where: Path) -> None:
+    """Refuse impossible mounting geometry and flux; warn about surprising geometry."""
+    for name, limits in MOUNTING_RANGES.items():
+        value = getattr(system, name)
+        if limits.impossible(value):
+            raise LuminaireDatabaseError(
+                f"{where}: system {system.id!r} {name} = {value!r}; expected {limits.expected}"
+            )
+        if limits.unusual(value):
+            warnings.warn(
+                f"{where}: system {system.id!r} {name} = {value:g} {limits.unit} is unusual "
+                f"(usually {limits.usual})",
+                PhotometryWarning,
+                stacklevel=4,
+            )
+    if not math.isfinite(system.street_azimuth):
+        raise LuminaireDatabaseError(
+            f"{where}: system {system.id!r} street_azimuth = {system.street_azimuth!r}; "
+            "expected a finite angle [deg]"
+        )
+    for name in ("lumens", "luminaire_lumens"):
+        value = getattr(system, name)
+        if value is not None and not (math.isfinite(value) and 0 < value <= MAX_LUMINAIRE_FLUX):
+            raise LuminaireDatabaseError(
+                f"{where}: system {system.id!r} {name} = {value!r}; expected a number in "
+                f"(0, {MAX_LUMINAIRE_FLUX:g}] lm"
+            )
 
 
 def load_library(path: str | os.PathLike[str] | None = None) -> LuminaireDatabase:
@@ -226,9 +259,20 @@ def load_library(path: str | os.PathLike[str] | None = None) -> LuminaireDatabas
         raise LuminaireDatabaseError(f"{toml_path}: cannot read ({exc.strerror})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise LuminaireDatabaseError(f"{toml_path}: not valid TOML ({exc})") from exc
+    unknown = sorted(set(document) - {"systems"})
+    if unknown:
+        raise LuminaireDatabaseError(
+            f"{toml_path}: unknown top-level key {unknown[0]!r}; expected only [systems.<id>] "
+            "tables"
+        )
     tables = document.get("systems")
     if not isinstance(tables, dict) or not tables:
         raise LuminaireDatabaseError(f"{toml_path}: expected [systems.<id>] tables")
+    for key, value in tables.items():
+        if not isinstance(value, dict):
+            raise LuminaireDatabaseError(
+                f"{toml_path}: systems.{key} = {value!r}; expected a [systems.{key}] table"
+            )
     systems = {key: _system(key, value, toml_path) for key, value in tables.items()}
     root = toml_path.parent
     for system in systems.values():

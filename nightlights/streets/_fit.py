@@ -9,9 +9,11 @@ that ``streets sample --network DIR`` accepts.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -157,7 +159,8 @@ def fit(
     Raises
     ------
     OutputError
-        ``output`` exists and is not an empty folder, or its parent folder is missing.
+        ``output`` exists and is not an empty folder, or its parent folder is missing or
+        not writable (checked before any work).
     EmptyInputError
         The layer has no features, or no known values of the network's fields.
     bayesnets.errors.BayesNetError
@@ -188,33 +191,48 @@ def fit(
     target = Path(output) if output is not None else None
     if target is not None and target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise OutputError(f"{target}: exists and is not an empty folder")
-    frame, source = as_vector(streets, name="streets")
-    if frame.empty:
-        raise EmptyInputError(f"{source}: no features to fit a network from")
-    if name is None and target is not None:
-        name = target.name
-    try:
-        fitted = fit_lighting_network(frame, network, prior=prior, name=name)
-    except BayesNetError as exc:
-        raise type(exc)(f"{source}: {exc}") from exc
-    except EmptyInputError as exc:
-        raise EmptyInputError(f"{source}: {exc}") from exc
-    if target is not None:
-        _write_network_folder(fitted, target)
+    with _network_folder(target) as tmp:
+        frame, source = as_vector(streets, name="streets")
+        if frame.empty:
+            raise EmptyInputError(f"{source}: no features to fit a network from")
+        if name is None and target is not None:
+            name = target.name
+        try:
+            fitted = fit_lighting_network(frame, network, prior=prior, name=name)
+        except BayesNetError as exc:
+            raise type(exc)(f"{source}: {exc}") from exc
+        except EmptyInputError as exc:
+            raise EmptyInputError(f"{source}: {exc}") from exc
+        if tmp is not None:
+            write_network(fitted, tmp)
     return FitResult(fitted, target)
 
 
-def _write_network_folder(network: BayesNet, target: Path) -> None:
-    """Write ``network`` to the folder ``target`` through a temporary folder beside it."""
+@contextlib.contextmanager
+def _network_folder(target: Path | None) -> Iterator[Path | None]:
+    """A temporary folder beside ``target``, made before the work starts (so that a missing
+    or read-only parent folder fails at once) and renamed onto ``target`` at the end; on
+    any error it is removed and ``target`` is left as it was."""
+    if target is None:
+        yield None
+        return
     parent = target.parent if str(target.parent) else Path(".")
     if not parent.is_dir():
         raise OutputError(f"{target}: parent folder {parent} does not exist")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
     try:
-        write_network(network, tmp)
-        if target.exists():
-            target.rmdir()
-        os.replace(tmp, target)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot write to folder {parent} ({exc.strerror})") from exc
+    try:
+        yield tmp
+        try:
+            if target.exists():
+                target.rmdir()
+            os.replace(tmp, target)
+        except OSError as exc:
+            raise OutputError(
+                f"{target}: cannot write the network folder ({exc.strerror})"
+            ) from exc
     finally:
         if tmp.exists():
-            shutil.rmtree(tmp)
+            shutil.rmtree(tmp, ignore_errors=True)

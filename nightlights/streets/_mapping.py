@@ -177,55 +177,116 @@ def parse_mapping(text: str, *, source: str = "<mapping>") -> StreetMapping:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MappingError(f"{source}: not valid TOML: {exc}") from exc
+    _check_keys(data, _TOP_LEVEL_KEYS, source, "top-level key")
+    for key in ("name", "description", "id_field", "packed_tags_field"):
+        if key in data and not isinstance(data[key], str):
+            raise MappingError(f"{source}: {key} = {data[key]!r}; expected a string")
     fields_table = data.get("fields")
     if not isinstance(fields_table, dict) or not fields_table:
         raise MappingError(f"{source}: needs a [fields.<name>] table for each mapped field")
-    rules: dict[str, FieldRule] = {}
-    for name, spec in fields_table.items():
-        if name not in STREET_FIELDS:
-            raise MappingError(
-                f"{source}: [fields.{name}] is not a canonical field; "
-                f"expected one of {', '.join(STREET_FIELDS)}"
-            )
-        kind = spec.get("type")
-        if kind not in _FIELD_TYPES:
-            raise MappingError(
-                f"{source}: [fields.{name}] type {kind!r}; expected one of {sorted(_FIELD_TYPES)}"
-            )
-        sources = spec.get("source")
-        if isinstance(sources, str):
-            sources = [sources]
-        if not sources or not all(isinstance(s, str) for s in sources):
-            raise MappingError(f"{source}: [fields.{name}] needs source = [field names]")
-        values = {str(k): v for k, v in spec.get("values", {}).items()}
-        if name == "street_class":
-            bad = sorted({str(v) for v in values.values()} - set(STREET_CLASSES))
-            if bad:
-                raise MappingError(
-                    f"{source}: [fields.street_class.values] maps to unknown classes {bad}; "
-                    f"expected {', '.join(STREET_CLASSES)}"
-                )
-        unit = spec.get("default_unit", "m")
-        if unit not in LENGTH_UNITS:
-            raise MappingError(f"{source}: [fields.{name}] default_unit {unit!r} is not a unit")
-        rules[name] = FieldRule(name, tuple(sources), kind, values, unit)
+    rules = {name: _field_rule(name, spec, source) for name, spec in fields_table.items()}
     keep = data.get("keep", {})
+    if not isinstance(keep, dict):
+        raise MappingError(f"{source}: keep must be a [keep] table with field and values")
+    _check_keys(keep, frozenset({"field", "values"}), source, "key of [keep]")
+    keep_field = keep.get("field")
+    if keep_field is not None and not isinstance(keep_field, str):
+        raise MappingError(f"{source}: [keep] field = {keep_field!r}; expected a field name")
+    keep_values = _string_list(keep.get("values", []), source, "[keep] values")
+    drop_table = data.get("drop", [])
+    if not isinstance(drop_table, list):
+        raise MappingError(f"{source}: drop must be [[drop]] tables with field and values")
     drops = []
-    for index, rule in enumerate(data.get("drop", [])):
-        if "field" not in rule or "values" not in rule:
-            raise MappingError(f"{source}: [[drop]] rule {index + 1} needs field and values")
-        drops.append((str(rule["field"]), frozenset(map(str, rule["values"]))))
+    for index, rule in enumerate(drop_table):
+        where = f"[[drop]] rule {index + 1}"
+        if not isinstance(rule, dict) or "field" not in rule or "values" not in rule:
+            raise MappingError(f"{source}: {where} needs field and values")
+        _check_keys(rule, frozenset({"field", "values"}), source, f"key of {where}")
+        values = _string_list(rule["values"], source, f"{where} values")
+        drops.append((str(rule["field"]), frozenset(values)))
     return StreetMapping(
         name=str(data.get("name", source)),
         description=str(data.get("description", "")),
         id_field=data.get("id_field"),
         packed_tags_field=data.get("packed_tags_field"),
-        keep_field=keep.get("field"),
-        keep_values=frozenset(map(str, keep.get("values", []))),
+        keep_field=keep_field,
+        keep_values=frozenset(keep_values),
         drop_rules=tuple(drops),
         rules=rules,
         source=source,
     )
+
+
+_TOP_LEVEL_KEYS = frozenset(
+    {"name", "description", "id_field", "packed_tags_field", "keep", "drop", "fields"}
+)
+_FIELD_KEYS = frozenset({"source", "type", "values", "default_unit"})
+
+
+def _check_keys(table: dict[str, Any], allowed: frozenset[str], source: str, what: str) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise MappingError(
+            f"{source}: unknown {what} {unknown[0]!r}; expected one of {', '.join(sorted(allowed))}"
+        )
+
+
+def _string_list(value: object, source: str, where: str) -> list[str]:
+    if not isinstance(value, list) or not all(
+        isinstance(item, str | int | float | bool) for item in value
+    ):
+        raise MappingError(f"{source}: {where} = {value!r}; expected a list of values")
+    return [str(item) for item in value]
+
+
+def _field_rule(name: str, spec: object, source: str) -> FieldRule:
+    """Check one ``[fields.<name>]`` table and build its rule."""
+    if name not in STREET_FIELDS:
+        raise MappingError(
+            f"{source}: [fields.{name}] is not a canonical field; "
+            f"expected one of {', '.join(STREET_FIELDS)}"
+        )
+    if not isinstance(spec, dict):
+        raise MappingError(f"{source}: fields.{name} = {spec!r}; expected a [fields.{name}] table")
+    _check_keys(spec, _FIELD_KEYS, source, f"key of [fields.{name}]")
+    kind = spec.get("type")
+    if not isinstance(kind, str) or kind not in _FIELD_TYPES:
+        raise MappingError(
+            f"{source}: [fields.{name}] type {kind!r}; expected one of {sorted(_FIELD_TYPES)}"
+        )
+    sources = spec.get("source")
+    if isinstance(sources, str):
+        sources = [sources]
+    if (
+        not isinstance(sources, list)
+        or not sources
+        or not all(isinstance(s, str) and s for s in sources)
+    ):
+        raise MappingError(f"{source}: [fields.{name}] needs source = [field names]")
+    raw_values = spec.get("values", {})
+    if not isinstance(raw_values, dict):
+        raise MappingError(
+            f"{source}: [fields.{name}] values = {raw_values!r}; expected a "
+            f"[fields.{name}.values] table"
+        )
+    values = {str(k): v for k, v in raw_values.items()}
+    if name == "street_class":
+        bad = sorted({str(v) for v in values.values()} - set(STREET_CLASSES))
+        if bad:
+            raise MappingError(
+                f"{source}: [fields.street_class.values] maps to unknown classes {bad}; "
+                f"expected {', '.join(STREET_CLASSES)}"
+            )
+    elif kind == "bool":
+        bad = sorted(str(k) for k, v in values.items() if not isinstance(v, bool))
+        if bad:
+            raise MappingError(
+                f"{source}: [fields.{name}.values] {bad[0]!r} must map to true or false"
+            )
+    unit = spec.get("default_unit", "m")
+    if not isinstance(unit, str) or unit not in LENGTH_UNITS:
+        raise MappingError(f"{source}: [fields.{name}] default_unit {unit!r} is not a unit")
+    return FieldRule(name, tuple(sources), kind, values, unit)
 
 
 def parse_packed_tags(text: object) -> dict[str, str]:

@@ -24,7 +24,9 @@ from pyproj import CRS
 from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError
 from nightlights.io import as_vector, ensure_projected, write_gpkg
+from nightlights.io.outputs import OutputSet
 from nightlights.io.vector import FieldType
+from nightlights.streets._checks import finite_vertices
 from nightlights.streets._mapping import (
     FieldRule,
     StreetMapping,
@@ -32,7 +34,7 @@ from nightlights.streets._mapping import (
     parse_packed_tags,
     parse_value,
 )
-from nightlights.streets.schema import STREET_FIELDS, observed_field
+from nightlights.streets.schema import STREET_FIELDS, VALUE_RANGES, observed_field
 
 #: Field types of the layer :func:`normalize` writes.
 OUTPUT_SCHEMA: dict[str, FieldType] = {
@@ -59,6 +61,11 @@ class NormalizeReport:
         Canonical field -> number of parts where the input gave a value [1].
     unknown_values
         Canonical field -> input values not understood (treated as missing) and their counts.
+    implausible_values
+        Canonical field -> values outside the allowed range of
+        :data:`~nightlights.streets.schema.VALUE_RANGES` (treated as missing) and their counts.
+    unusual_values
+        Canonical field -> allowed values outside the usual range (kept) and their counts.
     crs
         Output CRS, as text.
     """
@@ -68,6 +75,8 @@ class NormalizeReport:
     dropped: Counter[str] = field(default_factory=Counter)
     observed: dict[str, int] = field(default_factory=dict)
     unknown_values: dict[str, Counter[str]] = field(default_factory=dict)
+    implausible_values: dict[str, Counter[str]] = field(default_factory=dict)
+    unusual_values: dict[str, Counter[str]] = field(default_factory=dict)
     crs: str = ""
 
 
@@ -129,6 +138,7 @@ def normalize_streets(
             parsed, unknown = _parse_column(raw, rule)
             if unknown:
                 report.unknown_values[name] = unknown
+            parsed = _check_range(parsed, raw, name, report)
         out[name] = parsed.to_numpy()
         out[observed_field(name)] = parsed.notna().to_numpy()
     frame = gpd.GeoDataFrame(out, geometry=geometry, crs=streets.crs)
@@ -138,15 +148,53 @@ def normalize_streets(
         report.observed[name] = int(frame[observed_field(name)].sum())
     report.output_features = len(frame)
     report.crs = frame.crs.to_string() if frame.crs else ""
-    for name, unknown in report.unknown_values.items():
-        sample = ", ".join(f"{value!r} x{count}" for value, count in unknown.most_common(5))
+    _warn_values(report.unknown_values, "values not understood (treated as missing)", source)
+    _warn_values(
+        report.implausible_values,
+        "values outside {expected} (treated as missing)",
+        source,
+    )
+    _warn_values(report.unusual_values, "unusual values (usually {usual}; kept)", source)
+    non_finite = report.dropped["non-finite coordinates"]
+    if non_finite:
         warnings.warn(
-            f"{source}: field {name}: {sum(unknown.values())} values not understood "
-            f"(treated as missing): {sample}",
+            f"{source}: {non_finite} line part(s) with NaN or infinite vertex coordinates dropped",
             DataQualityWarning,
             stacklevel=2,
         )
     return frame.reset_index(drop=True), report
+
+
+def _warn_values(counts: dict[str, Counter[str]], what: str, source: str) -> None:
+    for name, values in counts.items():
+        sample = ", ".join(f"{value!r} x{count}" for value, count in values.most_common(5))
+        limits = VALUE_RANGES.get(name)
+        text = what.format(
+            expected=limits.expected if limits else "", usual=limits.usual if limits else ""
+        )
+        warnings.warn(
+            f"{source}: field {name}: {sum(values.values())} {text}: {sample}",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+
+
+def _check_range(
+    parsed: pd.Series, raw: pd.Series, name: str, report: NormalizeReport
+) -> pd.Series:
+    """Treat values outside the allowed range as missing; count them and unusual ones."""
+    limits = VALUE_RANGES.get(name)
+    if limits is None:
+        return parsed
+    numbers = pd.to_numeric(parsed, errors="coerce").to_numpy(float)
+    present = ~np.isnan(numbers)
+    impossible = present & limits.impossible(numbers)
+    unusual = present & limits.unusual(numbers)
+    if impossible.any():
+        report.implausible_values[name] = Counter(raw[impossible].astype(str))
+    if unusual.any():
+        report.unusual_values[name] = Counter(raw[unusual].astype(str))
+    return parsed.where(~impossible, None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,6 +264,14 @@ def normalize(
         in metres.
     MappingError
         Unknown or malformed mapping.
+    OutputError
+        The output folder is missing or not writable (checked before any work).
+
+    Warns
+    -----
+    DataQualityWarning
+        Values not understood or outside the allowed range (treated as missing), unusual
+        values, parts dropped for NaN or infinite vertex coordinates; each counted.
 
     Examples
     --------
@@ -245,19 +301,22 @@ def normalize(
     (2, None)
     """
     rules = load_mapping(mapping)
-    frame, source = as_vector(streets, layer=layer, name="streets")
-    if frame.empty:
-        raise EmptyInputError(f"{source}: the layer has no features")
-    frame = ensure_projected(frame, source=source, assume_crs=crs, target_crs=target_crs)
-    normalized, report = normalize_streets(frame, rules, source=source)
-    if normalized.empty:
-        reasons = ", ".join(f"{reason}: {n}" for reason, n in report.dropped.items() if n)
-        raise EmptyInputError(
-            f"{source}: no street features left after mapping {rules.name!r} ({reasons})"
-        )
-    path = None
-    if output is not None:
-        path = write_gpkg(normalized, output, layer="streets", schema=OUTPUT_SCHEMA)
+    with OutputSet(output) as outputs:
+        frame, source = as_vector(streets, layer=layer, name="streets")
+        if frame.empty:
+            raise EmptyInputError(f"{source}: the layer has no features")
+        frame = ensure_projected(frame, source=source, assume_crs=crs, target_crs=target_crs)
+        normalized, report = normalize_streets(frame, rules, source=source)
+        if normalized.empty:
+            reasons = ", ".join(f"{reason}: {n}" for reason, n in report.dropped.items() if n)
+            raise EmptyInputError(
+                f"{source}: no street features left after mapping {rules.name!r} ({reasons})"
+            )
+        path = None
+        if output is not None:
+            temporary = outputs.temporary(output)
+            write_gpkg(normalized, temporary, layer="streets", schema=OUTPUT_SCHEMA)
+            path = Path(output)
     return NormalizeResult(normalized, report, path)
 
 
@@ -309,12 +368,11 @@ def _clean_line_geometries(frame: gpd.GeoDataFrame, report: NormalizeReport) -> 
     lines = frame.geometry.geom_type.isin(["LineString", "MultiLineString", "LinearRing"])
     report.dropped["not a line geometry"] += int((~lines).sum())
     frame = frame.loc[lines].explode(index_parts=False)
-    frame = frame.set_geometry(shapely.remove_repeated_points(frame.geometry.to_numpy()))
-    coords_ok = np.array(
-        [np.isfinite(shapely.get_coordinates(g)).all() for g in frame.geometry], dtype=bool
-    )
+    # Before removing repeated points, which silently drops NaN vertices.
+    coords_ok = finite_vertices(frame.geometry.to_numpy())
     report.dropped["non-finite coordinates"] += int((~coords_ok).sum())
     frame = frame.loc[coords_ok]
+    frame = frame.set_geometry(shapely.remove_repeated_points(frame.geometry.to_numpy()))
     zero = ~(frame.geometry.length > 0)
     report.dropped["zero-length line"] += int(zero.sum())
     return frame.loc[~zero]

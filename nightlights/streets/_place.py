@@ -10,6 +10,7 @@ not its chord, and offset along the local normal.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,10 +20,13 @@ import pandas as pd
 import shapely
 from scipy.spatial import cKDTree
 
+from nightlights._resources import check_memory
 from nightlights._typing import PathLike
-from nightlights.errors import EmptyInputError, InputError
+from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
 from nightlights.io import as_vector, ensure_projected, write_gpkg
+from nightlights.io.outputs import OutputSet
 from nightlights.io.vector import FieldType
+from nightlights.streets._checks import check_street_values, finite_vertices, rng_from_seed
 from nightlights.streets.schema import ARRANGEMENTS, STREET_CLASSES
 
 #: Fields of the output light layer and their types.
@@ -41,6 +45,16 @@ LIGHT_FIELDS: dict[str, FieldType] = {
 
 _REQUIRED = ("width", "lit", "arrangement", "spacing", "mounting_height", "system_id")
 _DEFAULTS = {"arm_length": 0.0, "setback": 1.0, "tilt": 0.0}
+_CHECKED = ("width", "spacing", "mounting_height", "arm_length", "setback", "tilt")
+
+#: Luminaires per pole position by arrangement (Chuang 2011, Fig. 8).
+LIGHTS_PER_POSITION = {"single_sided": 1, "staggered": 1, "opposite": 2, "central": 2}
+
+#: Peak memory per placed luminaire [B]: resident memory grew by about 1.1 kB per luminaire
+#: from 3e5 to 1.2e6 luminaires (positions, shapely points for the pole and its tangent
+#: chord, the light table, the pole-merging tree and its neighbour lists, the output layer);
+#: rounded up.
+BYTES_PER_LIGHT = 1600
 
 
 @dataclass(frozen=True)
@@ -82,6 +96,7 @@ def place_lights(
     *,
     rng: np.random.Generator,
     options: PlacementOptions | None = None,
+    source: str = "streets",
 ) -> gpd.GeoDataFrame:
     """Place light systems along lit streets.
 
@@ -96,6 +111,8 @@ def place_lights(
         Random generator for the pole count, phase and jitter.
     options
         Grid knobs (:class:`PlacementOptions`).
+    source
+        Name of the layer, used in messages.
 
     Returns
     -------
@@ -114,6 +131,21 @@ def place_lights(
     one side are 2 s apart. Poles of different streets closer than ``merge_fraction * s``
     are merged, keeping the pole of the higher street class.
 
+    Raises
+    ------
+    InputError
+        Missing fields, an unknown arrangement, or an impossible width, spacing, mounting
+        height, arm length, setback or tilt (outside
+        :data:`~nightlights.streets.schema.VALUE_RANGES`).
+    nightlights.errors.ResourceError
+        The expected number of luminaires would need more memory than allowed.
+
+    Warns
+    -----
+    DataQualityWarning
+        Unusual values (counted per field); lit streets dropped for NaN or infinite vertex
+        coordinates or for not being lines (counted).
+
     References
     ----------
     Chuang 2011, Sec. 3.1 and Fig. 8 (rectangular and triangular light-point grids).
@@ -124,11 +156,12 @@ def place_lights(
     missing = [name for name in _REQUIRED if name not in streets]
     if missing:
         raise InputError(f"streets lack fields {missing}; run `nightlights streets sample` first")
-    table = _street_table(streets)
+    table = _street_table(streets, source)
     if table.empty:
         return _empty_lights(streets.crs)
     lengths = shapely.length(table.geometry.to_numpy())
     spacing = table["spacing"].to_numpy(float)
+    _check_light_count(table, lengths, spacing)
     counts = np.floor(lengths / spacing + rng.random(len(table))).astype(int)
     slack = np.maximum(lengths - np.maximum(counts - 1, 0) * spacing, 0.0)
     phase = rng.random(len(table)) * slack
@@ -241,8 +274,12 @@ def place(
     ------
     InputError
         Both ``options`` and one of the separate knobs are given; a knob is out of range;
-        the streets lack sampled fields or hold bad values; a ``system_id`` is not in the
-        luminaire database.
+        a negative seed; the streets lack sampled fields or hold impossible values; a
+        ``system_id`` is not in the luminaire database.
+    OutputError
+        The output folder is missing or not writable (checked before any work).
+    nightlights.errors.ResourceError
+        The expected luminaires would need more memory than allowed.
     EmptyInputError
         The layer has no streets.
     CRSError
@@ -275,16 +312,19 @@ def place(
     True
     """
     options = _placement_options(options, along_jitter, across_jitter, merge_fraction)
-    frame, source = as_vector(streets, name="streets")
-    if frame.empty:
-        raise EmptyInputError(f"{source}: the layer has no streets")
-    if frame.crs is None or not frame.crs.is_projected:
-        frame = ensure_projected(frame, source=source)
-    lights = place_lights(frame, rng=np.random.default_rng(seed), options=options)
-    _check_system_ids(lights, catalog, source=source)
-    path = None
-    if output is not None:
-        path = write_gpkg(lights, output, layer="lights", schema=LIGHT_FIELDS)
+    rng = rng_from_seed(seed)
+    with OutputSet(output) as outputs:
+        frame, source = as_vector(streets, name="streets")
+        if frame.empty:
+            raise EmptyInputError(f"{source}: the layer has no streets")
+        if frame.crs is None or not frame.crs.is_projected:
+            frame = ensure_projected(frame, source=source)
+        lights = place_lights(frame, rng=rng, options=options, source=source)
+        _check_system_ids(lights, catalog, source=source)
+        path = None
+        if output is not None:
+            write_gpkg(lights, outputs.temporary(output), layer="lights", schema=LIGHT_FIELDS)
+            path = Path(output)
     return PlaceResult(lights, path)
 
 
@@ -349,34 +389,41 @@ def _expand_arrangement(
     return _ArrangementRows(slot[order], side[order], face[order], pole[order])
 
 
-def _street_table(streets: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
+def _street_table(streets: gpd.GeoDataFrame, source: str) -> gpd.GeoDataFrame:
     table = streets.copy()
     if "source_id" not in table:
         table["source_id"] = table.index.astype(str)
+    lit = table["lit"].astype("boolean").fillna(False).to_numpy(bool)
+    table = table.loc[lit].copy()
     for name, default in _DEFAULTS.items():
         if name not in table:
             table[name] = default
-        table[name] = pd.to_numeric(table[name], errors="coerce").fillna(default)
-    lit = table["lit"].astype("boolean").fillna(False).to_numpy(bool)
-    table = table.loc[lit].copy()
+        table[name] = table[name].where(table[name].notna(), default)
     bad = ~table["arrangement"].isin(ARRANGEMENTS)
     if bad.any():
         raise InputError(
-            f"street {table.loc[bad, 'source_id'].iloc[0]!r}: arrangement "
+            f"{source}: street {table.loc[bad, 'source_id'].iloc[0]!r}: arrangement "
             f"{table.loc[bad, 'arrangement'].iloc[0]!r}; expected one of {', '.join(ARRANGEMENTS)}"
         )
-    for name in ("width", "spacing", "mounting_height"):
-        values = pd.to_numeric(table[name], errors="coerce")
-        wrong = ~(values > 0)
-        if wrong.any():
-            raise InputError(
-                f"street {table.loc[wrong, 'source_id'].iloc[0]!r}: {name}="
-                f"{table.loc[wrong, name].iloc[0]}; expected a positive number [m]"
-            )
-        table[name] = values.astype(float)
+    check_street_values(table, _CHECKED, source=source)
+    for name in _CHECKED:
+        table[name] = pd.to_numeric(table[name]).astype(float)
     table = table.loc[~(table.geometry.isna() | table.geometry.is_empty)]
     table = table.explode(index_parts=False)
-    table = table.loc[table.geometry.geom_type == "LineString"]
+    lines = (table.geometry.geom_type == "LineString").to_numpy()
+    finite = finite_vertices(table.geometry.to_numpy())
+    dropped = {
+        "not lines": int((~lines).sum()),
+        "with NaN or infinite vertex coordinates": int((lines & ~finite).sum()),
+    }
+    for reason, count in dropped.items():
+        if count:
+            warnings.warn(
+                f"{source}: {count} lit street part(s) {reason} dropped (no lights placed)",
+                DataQualityWarning,
+                stacklevel=4,
+            )
+    table = table.loc[lines & finite]
     table = table.loc[shapely.length(table.geometry.to_numpy()) > 0].reset_index(drop=True)
     classes = {name: rank for rank, name in enumerate(STREET_CLASSES)}
     street_class = (
@@ -387,6 +434,18 @@ def _street_table(streets: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     # in right-hand traffic); staggered rows start there.
     table["_first_side"] = -1
     return table
+
+
+def _check_light_count(table: pd.DataFrame, lengths: np.ndarray, spacing: np.ndarray) -> None:
+    """Refuse a placement whose expected luminaires would not fit in memory."""
+    per_position = table["arrangement"].map(LIGHTS_PER_POSITION).to_numpy(float)
+    expected = float(np.sum((lengths / spacing + 1.0) * per_position))
+    check_memory(
+        expected * BYTES_PER_LIGHT,
+        f"placing about {expected:.3g} luminaires ({lengths.sum():.3g} m of lit streets, "
+        f"spacing down to {spacing.min():.3g} m)",
+        option="check the streets' spacing (a larger spacing places fewer poles)",
+    )
 
 
 def _point_and_tangent(

@@ -20,12 +20,15 @@ import pandas as pd
 
 from bayesnets import BayesNet, load_network, sample_frame
 from bayesnets.errors import BayesNetError
-from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict
+from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict, sampling_memory
+from nightlights._resources import check_memory
 from nightlights._typing import PathLike
 from nightlights.errors import InputError
 from nightlights.io import as_vector, write_gpkg
+from nightlights.io.outputs import OutputSet
 from nightlights.io.vector import FieldType
-from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, observed_field
+from nightlights.streets._checks import check_network_values, rng_from_seed
+from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, VALUE_RANGES, observed_field
 
 __all__ = [
     "DEFAULT_CANDIDATES",
@@ -116,14 +119,18 @@ def fill_lighting(
     Raises
     ------
     bayesnets.errors.BayesNetError
-        Impossible evidence (``on_conflict="error"``), a value the network cannot map, or a
-        network missing a field this stage needs.
+        Impossible evidence (``on_conflict="error"``), a value the network cannot map, a
+        network missing a field this stage needs, or one whose states decode to impossible
+        values (:data:`~nightlights.streets.schema.VALUE_RANGES`).
+    nightlights.errors.ResourceError
+        Sampling would need more memory than allowed.
 
     References
     ----------
     Chuang 2011, Sec. 3.2-3.3.
     """
     net = resolve_network(network)
+    check_network_values(net, VALUE_RANGES)
     bound = {binding.field for binding in net.bindings.values()}
     missing = [name for name in _NETWORK_FIELDS if name not in bound]
     if missing or "spacing_ratio" not in bound:
@@ -147,6 +154,11 @@ def fill_lighting(
         evidence[name] = out[name].astype(object).where(observed, None)
     labels = (
         list(out["source_id"].astype(str)) if "source_id" in out else [str(i) for i in out.index]
+    )
+    check_memory(
+        sampling_memory(net, len(out), candidates),
+        f"sampling {len(out)} street segments with {candidates} candidates each",
+        option="--candidates",
     )
     sampled = sample_frame(
         net,
@@ -257,7 +269,13 @@ def sample(
     Raises
     ------
     InputError
-        The input has no CRS or a geographic one.
+        The input has no CRS or a geographic one; a negative seed; fewer than one
+        candidate.
+    OutputError
+        The output folder is missing or not writable (checked before any work).
+    nightlights.errors.ResourceError
+        Sampling would need more memory than allowed (see
+        :func:`bayesnets.sampling.sampling_memory`).
     bayesnets.errors.BayesNetError
         Unknown network name (the message lists the catalogue), impossible evidence, values
         the network cannot map. The message names the input file.
@@ -285,29 +303,34 @@ def sample(
     >>> result.path is None
     True
     """
-    frame, source = as_vector(streets, name="streets")
-    if frame.crs is None or not frame.crs.is_projected:
-        raise InputError(
-            f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
-            "normalize` first)"
-        )
-    try:
-        filled = fill_lighting(
-            frame,
-            network,
-            candidates=candidates,
-            rng=np.random.default_rng(seed),
-            on_conflict=on_conflict,
-            progress=progress,
-        )
-    except BayesNetError as exc:
-        raise type(exc)(f"{source}: {exc}") from exc
-    path = None
-    if output is not None:
-        schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
-        if "source_id" in filled:
-            schema["source_id"] = "str"
-        path = write_gpkg(filled, output, layer="streets", schema=schema)
+    rng = rng_from_seed(seed)
+    if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 1:
+        raise InputError(f"candidates={candidates!r}; expected an integer >= 1")
+    with OutputSet(output) as outputs:
+        frame, source = as_vector(streets, name="streets")
+        if frame.crs is None or not frame.crs.is_projected:
+            raise InputError(
+                f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
+                "normalize` first)"
+            )
+        try:
+            filled = fill_lighting(
+                frame,
+                network,
+                candidates=candidates,
+                rng=rng,
+                on_conflict=on_conflict,
+                progress=progress,
+            )
+        except BayesNetError as exc:
+            raise type(exc)(f"{source}: {exc}") from exc
+        path = None
+        if output is not None:
+            schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
+            if "source_id" in filled:
+                schema["source_id"] = "str"
+            write_gpkg(filled, outputs.temporary(output), layer="streets", schema=schema)
+            path = Path(output)
     return SampleResult(filled, path)
 
 

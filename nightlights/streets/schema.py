@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+from ies.plausibility import MOUNTING_RANGES, PlausibleRange
 from nightlights.io.vector import FieldType
 
 #: Street classes, from fastest to slowest traffic. Municipal schemas and OSM ``highway``
@@ -46,6 +47,23 @@ LIGHTING_FIELDS: dict[str, FieldType] = {
 #: Pole arrangements (Chuang 2011, Fig. 8): poles on one side, staggered (triangular
 #: grid), opposite pairs (rectangular grid), central on the median.
 ARRANGEMENTS: tuple[str, ...] = ("single_sided", "staggered", "opposite", "central")
+
+
+#: Allowed and usual values of the numeric street and lighting fields (see
+#: :class:`ies.mounting.PlausibleRange`): outside the allowed range a value is an error (or,
+#: read from a street layer by ``normalize``, treated as missing and counted); outside the
+#: usual range it is kept with a warning. Lanes count both directions (the widest roads
+#: carry about 25); carriageways reach about 150 m across plazas and boulevards; poles stand
+#: at most a few metres from the kerb and tens of metres apart (spacing is 2-6 mounting
+#: heights in practice).
+VALUE_RANGES: dict[str, PlausibleRange] = {
+    "lanes": PlausibleRange("lanes", "", 1.0, 30.0, 1.0, 12.0),
+    "width": PlausibleRange("width", "m", 0.0, 200.0, 0.5, 80.0, low_open=True),
+    **MOUNTING_RANGES,
+    "setback": PlausibleRange("setback", "m", 0.0, 100.0, 0.0, 10.0),
+    "spacing": PlausibleRange("spacing", "m", 1.0, 5000.0, 5.0, 200.0),
+    "spacing_ratio": PlausibleRange("spacing_ratio", "", 0.0, 50.0, 1.5, 8.0, low_open=True),
+}
 
 
 def observed_field(name: str) -> str:
