@@ -220,14 +220,16 @@ def parse_binding(
     if kind in ("int", "float"):
         numbers = tuple(_state_number(state, where, kind) for state in states)
         return Binding(variable, field, kind, states, numbers=numbers, nearest=nearest)
-    edges = tuple(float(edge) for edge in spec.get("edges", ()))
-    if len(edges) != len(states) + 1 or any(b <= a for a, b in pairwise(edges)):
+    edges = _numbers(spec.get("edges", ()), where, "edges")
+    if len(edges) != len(states) + 1 or any(not b > a for a, b in pairwise(edges)):
         raise BindingError(
             f"{where}: bins need {len(states) + 1} increasing edges for states "
             f"{list(states)}, got {list(edges)}"
         )
     if "values" in spec:
-        numbers = tuple(float(value) for value in spec["values"])
+        numbers = _numbers(spec["values"], where, "values")
+        if not all(np.isfinite(numbers)):
+            raise BindingError(f"{where}: values {list(numbers)} must be finite numbers")
         if len(numbers) != len(states):
             raise BindingError(
                 f"{where}: {len(numbers)} values for {len(states)} states {list(states)}"
@@ -235,6 +237,15 @@ def parse_binding(
     else:
         numbers = tuple(_state_number(state, where, "bins") for state in states)
     return Binding(variable, field, kind, states, numbers=numbers, edges=edges)
+
+
+def _numbers(values: Any, where: str, key: str) -> tuple[float, ...]:
+    """``values`` as floats (a list of numbers), or a :class:`BindingError` naming ``key``."""
+    if not isinstance(values, list | tuple) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in values
+    ):
+        raise BindingError(f"{where}: {key} = {values!r}; expected a list of numbers")
+    return tuple(float(v) for v in values)
 
 
 def _state_number(state: str, where: str, kind: str) -> float:
@@ -245,6 +256,8 @@ def _state_number(state: str, where: str, kind: str) -> float:
             f"{where}: state {state!r} is not a number; a {kind} variable needs numeric "
             "state labels" + (" (or 'values')" if kind == "bins" else "")
         ) from None
+    if not np.isfinite(number):
+        raise BindingError(f"{where}: state {state!r} is not a finite number")
     if kind == "int" and number != int(number):
         raise BindingError(f"{where}: state {state!r} is not an integer")
     return number

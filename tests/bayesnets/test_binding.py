@@ -66,6 +66,24 @@ def test_malformed_bindings() -> None:
         parse_binding("W", {"field": "w", "kind": "bool"}, ["yes", "no"], source="n")
 
 
+@pytest.mark.parametrize(
+    ("spec", "states", "words"),
+    [
+        ({"kind": "bins", "edges": ["a", "b", "c"]}, ["x", "y"], "edges = ['a', 'b', 'c']"),
+        ({"kind": "bins", "edges": 3}, ["x"], "edges = 3; expected a list of numbers"),
+        ({"kind": "bins", "edges": [0, float("nan"), 2]}, ["x", "y"], "increasing edges"),
+        ({"kind": "bins", "edges": [0, 1], "values": ["1"]}, ["x"], "values = ['1']"),
+        ({"kind": "bins", "edges": [0, 1], "values": [float("inf")]}, ["x"], "finite numbers"),
+        ({"kind": "float"}, ["1", "nan"], "state 'nan' is not a finite number"),
+        ({"kind": "int"}, ["1", "inf"], "state 'inf' is not a finite number"),
+    ],
+)
+def test_non_numeric_or_non_finite_numbers_are_binding_errors(spec, states, words) -> None:
+    with pytest.raises(BindingError) as info:
+        parse_binding("W", {"field": "w", **spec}, states, source="net.toml")
+    assert str(info.value).startswith("net.toml, [variables.W]: ") and words in str(info.value)
+
+
 @given(st.lists(st.floats(0, 1e4, allow_nan=False), min_size=1, max_size=50))
 def test_bins_round_trip_lands_in_the_observed_bin(widths: list[float]) -> None:
     codes = WIDTH.encode(widths)
