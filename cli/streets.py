@@ -82,7 +82,8 @@ def normalize_command(
 
 
 def print_normalize_report(report: NormalizeReport, dst: str) -> None:
-    """Print counts of kept, dropped and observed features (stderr)."""
+    """Print counts of kept, dropped and observed features, and of values outside their
+    allowed range (treated as missing), on stderr."""
     from rich.console import Console
     from rich.table import Table
 
@@ -96,10 +97,11 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
     for reason, count in report.dropped.items():
         if count:
             console.print(f"  dropped {count}: {reason}")
-    table = Table("field", "observed", "missing", title="canonical fields")
+    table = Table("field", "observed", "missing", "out of range", title="canonical fields")
     for name in STREET_FIELDS:
         seen = report.observed.get(name, 0)
-        table.add_row(name, str(seen), str(report.output_features - seen))
+        rejected = sum(report.implausible_values.get(name, {}).values())
+        table.add_row(name, str(seen), str(report.output_features - seen), str(rejected))
     console.print(table)
 
 

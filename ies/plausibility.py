@@ -110,10 +110,15 @@ class PlausibleRange:
         return outside & ~self.impossible(array)
 
     @property
+    def interval(self) -> str:
+        """The allowed range as an interval with its unit (``(0, 60] m``)."""
+        opening = "(" if self.low_open else "["
+        return f"{opening}{self.low:g}, {self.high:g}] {self.unit}".rstrip()
+
+    @property
     def expected(self) -> str:
         """The allowed range in words, for error messages."""
-        opening = "(" if self.low_open else "["
-        return f"a number in {opening}{self.low:g}, {self.high:g}] {self.unit}".rstrip()
+        return f"a number in {self.interval}"
 
     @property
     def usual(self) -> str:

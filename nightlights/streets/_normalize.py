@@ -151,7 +151,7 @@ def normalize_streets(
     _warn_values(report.unknown_values, "values not understood (treated as missing)", source)
     _warn_values(
         report.implausible_values,
-        "values outside {expected} (treated as missing)",
+        "values outside the allowed range {interval} (treated as missing)",
         source,
     )
     _warn_values(report.unusual_values, "unusual values (usually {usual}; kept)", source)
@@ -170,7 +170,7 @@ def _warn_values(counts: dict[str, Counter[str]], what: str, source: str) -> Non
         sample = ", ".join(f"{value!r} x{count}" for value, count in values.most_common(5))
         limits = VALUE_RANGES.get(name)
         text = what.format(
-            expected=limits.expected if limits else "", usual=limits.usual if limits else ""
+            interval=limits.interval if limits else "", usual=limits.usual if limits else ""
         )
         warnings.warn(
             f"{source}: field {name}: {sum(values.values())} {text}: {sample}",

@@ -160,7 +160,7 @@ CASES = [
         NORMALIZE,
         lambda t: _raw(t / "raw.gpkg", lanes=["1e9", "1e9", "2"]),
         0,
-        ["field lanes: 2 values outside", "treated as missing"],
+        ["field lanes: 2 values outside", "treated as missing", "out of range"],
     ),
     Case(
         "normalize-nan-vertex-counted",

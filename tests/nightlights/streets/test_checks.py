@@ -187,7 +187,7 @@ def test_absurd_lanes_are_missing_and_counted() -> None:
         warnings.simplefilter("always")
         result = normalize(raw)
     messages = [str(w.message) for w in record if issubclass(w.category, DataQualityWarning)]
-    assert any("field lanes: 2 values outside a number in [1, 30]" in m for m in messages)
+    assert any("field lanes: 2 values outside the allowed range [1, 30]" in m for m in messages)
     assert any("field lanes: 1 unusual values" in m and "'14' x1" in m for m in messages)
     lanes = result.streets["lanes"]
     assert lanes.isna().sum() == 2 and list(lanes.dropna()) == [2, 14]
