@@ -57,6 +57,11 @@ LIGHTS_PER_POSITION = {"single_sided": 1, "staggered": 1, "opposite": 2, "centra
 BYTES_PER_LIGHT = 1600
 
 
+#: Largest across-street jitter [m]: a few metres put a pole on the far side of a pavement;
+#: more would move it off its street.
+MAX_ACROSS_JITTER = 10.0
+
+
 @dataclass(frozen=True)
 class PlacementOptions:
     """Knobs of the placement grid.
@@ -64,14 +69,16 @@ class PlacementOptions:
     Attributes
     ----------
     along_jitter
-        Standard deviation of the along-street jitter as a fraction of the spacing [1].
+        Standard deviation of the along-street jitter as a fraction of the spacing, in
+        [0, 0.25) [1].
     across_jitter
-        Standard deviation of the across-street jitter [m].
+        Standard deviation of the across-street jitter, at most
+        :data:`MAX_ACROSS_JITTER` [m].
     merge_fraction
         Poles of different streets closer than this fraction of the spacing are merged
-        (where streets meet); the pole of the higher street class stays [1].
+        (where streets meet); the pole of the higher street class stays; in [0, 1] [1].
     tangent_step
-        Half-length of the chord used to estimate the local street direction [m].
+        Half-length of the chord used to estimate the local street direction, > 0 [m].
     """
 
     along_jitter: float = 0.05
@@ -89,6 +96,18 @@ class PlacementOptions:
                 f"placement option along_jitter={self.along_jitter}; expected < 0.25 of the "
                 "spacing so that poles keep their order along the street"
             )
+        if self.across_jitter > MAX_ACROSS_JITTER:
+            raise InputError(
+                f"placement option across_jitter={self.across_jitter} m; expected at most "
+                f"{MAX_ACROSS_JITTER:g} m so that poles stay beside their street"
+            )
+        if self.merge_fraction > 1:
+            raise InputError(
+                f"placement option merge_fraction={self.merge_fraction}; expected a fraction "
+                "of the spacing in [0, 1]"
+            )
+        if self.tangent_step == 0:
+            raise InputError("placement option tangent_step=0; expected a length > 0 [m]")
 
 
 def place_lights(

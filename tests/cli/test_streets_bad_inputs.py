@@ -247,6 +247,13 @@ CASES = [
         ["jitter", "nan"],
     ),
     Case(
+        "place-across-jitter-huge",
+        [*PLACE, "--across-jitter", "1e9"],
+        sampled_input,
+        1,
+        ["across_jitter=1000000000.0 m", "at most 10 m"],
+    ),
+    Case(
         "place-unknown-system",
         PLACE,
         lambda t: _sampled(t / "s.gpkg", system_id="gas_lamp"),

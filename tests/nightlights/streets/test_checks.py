@@ -15,7 +15,14 @@ from bayesnets import load_network
 from bayesnets.errors import BindingError
 from nightlights._resources import set_memory_limit
 from nightlights.errors import DataQualityWarning, InputError, ResourceError
-from nightlights.streets import fill_lighting, normalize, place, place_lights, sample
+from nightlights.streets import (
+    PlacementOptions,
+    fill_lighting,
+    normalize,
+    place,
+    place_lights,
+    sample,
+)
 from nightlights.streets._checks import (
     check_network_values,
     check_street_values,
@@ -82,6 +89,22 @@ def test_finite_vertices_flags_nan_and_inf_anywhere() -> None:
         ]
     )
     assert finite_vertices(geoms).tolist() == [True, False, False, True]
+
+
+@pytest.mark.parametrize(
+    ("knobs", "words"),
+    [
+        ({"across_jitter": 1e9}, "across_jitter=1000000000.0 m; expected at most 10 m"),
+        ({"merge_fraction": 3.0}, "merge_fraction=3.0; expected a fraction"),
+        ({"tangent_step": 0.0}, "tangent_step=0; expected a length > 0"),
+        ({"along_jitter": float("nan")}, "along_jitter=nan; expected a number >= 0"),
+        ({"across_jitter": -1.0}, "across_jitter=-1.0; expected a number >= 0"),
+    ],
+)
+def test_absurd_placement_options_are_input_errors(knobs, words) -> None:
+    with pytest.raises(InputError) as info:
+        PlacementOptions(**knobs)
+    assert words in str(info.value)
 
 
 # --- value ranges -------------------------------------------------------------------------------
