@@ -356,3 +356,23 @@ def test_read_only_output_folder_is_one_line_before_any_work(command: str, tmp_p
     assert result.exit_code == 1 and "Traceback" not in result.output
     assert "OutputError" in result.output and "locked" in result.output
     assert list(folder.iterdir()) == []
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+@pytest.mark.parametrize(
+    ("command", "output"),
+    [
+        ("normalize", "/proc/o.gpkg"),
+        ("sample", "/proc/o.gpkg"),
+        ("place", "/proc/o.gpkg"),
+        ("fit", "/proc/nightlights-network"),
+    ],
+)
+def test_unwritable_output_folder_is_one_line_even_for_root(
+    command: str, output: str, tmp_path: Path
+) -> None:
+    source = raw_input(tmp_path) if command == "normalize" else sampled_input(tmp_path)
+    result = CliRunner().invoke(cli, ["streets", command, str(source), output])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert "OutputError" in result.output and "/proc" in result.output
+    assert len(result.output.strip().splitlines()) == 1
