@@ -46,6 +46,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import os
 import time
 import warnings
 from dataclasses import dataclass
@@ -62,9 +63,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from scipy.ndimage import map_coordinates
 
 from nightlights._parallel import TaskProgress, compute_distributed
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
+from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.panorama import KernelSlice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
@@ -436,6 +439,18 @@ def darkness(
     zenith = [[zenith_per_lumen(t)[: data.shape[0]] for t in slices] for slices in by_level]
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
+    check_memory(
+        darkness_memory(
+            (rows, cols),
+            half,
+            chunk,
+            bands=data.shape[0],
+            planes=levels.size * data.shape[0],
+            observer_levels=observer_levels.size,
+        ),
+        f"the darkness map of {rows} x {cols} cells",
+        option="--chunk-size (or coarsen the emission raster)",
+    )
     plan = _Plan(
         stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),
         zenith=np.asarray(zenith),
@@ -482,6 +497,61 @@ def darkness(
     if target is not None:
         result.write(target)
     return DarknessResult(result, seconds, target)
+
+
+def darkness_memory(
+    shape: tuple[int, int],
+    half: tuple[int, int],
+    chunk_size: int,
+    *,
+    bands: int,
+    planes: int,
+    observer_levels: int,
+) -> float:
+    """Estimated peak memory of :func:`darkness` [B].
+
+    The raster and its per-cell arrays (flux, terrain and eye altitudes, output), the stencil,
+    and the FFT grids of the chunks in flight (one FFT without chunks, otherwise one chunk per
+    thread): per chunk its padded inputs and the spectra held at once (the fewer of the
+    source planes and the observer levels, and three working ones).
+
+    Parameters
+    ----------
+    shape
+        Raster (rows, cols) [cells].
+    half
+        Stencil radius in rows and columns [cells].
+    chunk_size
+        Chunk edge [cells].
+    bands
+        Emission bands [1].
+    planes
+        Source levels x bands [1].
+    observer_levels
+        Observer levels of the kernel [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(darkness_memory((1000, 1000), (50, 50), 4096, bands=1, planes=1,
+    ...                       observer_levels=1) / 2**20)
+    149
+    """
+    rows, cols = shape
+    a, b = half
+    chunk = max(chunk_size, 2 * a, 2 * b, 1)
+    raster = 8.0 * rows * cols * (3 * bands + 8)
+    stencil = 10.0 * (2 * a + 1) * (2 * b + 1)
+    fft_rows, fft_cols = min(rows, chunk) + 2 * a + 1, min(cols, chunk) + 2 * b + 1
+    held = min(planes, observer_levels) + 3
+    per_chunk = 8.0 * fft_rows * fft_cols * (held + bands + 2)
+    n_chunks = -(-rows // chunk) * -(-cols // chunk)
+    in_flight = 1 if n_chunks == 1 else min(n_chunks, os.cpu_count() or 1)
+    return raster + stencil + in_flight * per_chunk
 
 
 def _compute(
@@ -557,10 +627,8 @@ def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
 def _check_output(output: PathLike | None) -> Path | None:
     if output is None:
         return None
-    target = Path(output)
-    if not target.parent.is_dir():
-        raise InputError(f"{target}: output folder {target.parent} does not exist")
-    return target
+    OutputSet(output)  # its folder exists and is writable, checked before any work
+    return Path(output)
 
 
 def _check_emission(raster: Raster, label: str) -> FloatArray:

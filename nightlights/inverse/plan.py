@@ -38,7 +38,8 @@ from nightlights.inverse.stage import (
     _setup,
     _target_weights,
 )
-from nightlights.io import Raster, as_raster, atomic_output, source_label
+from nightlights.io import Raster, as_raster, source_label
+from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.polar import PolarCells
 from nightlights.sky.setup import RasterInput
@@ -142,7 +143,7 @@ def inverse_reduce(
     >>> round(result.summary["flux_removed_percent"], 1)
     25.0
     """
-    _check_outputs(output, dimming_output, summary_output, png)
+    outputs = _check_outputs(output, dimming_output, summary_output, png)
     raster = as_raster(emission)
     label = source_label(by, "influence raster")
     influence = as_raster(by)
@@ -153,7 +154,7 @@ def inverse_reduce(
     observer = _tag_observer(tags, label)
     region = tags.get("region")
     targets = [("zenith", None)] + ([("region", SkyRegion.parse(region))] if region else [])
-    summary = _summary(
+    summary, picture = _summary(
         raster,
         fraction,
         [observer],
@@ -164,7 +165,7 @@ def inverse_reduce(
         kernel=kernel,
         cache_dir=cache_dir,
         progress=progress,
-        png=png,
+        picture=png is not None,
     )
     summary["rule"] = {
         "equation": "Dobashi et al. 2023, Eq. 12",
@@ -174,7 +175,17 @@ def inverse_reduce(
         "qb": float(qb),
         "gamma": float(gamma),
     }
-    return _reduce_outputs(raster, fraction, summary, output, dimming_output, summary_output)
+    return _reduce_outputs(
+        raster,
+        fraction,
+        summary,
+        outputs,
+        output=output,
+        dimming_output=dimming_output,
+        summary_output=summary_output,
+        png=png,
+        picture=picture,
+    )
 
 
 def least_dimming(
@@ -261,7 +272,7 @@ def least_dimming(
         raise InputError("no target: give target_zenith and/or target_region")
     if not observers:
         raise InputError("no observer: the targets are for at least one observer")
-    _check_outputs(output, dimming_output, summary_output, png)
+    outputs = _check_outputs(output, dimming_output, summary_output, png)
     raster = as_raster(emission)
     regions = [(SkyRegion.parse(region), float(mag)) for region, mag in target_region]
     targets: list[tuple[str, SkyRegion | None, float]] = []
@@ -307,7 +318,7 @@ def least_dimming(
     fraction = np.zeros(raster.shape)
     fraction[scene_cells.rows, scene_cells.cols] = plan.fraction
     fraction = np.where(lit, fraction, 0.0)
-    summary = _summary(
+    summary, picture = _summary(
         raster,
         fraction,
         list(observers),
@@ -319,7 +330,7 @@ def least_dimming(
         kernel=kernel,
         cache_dir=cache_dir,
         progress=progress,
-        png=png,
+        picture=png is not None,
     )
     summary["plan"] = {
         "method": plan.method,
@@ -334,7 +345,17 @@ def least_dimming(
             for label, g, b, a in zip(labels, goal, plan.before, plan.after, strict=True)
         ],
     }
-    return _reduce_outputs(raster, fraction, summary, output, dimming_output, summary_output)
+    return _reduce_outputs(
+        raster,
+        fraction,
+        summary,
+        outputs,
+        output=output,
+        dimming_output=dimming_output,
+        summary_output=summary_output,
+        png=png,
+        picture=picture,
+    )
 
 
 # --- helpers ------------------------------------------------------------------------------------
@@ -386,9 +407,10 @@ def _summary(
     kernel: KernelInput,
     cache_dir: PathLike | None,
     progress: bool,
-    png: PathLike | None,
-) -> dict[str, Any]:
-    """Flux removed and, per observer, the zenith (and regions) before and after."""
+    picture: bool,
+) -> tuple[dict[str, Any], tuple[FloatArray, FloatArray, FloatArray] | None]:
+    """Flux removed and, per observer, the zenith (and regions) before and after; with
+    ``picture``, the first observer's panoramas before and after and their elevations."""
     cell_area = raster.resolution**2
     flux = np.nan_to_num(raster.data).sum(axis=0) * cell_area
     removed = float(np.sum(flux * fraction))
@@ -430,11 +452,10 @@ def _summary(
                     {"region": region.text, "weight": weight, **values}
                 )
         entries.append(entry)
-    if png is not None:
-        from nightlights.inverse._figures import render_before_after
-
+    figure = None
+    if picture:
         setup, before, after = pictures[0]
-        render_before_after(before, after, setup.slices[0].elevation, png)
+        figure = (before, after, setup.slices[0].elevation)
     return {
         "flux_before_lm": total,
         "flux_removed_lm": removed,
@@ -442,17 +463,23 @@ def _summary(
         "lit_cells": int(_lit(raster.data).sum()),
         "dimmed_cells": int(np.sum(fraction > 0)),
         "observers": entries,
-    }
+    }, figure
 
 
 def _reduce_outputs(
     raster: Raster,
     fraction: FloatArray,
     summary: dict[str, Any],
+    outputs: OutputSet,
+    *,
     output: PathLike | None,
     dimming_output: PathLike | None,
     summary_output: PathLike | None,
+    png: PathLike | None,
+    picture: tuple[FloatArray, FloatArray, FloatArray] | None,
 ) -> ReduceResult:
+    """The dimmed emission and the dimming raster; every asked output written together at
+    the end (or none of them)."""
     lit = _lit(raster.data)
     reduced = Raster(
         raster.data * (1.0 - fraction)[None],
@@ -471,10 +498,18 @@ def _reduce_outputs(
         ("1",),
         {"meaning": "fraction of each cell's upward flux removed"},
     )
-    path = reduced.write(output) if output is not None else None
     if dimming_output is not None:
-        summary["dimming_raster"] = str(dimming.write(dimming_output))
-    if summary_output is not None:
-        with atomic_output(summary_output) as tmp:
-            Path(tmp).write_text(json.dumps(summary, indent=2) + "\n")
+        summary["dimming_raster"] = str(dimming_output)
+    with outputs:
+        if output is not None:
+            reduced.write(outputs.temporary(output))
+        if dimming_output is not None:
+            dimming.write(outputs.temporary(dimming_output))
+        if summary_output is not None:
+            outputs.temporary(summary_output).write_text(json.dumps(summary, indent=2) + "\n")
+        if png is not None and picture is not None:
+            from nightlights.inverse._figures import render_before_after
+
+            render_before_after(*picture, outputs.temporary(png))
+    path = Path(output) if output is not None else None
     return ReduceResult(reduced, dimming, summary, path)

@@ -36,6 +36,7 @@ from nightlights.inverse._influence import (
 )
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
+from nightlights.io.outputs import OutputSet
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
 from nightlights.sky.setup import EmissionInput, RasterInput, SceneSetup, prepare_scene
@@ -405,14 +406,10 @@ def _written(result: InfluenceResult, output: PathLike | None) -> InfluenceResul
     )
 
 
-def _check_outputs(*paths: PathLike | None) -> None:
-    """Every output's folder exists (checked before any computation)."""
-    for path in paths:
-        if path is None:
-            continue
-        target = Path(path)
-        if not target.parent.is_dir():
-            raise InputError(f"{target}: output folder {target.parent} does not exist")
+def _check_outputs(*paths: PathLike | None) -> OutputSet:
+    """Every output's location checked before any computation (folder exists and is
+    writable, no path twice); the set writes them together (:class:`OutputSet`)."""
+    return OutputSet(*paths)
 
 
 def _lit(data: FloatArray) -> np.ndarray:

@@ -10,6 +10,9 @@ not at all.
 raster of a city in a large, dark region): :func:`read_lit_cells` reads a file window by window
 and keeps only the cells with a non-zero value, so that memory grows with the lit cells, not
 with the raster.
+
+Length: the dense raster, its COG writer and its sparse form share the grid conventions
+(transform, CRS, band names, nodata as NaN) that each half would otherwise restate.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from numpy.typing import NDArray
 from pyproj import CRS
 from rasterio.io import MemoryFile
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError, OutputError
 from nightlights.io.atomic import atomic_output
@@ -512,8 +516,8 @@ class _LitCollector:
         self.nodata_cells = 0
         self.infinite_values = 0
 
-    def add(self, block: np.ndarray, row0: int, nodata: float | None) -> None:
-        """Add a ``(bands, rows, cols)`` window whose first row is ``row0``."""
+    def add(self, block: np.ndarray, row0: int, nodata: float | None, col0: int = 0) -> None:
+        """Add a ``(bands, rows, cols)`` window whose first cell is (``row0``, ``col0``)."""
         if not block.any():  # the usual window of a sparse raster: all zero, one fast pass
             return
         missing = np.isnan(block) if np.issubdtype(block.dtype, np.floating) else None
@@ -531,17 +535,15 @@ class _LitCollector:
         if missing is not None:
             values[missing[:, rows, cols]] = np.nan
         self.rows.append(rows.astype(np.int64) + row0)
-        self.cols.append(cols.astype(np.int64))
+        self.cols.append(cols.astype(np.int64) + col0)
         self.values.append(values)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.rows:
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((self.count, 0)))
-        return (
-            np.concatenate(self.rows),
-            np.concatenate(self.cols),
-            np.concatenate(self.values, axis=1),
-        )
+        rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
+        order = np.lexsort((cols, rows))  # row-major, whatever the windows
+        return rows[order], cols[order], np.concatenate(self.values, axis=1)[:, order]
 
 
 def _raster_lit_cells(raster: Raster) -> LitCells:
@@ -563,6 +565,19 @@ def _raster_lit_cells(raster: Raster) -> LitCells:
         collector.nodata_cells,
         collector.infinite_values,
     )
+
+
+def _window_shape(dataset: Any) -> tuple[int, int]:
+    """(rows, cols) of the windows :func:`read_lit_cells` reads: whole blocks, about
+    :data:`WINDOW_CELLS` cells (at least one block)."""
+    block_rows, block_cols = dataset.block_shapes[0] if dataset.block_shapes else (1, 1)
+    block_rows, block_cols = max(1, block_rows), max(1, block_cols)
+    blocks_across = -(-dataset.width // block_cols)
+    blocks_per_window = max(1, WINDOW_CELLS // (block_rows * block_cols))
+    if blocks_per_window >= blocks_across:  # whole rows of blocks
+        rows = max(1, blocks_per_window // blocks_across) * block_rows
+        return rows, dataset.width
+    return block_rows, blocks_per_window * block_cols
 
 
 def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
@@ -596,14 +611,22 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
             rasterio.open(source) as dataset,
         ):
             collector = _LitCollector(dataset.count)
-            block_rows = dataset.block_shapes[0][0] if dataset.block_shapes else 1
-            per_window = max(1, WINDOW_CELLS // max(1, dataset.width))
-            step = max(block_rows, per_window // block_rows * block_rows)
+            height, width = _window_shape(dataset)
+            itemsize = np.dtype(dataset.dtypes[0]).itemsize
+            check_memory(
+                dataset.count * height * width * (itemsize + 3.0) + READ_CACHE_MB * 2**20,
+                f"reading {source} in windows of {height} x {width} cells",
+            )
             nodata = dataset.nodata
-            for row0 in range(0, dataset.height, step):
-                height = min(step, dataset.height - row0)
-                window = rasterio.windows.Window(0, row0, dataset.width, height)
-                collector.add(dataset.read(window=window), row0, nodata)
+            for row0 in range(0, dataset.height, height):
+                for col0 in range(0, dataset.width, width):
+                    window = rasterio.windows.Window(
+                        col0,
+                        row0,
+                        min(width, dataset.width - col0),
+                        min(height, dataset.height - row0),
+                    )
+                    collector.add(dataset.read(window=window), row0, nodata, col0)
             r, c, v = collector.arrays()
             return LitCells(
                 r,

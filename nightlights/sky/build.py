@@ -32,6 +32,7 @@ import numpy as np
 import xarray as xr
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
@@ -186,6 +187,42 @@ def _supersample_source_pixels(
         )
 
 
+def kernel_memory(spec: KernelSpec) -> float:
+    """Estimated peak memory of :func:`compute_kernel` [B].
+
+    The float32 tables (observer levels x source levels x distances x elevations x azimuths x
+    emissions, held twice: the tables and the dataset's copy), one distance row of float64
+    images while they are integrated, and the PCA of one observer level (the float64 stack of
+    m images of p pixels, the Gram matrix and its eigenvectors of the smaller side q, the
+    bases and their QR) with the stored bases, coefficients and basis spectra of every level.
+
+    Parameters
+    ----------
+    spec
+        The kernel's specification.
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(kernel_memory(KernelSpec()) / 2**20)  # the default 64 x 64 x 256 kernel [MiB]
+    80
+    """
+    n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
+    emissions = len(spec.emissions)
+    n_r, pixels = spec.n_distance, spec.n_elevation * spec.n_azimuth
+    tables = 4.0 * emissions * n_o * n_c * n_r * pixels
+    images = 2 * 8.0 * n_r * pixels
+    m = emissions * n_c * n_r
+    q = min(m, pixels)
+    pca = 8.0 * (m * pixels + 2 * q * q + 3 * q * pixels + m * q)
+    stored = 8.0 * n_o * (3 * q * pixels + m * q)
+    return 2 * tables + images + pca + stored
+
+
 def compute_kernel(
     spec: KernelSpec | None = None, *, backend: str = "auto", progress: bool = True
 ) -> xr.Dataset:
@@ -218,6 +255,13 @@ def compute_kernel(
     ((1, 1, 4, 4, 8), True)
     """
     spec = spec if spec is not None else KernelSpec()
+    check_memory(
+        kernel_memory(spec),
+        f"the kernel of {len(spec.observer_altitudes)} observer x {len(spec.source_altitudes)} "
+        f"source levels x {spec.n_distance} distances x {spec.n_elevation} x {spec.n_azimuth} "
+        "pixels",
+        option="lower --n-distance, --n-elevation or --n-azimuth (or give fewer altitude levels)",
+    )
     atm = spec.atmosphere
     n_el, n_az = spec.n_elevation, spec.n_azimuth
     edges = spec.edges

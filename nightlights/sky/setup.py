@@ -18,13 +18,19 @@ from affine import Affine
 from pyproj import CRS, Transformer
 from pyproj.exceptions import ProjError
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
 from nightlights.sky.panorama import KernelSlice, kernel_levels
-from nightlights.sky.polar import PolarCells, lit_polar_cells, source_level_weights
+from nightlights.sky.polar import (
+    PolarCells,
+    lit_polar_cells,
+    source_level_weights,
+    supersampling,
+)
 from nightlights.sky.spec import (
     MAX_KERNEL_RANGE,
     KernelSpec,
@@ -33,7 +39,15 @@ from nightlights.sky.spec import (
 )
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
-__all__ = ["EmissionInput", "RasterInput", "SceneSetup", "level_offset", "prepare_scene"]
+__all__ = [
+    "EmissionInput",
+    "RasterInput",
+    "SceneSetup",
+    "check_kernel_grid",
+    "level_offset",
+    "prepare_scene",
+    "scene_memory",
+]
 
 #: What a stage accepts as a raster input (an emission may also be given as its lit cells).
 RasterInput = Raster | xr.DataArray | PathLike
@@ -205,7 +219,7 @@ def prepare_scene(
     xy = _observer_xy(observer, observer_crs, cells.crs)
     if not (np.isfinite(observer_height) and observer_height >= 0):
         raise InputError(f"observer height {observer_height} m; expected a finite value >= 0")
-    _check_reach(cells, xy, MAX_KERNEL_RANGE, label, observer, observer_crs)
+    _check_reach(cells, xy, MAX_KERNEL_RANGE, label, observer, observer_crs, "any kernel's")
     terrain = (
         scene_terrain(dem, cells, xy, observer_height, label=source_label(dem, "DEM"))
         if dem is not None
@@ -244,6 +258,20 @@ def prepare_scene(
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
     if kernel is not None:
         _check_reach(cells, xy, float(slices[0].distance_edges[-1]), label, observer, observer_crs)
+    first = slices[0]
+    check_memory(
+        scene_memory(
+            cells,
+            xy,
+            n_az=first.n_az,
+            n_elevation=first.elevation.size,
+            n_distance=first.distance_edges.size - 1,
+            n_levels=levels.size,
+        ),
+        f"the polar map and panorama of {cells.n_cells} lit cells ({first.elevation.size} x "
+        f"{first.n_az} pixels)",
+        option="lower --n-azimuth or --n-elevation, or coarsen the emission raster",
+    )
     return SceneSetup(
         label=label,
         emission=cells,
@@ -258,6 +286,52 @@ def prepare_scene(
         levels=levels,
         slices=slices,
     )
+
+
+#: Bytes per polar sub-point while the cells are split and binned (coordinates, distance,
+#: azimuth, bins, shares and the kept arrays of :class:`PolarCells`) [B].
+_SUB_POINT_BYTES = 128
+#: Bytes per lit cell besides its sub-points (centres, sub-sampling, level weights) [B].
+_CELL_BYTES = 96
+
+
+def scene_memory(
+    cells: LitCells,
+    xy: tuple[float, float],
+    *,
+    n_az: int,
+    n_elevation: int,
+    n_distance: int,
+    n_levels: int,
+) -> float:
+    """Estimated memory of a panorama or inverse map after the kernel is loaded [B].
+
+    The lit cells' polar sub-points (their number is exact: the sub-sampling of every cell is
+    computed from its distance), the polar maps of every source level and the panorama's
+    arrays. The raster itself is never held (:func:`~nightlights.io.raster.read_lit_cells`).
+
+    Parameters
+    ----------
+    cells
+        The emission's lit cells.
+    xy
+        Observer (x, y) [m].
+    n_az, n_elevation, n_distance, n_levels
+        Kernel azimuths, elevations, distance bins and source levels [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+    """
+    x, y = cells.centres()
+    cell = abs(cells.transform.a)
+    samples = supersampling(cell, np.hypot(x - xy[0], y - xy[1]), n_az, max_samples=16)
+    n_sub = float(np.sum(samples.astype(float) ** 2))
+    per_cell = _CELL_BYTES + 8.0 * cells.count * (1 + n_levels)
+    maps = 3 * 8.0 * n_levels * cells.count * n_distance * n_az
+    panorama = 16 * 8.0 * n_elevation * n_az
+    return _SUB_POINT_BYTES * n_sub + per_cell * cells.n_cells + maps + panorama
 
 
 def _check_flux(cells: LitCells, label: str) -> None:
@@ -315,6 +389,7 @@ def _check_reach(
     label: str,
     observer: tuple[float, float],
     observer_crs: str | None,
+    whose: str = "the kernel's",
 ) -> None:
     """Refuse an observer farther from every lit cell than ``reach``; warn about one outside
     the raster whose coordinates look like degrees without an observer CRS."""
@@ -332,7 +407,7 @@ def _check_reach(
     if gap >= reach:
         raise InputError(
             f"observer ({x:.1f}, {y:.1f}) lies {gap / 1000:.4g} km outside the lit cells of "
-            f"{label} ({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond the kernel's "
+            f"{label} ({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond {whose} "
             f"range ({reach / 1000:.4g} km): no cell can light its sky{hint}"
         )
     r_left, r_bottom, r_right, r_top = cells.bounds

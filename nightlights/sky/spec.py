@@ -104,7 +104,7 @@ def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
     >>> distance_grid(10.0, 1000.0, 2).tolist()
     [10.0, 100.0, 1000.0]
     """
-    if not (0 < r_min < r_max) or n_distance < 1:
+    if not (0 < r_min < r_max < np.inf) or n_distance < 1:
         raise InputError(
             f"distance grid r_min={r_min!r} m, r_max={r_max!r} m, n_distance={n_distance!r}; "
             "expected 0 < r_min < r_max and n_distance >= 1"
@@ -115,8 +115,10 @@ def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
 def _check_edges(edges: ArrayLike) -> FloatArray:
     e = np.asarray(edges, dtype=float).ravel()
     if e.size < 2 or e[0] <= 0 or np.any(np.diff(e) <= 0) or not np.all(np.isfinite(e)):
+        shown = e.tolist() if e.size <= 8 else [*e[:3].tolist(), "...", *e[-3:].tolist()]
         raise InputError(
-            f"distance_edges {e.tolist()!r}; expected >= 2 increasing finite values > 0 m"
+            f"distance_edges {shown!r} ({e.size} values); expected >= 2 increasing finite "
+            "values > 0 m"
         )
     return e
 
@@ -243,6 +245,19 @@ class KernelSpec:
                 f"sub_distances={self.sub_distances!r}, sub_pixels={self.sub_pixels!r}; "
                 "expected >= 1"
             )
+        if (
+            self.nodes < 1
+            or self.supersample < 1
+            or (self.leg_nodes is not None and self.leg_nodes < 1)
+        ):
+            raise InputError(
+                f"nodes={self.nodes!r}, supersample={self.supersample!r}, "
+                f"leg_nodes={self.leg_nodes!r}; expected >= 1"
+            )
+        if not (np.isfinite(self.core_radius) and self.core_radius > 0):
+            raise InputError(f"core_radius {self.core_radius!r} m; expected a positive length")
+        if not (np.isfinite(self.uplight_exponent) and self.uplight_exponent >= 0):
+            raise InputError(f"uplight_exponent {self.uplight_exponent!r}; expected >= 0")
         if self.n_components is None and not 0 < self.pca_energy <= 1:
             raise InputError(f"pca_energy {self.pca_energy!r}; expected 0 < energy <= 1")
         if self.n_components is not None and self.n_components < 1:

@@ -14,8 +14,8 @@ import numpy as np
 import xarray as xr
 
 from nightlights._typing import PathLike
-from nightlights.errors import InputError
 from nightlights.io import atomic_output
+from nightlights.io.outputs import OutputSet
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
 from nightlights.sky.polar import PolarMap
@@ -57,12 +57,11 @@ class SkyglowResult:
 
 
 def _check_output(output: PathLike | None) -> Path | None:
+    """The output path, its folder checked to exist and be writable before any work."""
     if output is None:
         return None
-    target = Path(output)
-    if not target.parent.is_dir():
-        raise InputError(f"{target}: output folder {target.parent} does not exist")
-    return target
+    OutputSet(output)
+    return Path(output)
 
 
 def build_kernel(
@@ -145,7 +144,8 @@ def skyglow(
         Upward flux density [lm m-2] in a projected CRS: a :class:`~nightlights.io.Raster`, a
         DataArray or a path; one band = Lambertian, two bands = Lambertian + direct uplight.
     output
-        Panorama NetCDF, written atomically; None writes nothing.
+        Panorama NetCDF; None writes nothing. It, ``png`` and ``polar_output`` are all
+        checked before the computation and appear together at the end, or none of them.
     observer
         Observer position (x, y) in ``observer_crs`` [m or deg].
     observer_crs
@@ -203,7 +203,9 @@ def skyglow(
     >>> result.path is None, 1 <= result.bortle <= 9
     (True, True)
     """
-    target = _check_output(output)
+    target = Path(output) if output is not None else None
+    # Every location is checked now; the outputs appear together at the end or not at all.
+    outputs = OutputSet(target, png, polar_output)
     scene = skyglow_panorama(
         emission,
         observer,
@@ -225,13 +227,36 @@ def skyglow(
     dataset = scene.panorama
     zenith = float(dataset.attrs["zenith_luminance_cd_m2"])
     zenith_mag = float(dataset.attrs["zenith_sky_brightness"])
-    if target is not None:
-        with atomic_output(target) as tmp:
-            dataset.to_netcdf(tmp, engine="h5netcdf")
-    if polar_output is not None:
-        write_polar(scene.polar, polar_output)
+    with outputs:
+        if target is not None:
+            dataset.to_netcdf(outputs.temporary(target), engine="h5netcdf")
+        if polar_output is not None:
+            _polar_dataset(scene.polar).to_netcdf(
+                outputs.temporary(polar_output), engine="h5netcdf"
+            )
+        if png is not None:
+            _render(dataset, outputs.temporary(png), bands, spectrum, projection, zenith_mag)
+    return SkyglowResult(
+        dataset,
+        zenith,
+        zenith_mag,
+        int(dataset.attrs["bortle_class_zenith"]),
+        scene.seconds,
+        target,
+    )
+
+
+def _render(
+    dataset: xr.Dataset,
+    png: Path,
+    bands: str,
+    spectrum: str,
+    projection: str,
+    zenith_mag: float,
+) -> None:
+    """The panorama's picture: a colour one for ``RGB``, false colour otherwise."""
     elevation = dataset["elevation"].values
-    if png is not None and bands == "RGB":
+    if bands == "RGB":
         xyz = np.stack([dataset[band].values for band in TRISTIMULUS_WAVELENGTHS], axis=-1)
         render_colour_panorama(
             xyz,
@@ -239,7 +264,7 @@ def skyglow(
             png,
             title=f"artificial skyglow ({spectrum}), zenith {zenith_mag:.2f} mag arcsec-2",
         )
-    elif png is not None:
+    else:
         render_panorama(
             dataset["sky_brightness"].values,
             elevation,
@@ -248,13 +273,21 @@ def skyglow(
             projection=projection,
             title=f"artificial skyglow, zenith {zenith_mag:.2f} mag arcsec-2",
         )
-    return SkyglowResult(
-        dataset,
-        zenith,
-        zenith_mag,
-        int(dataset.attrs["bortle_class_zenith"]),
-        scene.seconds,
-        target,
+
+
+def _polar_dataset(polar: PolarMap) -> xr.Dataset:
+    edges = polar.distance_edges
+    return xr.Dataset(
+        {
+            "flux": (("band", "distance", "azimuth"), polar.flux, {"units": "lm"}),
+            "distance_edges": (("distance_edge",), edges, {"units": "m"}),
+        },
+        coords={
+            "band": np.arange(polar.flux.shape[0]),
+            "distance": ("distance", np.sqrt(edges[:-1] * edges[1:]), {"units": "m"}),
+            "azimuth": ("azimuth", polar.azimuths, {"units": "degree"}),
+        },
+        attrs={"dropped_flux_lm": float(polar.dropped_flux.sum())},
     )
 
 
@@ -273,19 +306,6 @@ def write_polar(polar: PolarMap, path: PathLike) -> Path:
     pathlib.Path
         The written path.
     """
-    edges = polar.distance_edges
-    dataset = xr.Dataset(
-        {
-            "flux": (("band", "distance", "azimuth"), polar.flux, {"units": "lm"}),
-            "distance_edges": (("distance_edge",), edges, {"units": "m"}),
-        },
-        coords={
-            "band": np.arange(polar.flux.shape[0]),
-            "distance": ("distance", np.sqrt(edges[:-1] * edges[1:]), {"units": "m"}),
-            "azimuth": ("azimuth", polar.azimuths, {"units": "degree"}),
-        },
-        attrs={"dropped_flux_lm": float(polar.dropped_flux.sum())},
-    )
     with atomic_output(path) as tmp:
-        dataset.to_netcdf(tmp, engine="h5netcdf")
+        _polar_dataset(polar).to_netcdf(tmp, engine="h5netcdf")
     return Path(path)

@@ -13,7 +13,7 @@ import xarray as xr
 from affine import Affine
 from distributed import Client, LocalCluster
 
-from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError
 from nightlights.inverse._darkness import DarknessResult, darkness, zenith_per_lumen
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
@@ -333,7 +333,7 @@ def test_errors_are_one_line(kernel: xr.Dataset, tmp_path: Path) -> None:
         (InputError, "chunk size 2.5", {"chunk_size": 2.5}),
         (InputError, "chunk size True", {"chunk_size": True}),
         (InputError, "observer height -1", {"observer_height": -1.0}),
-        (InputError, "does not exist", {"output": tmp_path / "missing" / "z.tif"}),
+        (OutputError, "does not exist", {"output": tmp_path / "missing" / "z.tif"}),
         (InputError, "turbidity 5", {"turbidity": 5.0}),
         (InputError, "covering the whole", {"dem": Raster(np.ones((5, 5)), TRANSFORM, CRS)}),
         (CRSError, "DEM", {"dem": Raster(np.ones((10, 10)), TRANSFORM, "EPSG:3067")}),

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nightlights.errors import InputError
+from nightlights.errors import InputError, OutputError
 from nightlights.sky import KernelResult, KernelSpec, build_kernel
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.store import read_kernel
@@ -113,7 +113,7 @@ def test_build_kernel_writes_nothing_without_output(tmp_path: Path, monkeypatch)
     result = build_kernel(KernelSpec(**TINY), progress=False)
     assert result.path is None and list(tmp_path.iterdir()) == []
     assert result.spec == KernelSpec(**TINY)
-    with pytest.raises(InputError, match="does not exist"):
+    with pytest.raises(OutputError, match="does not exist"):
         build_kernel(KernelSpec(**TINY), tmp_path / "missing" / "k.nc", progress=False)
 
 
