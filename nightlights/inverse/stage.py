@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
 from nightlights.inverse._influence import (
@@ -368,6 +369,13 @@ def _influence_result(
     seconds: float,
     extra: dict[str, str],
 ) -> InfluenceResult:
+    rows, cols = setup.shape
+    # The raster on the emission grid (float64), its float32 copy and the COG writer's.
+    check_memory(
+        16.0 * rows * cols,
+        f"the {metric} raster of {rows} x {cols} cells",
+        option="crop the emission raster to the lit region",
+    )
     grid = np.full(setup.shape, np.nan)
     grid[cells.rows, cells.cols] = values
     name, meaning = _BAND[metric]

@@ -139,3 +139,27 @@ def test_a_kernel_that_is_zero_everywhere_is_refused() -> None:
         _check_tables({"lambertian": np.zeros((1, 1, 2, 4, 8))}, spec)
     with pytest.raises(InputError, match="non-finite"):
         _check_tables({"lambertian": np.full((1, 1, 2, 4, 8), np.nan)}, spec)
+
+
+def test_skyglow_outputs_are_all_or_nothing(
+    small_kernel: xr.Dataset, tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import nightlights.sky.stage as stage_module
+    from nightlights.sky import skyglow
+
+    panorama, polar, png = tmp_path / "p.nc", tmp_path / "polar.nc", tmp_path / "p.png"
+    panorama.write_bytes(b"previous")
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(stage_module, "render_panorama", broken)
+    with pytest.raises(OSError, match="disk full"):
+        skyglow(
+            _raster(), panorama, observer=INSIDE, kernel=small_kernel, png=png, polar_output=polar
+        )
+    assert panorama.read_bytes() == b"previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.nc"]  # no temporary left
+    monkeypatch.undo()
+    skyglow(_raster(), panorama, observer=INSIDE, kernel=small_kernel, png=png, polar_output=polar)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.nc", "p.png", "polar.nc"]
