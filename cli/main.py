@@ -1,9 +1,18 @@
 """Entry point of the ``nightlights`` command.
 
 One module per command, named after it, each exposing ``commands`` (click commands or groups);
-this module only builds the group, sets up logging, and turns domain errors into one-line
-messages with exit status 1. The command modules import only click at import time, so that
-``nightlights --help`` does not load the library.
+this module only builds the group, sets up logging and the memory limit, and reports failures
+in one line on stderr instead of a traceback:
+
+- usage errors (a bad option value, a missing input): click's message, exit status 2;
+- errors of the toolkit (``NightlightsError``, ``BayesNetError``, ``PhotometryError``) and the
+  user's mistakes that surface as other libraries' exceptions (a file or folder that cannot be
+  read or written, an unknown CRS, too little memory, a dask scheduler that cannot be reached):
+  ``Kind: message``, exit status 1;
+- anything else (a bug): the same line with "run with -v for the traceback", exit status 1.
+
+With ``-v`` the traceback is printed before the line. The command modules import only click at
+import time, so that ``nightlights --help`` does not load the library.
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ from typing import Any
 
 import click
 
+from cli.options import MemorySize, require_finite_floats
 from nightlights import __version__
 
 #: Modules that each expose ``commands``: a list of click commands or groups.
@@ -41,40 +51,121 @@ def domain_errors() -> tuple[type[Exception], ...]:
     return (NightlightsError, BayesNetError, PhotometryError)
 
 
+def _crs_errors() -> tuple[type[Exception], ...]:
+    """CRS errors of pyproj and rasterio (a garbage ``--crs``), when they are loaded."""
+    found: list[type[Exception]] = []
+    for module_name in ("pyproj.exceptions", "rasterio.errors"):
+        module = sys.modules.get(module_name)
+        error = getattr(module, "CRSError", None)
+        if isinstance(error, type) and issubclass(error, Exception):
+            found.append(error)
+    return tuple(found)
+
+
+MEMORY_HINT = (
+    "ask for less (a coarser --resolution, smaller grids, fewer candidates) or set "
+    "--max-memory / NIGHTLIGHTS_MAX_MEMORY below the free memory so that stages refuse such "
+    "requests up front"
+)
+
+
+def one_line(text: str) -> str:
+    """``text`` with its lines joined by spaces (messages of other libraries may span lines)."""
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def describe(exc: BaseException) -> str:
+    """The one-line report of ``exc`` (a bug's report asks for ``-v``).
+
+    Examples
+    --------
+    >>> describe(FileNotFoundError(2, "No such file or directory", "in.tif"))
+    "FileNotFoundError: [Errno 2] No such file or directory: 'in.tif'"
+    >>> describe(ZeroDivisionError("division by zero"))
+    'ZeroDivisionError: division by zero (unexpected error; run with -v for the traceback)'
+    """
+    kind = type(exc).__name__
+    if isinstance(exc, domain_errors()):
+        return f"{kind}: {exc}"
+    crs_errors = _crs_errors()
+    if crs_errors and isinstance(exc, crs_errors):
+        return f"CRSError: {one_line(str(exc))}; expected e.g. EPSG:3067 or a WKT/PROJ string"
+    if isinstance(exc, MemoryError):
+        detail = one_line(str(exc)) or "out of memory"
+        return f"MemoryError: {detail}; {MEMORY_HINT}"
+    if isinstance(exc, OSError):
+        return f"{kind}: {one_line(str(exc)) or 'input/output error'}"
+    detail = one_line(str(exc))
+    return (
+        f"{kind}: {detail}{' ' if detail else ''}(unexpected error; run with -v for the traceback)"
+    )
+
+
 class NightlightsGroup(click.Group):
-    """A click group that reports domain errors in one line instead of a traceback."""
+    """A click group that reports errors in one line (a traceback too with ``-v``)."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except Exception as exc:
-            if isinstance(exc, domain_errors()):
-                raise click.ClickException(f"{type(exc).__name__}: {exc}") from exc
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
+        except Exception as exc:
+            message = describe(exc)
+            if ctx.params.get("verbose"):
+                import traceback
+
+                click.echo("".join(traceback.format_exception(exc)).rstrip(), err=True)
+            raise click.ClickException(message) from exc
+
+
+def _one_line_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    line: str | None = None,
+) -> str:
+    return f"{category.__name__}: {message}"
 
 
 @click.group(cls=NightlightsGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="nightlights")
-@click.option("-v", "--verbose", count=True, help="More detail (repeat for debug).")
+@click.option("-v", "--verbose", count=True, help="More detail (repeat for debug); tracebacks.")
 @click.option("-q", "--quiet", is_flag=True, help="Only errors.")
-def cli(verbose: int, quiet: bool) -> None:
+@click.option(
+    "--max-memory",
+    type=MemorySize(),
+    default=None,
+    metavar="SIZE",
+    help="Memory a stage may use (8G, 500M, 2e9 bytes); a stage whose estimate is larger "
+    "refuses to start. Default: $NIGHTLIGHTS_MAX_MEMORY, else half the machine's memory.",
+)
+def cli(verbose: int, quiet: bool, max_memory: int | None) -> None:
     """Night-time lighting: streetlights, irradiance, emission and skyglow.
 
     Commands that write a product take INPUT... OUTPUT (or -o/--output OUTPUT) and refuse to
-    replace an existing output unless --overwrite is given.
+    replace an existing output unless --overwrite is given. Errors are one line on stderr with
+    exit status 1 (2 for usage errors); -v adds the traceback.
     """
+    from nightlights._resources import memory_limit, set_memory_limit
+
     level = (
         logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     )
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
+    if not verbose:
+        warnings.formatwarning = _one_line_warning
     if quiet:
         warnings.simplefilter("ignore")
+    set_memory_limit(max_memory)
+    memory_limit()  # a malformed NIGHTLIGHTS_MAX_MEMORY is reported before any work
 
 
 for _module_name in COMMAND_MODULES:
     for _command in importlib.import_module(_module_name).commands:
         cli.add_command(_command)
+require_finite_floats(cli)
 
 
 def main() -> None:

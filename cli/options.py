@@ -4,6 +4,13 @@ Every command that writes a product takes its paths as positional ``INPUT... OUT
 output may be given with ``-o/--output`` instead, and then every positional path is an input.
 An existing output is never replaced unless ``--overwrite`` is given.
 
+Option values are checked here as far as their type allows, so that a bad value is a usage
+error (exit status 2) before any work starts: every float option is finite
+(:func:`require_finite_floats`, applied to every command by ``cli.main``), seeds are
+non-negative, memory sizes parse (:class:`MemorySize`), and ``--crs``/``--target-crs`` are
+CRSs pyproj reads (:class:`CRSText`; exit status 1 with a ``CRSError``, as for the CRSs the
+library refuses).
+
 This module imports only click, so that ``nightlights --help`` stays fast: the choices and
 defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they
 are equal) instead of importing it.
@@ -11,6 +18,7 @@ are equal) instead of importing it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -137,6 +145,95 @@ def check_outputs(paths: Sequence[str | None], *, overwrite: bool) -> None:
             raise OutputExistsError(path)
 
 
+# --- value types ---------------------------------------------------------------------------------
+
+
+class FiniteFloat(click.types.FloatParamType):
+    """A float option that refuses ``nan`` and ``inf`` (usage error, exit status 2)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+class FiniteFloatRange(click.FloatRange):
+    """A :class:`click.FloatRange` that also refuses ``nan`` (which passes every comparison)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+def require_finite_floats(command: click.Command) -> None:
+    """Make every float option of ``command`` and its subcommands refuse ``nan`` and ``inf``.
+
+    No option of the toolkit means anything with a non-finite value; a ``nan`` that passed
+    would disable the checks that compare it (``nan < 0`` is false) and spread through the
+    results.
+    """
+    for param in command.params:
+        kind = type(param.type)
+        if kind is click.types.FloatParamType:
+            param.type = FiniteFloat()
+        elif kind is click.FloatRange:
+            old = param.type
+            assert isinstance(old, click.FloatRange)
+            param.type = FiniteFloatRange(
+                old.min, old.max, min_open=old.min_open, max_open=old.max_open, clamp=old.clamp
+            )
+    if isinstance(command, click.Group):
+        for sub in command.commands.values():
+            require_finite_floats(sub)
+
+
+class CRSText(click.ParamType):
+    """A CRS as text (``EPSG:3067``, WKT, PROJ), checked with pyproj and passed on unchanged.
+
+    A value pyproj cannot read is a :class:`~nightlights.errors.CRSError` (one line, exit
+    status 1, as for a CRS the library refuses), even where the input has a CRS of its own and
+    the option would not be used.
+    """
+
+    name = "crs"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        import pyproj
+
+        from nightlights.errors import CRSError
+
+        try:
+            pyproj.CRS.from_user_input(value)
+        except pyproj.exceptions.CRSError as exc:
+            option = param.opts[-1] if param is not None and param.opts else "CRS"
+            detail = " ".join(str(exc).split())
+            raise CRSError(
+                f"{option} {value!r} is not a coordinate reference system ({detail}); expected "
+                "e.g. EPSG:3067, a WKT or a PROJ string"
+            ) from None
+        return value
+
+
+class MemorySize(click.ParamType):
+    """A memory size such as ``8G``, ``500M`` or ``2e9`` (bytes), converted to ``int`` [B]."""
+
+    name = "size"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> int:
+        from nightlights._resources import parse_size
+        from nightlights.errors import InputError
+
+        if isinstance(value, int) and not isinstance(value, bool) and value > 0:
+            return value
+        try:
+            return parse_size(value, source=repr(value))
+        except InputError:
+            self.fail(f"{value!r}; expected a size such as 8G, 500M or 2e9 (bytes)", param, ctx)
+
+
 # --- deprecated spellings -----------------------------------------------------------------------
 
 
@@ -226,7 +323,9 @@ def one_of(ctx: click.Context, **values: Any) -> Any:
 # --- options of several commands --------------------------------------------------------------
 
 SEED_HELP = "Random seed; the same seed gives the same output."
-seed_option = click.option("--seed", type=int, default=None, help=SEED_HELP)
+#: Seeds of numpy's random generators are non-negative integers.
+SEED_TYPE = click.IntRange(min=0)
+seed_option = click.option("--seed", type=SEED_TYPE, default=None, help=SEED_HELP)
 scheduler_option = click.option(
     "--scheduler",
     default=None,
@@ -243,11 +342,16 @@ skip_unknown_option = click.option(
     "--skip-unknown", is_flag=True, help="Drop lights with unknown system ids (with a warning)."
 )
 crs_option = click.option(
-    "--crs", default=None, metavar="CRS", help="CRS of an input that has none (e.g. EPSG:3067)."
+    "--crs",
+    default=None,
+    type=CRSText(),
+    metavar="CRS",
+    help="CRS of an input that has none (e.g. EPSG:3067).",
 )
 target_crs_option = click.option(
     "--target-crs",
     default=None,
+    type=CRSText(),
     metavar="CRS",
     help="Projected output CRS in metres (default: the input's if projected, else its local "
     "UTM zone).",

@@ -40,8 +40,10 @@ def info_command(
     from ies import read_photometry
     from ies.errors import PhotometryWarning
     from ies.plot import write_polar_plot
+    from nightlights.io import OutputSet
 
     check_outputs([plot_path], overwrite=overwrite)
+    outputs = OutputSet(plot_path)  # the plot's folder is checked before the file is read
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhotometryWarning)  # kept in .warnings, printed below
         photometry = read_photometry(file)
@@ -52,7 +54,8 @@ def info_command(
         summary["bug_zone_lumens"] = dict(rating.zone_lumens)
         summary["street_azimuth"] = street_azimuth
     if plot_path:
-        write_polar_plot(photometry, plot_path)
+        with outputs:
+            write_polar_plot(photometry, outputs.temporary(plot_path))
         summary["plot"] = plot_path
     if as_json:
         click.echo(json.dumps(summary, indent=2))

@@ -40,8 +40,14 @@ Conventions, as in rasterio's `rio`:
   none, `--target-crs` the output CRS, `--dem` terrain heights above sea level [m];
   `kernel build --n-components` is the number of PCA bases stored in a kernel, `skyglow
   --components` the number of stored bases used at run time;
-- errors of the library are reported in one line with exit status 1, usage errors with exit
-  status 2; deprecated spellings still work and print a `DeprecationWarning` line on stderr.
+- errors are reported in one line with exit status 1, usage errors (a malformed value, `nan`
+  or `inf` for any number) with exit status 2, and no traceback unless `nightlights -v` is
+  given (the classes and their messages: [errors](errors.md)); a command that fails leaves no
+  file behind and its previous outputs as they were;
+- every stage estimates its memory before it allocates and refuses work above the limit set by
+  `nightlights --max-memory SIZE`, else `NIGHTLIGHTS_MAX_MEMORY`, else half the machine's
+  memory;
+- deprecated spellings still work and print a `DeprecationWarning` line on stderr.
 """
 
 

@@ -7,7 +7,10 @@ from typing import Any
 
 from dask.callbacks import Callback
 
-__all__ = ["TaskProgress", "compute_distributed"]
+__all__ = ["SCHEDULER_TIMEOUT", "TaskProgress", "compute_distributed"]
+
+#: How long to try to reach a ``--scheduler`` address before giving up [s].
+SCHEDULER_TIMEOUT = 30.0
 
 
 class TaskProgress(Callback):
@@ -43,7 +46,8 @@ def compute_distributed(
         Dask collections or delayed objects.
     scheduler
         A scheduler address (``tcp://...``) or a ``distributed.Client``; a client made from
-        an address is closed afterwards.
+        an address is closed afterwards. An address that cannot be reached within
+        :data:`SCHEDULER_TIMEOUT` is an error.
     advance
         Called once per finished task.
 
@@ -52,11 +56,16 @@ def compute_distributed(
     list
         The results in the order of ``tasks``; on the first failure the rest are cancelled
         and the exception re-raised.
+
+    Raises
+    ------
+    InputError
+        ``scheduler`` is an address that is malformed or cannot be reached in time.
     """
     from distributed import Client, as_completed
 
     own_client = not isinstance(scheduler, Client)
-    client = Client(scheduler, set_as_default=False) if own_client else scheduler
+    client = _connect(scheduler) if own_client else scheduler
     assert isinstance(client, Client)
     try:
         futures = client.compute(tasks)
@@ -73,3 +82,18 @@ def compute_distributed(
     finally:
         if own_client:
             client.close()
+
+
+def _connect(address: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, or an InputError."""
+    from distributed import Client
+
+    from nightlights.errors import InputError
+
+    try:
+        return Client(address, set_as_default=False, timeout=SCHEDULER_TIMEOUT)
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(
+            f"--scheduler {address!r}: cannot connect to a dask scheduler: {exc}; expected "
+            "the address of a running scheduler, e.g. tcp://host:8786"
+        ) from None

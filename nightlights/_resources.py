@@ -9,7 +9,7 @@ that lowers the need. The limit is, in order of precedence, the value given to
 physical memory, or less where a control group or ``RLIMIT_AS`` caps the process).
 
 Sizes are written as plain bytes (``"2000000000"``, ``"2e9"``) or with a binary unit
-(``"500M"``, ``"8G"``, ``"8GiB"``, ``"1.5T"``; K, M, G, T, P are powers of 1024).
+(``"500M"``, ``"8G"``, ``"8GiB"``, ``"1.5T"``; K, M, G, T, P, E are powers of 1024).
 
 Examples
 --------
@@ -43,8 +43,8 @@ ENVIRONMENT_VARIABLE = "NIGHTLIGHTS_MAX_MEMORY"
 #: Fraction of the available memory allowed by default [1].
 DEFAULT_FRACTION = 0.5
 
-_UNITS = {"": 0, "K": 1, "M": 2, "G": 3, "T": 4, "P": 5}
-_SIZE = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGTP]?)(?:I?B)?\s*$", re.I)
+_UNITS = {"": 0, "K": 1, "M": 2, "G": 3, "T": 4, "P": 5, "E": 6}
+_SIZE = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGTPE]?)(?:I?B)?\s*$", re.I)
 _CGROUP_LIMITS = (
     Path("/sys/fs/cgroup/memory.max"),  # cgroup v2
     Path("/sys/fs/cgroup/memory/memory.limit_in_bytes"),  # cgroup v1
@@ -59,7 +59,7 @@ def parse_size(text: str | int | float, *, source: str = "size") -> int:
     Parameters
     ----------
     text
-        Plain bytes, or a number followed by K, M, G, T or P (powers of 1024), optionally
+        Plain bytes, or a number followed by K, M, G, T, P or E (powers of 1024), optionally
         followed by ``B`` or ``iB``.
     source
         Where the value came from, for the error message (``"--max-memory"``).
