@@ -376,3 +376,45 @@ def test_unwritable_output_folder_is_one_line_even_for_root(
     assert result.exit_code == 1 and "Traceback" not in result.output
     assert "OutputError" in result.output and "/proc" in result.output
     assert len(result.output.strip().splitlines()) == 1
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGTERM")
+def test_sigterm_during_the_write_leaves_the_previous_output(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    lines = [shapely.LineString([(0, 100 * i), (10_000, 100 * i)]) for i in range(30)]
+    source = tmp_path / "s.gpkg"
+    layer = {"source_id": [str(i) for i in range(30)], "width": 8.0, "lit": True}
+    layer |= {"arrangement": "opposite", "spacing": 20.0, "mounting_height": 8.0}
+    layer |= {"system_id": "road_hps"}
+    gpd.GeoDataFrame(layer, geometry=lines, crs="EPSG:3067").to_file(source, layer="streets")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "lights.gpkg").write_bytes(PREVIOUS)
+    command = [sys.executable, "-c", "from cli.main import main; main()", "streets", "place"]
+    command += [str(source), str(out / "lights.gpkg"), "--overwrite", "--seed", "1"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    signalled = False
+    while process.poll() is None:
+        # A non-empty temporary: GDAL is writing (an empty one may be a reservation).
+        if any(p.name.startswith(".") and _size(p) > 0 for p in out.iterdir()):
+            process.send_signal(signal.SIGTERM)
+            signalled = True
+            break
+        time.sleep(0.002)
+    process.communicate(timeout=60)
+    if not signalled:
+        pytest.skip("the write finished before the signal could be sent")
+    assert process.returncode != 0
+    assert (out / "lights.gpkg").read_bytes() == PREVIOUS
+    assert sorted(p.name for p in out.iterdir()) == ["lights.gpkg"]
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except FileNotFoundError:
+        return 0
