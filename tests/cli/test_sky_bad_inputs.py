@@ -7,6 +7,7 @@ as it was.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -17,6 +18,7 @@ from click.testing import CliRunner
 
 import nightlights as nl
 from cli.main import cli
+from nightlights._resources import set_memory_limit
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
 
@@ -55,6 +57,13 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
         nan=_raster(folder, "nan.tif", np.nan, dark=1),
         zero=_raster(folder, "zero.tif", dark=1),
     )
+
+
+@pytest.fixture(autouse=True)
+def _reset_memory_limit() -> Iterator[None]:
+    """``--max-memory`` sets a process-wide limit: put it back for the next test."""
+    yield
+    set_memory_limit(None)
 
 
 #: (name, arguments with {placeholders}, exit code, key words of the message)
