@@ -71,7 +71,9 @@ def ground_command(
     """Ground-reflected light of IRRADIANCE plus the direct uplight of LIGHTS, aggregated to
     --resolution; write OUTPUT (COG, bands reflected and uplight [lm m-2])."""
     import nightlights as nl
+    from nightlights.ground.checks import parse_crs
 
+    parse_crs(crs, option="--crs")
     inputs, out = resolve_inout(
         files,
         output,
@@ -141,7 +143,9 @@ def viirs_command(
     """Upward flux density of a VIIRS day/night-band radiance raster INPUT [nW cm-2 sr-1];
     write OUTPUT (COG, band upward [lm m-2])."""
     import nightlights as nl
+    from nightlights.ground.checks import parse_crs
 
+    parse_crs(target_crs, option="--target-crs")
     (viirs,), out = resolve_inout(
         files, output, inputs=1, usage="INPUT OUTPUT", overwrite=overwrite
     )

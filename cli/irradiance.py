@@ -131,7 +131,9 @@ def irradiance_command(
     """Ground illuminance of the lights in LIGHTS, one band per sensor, as a COG OUTPUT."""
     import nightlights as nl
     from nightlights.ground import AreaLightOptions, InfluenceThreshold
+    from nightlights.ground.checks import parse_crs
 
+    parse_crs(crs, option="--crs")
     (lights,), out = resolve_inout(
         files, output, inputs=1, usage="LIGHTS OUTPUT", overwrite=overwrite
     )

@@ -61,6 +61,8 @@ PROFILE_ANGLE_STEP = 0.1
 #: Fields of the light layer read by the stage; missing or null values fall back to the
 #: light system's defaults (``roll`` to 0).
 LIGHT_OVERRIDES = ("mounting_height", "arm_length", "tilt")
+#: Units of the light layer's numeric fields, for messages.
+UNITS = {"mounting_height": "m", "arm_length": "m", "tilt": "deg", "roll": "deg", "heading": "deg"}
 
 
 class LightSystemLike(Protocol):
@@ -304,7 +306,7 @@ def resolve_luminaires(
     ------
     InputError
         Missing fields, unknown system ids (naming the light ids), non-point geometry,
-        non-positive mounting heights.
+        non-positive mounting heights, infinite field values.
     """
     frame = lights.reset_index(drop=True)
     ids = (
@@ -366,6 +368,16 @@ def resolve_luminaires(
     )
     if np.isnan(heading).any():
         raise InputError(f"{source}: lights {describe_ids(ids[np.isnan(heading)])} have no heading")
+    for name, field_values, unit in (
+        ("heading", heading, "deg"),
+        ("roll", roll, "deg"),
+        *((name, values[name], UNITS[name]) for name in LIGHT_OVERRIDES),
+    ):
+        if (bad := ~np.isfinite(field_values)).any():
+            raise InputError(
+                f"{source}: lights {describe_ids(ids[bad])} have {name} "
+                f"{field_values[bad][:5].tolist()} {unit}; expected finite numbers"
+            )
     height = values["mounting_height"]
     if (bad := ~(height > 0)).any():
         raise InputError(

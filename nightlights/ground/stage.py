@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +20,19 @@ import geopandas as gpd
 import numpy as np
 from pyproj import CRS
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
-from nightlights.errors import EmptyInputError, InputError
+from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
 from nightlights.ground.area_lights import AreaLightOptions, read_area_lights
+from nightlights.ground.checks import (
+    BYTES_PER_TILE,
+    DEM_BYTES_PER_PIXEL,
+    IRRADIANCE_BYTES_PER_PIXEL,
+    check_number,
+    irradiance_memory,
+    parse_crs,
+)
 from nightlights.ground.illuminance import surface_normals
 from nightlights.ground.influence import InfluenceThreshold
 from nightlights.ground.luminaires import (
@@ -35,7 +45,7 @@ from nightlights.ground.luminaires import (
     sensor_factors,
 )
 from nightlights.ground.tiles import RasterGrid, compute_irradiance, grid_from_bounds
-from nightlights.io import Raster, as_vector, ensure_projected, raster_on_grid
+from nightlights.io import OutputSet, Raster, as_vector, ensure_projected, raster_on_grid
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -156,7 +166,19 @@ def irradiance(
     EmptyInputError
         No lights and no area sources.
     CRSError
-        The light layer has no CRS and ``crs`` is not given.
+        The light layer has no CRS and ``crs`` is not given, or ``crs`` is not a CRS.
+    ResourceError
+        The raster and the tiles in flight would need more memory than allowed
+        (:func:`nightlights._resources.check_memory`); checked before allocating.
+    OutputError
+        ``output`` cannot be written (checked before computing).
+
+    Warns
+    -----
+    DataQualityWarning
+        Pixels larger than every region of influence, or an all-zero raster (with the
+        reason: lights too high or dim to reach the threshold, pixels that miss the regions,
+        regions outside the bounds).
 
     Notes
     -----
@@ -188,11 +210,17 @@ def irradiance(
     12.0
     """
     threshold = threshold or InfluenceThreshold()
-    check_resolution(resolution)
+    resolution = check_resolution(resolution)
+    if margin is not None:
+        margin = check_number(margin, "margin", "m", minimum=0.0)
+    if isinstance(tile_size, bool) or not isinstance(tile_size, int) or tile_size < 1:
+        raise InputError(f"tile_size={tile_size!r}; expected a whole number of pixels >= 1")
     if not sensors:
         raise InputError("no sensors requested; expected at least one (e.g. photopic)")
+    assume_crs = parse_crs(crs, option="crs")
+    outputs = None if output is None else OutputSet(output)
     frame, label = as_vector(lights, name="lights")
-    frame = ensure_projected(frame, source=label, assume_crs=crs)
+    frame = ensure_projected(frame, source=label, assume_crs=assume_crs)
     layer_crs = CRS.from_user_input(frame.crs)
     if frame.empty and area_sources is None:
         raise EmptyInputError(f"{label}: the light layer holds no lights")
@@ -240,6 +268,8 @@ def irradiance(
             max(bounds[3], bounds[1] + resolution),
         )
     grid = grid_from_bounds(bounds, resolution)
+    _check_memory(grid, len(sensors), radius, tile_size, dem is not None, scheduler is None)
+    coarse = _coarse_pixels(radius, resolution)
     ground_z = normals = None
     if dem is not None:
         ground_z, normals = ground_on_grid(dem, grid, layer_crs)
@@ -254,6 +284,15 @@ def irradiance(
         tile_size=tile_size,
         progress=progress,
     )
+    if not computed.bands.any():
+        reason = _zero_reason(luminaires, radius, threshold, coarse, computed.n_lights)
+        warnings.warn(
+            f"{label}: the irradiance raster is all zero: {reason}",
+            DataQualityWarning,
+            stacklevel=2,
+        )
+    elif coarse:
+        warnings.warn(f"{label}: {coarse}", DataQualityWarning, stacklevel=2)
     tags = {
         "nightlights_stage": "irradiance",
         "resolution_m": resolution,
@@ -263,6 +302,7 @@ def irradiance(
         "light_pixel_evaluations": computed.n_pairs,
         "reference": "Chuang 2011, Sec. 5.1, Eq. 11",
     }
+    n_lights, n_pairs = computed.n_lights, computed.n_pairs
     raster = Raster(
         computed.bands.astype(np.float64),
         grid.transform,
@@ -278,8 +318,91 @@ def irradiance(
             for sensor in sensors
         ),
     )
-    path = None if output is None else raster.write(output)
-    return IrradianceResult(raster, computed.n_lights, computed.n_pairs, path)
+    del computed
+    path = None
+    if outputs is not None and output is not None:
+        with outputs:
+            raster.write(outputs.temporary(output))
+        path = Path(output)
+    return IrradianceResult(raster, n_lights, n_pairs, path)
+
+
+def _check_memory(
+    grid: RasterGrid,
+    bands: int,
+    radius: FloatArray,
+    tile_size: int,
+    dem: bool,
+    local: bool,
+) -> None:
+    """Refuse a grid whose estimated peak memory is over the limit (before allocating)."""
+    pixels = float(grid.rows) * float(grid.cols)
+    with np.errstate(over="ignore"):
+        pairs = float(np.sum(np.minimum(np.pi * radius**2 / grid.resolution**2, pixels)))
+    workers = os.cpu_count() or 1
+    estimate = irradiance_memory(
+        grid.rows,
+        grid.cols,
+        bands,
+        tile_size=tile_size,
+        workers=workers,
+        pairs=pairs,
+        dem=dem,
+        local=local,
+    )
+    # The grid's own arrays; the rest is tiles in flight and the task graph.
+    grid_part = pixels * (bands * IRRADIANCE_BYTES_PER_PIXEL + (DEM_BYTES_PER_PIXEL if dem else 0))
+    n_tiles = math.ceil(grid.rows / tile_size) * math.ceil(grid.cols / tile_size)
+    if n_tiles * BYTES_PER_TILE > estimate / 2:
+        hint = "use a larger --tile-size"
+    elif grid_part < estimate / 2:
+        hint = "use a smaller --tile-size"
+    else:
+        hint = "use a coarser --resolution (or smaller --bounds)"
+    check_memory(
+        estimate,
+        f"the irradiance raster of {grid.rows} x {grid.cols} pixels x {bands} "
+        f"band{'s' if bands != 1 else ''}",
+        option=hint,
+    )
+
+
+def _coarse_pixels(radius: FloatArray, resolution: float) -> str | None:
+    """A warning when pixels are coarser than every region of influence, else None."""
+    finite = radius[np.isfinite(radius)]
+    if len(finite) < len(radius) or not len(finite):
+        return None
+    largest = float(finite.max())
+    if largest <= 0 or resolution <= largest:
+        return None
+    return (
+        f"pixels of {resolution:g} m are larger than the lights' regions of influence "
+        f"(largest radius {largest:.3g} m): pixel centres miss most of the light; expected "
+        f"--resolution below {largest:.3g} m"
+    )
+
+
+def _zero_reason(
+    luminaires: Luminaires,
+    radius: FloatArray,
+    threshold: InfluenceThreshold,
+    coarse: str | None,
+    n_lit: int,
+) -> str:
+    """Why an irradiance raster came out all zero, for the warning."""
+    if len(radius) and not np.any(radius > 0):
+        highest = float(np.max(luminaires.mounting_height))
+        if threshold.kind == "floor":
+            return (
+                f"no light puts the {threshold.value:g} lx of --threshold on the ground "
+                f"(mounting heights up to {highest:.4g} m): the lights are too high or too dim"
+            )
+        return "no light sends light down to the ground"
+    if coarse:
+        return coarse
+    if n_lit == 0:
+        return "no light's region of influence reaches the raster; check --bounds"
+    return "no pixel centre falls inside a light's region of influence"
 
 
 def ground_on_grid(

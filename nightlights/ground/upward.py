@@ -12,6 +12,10 @@ coarse grid, which the skyglow stages take as their source:
    with different angular distributions (Lambertian vs low-angle direct uplight).
 2. From a VIIRS Day/Night Band radiance raster (:func:`emission_from_viirs`), for users
    without street data (see :func:`viirs_radiance_to_flux_density`).
+
+Length: about 690 lines, because the two routes to one product share its raster, its
+float32 round trip, its checked writing and its memory checks made before reading; split in
+two modules they would import each other's private helpers.
 """
 
 from __future__ import annotations
@@ -33,12 +37,22 @@ from rasterio.warp import Resampling, calculate_default_transform, reproject
 from shapely.geometry import box
 
 from ies import spectra
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
+from nightlights.ground.checks import (
+    RasterHeader,
+    check_finite_raster,
+    emission_memory,
+    parse_crs,
+    raster_header,
+    viirs_memory,
+)
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
 from nightlights.io import (
+    OutputSet,
     Raster,
     as_raster,
     as_vector,
@@ -93,14 +107,14 @@ def block_aggregate(values: ArrayLike, factor: int) -> FloatArray:
         partly covered by the fine raster get the flux of the covered part, so the total
         flux (sum x cell area) is conserved exactly.
     """
-    fine = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
     if factor < 1:
         raise InputError(f"aggregation factor {factor}; expected an integer >= 1")
+    fine = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
     rows, cols = fine.shape
-    out_rows, out_cols = -(-rows // factor), -(-cols // factor)
-    padded = np.zeros((out_rows * factor, out_cols * factor))
-    padded[:rows, :cols] = fine
-    return padded.reshape(out_rows, factor, out_cols, factor).sum(axis=(1, 3)) / factor**2
+    # Sums over runs of ``factor`` rows, then columns: no padded copy, so a factor far
+    # larger than the raster costs nothing.
+    by_rows = np.add.reduceat(fine, np.arange(0, rows, factor), axis=0)
+    return np.add.reduceat(by_rows, np.arange(0, cols, factor), axis=1) / float(factor) ** 2
 
 
 def deposit_flux(
@@ -295,10 +309,15 @@ def emission(
     Raises
     ------
     InputError
-        Resolution not a multiple of the pixel size, no photopic band, albedo outside
-        [0, 1] or not covering the raster.
+        Resolution not a multiple of the pixel size, no photopic band, infinite, negative
+        or no illuminance values, albedo outside [0, 1] or not covering the raster.
     CRSError
-        The irradiance or albedo raster has no CRS.
+        The irradiance or albedo raster has no CRS, or ``crs`` is not a CRS.
+    ResourceError
+        Reading and aggregating the raster would need more memory than allowed (checked
+        from its header, before reading).
+    OutputError
+        ``output`` cannot be written (checked before reading).
 
     Notes
     -----
@@ -326,6 +345,19 @@ def emission(
     {'reflected': 1193, 'uplight': 0}
     """
     label = source_label(irradiance, "irradiance raster")
+    assume_crs = parse_crs(crs, option="crs")
+    check_resolution(resolution)
+    outputs = None if output is None else OutputSet(output)
+    header = raster_header(irradiance)
+    if header is not None:
+        fine_size = abs(header.transform.a) or 1.0
+        check_memory(
+            emission_memory(
+                header.rows, header.cols, header.count, max(1, round(resolution / fine_size))
+            ),
+            f"emission from {label} ({header.rows} x {header.cols} pixels x {header.count} bands)",
+            option="use a smaller irradiance raster",
+        )
     raster = as_raster(irradiance)
     if raster.crs is None:
         raise CRSError(f"{label}: the irradiance raster has no CRS")
@@ -335,7 +367,6 @@ def emission(
         raise InputError(f"{label}: expected a north-up grid with square pixels, got {transform}")
     fine = transform.a
     band = _photopic_band(raster, label)
-    check_resolution(resolution)
     factor = round(resolution / fine)
     if factor < 1 or not math.isclose(factor * fine, resolution, rel_tol=1e-6):
         raise InputError(
@@ -343,6 +374,7 @@ def emission(
             f"size {fine} m; expected e.g. {max(1, factor) * fine} m"
         )
     illuminance = raster.data[band]
+    check_finite_raster(illuminance, label, "illuminance", "lx")
     albedo_grid = _albedo(albedo, illuminance.shape, transform, raster_crs)
     reflected = block_aggregate(albedo_grid * illuminance, factor)
     grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
@@ -351,7 +383,7 @@ def emission(
         frame, lights_label = as_vector(lights, name="lights")
         if frame.empty:
             raise EmptyInputError(f"{lights_label}: the light layer holds no lights")
-        frame = ensure_projected(frame, source=lights_label, assume_crs=crs)
+        frame = ensure_projected(frame, source=lights_label, assume_crs=assume_crs)
         frame = frame.to_crs(raster_crs)
         luminaires = resolve_luminaires(
             frame,
@@ -397,8 +429,7 @@ def emission(
             {"quantity": "upward luminous flux density", "model": "direct luminaire uplight"},
         ),
     )
-    path = None if output is None else result.write(output)
-    return EmissionResult(result, path, totals)
+    return EmissionResult(result, _write(result, output, outputs), totals)
 
 
 def _photopic_band(raster: Raster, label: str) -> int:
@@ -432,10 +463,10 @@ def _albedo(
         name="albedo raster",
         require_crs=True,
     )
-    if grid.min() < 0 or grid.max() > 1:
+    if not (np.isfinite(grid).all() and grid.min() >= 0 and grid.max() <= 1):
         raise InputError(
             f"{source_label(albedo, 'albedo raster')}: albedo values span "
-            f"{grid.min():.3g}..{grid.max():.3g}; expected [0, 1]"
+            f"{np.min(grid):.3g}..{np.max(grid):.3g}; expected [0, 1]"
         )
     return grid
 
@@ -477,9 +508,15 @@ def emission_from_viirs(
     Raises
     ------
     CRSError
-        The raster has no CRS, or ``target_crs`` is not projected.
+        The raster has no CRS, or ``target_crs`` is not a projected CRS.
     InputError
-        Bad resolution, or a spectrum without power in the band.
+        Bad resolution, a spectrum without power in the band, infinite radiance, no
+        radiance at all, or an output grid that gets no value.
+    ResourceError
+        The output grid (``resolution``) would need more memory than allowed (checked
+        before allocating).
+    OutputError
+        ``output`` cannot be written (checked before reading).
 
     Notes
     -----
@@ -502,6 +539,13 @@ def emission_from_viirs(
     0.2543
     """
     label = source_label(viirs, "VIIRS raster")
+    if resolution is not None:
+        resolution = check_resolution(resolution)
+    target_crs = parse_crs(target_crs, option="target_crs")
+    outputs = None if output is None else OutputSet(output)
+    header = raster_header(viirs)
+    if header is not None and header.crs is not None:
+        _check_viirs_memory(header, resolution, target_crs, label)
     source = as_raster(viirs)
     radiance = source.data[0]
     src_crs = source.crs
@@ -509,6 +553,7 @@ def emission_from_viirs(
     (height, width), bounds = source.shape, source.bounds
     if src_crs is None:
         raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
+    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
     negative = radiance < 0
     if negative.any():
         warnings.warn(
@@ -521,15 +566,11 @@ def emission_from_viirs(
     efficacy = dnb_luminous_efficacy(spectrum, band=band)
     density = viirs_radiance_to_flux_density(radiance, efficacy)
     target = _viirs_target_crs(src_crs, bounds, target_crs, label)
-    kwargs = {} if resolution is None else {"resolution": resolution}
-    if resolution is not None:
-        check_resolution(resolution)
-    if target == src_crs and (resolution is None or math.isclose(resolution, src_transform.a)):
+    grid = _viirs_grid(src_crs, src_transform, (height, width), bounds, target, resolution)
+    if grid is None:
         out, transform = density, src_transform
     else:
-        transform, cols, rows = calculate_default_transform(
-            src_crs.to_wkt(), target.to_wkt(), width, height, *bounds, **kwargs
-        )
+        transform, rows, cols = grid
         out = np.full((rows, cols), np.nan)
         reproject(
             density,
@@ -541,6 +582,11 @@ def emission_from_viirs(
             dst_crs=target.to_wkt(),
             dst_nodata=np.nan,
             resampling=Resampling.average,
+        )
+    if not np.isfinite(out).any():
+        raise InputError(
+            f"{label}: no output cell of {abs(transform.a):.4g} m gets a value from the raster "
+            f"({height} x {width} pixels); expected a --resolution finer than the raster's extent"
         )
     pixel_area = abs(transform.a * transform.e)
     total = float(np.nansum(out) * pixel_area)
@@ -561,8 +607,64 @@ def emission_from_viirs(
         tags={key: str(value) for key, value in tags.items()},
         band_tags=({"quantity": "upward luminous flux density", "model": "VIIRS DNB, Lambertian"},),
     )
-    path = None if output is None else result.write(output)
-    return EmissionResult(result, path, {"upward": total})
+    return EmissionResult(result, _write(result, output, outputs), {"upward": total})
+
+
+def _write(
+    raster: Raster, output: str | os.PathLike[str] | None, outputs: OutputSet | None
+) -> Path | None:
+    """Write ``raster`` to ``output`` through its checked :class:`~nightlights.io.OutputSet`."""
+    if output is None or outputs is None:
+        return None
+    with outputs:
+        raster.write(outputs.temporary(output))
+    return Path(output)
+
+
+def _viirs_grid(
+    src_crs: CRS,
+    src_transform: Affine,
+    shape: tuple[int, int],
+    bounds: Sequence[float],
+    target: CRS,
+    resolution: float | None,
+) -> tuple[Affine, int, int] | None:
+    """The output transform and shape, or None when the input grid is kept as it is."""
+    if target == src_crs and (resolution is None or math.isclose(resolution, src_transform.a)):
+        return None
+    if resolution is not None:
+        native, cols, rows = calculate_default_transform(
+            src_crs.to_wkt(), target.to_wkt(), shape[1], shape[0], *bounds
+        )
+        width, height = cols * abs(native.a), rows * abs(native.e)
+        extent = max(width, height)
+        if resolution > extent:
+            raise InputError(
+                f"resolution={resolution:g} m is larger than the raster's extent (about "
+                f"{width:.4g} x {height:.4g} m); expected a --resolution below {extent:.4g} m"
+            )
+    kwargs = {} if resolution is None else {"resolution": resolution}
+    transform, cols, rows = calculate_default_transform(
+        src_crs.to_wkt(), target.to_wkt(), shape[1], shape[0], *bounds, **kwargs
+    )
+    return transform, int(rows), int(cols)
+
+
+def _check_viirs_memory(
+    header: RasterHeader, resolution: float | None, target_crs: CRS | None, label: str
+) -> None:
+    """Refuse a VIIRS conversion whose estimated peak memory is over the limit."""
+    assert header.crs is not None
+    target = _viirs_target_crs(header.crs, header.bounds, target_crs, label)
+    grid = _viirs_grid(
+        header.crs, header.transform, (header.rows, header.cols), header.bounds, target, resolution
+    )
+    rows, cols = (header.rows, header.cols) if grid is None else grid[1:]
+    check_memory(
+        viirs_memory(header.rows, header.cols, header.count, rows, cols),
+        f"the emission raster of {rows} x {cols} cells from {label}",
+        option="use a coarser --resolution",
+    )
 
 
 def _as_written(values: FloatArray) -> FloatArray:
@@ -578,7 +680,8 @@ def _viirs_target_crs(
     source: str | os.PathLike[str],
 ) -> CRS:
     if target_crs is not None:
-        target = CRS.from_user_input(target_crs)
+        target = parse_crs(target_crs, option="target_crs")
+        assert target is not None
         if not target.is_projected:
             raise CRSError(f"target CRS {target.to_string()} is not projected")
         return target
