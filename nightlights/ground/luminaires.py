@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from ies import spectra as ies_spectra
 from ies.library import load_library
+from ies.plausibility import MOUNTING_RANGES
 from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.ground.frames import (
@@ -306,7 +307,9 @@ def resolve_luminaires(
     ------
     InputError
         Missing fields, unknown system ids (naming the light ids), non-point geometry,
-        non-positive mounting heights, infinite field values.
+        infinite field values, mounting height, arm length or tilt outside
+        :data:`ies.plausibility.MOUNTING_RANGES` (unusual values the layer gives warn with a
+        :class:`~nightlights.errors.DataQualityWarning`).
     """
     frame = lights.reset_index(drop=True)
     ids = (
@@ -352,6 +355,7 @@ def resolve_luminaires(
     systems = [known[name] for name in names]
     table_index = np.searchsorted(np.array(names, dtype=object), frame["system_id"].to_numpy())
     values: dict[str, FloatArray] = {}
+    from_layer: dict[str, NDArray[np.bool_]] = {}
     for name in (*LIGHT_OVERRIDES, "street_azimuth"):
         default = np.array([float(getattr(system, name)) for system in systems])[table_index]
         given = (
@@ -359,6 +363,7 @@ def resolve_luminaires(
             if name in frame and name != "street_azimuth"
             else np.full(len(frame), np.nan)
         )
+        from_layer[name] = ~np.isnan(given)
         values[name] = np.where(np.isnan(given), default, given)
     heading = pd.to_numeric(frame["heading"], errors="coerce").to_numpy(float)
     roll = (
@@ -378,6 +383,7 @@ def resolve_luminaires(
                 f"{source}: lights {describe_ids(ids[bad])} have {name} "
                 f"{field_values[bad][:5].tolist()} {unit}; expected finite numbers"
             )
+    _check_ranges(values, from_layer, ids, source)
     height = values["mounting_height"]
     if (bad := ~(height > 0)).any():
         raise InputError(
@@ -408,6 +414,35 @@ def resolve_luminaires(
         spectra=tuple(getattr(system, "spd", None) for system in systems),
         names=names,
     )
+
+
+def _check_ranges(
+    values: dict[str, FloatArray],
+    from_layer: dict[str, NDArray[np.bool_]],
+    ids: NDArray[Any],
+    source: str,
+) -> None:
+    """Refuse impossible mounting geometry; warn about unusual values the layer gave.
+
+    The ranges are those of the luminaire database (:data:`ies.plausibility.MOUNTING_RANGES`);
+    defaults of the database were checked when it was read, so only the layer's values warn.
+    """
+    for name in LIGHT_OVERRIDES:
+        limits = MOUNTING_RANGES[name]
+        value = values[name]
+        if (bad := limits.impossible(value)).any():
+            raise InputError(
+                f"{source}: lights {describe_ids(ids[bad])} have {name} "
+                f"{value[bad][:5].tolist()} {limits.unit}; expected {limits.expected}"
+            )
+        odd = limits.unusual(value) & from_layer[name]
+        if odd.any():
+            warnings.warn(
+                f"{source}: lights {describe_ids(ids[odd])} have an unusual {name} "
+                f"{value[odd][:5].tolist()} {limits.unit} (usually {limits.usual})",
+                DataQualityWarning,
+                stacklevel=3,
+            )
 
 
 def describe_ids(ids: NDArray[Any], limit: int = 10) -> str:

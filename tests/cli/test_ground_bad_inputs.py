@@ -58,6 +58,8 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     frame.to_file(paths["lights"], driver="GPKG")
     for name, field, value in (
         ("high", "mounting_height", 1e7),
+        ("negative_arm", "arm_length", -50.0),
+        ("big_tilt", "tilt", 1e6),
         ("inf_tilt", "tilt", np.inf),
         ("inf_heading", "heading", np.inf),
     ):
@@ -133,6 +135,12 @@ CASES = [
     Case("area spacing -1", (*IRR, "--area-spacing", "-1"), 1, ("spacing=-1",)),
     Case("sensor unknown", (*IRR, "--sensor", "bogus"), 1, ("sensor 'bogus' is unknown",)),
     Case("crs garbage", (*IRR, "--crs", "garbage"), 1, ("CRSError", "--crs='garbage'")),
+    Case("mounting height 1e7", ("irradiance", "{high}", "{out}", "--resolution", "2"), 1,
+         ("mounting_height [10000000.0, 10000000.0] m", "(0, 60] m")),
+    Case("arm length -50", ("irradiance", "{negative_arm}", "{out}", "--resolution", "2"), 1,
+         ("arm_length [-50.0, -50.0] m", "[0, 15] m")),
+    Case("tilt 1e6", ("irradiance", "{big_tilt}", "{out}", "--resolution", "2"), 1,
+         ("tilt [1000000.0, 1000000.0] deg", "[-90, 90] deg")),
     Case("infinite tilt", ("irradiance", "{inf_tilt}", "{out}", "--resolution", "2"), 1,
          ("have tilt [inf", "finite")),
     Case("infinite heading", ("irradiance", "{inf_heading}", "{out}", "--resolution", "2"), 1,

@@ -15,7 +15,7 @@ from shapely.geometry import Point
 
 from nightlights._resources import set_memory_limit
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError, ResourceError
-from nightlights.ground import emission, emission_from_viirs, irradiance
+from nightlights.ground import InfluenceThreshold, emission, emission_from_viirs, irradiance
 from nightlights.ground.checks import (
     check_finite_raster,
     check_number,
@@ -125,10 +125,35 @@ def test_huge_pixels_warn_that_the_raster_is_all_zero() -> None:
     assert not result.raster.data.any()
 
 
-def test_lights_too_high_warn_that_the_raster_is_all_zero() -> None:
-    with pytest.warns(DataQualityWarning, match="all zero: no light puts the 0.01 lx"):
-        result = irradiance(_lights(height=1e7), resolution=2.0, progress=False)
+def test_lights_too_dim_for_the_floor_warn_that_the_raster_is_all_zero() -> None:
+    floor = InfluenceThreshold("floor", 1e6)
+    with pytest.warns(DataQualityWarning, match=r"all zero: no light puts the 1e\+06 lx"):
+        result = irradiance(_lights(), resolution=2.0, threshold=floor, progress=False)
     assert not result.raster.data.any()
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        (
+            "mounting_height",
+            1e7,
+            r"mounting_height \[10000000.0\] m; expected a number in \(0, 60\]",
+        ),
+        ("arm_length", -50.0, r"arm_length \[-50.0\] m; expected a number in \[0, 15\]"),
+        ("tilt", 1e6, r"tilt \[1000000.0\] deg; expected a number in \[-90, 90\]"),
+    ],
+)
+def test_irradiance_refuses_impossible_mounting(field: str, value: float, message: str) -> None:
+    lights = _lights()
+    lights[field] = [value, None]
+    with pytest.raises(InputError, match=message):
+        irradiance(lights, resolution=2.0, progress=False)
+
+
+def test_unusual_mounting_from_the_layer_warns() -> None:
+    with pytest.warns(DataQualityWarning, match=r"unusual mounting_height \[45.0, 45.0\] m"):
+        irradiance(_lights(height=45.0), resolution=2.0, progress=False)
 
 
 def test_coarse_pixels_warn_even_when_a_centre_is_lit() -> None:
