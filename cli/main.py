@@ -17,6 +17,7 @@ import time, so that ``nightlights --help`` does not load the library.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import logging
 import sys
@@ -118,14 +119,16 @@ class NightlightsGroup(click.Group):
             raise click.ClickException(message) from exc
 
 
-def _one_line_warning(
+def _log_warning(
     message: Warning | str,
     category: type[Warning],
     filename: str,
     lineno: int,
+    file: Any = None,
     line: str | None = None,
-) -> str:
-    return f"{category.__name__}: {message}"
+) -> None:
+    """Show a warning as one log line, ``Category: message`` (``-v`` adds where it arose)."""
+    logging.getLogger("py.warnings").warning("%s: %s", category.__name__, message)
 
 
 @click.group(cls=NightlightsGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -140,26 +143,30 @@ def _one_line_warning(
     help="Memory a stage may use (8G, 500M, 2e9 bytes); a stage whose estimate is larger "
     "refuses to start. Default: $NIGHTLIGHTS_MAX_MEMORY, else half the machine's memory.",
 )
-def cli(verbose: int, quiet: bool, max_memory: int | None) -> None:
+@click.pass_context
+def cli(ctx: click.Context, verbose: int, quiet: bool, max_memory: int | None) -> None:
     """Night-time lighting: streetlights, irradiance, emission and skyglow.
 
     Commands that write a product take INPUT... OUTPUT (or -o/--output OUTPUT) and refuse to
     replace an existing output unless --overwrite is given. Errors are one line on stderr with
     exit status 1 (2 for usage errors); -v adds the traceback.
     """
-    from nightlights._resources import memory_limit, set_memory_limit
+    from nightlights import _resources
 
     level = (
         logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     )
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
-    logging.captureWarnings(True)
-    if not verbose:
-        warnings.formatwarning = _one_line_warning
+    if verbose:
+        logging.captureWarnings(True)
+    else:
+        warnings.showwarning = _log_warning
     if quiet:
         warnings.simplefilter("ignore")
-    set_memory_limit(max_memory)
-    memory_limit()  # a malformed NIGHTLIGHTS_MAX_MEMORY is reported before any work
+    # --max-memory holds for this command only (the group may run again in the same process)
+    ctx.call_on_close(functools.partial(_resources.set_memory_limit, _resources._override))
+    _resources.set_memory_limit(max_memory)
+    _resources.memory_limit()  # a malformed NIGHTLIGHTS_MAX_MEMORY is reported before any work
 
 
 for _module_name in COMMAND_MODULES:

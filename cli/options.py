@@ -4,12 +4,12 @@ Every command that writes a product takes its paths as positional ``INPUT... OUT
 output may be given with ``-o/--output`` instead, and then every positional path is an input.
 An existing output is never replaced unless ``--overwrite`` is given.
 
-Option values are checked here as far as their type allows, so that a bad value is a usage
-error (exit status 2) before any work starts: every float option is finite
-(:func:`require_finite_floats`, applied to every command by ``cli.main``), seeds are
-non-negative, memory sizes parse (:class:`MemorySize`), and ``--crs``/``--target-crs`` are
-CRSs pyproj reads (:class:`CRSText`; exit status 1 with a ``CRSError``, as for the CRSs the
-library refuses).
+Option values are checked here as far as their type allows, before any work starts: a value
+of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
+:class:`MemorySize`) is a usage error (exit status 2); ``nan`` or ``inf`` for any float option
+(:func:`require_finite_floats`, applied to every command by ``cli.main``) and a ``--crs`` or
+``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the library's
+range checks, with an ``InputError``/``CRSError`` line and exit status 1.
 
 This module imports only click, so that ``nightlights --help`` stays fast: the choices and
 defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they
@@ -148,24 +148,29 @@ def check_outputs(paths: Sequence[str | None], *, overwrite: bool) -> None:
 # --- value types ---------------------------------------------------------------------------------
 
 
+def _refuse_non_finite(number: float, value: Any, param: click.Parameter | None) -> float:
+    """``number``, or an InputError naming the option when it is ``nan`` or infinite."""
+    if math.isfinite(number):
+        return number
+    from nightlights.errors import InputError
+
+    option = param.opts[-1] if param is not None and param.opts else "value"
+    raise InputError(f"{option}={value}: expected a finite number")
+
+
 class FiniteFloat(click.types.FloatParamType):
-    """A float option that refuses ``nan`` and ``inf`` (usage error, exit status 2)."""
+    """A float option that refuses ``nan`` and ``inf`` (an InputError: one line, exit status 1,
+    as the library's own range checks)."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        return number
+        return _refuse_non_finite(super().convert(value, param, ctx), value, param)
 
 
 class FiniteFloatRange(click.FloatRange):
     """A :class:`click.FloatRange` that also refuses ``nan`` (which passes every comparison)."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        return number
+        return _refuse_non_finite(super().convert(value, param, ctx), value, param)
 
 
 def require_finite_floats(command: click.Command) -> None:
@@ -209,11 +214,10 @@ class CRSText(click.ParamType):
             pyproj.CRS.from_user_input(value)
         except pyproj.exceptions.CRSError as exc:
             option = param.opts[-1] if param is not None and param.opts else "CRS"
-            detail = " ".join(str(exc).split())
             raise CRSError(
-                f"{option} {value!r} is not a coordinate reference system ({detail}); expected "
-                "e.g. EPSG:3067, a WKT or a PROJ string"
-            ) from None
+                f"{option}={value!r} is not a coordinate reference system; expected e.g. "
+                "EPSG:3067, a WKT or a PROJ string"
+            ) from exc
         return value
 
 
@@ -226,8 +230,6 @@ class MemorySize(click.ParamType):
         from nightlights._resources import parse_size
         from nightlights.errors import InputError
 
-        if isinstance(value, int) and not isinstance(value, bool) and value > 0:
-            return value
         try:
             return parse_size(value, source=repr(value))
         except InputError:

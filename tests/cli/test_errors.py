@@ -477,8 +477,10 @@ def _float_options() -> list[tuple[list[str], str]]:
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
 def test_every_float_option_refuses_non_finite_values(path, option: str, value: str) -> None:
     result = _invoke([*path, option, value])
-    assert_one_line_error(result, 2, [option, value])
-    assert "not a finite number" in result.output or "not in the range" in result.output
+    if "not in the range" in result.output:  # a click.FloatRange refuses infinities itself
+        assert_one_line_error(result, 2, [option, value])
+    else:
+        assert_one_line_error(result, 1, ["InputError", f"{option}={value}", "finite"])
 
 
 @pytest.mark.parametrize(

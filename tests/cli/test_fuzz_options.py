@@ -1,10 +1,10 @@
 """Property-based fuzzing of the option parsers: any text gives a value or a clean error.
 
 A parser of command-line text may refuse a value only with a click error (a usage error, exit
-status 2) or, where the value is refused by the library's own rules, a ``NightlightsError``
-(one line, exit status 1); never with a ``ValueError``, ``IndexError`` or another exception
-that the CLI would report as a bug. What it accepts must be what it promises (two finite
-floats, a positive byte count, ...).
+status 2) or, where the value is refused like the library's own range checks (``nan``, an
+unknown CRS), a ``NightlightsError`` (one line, exit status 1); never with a ``ValueError``,
+an ``IndexError`` or another exception that the CLI would report as a bug. What it accepts
+must be what it promises (two finite floats, a positive byte count, ...).
 """
 
 from __future__ import annotations
@@ -122,7 +122,8 @@ def test_memory_size_reads_what_format_bytes_writes(size: float) -> None:
 @given(option_text)
 def test_finite_floats(text: str) -> None:
     for kind in (FiniteFloat(), FiniteFloatRange(0, 1)):
-        value = _accepts(lambda t, kind=kind: kind.convert(t, None, None), text, *CLICK_ERRORS)
+        convert = kind.convert
+        value = _accepts(lambda t, c=convert: c(t, None, None), text, *CLICK_ERRORS, InputError)
         assert value is None or math.isfinite(value)
 
 
