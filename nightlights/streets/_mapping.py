@@ -40,7 +40,6 @@ LENGTH_UNITS: dict[str, float] = {
 
 _TRUE_WORDS = frozenset({"yes", "y", "true", "t", "1"})
 _FALSE_WORDS = frozenset({"no", "n", "false", "f", "0"})
-_FIELD_TYPES = frozenset({"category", "int", "float", "length", "bool"})
 _HSTORE_PAIR = re.compile(r'"((?:[^"\\]|\\.)*)"=>"((?:[^"\\]|\\.)*)"')
 _NUMBER = r"[-+]?(?:\d+(?:[.,]\d*)?|[.,]\d+)"
 _LENGTH = re.compile(rf"^\s*({_NUMBER})\s*([a-z'\"]*)\s*$")
@@ -221,6 +220,13 @@ _TOP_LEVEL_KEYS = frozenset(
     {"name", "description", "id_field", "packed_tags_field", "keep", "drop", "fields"}
 )
 _FIELD_KEYS = frozenset({"source", "type", "values", "default_unit"})
+#: Mapping types that can fill a canonical field of each type.
+_KINDS_FOR: dict[str, frozenset[str]] = {
+    "str": frozenset({"category"}),
+    "int": frozenset({"int", "float"}),
+    "float": frozenset({"float", "int", "length"}),
+    "bool": frozenset({"bool"}),
+}
 
 
 def _check_keys(table: dict[str, Any], allowed: frozenset[str], source: str, what: str) -> None:
@@ -250,9 +256,11 @@ def _field_rule(name: str, spec: object, source: str) -> FieldRule:
         raise MappingError(f"{source}: fields.{name} = {spec!r}; expected a [fields.{name}] table")
     _check_keys(spec, _FIELD_KEYS, source, f"key of [fields.{name}]")
     kind = spec.get("type")
-    if not isinstance(kind, str) or kind not in _FIELD_TYPES:
+    allowed = _KINDS_FOR[STREET_FIELDS[name]]
+    if not isinstance(kind, str) or kind not in allowed:
         raise MappingError(
-            f"{source}: [fields.{name}] type {kind!r}; expected one of {sorted(_FIELD_TYPES)}"
+            f"{source}: [fields.{name}] type {kind!r}; expected one of {sorted(allowed)} "
+            f"for a {STREET_FIELDS[name]} field"
         )
     sources = spec.get("source")
     if isinstance(sources, str):

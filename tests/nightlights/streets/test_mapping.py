@@ -48,6 +48,10 @@ MINIMAL = '[fields.lanes]\nsource = ["lanes"]\ntype = "int"\n'
             ["'x' must map to true or false"],
         ),
         (MINIMAL.replace('"int"', '"integer"'), ["type 'integer'"]),
+        (
+            '[fields.lit]\nsource = "lanes"\ntype = "int"\n',
+            ["[fields.lit] type 'int'", "expected one of ['bool'] for a bool field"],
+        ),
         (MINIMAL + "default_unit = 3\n", ["default_unit 3 is not a unit"]),
         ("[fields.speed]\nsource = 'x'\ntype = 'int'\n", ["[fields.speed] is not a canonical"]),
         ("[fields", ["not valid TOML"]),
