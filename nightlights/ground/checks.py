@@ -60,10 +60,10 @@ BYTES_PER_TILE = 20_000
 EMISSION_BYTES_PER_PIXEL = 40
 #: Bytes per output cell of ``emission_from_viirs``: the float64 target, its float32/float64
 #: round trip and the float32 copies of the writer [B].
-VIIRS_BYTES_PER_CELL = 40
+VIIRS_BYTES_PER_CELL = 28
 #: Bytes per input pixel of ``emission_from_viirs`` beyond its float64 bands: the masked
 #: float32 read and its float64 copies, the flux density and GDAL's copy of it [B].
-VIIRS_BYTES_PER_INPUT_PIXEL = 56
+VIIRS_BYTES_PER_INPUT_PIXEL = 40
 
 
 def parse_crs(value: str | CRS | None, *, option: str) -> CRS | None:
