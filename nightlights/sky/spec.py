@@ -22,6 +22,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
@@ -219,6 +220,7 @@ class KernelSpec:
     store_tables: bool = True
 
     def __post_init__(self) -> None:
+        self._check_size()
         edges = _check_edges(
             distance_grid(self.r_min, self.r_max, self.n_distance)
             if self.distance_edges is None
@@ -272,6 +274,22 @@ class KernelSpec:
         for name in ("leg_nodes", "n_components"):
             value = getattr(self, name)
             setattr_(self, name, None if value is None else int(value))
+
+    def _check_size(self) -> None:
+        """Refuse a grid whose tables alone exceed the memory limit, before its axes (and
+        their hash) are made: the full estimate is :func:`~nightlights.sky.build.kernel_memory`.
+        """
+        n_r = len(self.distance_edges) - 1 if self.distance_edges is not None else self.n_distance
+        sizes = (n_r, self.n_elevation, self.n_azimuth)
+        if not all(isinstance(n, (int, np.integer)) and n > 0 for n in sizes):
+            return  # the checks below name the bad value
+        levels = len(np.ravel(self.source_altitudes)) * len(np.ravel(self.observer_altitudes))
+        emissions = 2 if self.uplight else 1
+        check_memory(
+            2 * 4.0 * emissions * levels * float(np.prod(sizes, dtype=float)),
+            f"the kernel of {n_r} distances x {self.n_elevation} x {self.n_azimuth} pixels",
+            option="lower --n-distance, --n-elevation or --n-azimuth",
+        )
 
     # -- derived axes --------------------------------------------------------------------
 

@@ -66,7 +66,9 @@ _RUN = textwrap.dedent(
     try:
         cli.main(sys.argv[1:], standalone_mode=False)
     finally:
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+        # VmHWM: this process image's own peak (ru_maxrss carries the parent's over exec)
+        status = open("/proc/self/status").read()
+        peak = int(status.split("VmHWM:")[1].split()[0]) * 1024
         print(f"peak RSS {{peak}}", file=sys.stderr)
     """
 )
