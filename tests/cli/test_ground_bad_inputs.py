@@ -171,7 +171,7 @@ CASES = [
          ("OutputError", "does not exist")),
     # emission from VIIRS
     Case("viirs resolution 0.01", (*VIIRS, "--resolution", "0.01"), 1,
-         ("ResourceError", "cells", "TiB", "coarser --resolution")),
+         ("ResourceError", "177853 x 177853 cells", "coarser --resolution")),
     Case("viirs resolution inf", (*VIIRS, "--resolution", "inf"), 1, ("resolution=inf",)),
     Case("viirs resolution huge", (*VIIRS, "--resolution", "1e7"), 1,
          ("resolution=1e+07 m is larger than the raster's extent",)),
