@@ -157,6 +157,8 @@ def cli(ctx: click.Context, verbose: int, quiet: bool, max_memory: int | None) -
         logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     )
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    # warning filters and display hold for this command only (restored when it closes)
+    ctx.with_resource(warnings.catch_warnings())
     if verbose:
         logging.captureWarnings(True)
     else:

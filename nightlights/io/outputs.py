@@ -82,8 +82,9 @@ class _TerminationGuard:
             raise Terminated(f"terminated by signal {signum}")
 
     @contextlib.contextmanager
-    def hold(self) -> Iterator[None]:
-        """Hold a ``SIGTERM`` until the block (a commit or a clean-up) has finished."""
+    def hold(self, *, deliver: bool = False) -> Iterator[None]:
+        """Hold a ``SIGTERM`` until the block (a commit, a clean-up, a reservation) has
+        finished; with ``deliver``, raise it as soon as the block ends."""
         if not self._main_thread():
             yield
             return
@@ -92,6 +93,9 @@ class _TerminationGuard:
             yield
         finally:
             self._holds -= 1
+        if deliver and self._holds == 0 and self._received and not self._raised:
+            self._raised = True
+            raise Terminated(f"terminated by signal {int(signal.SIGTERM)}")
 
     def exit(self) -> None:
         if not self._main_thread() or self._depth == 0:
@@ -198,12 +202,25 @@ class OutputSet:
             raise OutputError(f"{path}: {folder} is not a folder")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise OutputError(f"{path}: cannot write to folder {folder}: permission denied")
-        try:  # a real probe: os.access says yes to root and on read-only mounts
-            fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
-        except OSError as exc:
-            raise OutputError(f"{path}: cannot write to folder {folder}: {_reason(exc)}") from exc
-        os.close(fd)
-        os.unlink(probe)
+        # A real probe (os.access says yes to root and on read-only mounts), made and removed
+        # with SIGTERM held so that a signal cannot leave it behind.
+        _GUARD.enter()
+        try:
+            with _GUARD.hold(deliver=True):
+                try:
+                    fd, probe = tempfile.mkstemp(
+                        prefix=f".{path.name}.", suffix=".probe", dir=folder
+                    )
+                except OSError as exc:
+                    raise OutputError(
+                        f"{path}: cannot write to folder {folder}: {_reason(exc)}"
+                    ) from exc
+                try:
+                    os.close(fd)
+                finally:
+                    os.unlink(probe)
+        finally:
+            _GUARD.exit()
         if self.free_bytes > 0:
             free = shutil.disk_usage(folder).free
             if free < self.free_bytes:
@@ -220,8 +237,10 @@ class OutputSet:
         self._entered = True
         _GUARD.enter()
         try:
-            for path in self.paths:
-                self._temporaries[self._key(path)] = self._reserve(path)
+            # held: a signal between making a temporary and recording it would orphan it
+            with _GUARD.hold(deliver=True):
+                for path in self.paths:
+                    self._temporaries[self._key(path)] = self._reserve(path)
         except BaseException:
             self._clean()
             _GUARD.exit()
