@@ -7,12 +7,10 @@ previous outputs untouched.
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 import subprocess
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
@@ -102,29 +100,6 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     )
 
 
-@contextlib.contextmanager
-def read_only(folder: Path) -> Iterator[Path]:
-    """Make ``folder`` unwritable for this process (chmod, or ``chattr +i`` for root)."""
-    folder.mkdir(exist_ok=True)
-    folder.chmod(0o555)
-    immutable = False
-    try:
-        if os.access(folder, os.W_OK):  # root ignores the mode bits
-            done = subprocess.run(["chattr", "+i", str(folder)], capture_output=True)
-            immutable = done.returncode == 0
-        try:
-            (folder / ".probe").write_text("")
-        except OSError:
-            yield folder
-        else:
-            (folder / ".probe").unlink()
-            pytest.skip("cannot make a folder read-only here")
-    finally:
-        if immutable:
-            subprocess.run(["chattr", "-i", str(folder)], check=True)
-        folder.chmod(0o755)
-
-
 def files(folder: Path) -> dict[str, bytes | None]:
     return {p.name: None if p.is_dir() else p.read_bytes() for p in folder.iterdir()}
 
@@ -199,7 +174,7 @@ READ_ONLY: dict[str, Callable[[SimpleNamespace, Path], list]] = {
 
 
 @pytest.mark.parametrize("command", list(READ_ONLY))
-def test_read_only_output_folder(inputs, tmp_path: Path, command: str) -> None:
+def test_read_only_output_folder(inputs, tmp_path: Path, command: str, read_only) -> None:
     with read_only(tmp_path / "ro") as folder:
         result = _invoke(READ_ONLY[command](inputs, folder))
         assert_one_line_error(result, 1, [str(folder)])

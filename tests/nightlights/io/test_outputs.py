@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 import subprocess
@@ -18,29 +17,6 @@ import pytest
 from nightlights.errors import OutputError
 from nightlights.io import OutputSet, Terminated, atomic_output
 from nightlights.io import outputs as outputs_module
-
-
-@contextlib.contextmanager
-def read_only(folder: Path) -> Iterator[Path]:
-    """Make ``folder`` unwritable for this process (chmod, or ``chattr +i`` for root)."""
-    folder.chmod(0o555)
-    immutable = False
-    try:
-        if os.access(folder, os.W_OK):  # root ignores the mode bits
-            immutable = (
-                subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode == 0
-            )
-        try:
-            (folder / ".probe").write_text("")
-        except OSError:
-            yield folder
-        else:
-            (folder / ".probe").unlink()
-            pytest.skip("cannot make a folder read-only here")
-    finally:
-        if immutable:
-            subprocess.run(["chattr", "-i", str(folder)], check=True)
-        folder.chmod(0o755)
 
 
 def listing(folder: Path) -> dict[str, bytes | None]:
@@ -108,7 +84,7 @@ def test_existing_output_without_overwrite_is_refused(previous: Path) -> None:
         OutputSet(previous / "new.txt", previous / "a.txt", overwrite=False)
 
 
-def test_read_only_folder_is_refused_with_its_path(tmp_path: Path) -> None:
+def test_read_only_folder_is_refused_with_its_path(tmp_path: Path, read_only) -> None:
     folder = tmp_path / "ro"
     folder.mkdir()
     with read_only(folder):
