@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
+from nightlights.ground.checks import raster_header
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.inverse._region import SkyRegion
@@ -144,6 +146,7 @@ def inverse_reduce(
     25.0
     """
     outputs = _check_outputs(output, dimming_output, summary_output, png)
+    _check_dense(emission)
     raster = as_raster(emission)
     label = source_label(by, "influence raster")
     influence = as_raster(by)
@@ -273,6 +276,7 @@ def least_dimming(
     if not observers:
         raise InputError("no observer: the targets are for at least one observer")
     outputs = _check_outputs(output, dimming_output, summary_output, png)
+    _check_dense(emission)
     raster = as_raster(emission)
     regions = [(SkyRegion.parse(region), float(mag)) for region, mag in target_region]
     targets: list[tuple[str, SkyRegion | None, float]] = []
@@ -355,6 +359,21 @@ def least_dimming(
         summary_output=summary_output,
         png=png,
         picture=picture,
+    )
+
+
+def _check_dense(emission: RasterInput) -> None:
+    """A dimming holds the whole emission grid: the emission, its dimmed copy, the dimming,
+    the influence or cap raster and the float32 copies written [B] (refused over the limit)."""
+    header = raster_header(emission)
+    if header is None:
+        return
+    cells = float(header.rows) * float(header.cols)
+    check_memory(
+        cells * 8.0 * (3 * header.count + 4),
+        f"dimming the {header.rows} x {header.cols} emission raster "
+        f"{source_label(emission, 'emission raster')}",
+        option="use a coarser emission raster",
     )
 
 

@@ -347,3 +347,20 @@ def test_magnitudes_in_the_summary_are_consistent(kernel) -> None:
     assert zenith["after_mag_arcsec2"] == pytest.approx(
         float(luminance_to_magnitude(zenith["after_cd_m2"]))
     )
+
+
+def test_dimming_refuses_a_raster_larger_than_the_memory_limit(kernel, tmp_path: Path) -> None:
+    from nightlights._resources import set_memory_limit
+    from nightlights.errors import ResourceError
+
+    city = _city(31)
+    q = inverse_q(city, observer=OBSERVER, kernel=kernel)
+    set_memory_limit(100_000)  # [B]: the 40 x 40 grid needs about 0.1 MB
+    try:
+        with pytest.raises(ResourceError, match="dimming the 40 x 40 emission raster"):
+            inverse_reduce(city, tmp_path / "r.tif", by=q.raster, qa=0.0, qb=1.0, kernel=kernel)
+        with pytest.raises(ResourceError, match="--max-memory"):
+            least_dimming(city, observers=[OBSERVER], target_zenith=25.0, kernel=kernel)
+    finally:
+        set_memory_limit(None)
+    assert list(tmp_path.iterdir()) == []
