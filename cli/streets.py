@@ -37,6 +37,11 @@ _NETWORK_HELP = (
     f"Catalogue network ({', '.join(NETWORK_CATALOG)}; default {DEFAULT_NETWORK}) "
     "or a network folder."
 )
+_SAMPLE_NETWORK_HELP = (
+    f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: chosen "
+    "from where INPUT lies: north_america in North America, europe in Europe, generic "
+    "elsewhere (with a warning)."
+)
 
 
 @click.group()
@@ -109,7 +114,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 @files_argument("INPUT OUTPUT")
 @output_option
 @overwrite_option
-@click.option("--network", default=None, metavar="NAME|DIR", help=_NETWORK_HELP)
+@click.option("--network", default=None, metavar="NAME|DIR", help=_SAMPLE_NETWORK_HELP)
 @seed_option
 @click.option(
     "--candidates",
@@ -148,7 +153,25 @@ def sample_command(
         on_conflict=cast(Literal["error", "relax"], on_conflict),
         progress=True,
     )
+    print_network_choice(result.network, result.location)
     print_lighting_summary(result.streets, dst)
+
+
+def print_network_choice(network: str, location: tuple[float, float] | None) -> None:
+    """Print the network used and, when chosen by location, where the layer lies (stderr)."""
+    from rich.console import Console
+
+    if location is None:
+        line = f"network {network}"
+    elif location[0] != location[0]:  # NaN: an empty layer has no location
+        line = f"network {network} (empty layer, no location)"
+    else:
+        longitude, latitude = location
+        line = (
+            f"network {network}, chosen by location (layer centre {longitude:.2f}, "
+            f"{latitude:.2f} deg lon, lat); give --network to choose another"
+        )
+    Console(stderr=True).print(line, highlight=False)
 
 
 def print_lighting_summary(streets: Any, dst: str) -> None:

@@ -4,13 +4,16 @@ Stage ``streets sample`` (Chuang 2011, Sec. 3.3): every canonical street field o
 a segment (``<field>_observed`` true) is evidence; every missing street field and every
 lighting field is drawn by likelihood-weighted sampling of a geo-typical network from
 :mod:`bayesnets.catalog` (or a user's network folder). The pole spacing is derived from
-the sampled spacing ratio: ``spacing = spacing_ratio * mounting_height`` [m].
+the sampled spacing ratio: ``spacing = spacing_ratio * mounting_height`` [m]. Without a
+network, :func:`sample` picks one from where the layer lies
+(:func:`~nightlights.streets._location.network_for_location`).
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,11 +26,17 @@ from bayesnets.errors import BayesNetError
 from bayesnets.sampling import DEFAULT_CANDIDATES, OnConflict, sampling_memory
 from nightlights._resources import check_memory
 from nightlights._typing import PathLike
-from nightlights.errors import InputError
+from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.outputs import OutputSet
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import check_network_values, rng_from_seed
+from nightlights.streets._location import (
+    FALLBACK_NETWORK,
+    REGION_BOXES,
+    layer_location,
+    network_for_location,
+)
 from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, VALUE_RANGES, observed_field
 
 __all__ = [
@@ -36,14 +45,16 @@ __all__ = [
     "SampleResult",
     "fill_lighting",
     "lighting_summary",
+    "network_by_location",
     "resolve_network",
     "sample",
 ]
 
 logger = logging.getLogger(__name__)
 
-#: Fields the sampled layer gets besides the canonical ones.
-EXTRA_FIELDS: dict[str, FieldType] = {"spacing_ratio": "float"}
+#: Fields the sampled layer gets besides the canonical ones: the sampled spacing ratio [1]
+#: and the name of the network that filled the layer (provenance).
+EXTRA_FIELDS: dict[str, FieldType] = {"spacing_ratio": "float", "network": "str"}
 
 #: Field types of the sampled layer (besides the input's other fields).
 OUTPUT_SCHEMA: dict[str, FieldType] = {
@@ -113,8 +124,8 @@ def fill_lighting(
     geopandas.GeoDataFrame
         ``streets`` with every street field filled (observed values kept as they were,
         flags kept), the lighting fields of :data:`LIGHTING_FIELDS` and ``spacing_ratio``
-        [1]; ``spacing = spacing_ratio * mounting_height`` [m]. An empty layer gives an
-        empty layer with these columns.
+        [1]; ``spacing = spacing_ratio * mounting_height`` [m]; ``network``, the name of
+        the network used. An empty layer gives an empty layer with these columns.
 
     Raises
     ------
@@ -187,6 +198,7 @@ def fill_lighting(
         out[name] = _typed(sampled[name], kind).to_numpy()
     out["spacing_ratio"] = sampled["spacing_ratio"].to_numpy(float)
     out["spacing"] = out["spacing_ratio"].to_numpy(float) * out["mounting_height"].to_numpy(float)
+    out["network"] = pd.Series([net.name] * len(out), index=out.index, dtype=object)
     logger.info("sampled %d street segments with network %r", len(out), net.name)
     return out
 
@@ -220,10 +232,62 @@ class SampleResult:
         :func:`fill_lighting`).
     path
         The GeoPackage written, or None when no output was asked for.
+    network
+        Name of the network that filled the streets (also the ``network`` field of
+        :attr:`streets`).
+    location
+        WGS84 ``(longitude, latitude)`` [deg] of the centre of the layer's extent when the
+        network was chosen by location (no network given); None when it was given.
     """
 
     streets: gpd.GeoDataFrame
     path: Path | None
+    network: str
+    location: tuple[float, float] | None = None
+
+
+def network_by_location(
+    frame: gpd.GeoDataFrame, *, source: str = "streets"
+) -> tuple[str, tuple[float, float]]:
+    """Catalogue network for a street layer from where it lies.
+
+    The centre of the layer's extent is transformed to WGS84 and looked up in the boxes of
+    :data:`~nightlights.streets._location.REGION_BOXES`: North America gives
+    ``north_america``, Europe ``europe``, anywhere else the ``generic`` blend, with a
+    :class:`~nightlights.errors.DataQualityWarning` that names it and how to choose another
+    (none for an empty layer, which has no position and gets ``generic``).
+
+    Parameters
+    ----------
+    frame
+        Street layer with a CRS.
+    source
+        Name of the layer in messages.
+
+    Returns
+    -------
+    tuple
+        The catalogue network name and the ``(longitude, latitude)`` [deg] it was chosen
+        for.
+
+    Raises
+    ------
+    InputError
+        The layer has no CRS.
+    """
+    longitude, latitude = layer_location(frame, source=source)
+    name = network_for_location(longitude, latitude)
+    if name == FALLBACK_NETWORK and not np.isnan(longitude):
+        warnings.warn(
+            f"{source}: the layer lies at ({longitude:.2f}, {latitude:.2f}) deg (lon, lat), "
+            f"outside the regions with a sourced network ({', '.join(REGION_BOXES)}); "
+            f"sampling with the {FALLBACK_NETWORK!r} network (a blend of europe and "
+            "north_america); choose another with --network (network= in the API)",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+    logger.info("network %r chosen for %s at (%.3f, %.3f)", name, source, longitude, latitude)
+    return name, (longitude, latitude)
 
 
 def sample(
@@ -250,8 +314,10 @@ def sample(
         GeoPackage to write (layer ``streets``), atomically; nothing is written on failure.
         None writes nothing.
     network
-        Network object, catalogue network name (``europe``, ``north_america``) or network
-        folder; default: the catalogue's default network.
+        Network object, catalogue network name (``europe``, ``north_america``,
+        ``generic``) or network folder. None chooses a catalogue network from where the
+        layer lies (:func:`network_by_location`): North America ``north_america``, Europe
+        ``europe``, elsewhere ``generic`` with a warning.
     candidates
         Likelihood-weighting candidates per segment [1].
     seed
@@ -264,7 +330,14 @@ def sample(
     Returns
     -------
     SampleResult
-        The filled streets and the written path (or None).
+        The filled streets, the written path (or None), the network's name and, when it
+        was chosen by location, the layer's position.
+
+    Warns
+    -----
+    DataQualityWarning
+        No network given and the layer lies outside North America and Europe: the
+        ``generic`` network is used.
 
     Raises
     ------
@@ -300,8 +373,8 @@ def sample(
     (['arterial', 'local', 'path'], [True, True, False])
     >>> bool((lit["spacing"] == lit["spacing_ratio"] * lit["mounting_height"]).all())
     True
-    >>> result.path is None
-    True
+    >>> result.path is None, result.network, result.location
+    (True, 'europe', None)
     """
     rng = rng_from_seed(seed)
     if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 1:
@@ -313,10 +386,14 @@ def sample(
                 f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
                 "normalize` first)"
             )
+        location = None
+        if network is None:
+            network, location = network_by_location(frame, source=str(source))
         try:
+            net = resolve_network(network)
             filled = fill_lighting(
                 frame,
-                network,
+                net,
                 candidates=candidates,
                 rng=rng,
                 on_conflict=on_conflict,
@@ -331,7 +408,7 @@ def sample(
                 schema["source_id"] = "str"
             write_gpkg(filled, outputs.temporary(output), layer="streets", schema=schema)
             path = Path(output)
-    return SampleResult(filled, path)
+    return SampleResult(filled, path, net.name, location)
 
 
 def lighting_summary(streets: pd.DataFrame) -> dict[str, dict[str, int]]:

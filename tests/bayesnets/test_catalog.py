@@ -31,7 +31,7 @@ FIELDS = {
 }
 
 
-@pytest.fixture(params=["europe", "north_america"])
+@pytest.fixture(params=["europe", "north_america", "generic"])
 def net(request: pytest.FixtureRequest) -> BayesNet:
     return load_network(request.param)
 
@@ -46,7 +46,7 @@ def test_catalogue_lists_networks_and_default() -> None:
     assert {"europe", "north_america"} <= set(catalog_names())
     assert default_network_name() == "europe"
     assert load_network().name == "europe"
-    with pytest.raises(CatalogError, match="europe, north_america"):
+    with pytest.raises(CatalogError, match="europe, generic, north_america"):
         load_network("atlantis")
 
 
@@ -144,6 +144,26 @@ def test_north_america_has_more_high_pressure_sodium() -> None:
     }
     hps = load_network("europe").states["SYSTEM"].index("road_hps")
     assert share["north_america"][hps] > 2 * share["europe"][hps]
+
+
+def test_generic_is_the_mean_of_europe_and_north_america() -> None:
+    """README: every generic table is the mean of the two conditional probability tables."""
+    generic, europe, america = (load_network(n) for n in ("generic", "europe", "north_america"))
+    assert generic.states == europe.states == america.states
+    assert generic.parents == europe.parents
+    for variable, table in generic.tables.items():
+        np.testing.assert_allclose(
+            table,
+            (europe.tables[variable] + america.tables[variable]) / 2,
+            atol=1e-5,  # weights are written to 6 significant digits (percent)
+            err_msg=variable,
+        )
+    hps = europe.states["SYSTEM"].index("road_hps")
+    share = {
+        name: exact_marginals(net, {}, ["SYSTEM"])["SYSTEM"][hps]
+        for name, net in (("generic", generic), ("europe", europe), ("north_america", america))
+    }
+    assert share["europe"] < share["generic"] < share["north_america"]
 
 
 def test_readme_documents_every_table() -> None:

@@ -100,13 +100,21 @@ def test_normalize_refuses_an_existing_output(fake_stage, tmp_path: Path) -> Non
 # --- sample and fit --------------------------------------------------------------------------
 
 
-def _normalised(path: Path, rows: list[dict]) -> Path:
+def _normalised(
+    path: Path,
+    rows: list[dict],
+    *,
+    crs: str = "EPSG:3067",
+    origin: tuple[float, float] = (385000.0, 6672000.0),
+) -> Path:
+    """Normalised streets near ``origin`` [m] in ``crs`` (default: Helsinki, ETRS-TM35FIN)."""
     data: dict[str, list] = {"source_id": [f"s{i}" for i in range(len(rows))]}
     for name in STREET_FIELDS:
         data[name] = [row.get(name) for row in rows]
         data[observed_field(name)] = [name in row for row in rows]
-    lines = [shapely.LineString([(0, 30 * i), (100, 30 * i)]) for i in range(len(rows))]
-    frame = gpd.GeoDataFrame(data, geometry=lines, crs="EPSG:3067")
+    x, y = origin
+    lines = [shapely.LineString([(x, y + 30 * i), (x + 100, y + 30 * i)]) for i in range(len(rows))]
+    frame = gpd.GeoDataFrame(data, geometry=lines, crs=crs)
     schema = {
         "source_id": "str",
         **STREET_FIELDS,
@@ -144,6 +152,38 @@ def test_sample_prints_summary(tmp_path: Path) -> None:
     assert "15 street segments" in result.output
     assert "arrangement" in result.output and "light system" in result.output
     assert len(gpd.read_file(out)) == 15
+
+
+def test_sample_chooses_the_network_by_location(tmp_path: Path, caplog, recwarn) -> None:
+    runner = CliRunner()
+    helsinki = _normalised(tmp_path / "helsinki.gpkg", ROWS)
+    out = tmp_path / "lit.gpkg"
+    result = runner.invoke(cli, ["streets", "sample", str(helsinki), str(out), "--seed", "1"])
+    assert result.exit_code == 0, result.output
+    assert "network europe, chosen by location" in " ".join(result.output.split())
+    assert set(gpd.read_file(out)["network"]) == {"europe"}
+    # Tokyo (JGD2011 / Japan plane rectangular CS IX): generic, with a warning
+    tokyo = _normalised(tmp_path / "tokyo.gpkg", ROWS, crs="EPSG:6677", origin=(-5000.0, -35000.0))
+    out = tmp_path / "tokyo_lit.gpkg"
+    with caplog.at_level(logging.WARNING):
+        result = runner.invoke(cli, ["streets", "sample", str(tokyo), str(out), "--seed", "1"])
+    assert result.exit_code == 0, result.output
+    assert "network generic, chosen by location" in " ".join(result.output.split())
+    # The CLI logs warnings as one line (under pytest they may reach its recorder instead).
+    shown = [caplog.text, *(f"{w.category.__name__}: {w.message}" for w in recwarn)]
+    assert any("DataQualityWarning" in text and "'generic'" in text for text in shown)
+    assert any("--network" in text for text in shown)
+    caplog.clear()
+    recwarn.clear()
+    assert set(gpd.read_file(out)["network"]) == {"generic"}
+    # an explicit --network wins
+    again = ["streets", "sample", str(tokyo), str(out), "--overwrite", "--network", "europe"]
+    with caplog.at_level(logging.WARNING):
+        result = runner.invoke(cli, again)
+    assert result.exit_code == 0, result.output
+    assert "network europe" in result.output and "chosen by location" not in result.output
+    assert "'generic'" not in caplog.text and not [w for w in recwarn if "'generic'" in str(w)]
+    assert set(gpd.read_file(out)["network"]) == {"europe"}
 
 
 def test_sample_with_output_option_and_overwrite(tmp_path: Path) -> None:
