@@ -167,7 +167,16 @@ def test_the_graph_sees_imports() -> None:
 #: Where the code and its tests live (the docs pages have their own check).
 CODE_FOLDERS = (*PACKAGES, "tests", "benchmarks", "examples")
 #: A citation of an issue number, or of a capitalised project file other than the README.
-CITATION = re.compile(r"\b[Ii]ssue\s*#?\d+|\b(?!README\.md)[A-Z]{4,}\.md\b|\bSTYLE rule")
+#: (Built from pieces so that this line does not cite what it forbids.)
+CITATION = re.compile(
+    "|".join(
+        (
+            r"\b[Ii]" + r"ssue\s*#?\d+",
+            r"\b(?!README\.md)[A-Z]{4,}" + r"\.md\b",
+            r"\b" + "STYLE" + r" rule",
+        )
+    )
+)
 
 
 def test_code_cites_papers_not_issues_or_outside_files() -> None:

@@ -37,14 +37,13 @@ from nightlights.inverse.stage import (
     _panorama,
     _panorama_value,
     _region_weights,
-    _setup,
     _target_weights,
 )
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.polar import PolarCells
-from nightlights.sky.setup import RasterInput
+from nightlights.sky.setup import RasterInput, prepare_scene
 
 __all__ = ["ReduceResult", "inverse_reduce", "least_dimming"]
 
@@ -288,7 +287,7 @@ def least_dimming(
     contributions, before, goal, labels = [], [], [], []
     scene_cells: PolarCells | None = None
     for index, observer in enumerate(observers):
-        setup = _setup(
+        setup = prepare_scene(
             raster,
             observer,
             kernel,
@@ -437,7 +436,7 @@ def _summary(
     entries = []
     pictures = []
     for observer, wanted in zip(observers, targets, strict=True):
-        setup = _setup(
+        setup = prepare_scene(
             raster,
             observer,
             kernel,

@@ -17,7 +17,6 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -162,7 +161,7 @@ def inverse_q(
     if metric not in METRICS:
         raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
     _check_outputs(output)
-    setup = _setup(
+    setup = prepare_scene(
         emission,
         observer,
         kernel,
@@ -271,7 +270,7 @@ cache_dir, progress
         raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
     sky_region = SkyRegion.parse(region)
     _check_outputs(output)
-    setup = _setup(
+    setup = prepare_scene(
         emission,
         observer,
         kernel,
@@ -308,19 +307,6 @@ cache_dir, progress
 
 
 # --- helpers ----------------------------------------------------------------------------------
-
-
-def _setup(
-    emission: EmissionInput,
-    observer: tuple[float, float],
-    kernel: KernelInput,
-    dem: RasterInput | None,
-    **options: Any,
-) -> SceneSetup:
-    """The scene for one observer (:func:`prepare_scene`), who must stand within the
-    kernel's reach of a lit cell: an observer outside the raster is allowed (a dark site
-    outside the city is a main use), one beyond every cell's reach is refused there."""
-    return prepare_scene(emission, observer, kernel, dem, **options)
 
 
 def _region_weights(setup: SceneSetup, region: SkyRegion, weight: str) -> FloatArray:
