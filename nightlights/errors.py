@@ -32,6 +32,10 @@ class OutputError(NightlightsError, OSError):
     """An output could not be written."""
 
 
+class OutputExistsError(OutputError, FileExistsError):
+    """An output exists and replacing it was not asked for."""
+
+
 class ResourceError(NightlightsError, MemoryError):
     """A computation would need more memory (or disk) than allowed."""
 

@@ -122,50 +122,81 @@ def kernel_slice(
     """
     h_o = np.asarray(kernel["observer_altitude"].values, dtype=float)
     h_o_value = _clamp_level(h_o, float(observer_altitude), "observer_altitude")
-    order = np.argsort(h_o)
-    exact = np.nonzero(np.abs(h_o - h_o_value) <= 1e-6)[0]
-    if exact.size:
-        pieces = [(int(exact[0]), 1.0)]
-    else:
-        upper = int(np.searchsorted(h_o[order], h_o_value))
-        lo, hi = int(order[upper - 1]), int(order[upper])
-        w = (h_o_value - h_o[lo]) / (h_o[hi] - h_o[lo])
-        pieces = [(lo, 1.0 - w), (hi, w)]
     h_c = np.asarray(kernel["source_altitude"].values, dtype=float)
     h_c_value = _clamp_level(h_c, float(source_altitude), "source_altitude")
-    kernels, coefficients, spectra = [], [], []
-    for index, weight in pieces:
-        level = kernel.isel(observer_altitude=index)
-        if h_c.size == 1:
-            level = level.isel(source_altitude=0)
-        else:
-            level = level.interp(source_altitude=h_c_value)
-        names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in level else [])
-        coefficient_names = ["coefficient"] + (
-            ["coefficient_uplight"] if "coefficient_uplight" in level else []
-        )
-        if "kernel" in level:
-            kernels.append(weight * np.stack([level[n].values.astype(float) for n in names]))
-        else:  # a PCA-only kernel (built with store_tables=False): no raw images
-            n_r, n_el = level.sizes["distance"], level.sizes["elevation"]
-            kernels.append(np.zeros((len(coefficient_names), n_r, n_el, 0)))
-        coefficients.append(
-            weight * np.stack([level[n].values.astype(float) for n in coefficient_names])
-        )
-        spectra.append(level["basis_fft_real"].values + 1j * level["basis_fft_imag"].values)
+    pieces = [
+        (weight, _level_arrays(kernel, index, h_c_value, tables=True))
+        for index, weight in _observer_pieces(h_o, h_o_value)
+    ]
+    return _compose(kernel, pieces, h_o_value)
+
+
+def _observer_pieces(h_o: FloatArray, value: float) -> list[tuple[int, float]]:
+    """The (level index, weight) of the one or two observer levels around ``value``."""
+    order = np.argsort(h_o)
+    exact = np.nonzero(np.abs(h_o - value) <= 1e-6)[0]
+    if exact.size:
+        return [(int(exact[0]), 1.0)]
+    upper = int(np.searchsorted(h_o[order], value))
+    lo, hi = int(order[upper - 1]), int(order[upper])
+    w = (value - h_o[lo]) / (h_o[hi] - h_o[lo])
+    return [(lo, 1.0 - w), (hi, w)]
+
+
+@dataclass(frozen=True)
+class _LevelArrays:
+    """One observer level's tables at one source altitude, as numpy arrays."""
+
+    kernel: FloatArray  # (bands, n_r, n_el, n_az), or n_az = 0 without raw images
+    coefficient: FloatArray  # (bands, n_r, n_components)
+    spectrum: NDArray[np.complex128]  # (n_components, n_el, n_freq)
+
+
+def _level_arrays(
+    kernel: xr.Dataset, index: int, source_altitude: float, *, tables: bool
+) -> _LevelArrays:
+    level = kernel.isel(observer_altitude=index)
+    if kernel.sizes["source_altitude"] == 1:
+        level = level.isel(source_altitude=0)
+    else:
+        level = level.interp(source_altitude=source_altitude)
+    names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in level else [])
+    coefficient_names = ["coefficient"] + (
+        ["coefficient_uplight"] if "coefficient_uplight" in level else []
+    )
+    if "kernel" in level and tables:
+        images = np.stack([level[n].values.astype(float) for n in names])
+    else:  # a PCA-only kernel (built with store_tables=False), or the images not wanted
+        n_r, n_el = level.sizes["distance"], level.sizes["elevation"]
+        images = np.zeros((len(coefficient_names), n_r, n_el, 0))
+    return _LevelArrays(
+        kernel=images,
+        coefficient=np.stack([level[n].values.astype(float) for n in coefficient_names]),
+        spectrum=level["basis_fft_real"].values + 1j * level["basis_fft_imag"].values,
+    )
+
+
+def _compose(
+    kernel: xr.Dataset, pieces: list[tuple[float, _LevelArrays]], observer_altitude: float
+) -> KernelSlice:
+    """The slice of one or two weighted observer levels, their components interleaved."""
+    if len(pieces) == 1 and pieces[0][0] == 1.0:
+        images, coefficient = pieces[0][1].kernel, pieces[0][1].coefficient[..., None]
+    else:
+        images = np.sum([weight * p.kernel for weight, p in pieces], axis=0)
+        coefficient = np.stack([weight * p.coefficient for weight, p in pieces], axis=-1)
     # Interleave the components of the (one or two) observer levels.
-    coefficient = np.stack(coefficients, axis=-1)
     coefficient = coefficient.reshape(*coefficient.shape[:-2], -1)
-    basis_fft = np.stack(spectra, axis=1)
+    basis_fft = np.stack([p.spectrum for _, p in pieces], axis=1)
     basis_fft = basis_fft.reshape(-1, *basis_fft.shape[2:])
     return KernelSlice(
-        kernel=np.sum(kernels, axis=0),
+        kernel=images,
         coefficient=coefficient,
         basis_fft=basis_fft,
         distance_edges=np.asarray(kernel["distance_edges"].values, dtype=float),
         elevation=np.asarray(kernel["elevation"].values, dtype=float),
-        observer_altitude=h_o_value,
-        observer_weights=tuple(float(weight) for _, weight in pieces),
+        observer_altitude=observer_altitude,
+        observer_weights=tuple(float(weight) for weight, _ in pieces),
     )
 
 
@@ -185,11 +216,68 @@ def kernel_levels(kernel: xr.Dataset, *, observer_altitude: float) -> list[Kerne
     list of KernelSlice
         In increasing source altitude; all share the same bases.
     """
-    levels = np.sort(np.asarray(kernel["source_altitude"].values, dtype=float))
-    return [
-        kernel_slice(kernel, observer_altitude=observer_altitude, source_altitude=float(h))
-        for h in levels
-    ]
+    return KernelLevels(kernel).at(observer_altitude)
+
+
+class KernelLevels:
+    """A kernel's source-level slices at any observer altitude, its tables read once.
+
+    :func:`kernel_levels` for a moving observer: the per-level arrays are taken out of the
+    dataset on first use and kept, so a new observer altitude costs only the weighting of
+    one or two observer levels (what :func:`kernel_slice` does each time from the dataset).
+
+    Parameters
+    ----------
+    kernel
+        Kernel dataset.
+    tables
+        Keep the raw kernel images (``exact`` mode needs them; ``pca`` does not).
+
+    Examples
+    --------
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> table = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... ).kernel
+    >>> [s.observer_altitude for s in KernelLevels(table).at(0.0)]
+    [0.0]
+    """
+
+    def __init__(self, kernel: xr.Dataset, *, tables: bool = True) -> None:
+        self._kernel = kernel
+        self._tables = tables
+        self._h_o = np.asarray(kernel["observer_altitude"].values, dtype=float)
+        self.levels = np.sort(np.asarray(kernel["source_altitude"].values, dtype=float))
+        self._arrays: dict[tuple[int, float], _LevelArrays] = {}
+
+    def at(self, observer_altitude: float) -> list[KernelSlice]:
+        """One slice per source level, in increasing source altitude.
+
+        Parameters
+        ----------
+        observer_altitude
+            Observer altitude [m] (clamped to the kernel's levels with a warning when far
+            outside).
+
+        Returns
+        -------
+        list of KernelSlice
+            As :func:`kernel_levels`.
+        """
+        value = _clamp_level(self._h_o, float(observer_altitude), "observer_altitude")
+        pieces = _observer_pieces(self._h_o, value)
+        return [
+            _compose(self._kernel, [(w, self._level(i, float(h))) for i, w in pieces], value)
+            for h in self.levels
+        ]
+
+    def _level(self, index: int, source_altitude: float) -> _LevelArrays:
+        key = (index, source_altitude)
+        if key not in self._arrays:
+            self._arrays[key] = _level_arrays(
+                self._kernel, index, source_altitude, tables=self._tables
+            )
+        return self._arrays[key]
 
 
 def _pairs(
