@@ -40,6 +40,7 @@ COMMAND_MODULES = (
     "cli.darkness",
     "cli.photometry",
     "cli.demo",
+    "cli.explore",
 )
 
 
