@@ -26,7 +26,6 @@ query sees a half-updated state.
 from __future__ import annotations
 
 import hashlib
-import itertools
 import json
 import math
 import time
@@ -44,6 +43,7 @@ from pyproj import CRS
 
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError, OutputExistsError
+from nightlights.explore._edits import EmissionEdits, band_share
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._influence import (
@@ -98,17 +98,6 @@ class _Cells:
     @property
     def total(self) -> FloatArray:
         return self.flux.sum(axis=0)
-
-
-@dataclass(frozen=True)
-class _Step:
-    """One undoable edit: the window it changed, before and after."""
-
-    window: tuple[slice, slice]
-    before: FloatArray
-    after: FloatArray
-    op: dict[str, Any]
-    changed: int
 
 
 class ExploreSession:
@@ -199,16 +188,13 @@ class ExploreSession:
         self.azimuth = (np.arange(self._n_az) + 0.5) * 360.0 / self._n_az
         self._original = np.array(raster.data, dtype=float)
         self._data = self._original.copy()
-        self._band_share = _band_share(self._original)
-        self._undo: list[_Step] = []
-        self._redo: list[_Step] = []
+        self._edits = EmissionEdits(self._data, self.transform, band_share(self._original))
         self.edit_version = 0
         self._cells: dict[str, tuple[int, _Cells]] = {}
         self._slices: OrderedDict[float, list[KernelSlice]] = OrderedDict()
         self._horizons: OrderedDict[tuple[float, float, float], FloatArray] = OrderedDict()
         self._influences: OrderedDict[tuple[Any, ...], InfluenceView] = OrderedDict()
         self._influence_version: dict[tuple[Any, ...], int] = {}
-        self._baked: list[dict[str, Any]] = []  # edits older than the undo history
         self._in_memory = [
             name
             for name, given in (("emission", emission), ("kernel", kernel), ("dem", dem))
@@ -375,12 +361,12 @@ class ExploreSession:
     @property
     def can_undo(self) -> bool:
         """Whether an edit can be undone."""
-        return bool(self._undo)
+        return self._edits.can_undo
 
     @property
     def can_redo(self) -> bool:
         """Whether an undone edit can be redone."""
-        return bool(self._redo)
+        return self._edits.can_redo
 
     @property
     def kernel_info(self) -> dict[str, Any]:
@@ -769,43 +755,8 @@ class ExploreSession:
         EditView
             The emission's state after the step.
         """
-        if op not in EDIT_OPS:
-            raise InputError(f"edit {op!r}; expected one of {', '.join(EDIT_OPS)}")
-        stroke = np.asarray(points, dtype=float)
-        if stroke.ndim != 2 or stroke.shape[1] != 2 or stroke.shape[0] < 1:
-            raise InputError("a stroke is a list of at least one (x, y) point")
-        if not np.isfinite(stroke).all():
-            raise InputError("stroke points must be finite numbers")
-        if not (math.isfinite(radius) and radius > 0):
-            raise InputError(f"brush radius {radius} m; expected a finite value > 0")
-        if op != "erase" and (value is None or not math.isfinite(value) or value < 0):
-            raise InputError(f"{op} needs a finite value >= 0; got {value}")
-        window, inside = self._brush(stroke, float(radius))
-        if window is None:
-            return self._edit_view(0)
-        block = self._data[(slice(None), *window)]
-        before = block.copy()
-        after = block.copy()
-        if op == "paint":
-            after[:, inside] = float(value) * self._band_share[:, None]  # type: ignore[arg-type]
-        elif op == "erase":
-            after[:, inside] = 0.0
-        else:
-            after[:, inside] = before[:, inside] * float(value)  # type: ignore[arg-type]
-        changed = int(np.sum(np.any(~_same(before, after), axis=0)))
-        if changed == 0:
-            return self._edit_view(0)
-        self._data[(slice(None), *window)] = after
-        record = {
-            "op": op,
-            "points": stroke.tolist(),
-            "radius": float(radius),
-            "value": None if value is None else float(value),
-        }
-        self._undo.append(_Step(window, before, after, record, changed))
-        self._redo.clear()
-        self._trim_history()
-        return self._changed(changed)
+        changed = self._edits.apply(op, points, radius=radius, value=value)
+        return self._changed(changed) if changed else self._edit_view(0)
 
     def undo(self) -> EditView:
         """Undo the last edit.
@@ -815,12 +766,7 @@ class ExploreSession:
         EditView
             The state after undoing; InputError when there is nothing to undo.
         """
-        if not self._undo:
-            raise InputError("nothing to undo")
-        step = self._undo.pop()
-        self._data[(slice(None), *step.window)] = step.before
-        self._redo.append(step)
-        return self._changed(step.changed)
+        return self._changed(self._edits.undo())
 
     def redo(self) -> EditView:
         """Redo the last undone edit.
@@ -830,54 +776,7 @@ class ExploreSession:
         EditView
             The state after redoing; InputError when there is nothing to redo.
         """
-        if not self._redo:
-            raise InputError("nothing to redo")
-        step = self._redo.pop()
-        self._data[(slice(None), *step.window)] = step.after
-        self._undo.append(step)
-        return self._changed(step.changed)
-
-    def _brush(
-        self, stroke: FloatArray, radius: float
-    ) -> tuple[tuple[slice, slice] | None, np.ndarray]:
-        inverse = ~self.transform
-        rows, cols = self.shape
-        corners = [
-            inverse * (x, y)
-            for x in (stroke[:, 0].min() - radius, stroke[:, 0].max() + radius)
-            for y in (stroke[:, 1].min() - radius, stroke[:, 1].max() + radius)
-        ]
-        c0 = max(math.floor(min(c for c, _ in corners)), 0)
-        c1 = min(math.ceil(max(c for c, _ in corners)), cols)
-        r0 = max(math.floor(min(r for _, r in corners)), 0)
-        r1 = min(math.ceil(max(r for _, r in corners)), rows)
-        if c0 >= c1 or r0 >= r1:
-            return None, np.zeros((0, 0), bool)
-        if (r1 - r0) * (c1 - c0) > _MAX_BRUSH_CELLS:
-            raise InputError(
-                f"the stroke covers {(r1 - r0) * (c1 - c0)} cells; at most {_MAX_BRUSH_CELLS}"
-            )
-        t = self.transform
-        cx = t.c + t.a * (np.arange(c0, c1) + 0.5)
-        cy = t.f + t.e * (np.arange(r0, r1) + 0.5)
-        px, py = np.meshgrid(cx, cy)
-        inside = np.zeros(px.shape, dtype=bool)
-        ends = stroke if stroke.shape[0] > 1 else np.vstack([stroke, stroke])
-        for (ax, ay), (bx, by) in itertools.pairwise(ends):
-            dx, dy = bx - ax, by - ay
-            length2 = dx * dx + dy * dy
-            along = (
-                0.0 if length2 == 0 else np.clip(((px - ax) * dx + (py - ay) * dy) / length2, 0, 1)
-            )
-            inside |= np.hypot(px - (ax + along * dx), py - (ay + along * dy)) <= radius
-        if not inside.any():
-            return None, inside
-        return (slice(r0, r1), slice(c0, c1)), inside
-
-    def _trim_history(self) -> None:
-        while len(self._undo) > 1 and sum(s.before.nbytes * 2 for s in self._undo) > _HISTORY_BYTES:
-            dropped = self._undo.pop(0)
-            self._baked.append(dropped.op)
+        return self._changed(self._edits.redo())
 
     def _changed(self, changed: int) -> EditView:
         self.edit_version += 1
@@ -899,7 +798,7 @@ class ExploreSession:
     def current_raster(self) -> Raster:
         """The edited emission as a raster on the original grid [lm m-2]."""
         tags = dict(self._raster.tags)
-        tags["explore_edits"] = str(len(self._baked) + len(self._undo))
+        tags["explore_edits"] = str(len(self._edits.ops))
         return Raster(
             self._data.copy(),
             self.transform,
@@ -1069,7 +968,7 @@ class ExploreSession:
             "turbidity": self._sources["turbidity"],
             "observer_height": self._observer_height,
             "observer": list(observer) if observer is not None else None,
-            "edits": self._baked + [step.op for step in self._undo],
+            "edits": self._edits.ops,
         }
         with atomic_output(target) as tmp:
             Path(tmp).write_text(json.dumps(content, indent=1))
@@ -1167,20 +1066,6 @@ def _which(which: str) -> str:
 def _centre(raster: Raster) -> tuple[float, float]:
     left, bottom, right, top = raster.bounds
     return 0.5 * (left + right), 0.5 * (bottom + top)
-
-
-def _band_share(data: FloatArray) -> FloatArray:
-    """Each band's share of the raster's total flux (all Lambertian when there is none)."""
-    totals = np.nansum(np.where(data > 0, data, 0.0), axis=(1, 2))
-    if totals.sum() <= 0:
-        share = np.zeros(data.shape[0])
-        share[0] = 1.0
-        return share
-    return np.asarray(totals / totals.sum())
-
-
-def _same(a: FloatArray, b: FloatArray) -> np.ndarray:
-    return (a == b) | (np.isnan(a) & np.isnan(b))
 
 
 def _region(region: SkyRegion | Sequence[Sequence[float]] | str | None) -> SkyRegion:
