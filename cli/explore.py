@@ -105,10 +105,11 @@ def explore(
     # listen first: a port in use is refused before the session is loaded (which may take long)
     sock = _app.bind(host, port)
     try:
-        session = (
-            ExploreSession.open(session_file)
-            if session_file is not None
-            else ExploreSession(
+        if session_file is not None:
+            session = ExploreSession.open(session_file)
+        else:
+            assert emission is not None  # one of the two, checked above
+            session = ExploreSession(
                 emission,
                 lights=lights,
                 kernel=kernel,
@@ -116,7 +117,6 @@ def explore(
                 observer_height=observer_height,
                 turbidity=turbidity,
             )
-        )
         url = _app.browser_url(host, sock.getsockname()[1])
         if not _app.is_loopback(host):
             click.echo(

@@ -905,7 +905,7 @@ def serve(
     tiles: str | None = None,
     sock: socket.socket | None = None,
 ) -> None:
-    """Serve the explore app with uvicorn until interrupted (Ctrl-C).
+    """Serve the explore app with uvicorn until Ctrl-C, then return.
 
     Parameters
     ----------
@@ -944,6 +944,9 @@ def serve(
         )
         if open_browser:
             webbrowser.open(browser_url(host, listening.getsockname()[1]))
-        uvicorn.Server(config).run(sockets=[listening])
+        try:
+            uvicorn.Server(config).run(sockets=[listening])
+        except KeyboardInterrupt:  # uvicorn stops cleanly, then re-raises the Ctrl-C it caught
+            logger.info("stopped")
     finally:
         listening.close()
