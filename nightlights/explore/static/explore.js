@@ -17,18 +17,32 @@
 
 /** Luminance of a surface of 0 mag arcsec-2 [cd m-2] (nightlights.sky.brightness, Cinzano 2005). */
 const ZERO_POINT_LUMINANCE = 1.08e5;
-/** Zenith brightness at the darker edge of Bortle classes 1-9 [mag arcsec-2] (nightlights.sky.brightness). */
+/** Darker edges of Bortle classes 1-9 [mag arcsec-2] (nightlights.sky.brightness). */
 const BORTLE_LOWER_EDGES = [21.99, 21.89, 21.69, 20.49, 19.5, 18.94, 18.38, 18.0];
 /** Colour range of the panoramas [mag arcsec-2], as nightlights.sky.render.MAGNITUDE_RANGE. */
 const MAGNITUDE_RANGE = /** @type {const} */ ([14.0, 23.0]);
 /** matplotlib "magma" at 17 even steps; the sky uses it reversed (bright sky light). */
 const MAGMA = [
-  "#000004", "#0a0822", "#1d1147", "#36106b", "#51127c", "#6a1c81", "#832681", "#9c2e7f",
-  "#b73779", "#d0416f", "#e75263", "#f56b5c", "#fc8961", "#fea772", "#fec488", "#fde2a3",
+  "#000004",
+  "#0a0822",
+  "#1d1147",
+  "#36106b",
+  "#51127c",
+  "#6a1c81",
+  "#832681",
+  "#9c2e7f",
+  "#b73779",
+  "#d0416f",
+  "#e75263",
+  "#f56b5c",
+  "#fc8961",
+  "#fea772",
+  "#fec488",
+  "#fde2a3",
   "#fcfdbf",
 ];
 /** Colour of panorama pixels below the terrain (luminance null). */
-const GROUND_RGB = [40, 46, 38];
+const GROUND_RGB = Uint8ClampedArray.of(40, 46, 38);
 /** Pointer travel [CSS px] below which a press and release is a click, not a drag. */
 const CLICK_SLOP = 4;
 /** Distance [CSS px] within which the pointer grabs the observer marker or a polygon vertex. */
@@ -127,7 +141,17 @@ const numberFormat = new Intl.NumberFormat("en", { maximumSignificantDigits: 3 }
  * @typedef {object} Timing
  * @property {string} kind "panorama" or "dim"
  * @property {number} ms from the event to the canvas drawn
+ * @property {number} queue_ms from the event to the request sent (waiting for one in flight)
+ * @property {number} request_ms from the request sent to the reply read
+ * @property {number} draw_ms from the reply read to the canvas drawn
  * @property {number} server_ms the engine's own time (seconds field)
+ */
+
+/**
+ * @typedef {object} Stamp performance.now() times of one update
+ * @property {number} start the event
+ * @property {number} sent the request sent
+ * @property {number} received the reply read
  */
 
 // --- small helpers --------------------------------------------------------------------------
@@ -250,7 +274,9 @@ function drawLegend(bar, legend, low, high) {
   const ctx = context2d(bar);
   const gradient = ctx.createLinearGradient(0, 0, bar.width, 0);
   const colours = legend.colors && legend.colors.length ? legend.colors : MAGMA;
-  colours.forEach((colour, i) => gradient.addColorStop(i / Math.max(1, colours.length - 1), colour));
+  colours.forEach((colour, i) =>
+    gradient.addColorStop(i / Math.max(1, colours.length - 1), colour),
+  );
   ctx.fillStyle = gradient;
   ctx.fillRect(0, 0, bar.width, bar.height);
   low.textContent = fmt(legend.vmin);
@@ -279,7 +305,11 @@ async function api(path, body) {
   const init =
     body === undefined
       ? {}
-      : { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) };
+      : {
+          method: "POST",
+          headers: { "Content-Type": "application/json" },
+          body: JSON.stringify(body),
+        };
   let response;
   try {
     response = await fetch(path, init);
@@ -308,7 +338,7 @@ async function api(path, body) {
 class Coalescer {
   /**
    * @param {(request: Req) => Promise<Res>} send
-   * @param {(request: Req, reply: Res, start: number) => void} apply
+   * @param {(request: Req, reply: Res, stamp: Stamp) => void} apply
    * @param {(error: unknown) => void} fail
    */
   constructor(send, apply, fail) {
@@ -344,8 +374,10 @@ class Coalescer {
     this.waiting = null;
     this.busy = true;
     try {
+      const sent = performance.now();
       const reply = await this.send(job.request);
-      if (job.generation === this.generation) this.apply(job.request, reply, job.start);
+      const stamp = { start: job.start, sent, received: performance.now() };
+      if (job.generation === this.generation) this.apply(job.request, reply, stamp);
     } catch (error) {
       if (job.generation === this.generation) this.fail(error);
     } finally {
@@ -454,11 +486,12 @@ const state = {
   /** Latest influence replies for the observer, by kind. */
   influence: /** @type {{q: Influence | null, s: Influence | null}} */ ({ q: null, s: null }),
   /** Map overlays by kind, with their legends. */
-  overlays: /** @type {Record<string, {image: HTMLImageElement, legend: Legend, title: string} | null>} */ ({
-    q: null,
-    s: null,
-    dimming: null,
-  }),
+  overlays:
+    /** @type {Record<string, {image: HTMLImageElement, legend: Legend, title: string} | null>} */ ({
+      q: null,
+      s: null,
+      dimming: null,
+    }),
   /** Closed sky region, first vertex repeated at the end. @type {Pair[] | null} */
   region: null,
   /** Vertices of the region being drawn. @type {Pair[]} */
@@ -684,7 +717,8 @@ async function loadLights() {
     const coordinates = [];
     for (const feature of collection.features ?? []) {
       const geometry = feature.geometry;
-      if (geometry && geometry.type === "Point") coordinates.push(geometry.coordinates[0], geometry.coordinates[1]);
+      if (geometry && geometry.type === "Point")
+        coordinates.push(geometry.coordinates[0], geometry.coordinates[1]);
     }
     state.lights = Float64Array.from(coordinates);
     scheduleMap();
@@ -747,7 +781,7 @@ ui.map.addEventListener("pointerdown", (event) => {
     click: left && state.tool === "observer" && kind === "pan",
   };
   ui.map.setPointerCapture(event.pointerId);
-  ui.map.focus({ preventScroll: true });
+  ui.map.focus({ preventScroll: true }); // keys (Ctrl+Z) now go to the map, not a field
   if (kind === "brush") {
     state.stroke = [toWorld(sx, sy)];
     scheduleMap();
@@ -829,7 +863,9 @@ ui.map.addEventListener(
     const unit = event.deltaMode === 1 ? 16 : event.deltaMode === 2 ? 400 : 1;
     const factor = Math.exp(event.deltaY * unit * 0.0015);
     const info = state.info;
-    const extent = info ? Math.max(info.bounds[2] - info.bounds[0], info.bounds[3] - info.bounds[1]) : 1;
+    const extent = info
+      ? Math.max(info.bounds[2] - info.bounds[0], info.bounds[3] - info.bounds[1])
+      : 1;
     const cell = info?.cell_size ?? 1;
     const v = state.view;
     v.scale = Math.min(Math.max(v.scale * factor, cell / 64), (extent * 8) / Math.max(1, v.width));
@@ -869,15 +905,19 @@ function observerHeight() {
 /** @type {Coalescer<PanoramaRequest, Panorama>} */
 const panoramaRequests = new Coalescer(
   (request) => {
-    const query = new URLSearchParams({ x: String(request.x), y: String(request.y), which: request.which });
+    const query = new URLSearchParams({
+      x: String(request.x),
+      y: String(request.y),
+      which: request.which,
+    });
     if (request.height !== undefined) query.set("height", String(request.height));
     return api(`api/panorama?${query}`);
   },
-  (request, panorama, start) => {
+  (request, panorama, stamp) => {
     state.sky = panorama;
     if (state.dimming && !sameObserver(state.dimming.panorama)) state.dimming = null;
     drawSky();
-    recordTiming("panorama", start, panorama.seconds);
+    recordTiming("panorama", stamp, panorama.seconds);
     if (!panoramaRequests.active) setStatus("");
   },
   showError,
@@ -888,10 +928,18 @@ function sameObserver(panorama) {
   return !!state.observer && panorama.x === state.observer.x && panorama.y === state.observer.y;
 }
 
-/** @param {string} kind @param {number} start @param {number} seconds */
-function recordTiming(kind, start, seconds) {
-  const ms = performance.now() - start;
-  timings.push({ kind, ms, server_ms: (seconds ?? NaN) * 1000 });
+/** @param {string} kind @param {Stamp} stamp @param {number} seconds */
+function recordTiming(kind, stamp, seconds) {
+  const now = performance.now();
+  const ms = now - stamp.start;
+  timings.push({
+    kind,
+    ms,
+    queue_ms: stamp.sent - stamp.start,
+    request_ms: stamp.received - stamp.sent,
+    draw_ms: now - stamp.received,
+    server_ms: (seconds ?? NaN) * 1000,
+  });
   ui.latency.textContent = ms.toFixed(0);
 }
 
@@ -930,17 +978,28 @@ function requestPanorama(start = performance.now()) {
 }
 
 /**
- * A panorama ready to draw: brightness per pixel and index tables from angles to pixels.
- * @typedef {object} SkyImage
- * @property {Panorama} panorama
- * @property {Float32Array} magnitude (n_el * n_az) [mag arcsec-2], NaN below the terrain
+ * The angular grid of a panorama: nearest-pixel tables from angles to its pixels.
+ * @typedef {object} SkyGrid
+ * @property {string} key the grid's shape and extremes (panoramas of a session share it)
  * @property {number} nAz
  * @property {Int32Array} azimuthIndex nearest azimuth index per 0.1 deg of [0, 360)
  * @property {Int32Array} elevationIndex nearest elevation index per 0.1 deg of [0, 90]
  */
 
+/**
+ * A panorama ready to draw: its brightness and colour per pixel of its grid.
+ * @typedef {object} SkyImage
+ * @property {SkyGrid} grid
+ * @property {Float32Array} magnitude (n_el * n_az) [mag arcsec-2], NaN below the terrain
+ * @property {Uint32Array} colours (n_el * n_az) RGBA packed as the canvas stores it
+ */
+
 /** @type {WeakMap<Panorama, SkyImage>} */
 const skyImages = new WeakMap();
+/** @type {Map<string, SkyGrid>} */
+const skyGrids = new Map();
+/** Canvas pixel to panorama pixel maps (-1: outside the sky), by canvas, size and grid. */
+const pixelMaps = /** @type {Map<string, Int32Array>} */ (new Map());
 
 /**
  * Nearest-index lookup table over [0, span] at 0.1 deg.
@@ -975,6 +1034,27 @@ function nearestTable(angles, span) {
   return table;
 }
 
+/** @param {Panorama} panorama @returns {SkyGrid} */
+function skyGrid(panorama) {
+  const { azimuth, elevation } = panorama;
+  const key = [azimuth.length, azimuth[0], azimuth.at(-1), elevation.length, elevation[0],
+    elevation.at(-1)].join(":"); // prettier-ignore
+  let grid = skyGrids.get(key);
+  if (!grid) {
+    grid = {
+      key,
+      nAz: azimuth.length,
+      azimuthIndex: nearestTable(
+        azimuth.map((a) => ((a % 360) + 360) % 360),
+        360,
+      ),
+      elevationIndex: nearestTable(elevation, 90),
+    };
+    skyGrids.set(key, grid);
+  }
+  return grid;
+}
+
 /** @param {Panorama} panorama @returns {SkyImage} */
 function skyImage(panorama) {
   const cached = skyImages.get(panorama);
@@ -982,45 +1062,98 @@ function skyImage(panorama) {
   const nEl = panorama.elevation.length;
   const nAz = panorama.azimuth.length;
   const magnitude = new Float32Array(nEl * nAz);
+  const rgba = new Uint8ClampedArray(nEl * nAz * 4);
   for (let i = 0; i < nEl; i++) {
     const row = panorama.luminance[i];
     for (let j = 0; j < nAz; j++) {
       const value = row[j];
+      const cell = i * nAz + j;
       // null: below the terrain; 0: no artificial light (+inf, drawn darkest)
-      magnitude[i * nAz + j] = value === null || value < 0 ? NaN : luminanceToMagnitude(value);
+      const m = value === null || value < 0 ? NaN : luminanceToMagnitude(value);
+      magnitude[cell] = m;
+      const colour = Number.isNaN(m) ? GROUND_RGB : SKY_TABLE.subarray(skyColourIndex(m) * 3);
+      rgba.set([colour[0], colour[1], colour[2], 255], cell * 4);
     }
   }
   const image = {
-    panorama,
+    grid: skyGrid(panorama),
     magnitude,
-    nAz,
-    azimuthIndex: nearestTable(panorama.azimuth.map((a) => ((a % 360) + 360) % 360), 360),
-    elevationIndex: nearestTable(panorama.elevation, 90),
+    colours: new Uint32Array(rgba.buffer),
   };
   skyImages.set(panorama, image);
   return image;
 }
 
-/** Brightness [mag arcsec-2] at (azimuth, elevation) [deg] by nearest pixel. */
-function skyAt(/** @type {SkyImage} */ sky, /** @type {number} */ azimuth, /** @type {number} */ elevation) {
-  const a = sky.azimuthIndex[Math.min(3599, Math.max(0, Math.floor((((azimuth % 360) + 360) % 360) * 10)))];
-  const e = sky.elevationIndex[Math.min(900, Math.max(0, Math.round(elevation * 10)))];
-  return sky.magnitude[e * sky.nAz + a];
+/** Index into a panorama of (azimuth, elevation) [deg] by nearest pixel. */
+function skyIndex(
+  /** @type {SkyGrid} */ grid,
+  /** @type {number} */ azimuth,
+  /** @type {number} */ elevation,
+) {
+  const turn = (((azimuth % 360) + 360) % 360) * 10;
+  const a = grid.azimuthIndex[Math.min(3599, Math.max(0, Math.floor(turn)))];
+  const e = grid.elevationIndex[Math.min(900, Math.max(0, Math.round(elevation * 10)))];
+  return e * grid.nAz + a;
 }
 
-/** @param {ImageData} data @param {number} offset @param {number} magnitude */
-function putSkyPixel(data, offset, magnitude) {
-  if (Number.isNaN(magnitude)) {
-    data.data[offset] = GROUND_RGB[0];
-    data.data[offset + 1] = GROUND_RGB[1];
-    data.data[offset + 2] = GROUND_RGB[2];
-  } else {
-    const c = skyColourIndex(magnitude) * 3;
-    data.data[offset] = SKY_TABLE[c];
-    data.data[offset + 1] = SKY_TABLE[c + 1];
-    data.data[offset + 2] = SKY_TABLE[c + 2];
+/** Brightness [mag arcsec-2] at (azimuth, elevation) [deg] by nearest pixel. */
+function skyAt(
+  /** @type {SkyImage} */ sky,
+  /** @type {number} */ azimuth,
+  /** @type {number} */ elevation,
+) {
+  return sky.magnitude[skyIndex(sky.grid, azimuth, elevation)];
+}
+
+/**
+ * The panorama pixel each canvas pixel shows (-1 outside the sky), cached.
+ * @param {"eq" | "fish"} kind equirectangular or fisheye
+ * @param {number} width @param {number} height canvas pixels
+ * @param {number} radius fisheye horizon radius [canvas pixels]
+ * @param {SkyGrid} grid
+ */
+function pixelMap(kind, width, height, radius, grid) {
+  const key = `${kind}:${width}:${height}:${radius}:${grid.key}`;
+  let map = pixelMaps.get(key);
+  if (map) return map;
+  map = new Int32Array(width * height).fill(-1);
+  for (let j = 0; j < height; j++) {
+    for (let i = 0; i < width; i++) {
+      if (kind === "eq") {
+        map[j * width + i] = skyIndex(
+          grid,
+          ((i + 0.5) / width) * 360,
+          90 - ((j + 0.5) / height) * 90,
+        );
+        continue;
+      }
+      const dx = i + 0.5 - width / 2;
+      const dy = height / 2 - (j + 0.5);
+      const r = Math.hypot(dx, dy) / radius;
+      if (r > 1) continue;
+      const azimuth = (Math.atan2(dx, dy) * 180) / Math.PI; // north up, clockwise
+      map[j * width + i] = skyIndex(grid, azimuth, 90 - r * 90);
+    }
   }
-  data.data[offset + 3] = 255;
+  if (pixelMaps.size > 8) pixelMaps.delete(pixelMaps.keys().next().value ?? "");
+  pixelMaps.set(key, map);
+  return map;
+}
+
+/**
+ * Paint a panorama into a canvas through a pixel map.
+ * @param {CanvasRenderingContext2D} ctx @param {SkyImage} sky @param {Int32Array} map
+ * @param {number} width @param {number} height
+ */
+function paintSky(ctx, sky, map, width, height) {
+  const data = ctx.createImageData(width, height);
+  const out = new Uint32Array(data.data.buffer);
+  const colours = sky.colours;
+  for (let p = 0; p < map.length; p++) {
+    const cell = map[p];
+    if (cell >= 0) out[p] = colours[cell];
+  }
+  ctx.putImageData(data, 0, 0);
 }
 
 /** The panorama on show: the dimmed one when a dimming is shown, else the observer's. */
@@ -1057,10 +1190,12 @@ function drawSky() {
   let label = state.which === "original" ? "original emission (before edits)" : "current emission";
   if (panorama === state.dimming?.panorama) {
     const before = state.dimming.before.zenith_magnitude;
-    label = `dimmed: zenith ${fmt(before)} → ${fmt(zenith)} mag arcsec-2`;
+    label = `dimmed: zenith ${before.toFixed(2)} → ${zenith.toFixed(2)} mag arcsec-2`;
     if (state.dimming.method) label += ` (${state.dimming.method})`;
   }
-  ui.skyLabel.textContent = `${label}; observer at ${fmt(panorama.x)}, ${fmt(panorama.y)} m, ${fmt(panorama.observer_altitude)} m a.s.l.`;
+  ui.skyLabel.textContent =
+    `${label}; observer at ${panorama.x.toFixed(0)}, ${panorama.y.toFixed(0)} m, ` +
+    `eye ${panorama.observer_altitude.toFixed(1)} m a.s.l.`;
 }
 
 /** @param {Panorama | null} panorama */
@@ -1074,15 +1209,7 @@ function drawEquirectangular(panorama) {
     const sky = skyImage(panorama);
     const width = ui.panoEq.width;
     const height = ui.panoEq.height;
-    const data = ctx.createImageData(width, height);
-    const columns = new Int32Array(width);
-    for (let i = 0; i < width; i++) columns[i] = sky.azimuthIndex[Math.min(3599, Math.floor(((i + 0.5) / width) * 3600))];
-    for (let j = 0; j < height; j++) {
-      const e = sky.elevationIndex[Math.round((90 - ((j + 0.5) / height) * 90) * 10)];
-      const rowOffset = e * sky.nAz;
-      for (let i = 0; i < width; i++) putSkyPixel(data, (j * width + i) * 4, sky.magnitude[rowOffset + columns[i]]);
-    }
-    ctx.putImageData(data, 0, 0);
+    paintSky(ctx, sky, pixelMap("eq", width, height, 0, sky.grid), width, height);
   }
   ctx.setTransform(size.ratio, 0, 0, size.ratio, 0, 0);
   // grid: every 45 deg of azimuth, 30 deg of elevation
@@ -1119,22 +1246,10 @@ function drawFisheye(panorama) {
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   ctx.clearRect(0, 0, ui.panoFish.width, ui.panoFish.height);
   const pixels = ui.panoFish.width;
-  const centre = pixels / 2;
   const radius = (size.width / 2 - 14) * size.ratio;
   if (panorama) {
     const sky = skyImage(panorama);
-    const data = ctx.createImageData(pixels, pixels);
-    for (let j = 0; j < pixels; j++) {
-      const dy = centre - (j + 0.5);
-      for (let i = 0; i < pixels; i++) {
-        const dx = i + 0.5 - centre;
-        const r = Math.hypot(dx, dy) / radius;
-        if (r > 1) continue;
-        const azimuth = ((Math.atan2(dx, dy) * 180) / Math.PI + 360) % 360;
-        putSkyPixel(data, (j * pixels + i) * 4, skyAt(sky, azimuth, 90 - r * 90));
-      }
-    }
-    ctx.putImageData(data, 0, 0);
+    paintSky(ctx, sky, pixelMap("fish", pixels, pixels, radius, sky.grid), pixels, pixels);
   }
   ctx.setTransform(size.ratio, 0, 0, size.ratio, 0, 0);
   const c = size.width / 2;
@@ -1192,7 +1307,8 @@ function drawRegion(ctx, project, curved) {
     ctx.stroke();
   }
   if (state.drawing.length) {
-    const vertices = state.drawingCursor && !curved ? [...state.drawing, state.drawingCursor] : state.drawing;
+    const vertices =
+      state.drawingCursor && !curved ? [...state.drawing, state.drawingCursor] : state.drawing;
     path(vertices, false);
     ctx.strokeStyle = "#ffb454";
     ctx.lineWidth = 1.5;
@@ -1269,7 +1385,11 @@ ui.panoEq.addEventListener("mousemove", (event) => {
   const magnitude = panorama ? skyAt(skyImage(panorama), azimuth, elevation) : NaN;
   ui.skyCursor.textContent =
     `azimuth ${azimuth.toFixed(1)}°, elevation ${elevation.toFixed(1)}°` +
-    (panorama ? (Number.isNaN(magnitude) ? ", terrain" : `, ${magnitude.toFixed(2)} mag arcsec-2`) : "");
+    (panorama
+      ? Number.isNaN(magnitude)
+        ? ", terrain"
+        : `, ${magnitude.toFixed(2)} mag arcsec-2`
+      : "");
   if (state.drawing.length) {
     state.drawingCursor = [azimuth, elevation];
     drawEquirectangular(shownPanorama());
@@ -1306,7 +1426,9 @@ ui.regionClear.addEventListener("click", () => {
   state.influence.s = null;
   state.overlays.s = null;
   ui.dimByS.disabled = true;
-  /** @type {HTMLInputElement} */ (document.querySelector('input[name="dim-by"][value="q"]')).checked = true;
+  /** @type {HTMLInputElement} */ (
+    document.querySelector('input[name="dim-by"][value="q"]')
+  ).checked = true;
   if (ui.overlay.value === "s") ui.overlay.value = "none";
   setSliderRanges();
   drawSky();
@@ -1318,7 +1440,9 @@ ui.regionClear.addEventListener("click", () => {
 
 /** @returns {"q" | "s"} */
 function dimBy() {
-  const checked = /** @type {HTMLInputElement | null} */ (document.querySelector('input[name="dim-by"]:checked'));
+  const checked = /** @type {HTMLInputElement | null} */ (
+    document.querySelector('input[name="dim-by"]:checked')
+  );
   return checked && checked.value === "s" && state.region ? "s" : "q";
 }
 
@@ -1339,11 +1463,18 @@ function observerBody() {
  */
 async function refreshInfluence(only, show = false) {
   if (!state.observer) return;
-  const kinds = only ? [only] : /** @type {("q" | "s")[]} */ (["q", "s"]).filter((kind) => needsInfluence(kind));
+  const kinds = only
+    ? [only]
+    : /** @type {("q" | "s")[]} */ (["q", "s"]).filter((kind) => needsInfluence(kind));
   for (const kind of kinds) {
     if (kind === "s" && !state.region) continue;
+    /** @type {typeof state.observer} */
     const observer = state.observer;
-    const body = { ...observerBody(), kind, ...(kind === "s" ? { region: state.region } : { metric: ui.metric.value }) };
+    const body = {
+      ...observerBody(),
+      kind,
+      ...(kind === "s" ? { region: state.region } : { metric: ui.metric.value }),
+    };
     setStatus(kind === "q" ? "computing the Q map…" : "computing the S map…", "busy");
     try {
       /** @type {Influence} */
@@ -1357,7 +1488,8 @@ async function refreshInfluence(only, show = false) {
           : `S (region) [${influence.unit}]`;
       state.overlays[kind] = { image, legend: influence.legend, title };
       if (show) ui.overlay.value = kind;
-      setStatus(`${kind.toUpperCase()} map: ${fmt(influence.n_cells)} lit cells, total ${fmt(influence.total)} ${influence.unit}`);
+      const total = `${fmt(influence.total)} ${influence.unit}`;
+      setStatus(`${kind.toUpperCase()} map: ${fmt(influence.n_cells)} lit cells, total ${total}`);
       setSliderRanges();
       showOverlayLegend();
       scheduleMap();
@@ -1392,7 +1524,11 @@ function sliderValue(/** @type {HTMLInputElement} */ input) {
 
 function setSliderRanges() {
   const influence = state.influence[dimBy()];
-  const ready = !!influence && influence.vmin !== null && influence.vmax !== null && influence.vmax > influence.vmin;
+  const ready =
+    !!influence &&
+    influence.vmin !== null &&
+    influence.vmax !== null &&
+    influence.vmax > influence.vmin;
   for (const input of [ui.qa, ui.qb, ui.gamma]) input.disabled = !ready;
   if (!influence || !ready) {
     ui.qaValue.textContent = "–";
@@ -1430,9 +1566,9 @@ function dimBody(/** @type {boolean} */ withImage) {
 /** @type {Coalescer<ReturnType<typeof dimBody>, Dimming>} */
 const dimRequests = new Coalescer(
   (body) => api("api/dim", body),
-  (body, dimming, start) => {
+  (body, dimming, stamp) => {
     const { image, ...request } = body;
-    showDimming(dimming, request, start, "dim");
+    showDimming(dimming, request, stamp, "dim");
     if (!dimRequests.active) setStatus("");
   },
   showError,
@@ -1442,15 +1578,15 @@ const dimRequests = new Coalescer(
  * Show a dimming: the dimmed sky, the flux removed and, when it came with one, its map.
  * @param {Dimming} dimming
  * @param {object} request the body that made it (kept for the export)
- * @param {number} start performance.now() of the event
+ * @param {Stamp} stamp when it was asked for and came
  * @param {string} kind timing kind
  */
-function showDimming(dimming, request, start, kind) {
+function showDimming(dimming, request, stamp, kind) {
   state.dimming = dimming;
   state.dimmingRequest = request;
   showFluxRemoved(dimming);
   drawSky();
-  recordTiming(kind, start, dimming.seconds);
+  recordTiming(kind, stamp, dimming.seconds);
   if (dimming.image && dimming.legend) {
     const legend = dimming.legend;
     loadImage(dimming.image).then((image) => {
@@ -1517,7 +1653,8 @@ ui.solve.addEventListener("click", async () => {
   const start = performance.now();
   try {
     const target = ui.target.value;
-    if (target === "region" && !state.region) throw new ApiError("draw a region on the panorama first", 0);
+    if (target === "region" && !state.region)
+      throw new ApiError("draw a region on the panorama first", 0);
     const body = {
       ...observerBody(),
       target,
@@ -1529,12 +1666,15 @@ ui.solve.addEventListener("click", async () => {
     setStatus("solving the least-flux dimming…", "busy");
     ui.solve.disabled = true;
     const observer = state.observer;
+    const sent = performance.now();
     /** @type {Dimming} */
     const dimming = await api("api/least-dimming", body);
     if (state.observer !== observer) return;
     ui.showDimmed.checked = true;
-    showDimming(dimming, body, start, "least-dimming");
-    setStatus(`least-flux dimming (${dimming.method ?? "solved"}): ${fmt(dimming.flux_removed_lm)} lm removed`);
+    showDimming(dimming, body, { start, sent, received: performance.now() }, "least-dimming");
+    setStatus(
+      `least-flux dimming (${dimming.method ?? "solved"}): ${fmt(dimming.flux_removed_lm)} lm removed`,
+    );
   } catch (error) {
     showError(error);
   } finally {
@@ -1548,7 +1688,8 @@ ui.overlay.addEventListener("change", () => {
   const kind = ui.overlay.value;
   if ((kind === "q" || kind === "s") && !state.overlays[kind]) void refreshInfluence(kind);
   if (kind === "s" && !state.region) setStatus("draw a region on the panorama to get the S map");
-  if (kind === "dimming" && !state.overlays.dimming) setStatus("release a slider or solve to get the dimming map");
+  if (kind === "dimming" && !state.overlays.dimming)
+    setStatus("release a slider or solve to get the dimming map");
   showOverlayLegend();
   scheduleMap();
 });
@@ -1565,7 +1706,9 @@ ui.overlayOpacity.addEventListener("input", scheduleMap);
 
 document.querySelectorAll('input[name="tool"]').forEach((radio) =>
   radio.addEventListener("change", () => {
-    const checked = /** @type {HTMLInputElement | null} */ (document.querySelector('input[name="tool"]:checked'));
+    const checked = /** @type {HTMLInputElement | null} */ (
+      document.querySelector('input[name="tool"]:checked')
+    );
     state.tool = /** @type {typeof state.tool} */ (checked ? checked.value : "observer");
     state.brushCursor = null;
     scheduleMap();
@@ -1637,7 +1780,8 @@ ui.redo.addEventListener("click", () => void undoRedo("redo"));
 
 document.addEventListener("keydown", (event) => {
   const target = event.target;
-  const typing = target instanceof HTMLInputElement && (target.type === "text" || target.type === "number");
+  const typing =
+    target instanceof HTMLInputElement && (target.type === "text" || target.type === "number");
   if (event.key === "Escape" && state.drawing.length) {
     cancelDrawing();
     event.preventDefault();
@@ -1713,7 +1857,8 @@ async function exportFile(what) {
   let body = { what, name: exportName(what), overwrite: ui.exportOverwrite.checked };
   try {
     if (what === "dimming") {
-      if (!state.dimmingRequest) throw new ApiError("no dimming to export: move a slider or solve first", 0);
+      if (!state.dimmingRequest)
+        throw new ApiError("no dimming to export: move a slider or solve first", 0);
       body = { ...state.dimmingRequest, ...body };
     } else if (what === "panorama") {
       body = { ...observerBody(), which: state.which, ...body };
@@ -1735,9 +1880,14 @@ async function exportFile(what) {
   }
 }
 
-document.querySelectorAll("button[data-export]").forEach((button) =>
-  button.addEventListener("click", () => void exportFile(/** @type {HTMLElement} */ (button).dataset.export ?? "")),
-);
+document
+  .querySelectorAll("button[data-export]")
+  .forEach((button) =>
+    button.addEventListener(
+      "click",
+      () => void exportFile(/** @type {HTMLElement} */ (button).dataset.export ?? ""),
+    ),
+  );
 
 // --- start ----------------------------------------------------------------------------------
 
@@ -1767,7 +1917,11 @@ async function start() {
     ui.showTiles.checked = !!info.tiles && mercator;
     ui.showTiles.parentElement?.setAttribute(
       "title",
-      !info.tiles ? "start with --tiles URL to show tiles" : mercator ? "" : "tiles are shown only for rasters in EPSG:3857",
+      !info.tiles
+        ? "start with --tiles URL to show tiles"
+        : mercator
+          ? ""
+          : "tiles are shown only for rasters in EPSG:3857",
     );
     ui.showLights.disabled = !info.has_lights;
     ui.showLights.checked = info.has_lights;

@@ -136,6 +136,11 @@ def browser() -> Iterator[webdriver.Chrome]:
     except WebDriverException as exc:
         pytest.skip(f"Chromium did not start: {exc.msg or exc}".splitlines()[0])
     try:
+        # the viewport itself (the window size includes the browser's frame)
+        driver.execute_cdp_cmd(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": WINDOW[0], "height": WINDOW[1], "deviceScaleFactor": 1, "mobile": False},
+        )
         yield driver
     finally:
         driver.quit()
@@ -267,6 +272,25 @@ def test_walk_through_the_page(browser: webdriver.Chrome, served: tuple[str, Pat
     assert "lm" in _text(driver, "flux-removed")
     _screenshot(driver, "explore_dimming.png")
 
+    # The least-flux dimming: a reachable zenith target is met; an unreachable one is the
+    # server's one-line 422 reason on the status line.
+    zenith_now = float(_text(driver, "zenith-mag"))
+    driver.find_element(By.CSS_SELECTOR, '#target option[value="zenith"]').click()
+    for element_id, value in (("target-mag", f"{zenith_now + 0.2:.2f}"), ("max-dimming", "1")):
+        field = driver.find_element(By.ID, element_id)
+        field.clear()
+        field.send_keys(value)
+    driver.find_element(By.ID, "solve").click()
+    _wait(driver, lambda: "least-flux" in _text(driver, "status"), "the least-flux dimming")
+    assert float(_text(driver, "zenith-mag")) >= zenith_now + 0.2 - 0.01
+    field = driver.find_element(By.ID, "max-dimming")
+    field.clear()
+    field.send_keys("0.001")
+    driver.find_element(By.ID, "solve").click()
+    status = driver.find_element(By.ID, "status")
+    _wait(driver, lambda: "error" in (status.get_attribute("class") or ""), "the 422 reason")
+    assert status.text and "\n" not in status.text
+
     # Paint a stroke, then undo it with Ctrl+Z.
     driver.find_element(By.CSS_SELECTOR, 'input[name="tool"][value="paint"]').click()
     paint = driver.find_element(By.ID, "paint-value")
@@ -307,10 +331,14 @@ def test_walk_through_the_page(browser: webdriver.Chrome, served: tuple[str, Pat
 
     timings = _timings(driver)
     for kind in sorted({t["kind"] for t in timings}):
-        values = np.array([t["ms"] for t in timings if t["kind"] == kind])
-        server = np.array([t["server_ms"] for t in timings if t["kind"] == kind])
+        rows = [t for t in timings if t["kind"] == kind]
+        median = {
+            part: float(np.nanmedian([t[part] for t in rows]))
+            for part in ("ms", "queue_ms", "request_ms", "draw_ms", "server_ms")
+        }
         print(
-            f"explore page {kind}: {values.size} updates, event to canvas median "
-            f"{np.median(values):.1f} ms, max {values.max():.1f} ms "
-            f"(engine median {np.nanmedian(server):.1f} ms)"
+            f"explore page {kind}: {len(rows)} updates, event to canvas median "
+            f"{median['ms']:.1f} ms (max {max(t['ms'] for t in rows):.1f}): queued "
+            f"{median['queue_ms']:.1f}, request {median['request_ms']:.1f} (engine "
+            f"{median['server_ms']:.1f}), drawing {median['draw_ms']:.1f} ms"
         )
