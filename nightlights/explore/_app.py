@@ -666,6 +666,8 @@ class _Explorer:
         for path in paths:
             if path.is_symlink():
                 raise ApiError(400, f"{path.name} is a symbolic link in the export folder")
+            if path.is_dir():
+                raise ApiError(409, f"{path.name} is a folder in the export folder")
         return paths
 
     async def export(self, request: Request) -> Response:

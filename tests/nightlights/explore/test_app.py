@@ -7,6 +7,7 @@ import base64
 import io
 import json
 import os
+import re
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -692,3 +693,84 @@ def _no_stray_files(export_dir: Path) -> Iterator[None]:
     before = set(os.listdir(export_dir))
     yield
     assert set(os.listdir(export_dir)) == before
+
+
+# --- raster_png ----------------------------------------------------------------------------
+
+
+def png_pixels(png: bytes) -> np.ndarray:
+    image = Image.open(io.BytesIO(png))
+    assert image.mode == "RGBA"
+    return np.asarray(image)
+
+
+def test_raster_png_log_scale() -> None:
+    grid = np.array([[1.0, 10.0, 100.0], [0.0, -1.0, np.nan]])
+    png, legend = raster_png(grid)
+    pixels = png_pixels(png)
+    assert pixels.shape == (2, 3, 4)
+    np.testing.assert_array_equal(pixels[..., 3], [[255, 255, 255], [0, 0, 0]])
+    assert (legend["vmin"], legend["vmax"], legend["block"], legend["reduction"]) == (
+        1.0,
+        100.0,
+        1,
+        "max",
+    )
+    assert len(legend["colors"]) == 9 and all(
+        re.fullmatch(r"#[0-9a-f]{6}", c) for c in legend["colors"]
+    )
+    # the ends of the scale are the legend's end colours, the middle value its middle stop
+    hexes = ["#{:02x}{:02x}{:02x}".format(*p[:3]) for p in pixels[0].tolist()]
+    assert (hexes[0], hexes[1], hexes[2]) == (
+        legend["colors"][0],
+        legend["colors"][4],
+        legend["colors"][-1],
+    )
+
+
+def test_raster_png_linear_scale_and_limits() -> None:
+    grid = np.array([[0.0, 0.5, 1.0, 2.0, np.nan]])
+    png, legend = raster_png(grid, scale="linear", cmap="viridis", vmin=0.0, vmax=1.0)
+    pixels = png_pixels(png)
+    np.testing.assert_array_equal(pixels[0, :, 3], [255, 255, 255, 255, 0])  # 0 is shown
+    np.testing.assert_array_equal(pixels[0, 2], pixels[0, 3])  # clipped at vmax
+    assert (legend["vmin"], legend["vmax"], legend["cmap"]) == (0.0, 1.0, "viridis")
+
+
+def test_raster_png_keeps_a_bright_cell_when_reduced() -> None:
+    grid = np.full((10, 2500), np.nan)
+    grid[4, 1234] = 5.0
+    grid[0, 0] = 1.0
+    png, legend = raster_png(grid, max_size=1024)
+    pixels = png_pixels(png)
+    assert legend["block"] == 3 and pixels.shape == (4, 834, 4)
+    shown = np.argwhere(pixels[..., 3] > 0).tolist()
+    assert shown == [[0, 0], [1, 411]]  # 4 // 3, 1234 // 3
+
+
+def test_raster_png_of_nothing_is_transparent() -> None:
+    png, legend = raster_png(np.zeros((3, 3)))
+    assert (png_pixels(png)[..., 3] == 0).all()
+    assert legend["vmin"] is None and legend["vmax"] is None
+
+
+@pytest.mark.parametrize(
+    ("grid", "options", "words"),
+    [
+        (np.ones(3), {}, ["(3,)"]),
+        (np.ones((0, 3)), {}, ["(0, 3)"]),
+        (np.ones((2, 2)), {"scale": "sqrt"}, ["sqrt"]),
+        (np.ones((2, 2)), {"cmap": "no-such-map"}, ["no-such-map"]),
+        (np.ones((2, 2)), {"vmin": 0.0}, ["vmin=0.0", "> 0"]),
+        (np.ones((2, 2)), {"vmax": float("nan")}, ["vmax=nan"]),
+        (np.ones((2, 2)), {"vmin": 2.0, "vmax": 1.0}, ["vmin=2.0 > vmax=1.0"]),
+        (np.ones((2, 2)), {"max_size": 0}, ["max_size=0"]),
+    ],
+)
+def test_raster_png_refuses(grid: np.ndarray, options: dict, words: list[str]) -> None:
+    from nightlights.errors import InputError
+
+    with pytest.raises(InputError) as raised:
+        raster_png(grid, **options)
+    for word in words:
+        assert word in str(raised.value)
