@@ -119,6 +119,9 @@ class ExploreSession:
         Observer height above the ground [m].
     turbidity
         Turbidity of a scene kernel [1] (default 2).
+    components
+        PCA bases used for the panoramas (default: all the kernel stores; fewer are faster and
+        less accurate, see the benchmarks) [1].
     cache_dir
         Kernel cache folder.
     progress
@@ -150,6 +153,7 @@ class ExploreSession:
         dem: Raster | xr.DataArray | PathLike | None = None,
         observer_height: float = 1.7,
         turbidity: float | None = None,
+        components: int | None = None,
         cache_dir: PathLike | None = None,
         progress: bool = True,
     ) -> None:
@@ -180,6 +184,10 @@ class ExploreSession:
             progress=progress,
         )
         self._table = setup.table
+        stored = int(setup.slices[0].coefficient.shape[-1] // len(setup.slices[0].observer_weights))
+        if components is not None and not 1 <= components <= stored:
+            raise InputError(f"components={components}; the kernel stores 1-{stored}")
+        self._components = components
         self._levels = KernelLevels(setup.table, tables=False)
         first = setup.slices[0]
         self._edges = first.distance_edges
@@ -375,6 +383,7 @@ class ExploreSession:
             "hash": str(self._table.attrs.get("content_hash", "")),
             "turbidity": float(self._table.attrs.get("turbidity", math.nan)),
             "components": int(self._table.sizes.get("component", 0)),
+            "components_used": self._components,
             "range_m": float(self._edges[-1]),
         }
 
@@ -468,7 +477,11 @@ class ExploreSession:
         )
         empty = np.zeros(1)
         polars = [PolarMap(m, self._edges, self._n_az, empty, empty) for m in maps]
-        luminance = np.maximum(panorama_pca(polars, slices), 0.0)
+        components = self._components
+        if components is not None:
+            # an observer between two kernel levels has both levels' bases, interleaved
+            components *= len(slices[0].observer_weights)
+        luminance = np.maximum(panorama_pca(polars, slices, components=components), 0.0)
         below = self._below_terrain(xy, eye)
         return np.where(below, np.nan, luminance) if below is not None else luminance
 

@@ -51,11 +51,13 @@ def _scatter_parallel(
         start = min(chunk * size, cx.size)
         stop = min(start + size, cx.size)
         _scatter(
-            cx[start:stop],
-            cy[start:stop],
-            flux[:, start:stop],
-            levels[:, start:stop],
-            scale[start:stop],
+            start,
+            stop,
+            cx,
+            cy,
+            flux,
+            levels,
+            scale,
             cell,
             ox,
             oy,
@@ -69,6 +71,8 @@ def _scatter_parallel(
 
 @njit(cache=True, nogil=True)
 def _scatter(
+    start: int,
+    stop: int,
     cx: FloatArray,
     cy: FloatArray,
     flux: FloatArray,
@@ -86,7 +90,7 @@ def _scatter(
     n_levels, n_bands = out.shape[0], out.shape[1]
     n_r = edges.size - 1
     bin_width = 2.0 * math.pi / n_az
-    for i in range(cx.size):
+    for i in range(start, stop):
         dx0 = cx[i] - ox
         dy0 = cy[i] - oy
         # supersampling(): ceil(2 a / (d * bin width)), clipped to [1, max_samples]
