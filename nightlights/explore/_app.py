@@ -24,6 +24,9 @@ unknown path, 405 a wrong method, 409 an export that exists without ``overwrite`
 to undo/redo, 413 a body over ``max_body``, 422 a dimming target that cannot be reached, 500 a
 fault of the server (logged with its traceback).
 
+A response to a request that made the toolkit warn (an observer above the kernel's levels,
+say) carries ``"warnings"``: a list of one-line messages, also logged.
+
 The session is not thread-safe and the page may be open in several tabs: every call into it
 holds one lock and runs in a worker thread, so the event loop stays free. Edits are shared by
 every tab by design. The server opens no path that came from a request except
@@ -36,6 +39,7 @@ the handlers would only forward to each other.
 from __future__ import annotations
 
 import base64
+import contextlib
 import dataclasses
 import errno
 import ipaddress
@@ -45,8 +49,9 @@ import math
 import re
 import socket
 import threading
+import warnings
 import webbrowser
-from collections.abc import Awaitable, Callable, Mapping
+from collections.abc import Awaitable, Callable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 from urllib.parse import urlsplit
@@ -61,7 +66,7 @@ from starlette.responses import Response
 from starlette.routing import Route
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from nightlights.errors import InputError, NightlightsError, OutputError
+from nightlights.errors import InputError, NightlightsError, NightlightsWarning, OutputError
 from nightlights.explore._render import raster_png
 
 if TYPE_CHECKING:
@@ -155,6 +160,13 @@ def error_response(status: int, message: str, headers: Mapping[str, str] | None 
     """``{"error": message}`` with ``status``; the message is made one line."""
     line = " ".join(str(message).split())
     return json_response({"error": line}, status, headers)
+
+
+def noted(data: dict[str, Any], notes: list[str]) -> dict[str, Any]:
+    """``data`` with ``"warnings"``: the toolkit's warnings of the request, when there were any."""
+    if notes:
+        data["warnings"] = notes
+    return data
 
 
 def data_url(png: bytes) -> str:
@@ -381,12 +393,30 @@ class _Explorer:
 
     # -- plumbing -----------------------------------------------------------------------
 
-    async def call(self, work: Callable[[], T]) -> T:
-        """Run ``work`` in a worker thread holding the session's lock."""
+    @contextlib.contextmanager
+    def engine(self) -> Iterator[list[str]]:
+        """Hold the session's lock; the yielded list receives, when the block ends, the
+        toolkit's warnings raised in it (also logged), for the page to show."""
+        notes: list[str] = []
+        with self.lock, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", NightlightsWarning)
+            try:
+                yield notes
+            finally:
+                others = [w for w in caught if not issubclass(w.category, NightlightsWarning)]
+                notes.extend(dict.fromkeys(str(w.message) for w in caught if w not in others))
+        for note in notes:
+            logger.warning("%s", note)
+        for w in others:  # not the toolkit's: shown as they would have been
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
-        def locked() -> T:
-            with self.lock:
-                return work()
+    async def call(self, work: Callable[[], T]) -> tuple[T, list[str]]:
+        """Run ``work`` in a worker thread in :meth:`engine`; its result and warnings."""
+
+        def locked() -> tuple[T, list[str]]:
+            with self.engine() as notes:
+                result = work()
+            return result, notes
 
         return await run_in_threadpool(locked)
 
@@ -506,14 +536,14 @@ class _Explorer:
                 "emission_legend": self.emission_image("original")[1],
             }
 
-        return json_response(await self.call(work))
+        return json_response((await self.call(work))[0])
 
     async def emission_png(self, request: Request) -> Response:
         fields = Fields(request.query_params, query=True)
         which = fields.choice("which", ("current", "original"), "current")
         fields.text("v", None)  # the edit version: only makes the URL change with the map
         fields.done()
-        png, legend = await self.call(lambda: self.emission_image(which))
+        (png, legend), _ = await self.call(lambda: self.emission_image(which))
         headers = {"x-legend": json.dumps(jsonable(legend), allow_nan=False)}
         return Response(png, media_type="image/png", headers=headers)
 
@@ -525,15 +555,15 @@ class _Explorer:
                 self.lights_json = _lights_geojson(self.session.lights)
             return self.lights_json
 
-        return json_response(await self.call(work))
+        return json_response((await self.call(work))[0])
 
     async def panorama(self, request: Request) -> Response:
         fields = Fields(request.query_params, query=True)
         x, y, where = _observer_call(fields)
         which = fields.choice("which", ("current", "original"), "current")
         fields.done()
-        view = await self.call(lambda: self.session.panorama(x, y, which=which, **where))
-        return json_response(view.to_dict())
+        view, notes = await self.call(lambda: self.session.panorama(x, y, which=which, **where))
+        return json_response(noted(view.to_dict(), notes))
 
     # -- the inverse --------------------------------------------------------------------
 
@@ -546,12 +576,12 @@ class _Explorer:
         options = {key: value for key, value in options.items() if value is not None}
 
         def work() -> dict[str, Any]:
-            with self.lock:
+            with self.engine() as notes:
                 view = self.session.influence(x, y, kind=kind, **options, **where)
             values = np.asarray(view.values, dtype=np.float64)
             shown = values[np.isfinite(values) & (values > 0)]
             png, legend = self.image(view.grid, scale="log")
-            return {
+            result = {
                 "kind": view.kind,
                 "metric": view.metric,
                 "total": view.total,
@@ -564,6 +594,7 @@ class _Explorer:
                 "vmin": float(shown.min()) if shown.size else None,
                 "vmax": float(shown.max()) if shown.size else None,
             }
+            return noted(result, notes)
 
         return json_response(await run_in_threadpool(work))
 
@@ -612,9 +643,9 @@ class _Explorer:
         fields.done()
 
         def work() -> dict[str, Any]:
-            with self.lock:
+            with self.engine() as notes:
                 view = compute()
-            return self.dimming_json(view, image=image)
+            return noted(self.dimming_json(view, image=image), notes)
 
         return json_response(await run_in_threadpool(work))
 
@@ -627,8 +658,10 @@ class _Explorer:
         radius = fields.number("radius", unit="m")
         value = fields.number("value", None)
         fields.done()
-        view = await self.call(lambda: self.session.edit(op, points, radius=radius, value=value))
-        return json_response(dataclasses.asdict(view))
+        view, notes = await self.call(
+            lambda: self.session.edit(op, points, radius=radius, value=value)
+        )
+        return json_response(noted(dataclasses.asdict(view), notes))
 
     async def undo(self, request: Request) -> Response:
         return await self._step("undo")
@@ -642,7 +675,8 @@ class _Explorer:
                 raise ApiError(409, f"nothing to {direction}")
             return getattr(self.session, direction)()
 
-        return json_response(dataclasses.asdict(await self.call(work)))
+        view, notes = await self.call(work)
+        return json_response(noted(dataclasses.asdict(view), notes))
 
     # -- export -------------------------------------------------------------------------
 
@@ -721,9 +755,9 @@ class _Explorer:
                     raise ApiError(409, f"{paths[0].name} exists in the export folder") from None
                 raise
 
-        written = await self.call(work)
+        written, notes = await self.call(work)
         files = [written] if isinstance(written, str | Path) else list(written)
-        return json_response({"files": [str(Path(path).resolve()) for path in files]})
+        return json_response(noted({"files": [str(Path(p).resolve()) for p in files]}, notes))
 
 
 def _lights_geojson(lights: Any) -> dict[str, Any]:

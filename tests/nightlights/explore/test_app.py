@@ -150,6 +150,11 @@ def test_panorama_height_moves_the_eye(client: TestClient) -> None:
     low = client.get("/api/panorama", params={"x": X, "y": Y}).json()
     high = client.get("/api/panorama", params={"x": X, "y": Y, "height": 50}).json()
     assert high["observer_altitude"] == pytest.approx(low["observer_altitude"] + 48.3)
+    # the kernel is tabulated for an eye at 0 m only: the page is told (this module's only
+    # request at 50 m; the session warns when it first reads the tables for an altitude)
+    assert "warnings" not in low
+    (warning,) = high["warnings"]
+    assert "outside the kernel's levels" in warning
 
 
 def test_emission_png_shows_the_lit_cells(client: TestClient, scene: Scene) -> None:
