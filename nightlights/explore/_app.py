@@ -128,7 +128,13 @@ class ApiError(Exception):
 
 
 def jsonable(value: Any) -> Any:
-    """``value`` with numpy arrays and scalars as lists and numbers, NaN and inf as None."""
+    """``value`` with numpy arrays and scalars as lists and numbers, NaN and inf as None.
+
+    Examples
+    --------
+    >>> jsonable({"luminance": np.array([1.5, np.nan]), "bortle": np.int64(4)})
+    {'luminance': [1.5, None], 'bortle': 4}
+    """
     if isinstance(value, Mapping):
         return {str(key): jsonable(item) for key, item in value.items()}
     if isinstance(value, list | tuple):
@@ -438,9 +444,7 @@ class _Explorer:
             return Fields({})
         try:
             data = json.loads(b"".join(chunks), parse_constant=_refuse_constant)
-        except (ValueError, RecursionError) as exc:
-            if isinstance(exc, ApiError):
-                raise
+        except (ValueError, RecursionError) as exc:  # NaN and Infinity: ApiError above
             raise ApiError(400, f"body is not JSON ({exc})") from None
         if not isinstance(data, dict):
             raise ApiError(400, f"body is a JSON {type(data).__name__}; expected an object")
@@ -490,8 +494,9 @@ class _Explorer:
     def static_response(self, name: str) -> Response:
         entry = self.static.get(name)
         if entry is None:
-            what = "the page is not installed" if name == "index.html" else "no such file"
-            return error_response(404, f"/static/{name}: {what}")
+            if name == "index.html":
+                return error_response(404, "the page is not installed (no static/index.html)")
+            return error_response(404, f"/static/{name}: no such file")
         path, media_type = entry
         try:
             content = path.read_bytes()
@@ -895,7 +900,13 @@ def is_loopback(host: str) -> bool:
 
 
 def browser_url(host: str, port: int) -> str:
-    """The URL a browser on this machine opens for a server on ``host``:``port``."""
+    """The URL a browser on this machine opens for a server on ``host``:``port``.
+
+    Examples
+    --------
+    >>> browser_url("0.0.0.0", 8765), browser_url("::1", 8765)
+    ('http://127.0.0.1:8765/', 'http://[::1]:8765/')
+    """
     host = host.strip("[]")
     host = {"": "127.0.0.1", "0.0.0.0": "127.0.0.1", "::": "::1"}.get(host, host)
     return f"http://[{host}]:{port}/" if ":" in host else f"http://{host}:{port}/"
