@@ -578,8 +578,8 @@ function drawLights(ctx) {
   const points = state.lights;
   if (!points) return;
   const v = state.view;
-  ctx.fillStyle = "rgb(140 220 255 / 85%)";
-  const size = v.scale < (state.info?.cell_size ?? 1) / 4 ? 4 : 2;
+  ctx.fillStyle = "rgb(140 220 255 / 70%)";
+  const size = v.scale < (state.info?.cell_size ?? 1) / 8 ? 3 : 2;
   for (let i = 0; i < points.length; i += 2) {
     const sx = (points[i] - v.cx) / v.scale + v.width / 2;
     const sy = v.height / 2 - (points[i + 1] - v.cy) / v.scale;
@@ -781,7 +781,8 @@ ui.map.addEventListener("pointerdown", (event) => {
     click: left && state.tool === "observer" && kind === "pan",
   };
   ui.map.setPointerCapture(event.pointerId);
-  ui.map.focus({ preventScroll: true }); // keys (Ctrl+Z) now go to the map, not a field
+  // Ctrl+Z and Ctrl+Y after a stroke are the page's, not a text field's
+  if (document.activeElement instanceof HTMLElement) document.activeElement.blur();
   if (kind === "brush") {
     state.stroke = [toWorld(sx, sy)];
     scheduleMap();
@@ -1820,6 +1821,9 @@ function setObserverFromInputs() {
 }
 
 ui.obsSet.addEventListener("click", setObserverFromInputs);
+ui.obsHeight.addEventListener("change", () => {
+  if (state.observer) moveObserver(state.observer.x, state.observer.y, performance.now(), true);
+});
 for (const input of [ui.obsX, ui.obsY, ui.obsHeight]) {
   input.addEventListener("keydown", (event) => {
     if (event.key === "Enter") setObserverFromInputs();
