@@ -71,6 +71,8 @@ _LAZY: dict[str, str] = {
     "InfluenceResult": "nightlights.inverse",
     "ReduceResult": "nightlights.inverse",
     "DarknessResult": "nightlights.inverse",
+    # interactive: any observer, edits and dimming in memory (and in the browser)
+    "ExploreSession": "nightlights.explore",
     # data types
     "Raster": "nightlights.io",
 }
@@ -94,6 +96,7 @@ if TYPE_CHECKING:
         inverse_s,
         least_dimming,
     )
+    from nightlights.explore import ExploreSession
     from nightlights.io import Raster
     from nightlights.sky import (
         KernelResult,
@@ -132,6 +135,7 @@ __all__ = [
     "DarknessResult",
     "DataQualityWarning",
     "EmissionResult",
+    "ExploreSession",
     "EmptyInputError",
     "FitResult",
     "InfluenceResult",

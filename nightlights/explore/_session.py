@@ -201,6 +201,7 @@ class ExploreSession:
         self._cells: dict[str, tuple[int, _Cells]] = {}
         self._slices: OrderedDict[float, list[KernelSlice]] = OrderedDict()
         self._horizons: OrderedDict[tuple[float, float, float], FloatArray] = OrderedDict()
+        self._skies: OrderedDict[tuple[Any, ...], tuple[_Cells, FloatArray]] = OrderedDict()
         self._influences: OrderedDict[tuple[Any, ...], InfluenceView] = OrderedDict()
         self._influence_version: dict[tuple[Any, ...], int] = {}
         self._in_memory = [
@@ -457,6 +458,25 @@ class ExploreSession:
         return self._view(xy, eye, luminance, time.perf_counter() - start, _which(which))
 
     def _luminance(
+        self,
+        cells: _Cells,
+        xy: tuple[float, float],
+        eye: float,
+        scale: FloatArray | None,
+    ) -> FloatArray:
+        if scale is None:
+            # the undimmed sky of an observer is asked again by every slider move
+            key = (id(cells), xy, eye)
+            kept = self._skies.get(key)
+            if kept is not None and kept[0] is cells:
+                return kept[1]
+            luminance = self._luminance_of(cells, xy, eye, None)
+            luminance.flags.writeable = False  # shared by the views that return it
+            self._remember(self._skies, key, (cells, luminance))
+            return luminance
+        return self._luminance_of(cells, xy, eye, scale)
+
+    def _luminance_of(
         self,
         cells: _Cells,
         xy: tuple[float, float],
@@ -721,11 +741,12 @@ class ExploreSession:
         after = self._luminance(cells, xy, eye, 1.0 - fraction)
         removed = float(np.sum(cells.total * fraction))
         total = float(cells.total.sum())
-        grid = np.full(self.shape, np.nan)
-        grid[cells.rows, cells.cols] = fraction
         seconds = time.perf_counter() - start
         return DimmingView(
-            fraction=grid,
+            cells=fraction,
+            rows=cells.rows,
+            cols=cells.cols,
+            shape=self.shape,
             panorama=self._view(xy, eye, after, seconds, "dimmed", fraction),
             before=before,
             flux_removed=removed,

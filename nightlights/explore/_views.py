@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
 
@@ -113,8 +117,12 @@ class DimmingView:
 
     Attributes
     ----------
-    fraction
-        Shape ``(rows, cols)``: fraction of each lit cell's flux removed, NaN where unlit [1].
+    cells
+        Shape ``(n_lit,)``: fraction of each lit cell's flux removed [1].
+    rows, cols
+        Raster row and column of each lit cell.
+    shape
+        (rows, cols) of the raster.
     panorama
         The sky after dimming.
     before
@@ -131,7 +139,10 @@ class DimmingView:
         What made it (JSON-ready).
     """
 
-    fraction: FloatArray
+    cells: FloatArray
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    shape: tuple[int, int]
     panorama: PanoramaView
     before: PanoramaView
     flux_removed: float
@@ -139,6 +150,14 @@ class DimmingView:
     method: str
     seconds: float
     params: dict[str, Any]
+
+    @cached_property
+    def fraction(self) -> FloatArray:
+        """Shape ``(rows, cols)``: the fraction removed, NaN where unlit [1] (made on first
+        use: a slider move does not need the grid)."""
+        grid = np.full(self.shape, np.nan)
+        grid[self.rows, self.cols] = self.cells
+        return grid
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ __all__ = ["polar_flux_levels"]
 
 #: Fewest lit cells per thread: below it one private map per thread costs more to clear and
 #: sum than the cells take to scatter [1].
-_CELLS_PER_CHUNK = 20_000
+_CELLS_PER_CHUNK = 2_000
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -44,15 +44,14 @@ def _scatter_parallel(
     out: FloatArray,
     dropped: FloatArray,
 ) -> None:
-    # one private map per chunk of cells, summed at the end: no two threads write one bin
+    # one private map per chunk, summed at the end: no two threads write one bin. Chunk c
+    # takes every chunks-th cell, so that the costly cells near the observer (many sub-points)
+    # are shared out evenly.
     chunks = out.shape[0]
-    size = (cx.size + chunks - 1) // chunks
     for chunk in prange(chunks):
-        start = min(chunk * size, cx.size)
-        stop = min(start + size, cx.size)
         _scatter(
-            start,
-            stop,
+            chunk,
+            chunks,
             cx,
             cy,
             flux,
@@ -71,8 +70,8 @@ def _scatter_parallel(
 
 @njit(cache=True, nogil=True)
 def _scatter(
-    start: int,
-    stop: int,
+    first: int,
+    step: int,
     cx: FloatArray,
     cy: FloatArray,
     flux: FloatArray,
@@ -90,7 +89,7 @@ def _scatter(
     n_levels, n_bands = out.shape[0], out.shape[1]
     n_r = edges.size - 1
     bin_width = 2.0 * math.pi / n_az
-    for i in range(start, stop):
+    for i in range(first, cx.size, step):
         dx0 = cx[i] - ox
         dy0 = cy[i] - oy
         # supersampling(): ceil(2 a / (d * bin width)), clipped to [1, max_samples]
