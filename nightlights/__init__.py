@@ -78,6 +78,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:
+    from nightlights.explore import ExploreSession
     from nightlights.ground import (
         EmissionResult,
         IrradianceResult,
@@ -96,7 +97,6 @@ if TYPE_CHECKING:
         inverse_s,
         least_dimming,
     )
-    from nightlights.explore import ExploreSession
     from nightlights.io import Raster
     from nightlights.sky import (
         KernelResult,
@@ -135,8 +135,8 @@ __all__ = [
     "DarknessResult",
     "DataQualityWarning",
     "EmissionResult",
-    "ExploreSession",
     "EmptyInputError",
+    "ExploreSession",
     "FitResult",
     "InfluenceResult",
     "InputError",
