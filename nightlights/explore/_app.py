@@ -57,6 +57,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from urllib.parse import urlsplit
 
 import numpy as np
+import orjson
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import Headers, MutableHeaders
@@ -135,6 +136,14 @@ def jsonable(value: Any) -> Any:
     >>> jsonable({"luminance": np.array([1.5, np.nan]), "bortle": np.int64(4)})
     {'luminance': [1.5, None], 'bortle': 4}
     """
+    kind = type(value)
+    # the common plain types first: a panorama is some 16 000 numbers
+    if kind is float:
+        return value if math.isfinite(value) else None
+    if value is None or kind is int or kind is str or kind is bool:
+        return value
+    if kind is list and all(type(item) is float for item in value):
+        return [item if math.isfinite(item) else None for item in value]
     if isinstance(value, Mapping):
         return {str(key): jsonable(item) for key, item in value.items()}
     if isinstance(value, list | tuple):
@@ -157,9 +166,17 @@ def jsonable(value: Any) -> Any:
 def json_response(
     data: Any, status: int = 200, headers: Mapping[str, str] | None = None
 ) -> Response:
-    """A JSON response of ``data`` (see :func:`jsonable`)."""
-    body = json.dumps(jsonable(data), allow_nan=False, separators=(",", ":"))
+    """A JSON response of ``data``: numpy arrays as lists, NaN and inf as null (orjson, some
+    ten times faster than :mod:`json` on a panorama's 16 000 numbers)."""
+    body = orjson.dumps(data, default=_plain, option=orjson.OPT_SERIALIZE_NUMPY)
     return Response(body, status, headers=dict(headers or {}), media_type="application/json")
+
+
+def _plain(value: Any) -> Any:
+    """What orjson does not write itself, as :func:`jsonable` makes it."""
+    if isinstance(value, np.ndarray | np.generic | Path | tuple):
+        return jsonable(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
 def error_response(status: int, message: str, headers: Mapping[str, str] | None = None) -> Response:

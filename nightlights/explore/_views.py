@@ -63,7 +63,9 @@ class PanoramaView:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (NaN as None) of the figures and the luminance grid."""
-        luminance = [[_json_float(v) for v in row] for row in self.luminance.tolist()]
+        shown = self.luminance.astype(object)
+        shown[~np.isfinite(self.luminance)] = None
+        luminance = shown.tolist()
         return {
             "x": self.x,
             "y": self.y,
