@@ -557,8 +557,13 @@ function drawMap() {
   const [x0, y0] = toScreen(left, top);
   const [x1, y1] = toScreen(right, bottom);
   ctx.imageSmoothingEnabled = false;
-  if (state.emissionImage) ctx.drawImage(state.emissionImage, x0, y0, x1 - x0, y1 - y0);
   const overlay = state.overlays[ui.overlay.value];
+  if (state.emissionImage) {
+    // under an overlay the emission turns grey, so that the overlay's colours read alone
+    if (overlay) ctx.filter = "grayscale(1) brightness(0.55)";
+    ctx.drawImage(state.emissionImage, x0, y0, x1 - x0, y1 - y0);
+    ctx.filter = "none";
+  }
   if (overlay) {
     ctx.globalAlpha = Number(ui.overlayOpacity.value);
     ctx.drawImage(overlay.image, x0, y0, x1 - x0, y1 - y0);
