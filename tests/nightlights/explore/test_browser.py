@@ -56,7 +56,7 @@ WAIT = 15.0
 
 def _synthetic_session(folder: Path) -> Any:
     """A 48 x 48 scene of 100 m cells: a town of 5 lm m-2 at its peak and scattered lights,
-    with a small kernel (8 km) and a light layer of one point per lit cell."""
+    with a small kernel (8 km) and a light layer of one point per lit cell, all on disk."""
     import geopandas as gpd
     from affine import Affine
     from pyproj import CRS
@@ -78,11 +78,11 @@ def _synthetic_session(folder: Path) -> Any:
     y = transform.f + (lit_rows + 0.5) * transform.e
     lights = folder / "lights.gpkg"
     gpd.GeoDataFrame(geometry=points(np.column_stack([x, y])), crs="EPSG:32635").to_file(lights)
-    kernel = build_kernel(
-        KernelSpec(r_max=8000.0, n_distance=16, n_elevation=16, n_azimuth=64), progress=False
-    )
-    raster = Raster(flux[None], transform, CRS.from_epsg(32635))
-    return ExploreSession(raster, lights=lights, kernel=kernel, progress=False)
+    spec = KernelSpec(r_max=8000.0, n_distance=16, n_elevation=16, n_azimuth=64)
+    kernel = build_kernel(spec, folder / "kernel.nc", progress=False).path
+    emission = Raster(flux[None], transform, CRS.from_epsg(32635)).write(folder / "emission.tif")
+    # from files, so that the session file can name them
+    return ExploreSession(emission, lights=lights, kernel=kernel, progress=False)
 
 
 @pytest.fixture(scope="module")
@@ -186,6 +186,21 @@ def _observer(driver: webdriver.Chrome) -> tuple[float, float]:
 def _click_at(driver: webdriver.Chrome, element: WebElement, dx: float, dy: float) -> None:
     """Click ``element`` at (dx, dy) CSS px from its centre."""
     ActionChains(driver).move_to_element_with_offset(element, int(dx), int(dy)).click().perform()
+
+
+def _export(driver: webdriver.Chrome, what: str) -> list[str]:
+    """Click an export button; the paths the page then lists."""
+    driver.execute_script("document.getElementById('export-files').replaceChildren()")
+    driver.find_element(By.CSS_SELECTOR, f'button[data-export="{what}"]').click()
+    return sorted(
+        _wait(
+            driver,
+            lambda: [
+                item.text for item in driver.find_elements(By.CSS_SELECTOR, "#export-files li")
+            ],
+            f"the {what} export",
+        )
+    )
 
 
 def _screenshot(driver: webdriver.Chrome, name: str) -> None:
@@ -292,6 +307,10 @@ def test_walk_through_the_page(browser: webdriver.Chrome, served: tuple[str, Pat
     _wait(driver, lambda: "error" in (status.get_attribute("class") or ""), "the 422 reason")
     assert status.text and "\n" not in status.text
 
+    # The dimming on show (the least-flux one) exports as a COG.
+    assert _export(driver, "dimming") == [str((export_dir / "explore-dimming.tif").resolve())]
+    assert (export_dir / "explore-dimming.tif").is_file()
+
     # Paint a stroke, then undo it with Ctrl+Z.
     driver.find_element(By.CSS_SELECTOR, 'input[name="tool"][value="paint"]').click()
     paint = driver.find_element(By.ID, "paint-value")
@@ -312,15 +331,14 @@ def test_walk_through_the_page(browser: webdriver.Chrome, served: tuple[str, Pat
     assert undone["total_flux_lm"] == pytest.approx(info["total_flux_lm"], rel=1e-12)
     _wait(driver, lambda: driver.find_element(By.ID, "redo").is_enabled(), "the redo button")
 
-    # Export the emission: the page shows the written path and the file is there.
-    driver.find_element(By.CSS_SELECTOR, 'button[data-export="emission"]').click()
-    listed = _wait(
-        driver,
-        lambda: [item.text for item in driver.find_elements(By.CSS_SELECTOR, "#export-files li")],
-        "the exported file",
-    )
-    assert listed == [str((export_dir / "explore-emission.tif").resolve())]
-    assert Path(listed[0]).is_file()
+    # Export the emission, the panorama and the session: the page lists the written paths.
+    for what, names in (
+        ("emission", ["explore-emission.tif"]),
+        ("panorama", ["explore-panorama.nc", "explore-panorama.png"]),
+        ("session", ["explore-session.json"]),
+    ):
+        assert _export(driver, what) == [str((export_dir / name).resolve()) for name in names]
+    assert all((export_dir / name).is_file() for name in os.listdir(export_dir))
 
     # No script errors on the way.
     errors = [
