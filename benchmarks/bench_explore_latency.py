@@ -100,7 +100,7 @@ def observer_rows(
         for xy in positions[:: max(1, len(positions) // 8)]
     }
     rows = []
-    for bases in [b for b in BASES if b <= stored]:
+    for bases in sorted({b for b in BASES if b < stored} | {stored}):
         session = ExploreSession(raster, kernel=table, components=bases, progress=False)
         session.panorama(*positions[0])  # compile and read the kernel levels
         times = []
@@ -278,9 +278,17 @@ def browser_time(session: ExploreSession, clicks: int) -> dict[str, Any] | None:
         driver.quit()
         server.should_exit = True
         thread.join(timeout=10)
-    values = [float(t) / 1000.0 for t in timings if t is not None][-clicks:]
+    # one record per update: its kind, the time from the event to the canvas drawn and its
+    # parts (queue, request, server, drawing) [ms]
+    panoramas = [t for t in timings if t.get("kind") == "panorama"][-clicks:]
+    values = [float(t["ms"]) / 1000.0 for t in panoramas]
     if not values:
         return None
+    parts = {
+        f"page_{name}_median_s": statistics.median(float(t[name]) for t in panoramas) / 1000.0
+        for name in ("queue_ms", "request_ms", "server_ms", "draw_ms")
+        if all(name in t for t in panoramas)
+    }
     return {
         "page_median_s": statistics.median(values),
         "page_p95_s": float(np.percentile(values, 95)),

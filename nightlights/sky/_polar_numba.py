@@ -211,7 +211,7 @@ def polar_flux_levels(
     _scatter_parallel(
         cx,
         cy,
-        np.nan_to_num(values, nan=0.0),
+        np.where(np.isnan(values), 0.0, values) if np.isnan(values).any() else values,
         weights,
         np.ascontiguousarray(factor),
         float(abs(transform.a)),
