@@ -363,11 +363,6 @@ class Coalescer {
     this.waiting = null;
   }
 
-  /** True while a request is in flight or waiting. */
-  get active() {
-    return this.busy || this.waiting !== null;
-  }
-
   async pump() {
     if (this.busy || this.waiting === null) return;
     const job = this.waiting;
@@ -448,6 +443,14 @@ const ui = {
 function setStatus(message, kind = "info") {
   ui.status.textContent = message;
   ui.status.className = `status ${kind}`;
+}
+
+/** Status line while a panorama is on its way. */
+const PANORAMA_BUSY = "computing the panorama…";
+
+/** Clear the status line if it still shows `message`. */
+function clearStatus(/** @type {string} */ message) {
+  if (ui.status.textContent === message) setStatus("");
 }
 
 /** Show an error from a request on the status line. */
@@ -919,20 +922,14 @@ const panoramaRequests = new Coalescer(
     if (request.height !== undefined) query.set("height", String(request.height));
     return api(`api/panorama?${query}`);
   },
-  (request, panorama, stamp) => {
+  (_request, panorama, stamp) => {
     state.sky = panorama;
-    if (state.dimming && !sameObserver(state.dimming.panorama)) state.dimming = null;
     drawSky();
     recordTiming("panorama", stamp, panorama.seconds);
-    if (!panoramaRequests.active) setStatus("");
+    if (panoramaRequests.waiting === null) clearStatus(PANORAMA_BUSY);
   },
   showError,
 );
-
-/** @param {{x: number, y: number}} panorama */
-function sameObserver(panorama) {
-  return !!state.observer && panorama.x === state.observer.x && panorama.y === state.observer.y;
-}
 
 /** @param {string} kind @param {Stamp} stamp @param {number} seconds */
 function recordTiming(kind, stamp, seconds) {
@@ -976,7 +973,7 @@ function moveObserver(x, y, start, settled) {
 
 function requestPanorama(start = performance.now()) {
   if (!state.observer) return;
-  setStatus("computing the panorama…", "busy");
+  setStatus(PANORAMA_BUSY, "busy");
   panoramaRequests.submit(
     { x: state.observer.x, y: state.observer.y, height: observerHeight(), which: state.which },
     start,
@@ -1575,7 +1572,6 @@ const dimRequests = new Coalescer(
   (body, dimming, stamp) => {
     const { image, ...request } = body;
     showDimming(dimming, request, stamp, "dim");
-    if (!dimRequests.active) setStatus("");
   },
   showError,
 );
