@@ -706,11 +706,17 @@ function drawTiles(ctx) {
   }
 }
 
+/** The emission picture asked for last. */
+let emissionUrl = "";
+
 async function loadEmission() {
   if (!state.info) return;
   const url = `api/emission.png?which=${state.which}&v=${state.info.edit_version}`;
+  emissionUrl = url;
   try {
-    state.emissionImage = await loadImage(url);
+    const image = await loadImage(url);
+    if (url !== emissionUrl) return; // a later edit or toggle asked for another
+    state.emissionImage = image;
     scheduleMap();
   } catch (error) {
     showError(error);
@@ -1473,6 +1479,9 @@ async function refreshInfluence(only, show = false) {
     if (kind === "s" && !state.region) continue;
     /** @type {typeof state.observer} */
     const observer = state.observer;
+    const { region } = state;
+    const metric = ui.metric.value;
+    const version = state.info?.edit_version;
     const body = {
       ...observerBody(),
       kind,
@@ -1482,7 +1491,10 @@ async function refreshInfluence(only, show = false) {
     try {
       /** @type {Influence} */
       const influence = await api("api/influence", body);
-      if (state.observer !== observer) return; // moved meanwhile: a newer call follows
+      // out of date (a newer call follows): the observer moved, the scene was edited, the
+      // region was redrawn or the metric changed meanwhile
+      if (state.observer !== observer || state.info?.edit_version !== version) return;
+      if (kind === "s" ? state.region !== region : ui.metric.value !== metric) continue;
       state.influence[kind] = influence;
       const image = await loadImage(influence.image);
       const title =
