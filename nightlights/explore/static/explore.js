@@ -868,6 +868,10 @@ ui.map.addEventListener("pointerleave", () => {
   scheduleMap();
 });
 ui.map.addEventListener("contextmenu", (event) => event.preventDefault());
+byId("map-fit", HTMLButtonElement).addEventListener("click", () => {
+  fitView();
+  scheduleMap();
+});
 
 ui.map.addEventListener(
   "wheel",
