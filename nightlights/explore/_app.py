@@ -502,7 +502,9 @@ class _Explorer:
             "params": view.params,
         }
         if image:
-            png, legend = self.image(view.fraction, scale="linear", vmin=0.0, vmax=1.0)
+            png, legend = self.image(
+                view.fraction, scale="linear", vmin=0.0, vmax=1.0, cmap="cividis"
+            )
             result.update(image=data_url(png), legend=legend)
         return result
 
@@ -602,7 +604,8 @@ class _Explorer:
                 view = self.session.influence(x, y, kind=kind, **options, **where)
             values = np.asarray(view.values, dtype=np.float64)
             shown = values[np.isfinite(values) & (values > 0)]
-            png, legend = self.image(view.grid, scale="log")
+            # its own colours: the map shows it over the (greyed) emission's magma
+            png, legend = self.image(view.grid, scale="log", cmap="viridis")
             result = {
                 "kind": view.kind,
                 "metric": view.metric,

@@ -38,6 +38,11 @@ def _block_max(grid: np.ndarray, block: int) -> np.ndarray:
     return np.fmax.reduce(np.fmax.reduce(blocks, axis=3), axis=1)
 
 
+#: Decades of a log scale below its largest value when no vmin is given: smaller values take
+#: the lowest colour [1].
+LOG_DECADES = 4.0
+
+
 def _limit(value: float | None, name: str, *, scale: str) -> float | None:
     if value is None:
         return None
@@ -56,6 +61,7 @@ def raster_png(
     vmin: float | None = None,
     vmax: float | None = None,
     max_size: int = 1024,
+    decades: float = LOG_DECADES,
 ) -> tuple[bytes, dict[str, Any]]:
     """A colour-mapped RGBA PNG of a grid, first row at the top, and its legend.
 
@@ -74,9 +80,12 @@ def raster_png(
         Matplotlib colormap name.
     vmin, vmax
         Values at the two ends of the colour scale (values beyond are clipped to the end
-        colours); default: the smallest and largest shown value of ``grid`` [unit of grid].
+        colours); default: the smallest and largest shown value of ``grid``, on a log scale
+        at most ``decades`` apart [unit of grid].
     max_size
         Largest width or height of the image [pixel].
+    decades
+        Span of a log scale without ``vmin``, in decades below its top [1].
 
     Returns
     -------
@@ -116,8 +125,13 @@ def raster_png(
     shown = np.isfinite(values) & (values > 0 if scale == "log" else True)
     values = np.where(shown, values, np.nan)
     if shown.any():
-        low = float(values[shown].min()) if low is None else low
         high = float(values[shown].max()) if high is None else high
+        if low is None:
+            low = float(values[shown].min())
+            if scale == "log":
+                # a few cells far below the rest would push every other cell to the top
+                # colour: the scale spans at most ``decades`` below the largest value
+                low = max(low, high / 10.0**decades)
         low, high = min(low, high), max(low, high)  # one limit given beyond the data's range
     block = max(1, math.ceil(max(values.shape) / int(max_size)))
     reduced = _block_max(values, block)

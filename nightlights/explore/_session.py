@@ -18,9 +18,10 @@ The panoramas equal ``skyglow_panorama``'s for the same raster, kernel and obser
 per-cell Q and S maps and the least-flux dimming are the inverse stage's
 (:mod:`nightlights.inverse`).
 
-Length: about 700 lines, because the session's state (emission, edits and their history,
-the cached per-observer geometry) and every query on it are kept in one class so that no
-query sees a half-updated state.
+Length: about 1150 lines, most of them numpydoc, because the session's state (the emission
+in its current and original form, the kernel levels, the per-observer caches) and every query
+and file on it are kept in one class, so that no query sees a half-updated state; the views
+and the edit history are in their own modules.
 """
 
 from __future__ import annotations
