@@ -228,7 +228,9 @@ def http_time(session: ExploreSession, positions: list[tuple[float, float]]) -> 
         times = []
         for x, y in positions:
             start = time.perf_counter()
-            connection.request("GET", "/api/panorama?" + urlencode({"x": x, "y": y}))
+            # a position the session has not seen (its caches would answer at once)
+            query = urlencode({"x": x + 0.37, "y": y - 0.21})
+            connection.request("GET", "/api/panorama?" + query)
             response = connection.getresponse()
             body = response.read()
             if response.status != 200:
@@ -285,14 +287,18 @@ def browser_time(session: ExploreSession, clicks: int) -> dict[str, Any] | None:
     if not values:
         return None
     parts = {
-        f"page_{name}_median_s": statistics.median(float(t[name]) for t in panoramas) / 1000.0
+        f"page_{name.removesuffix('_ms')}_median_s": statistics.median(
+            float(t[name]) for t in panoramas
+        )
+        / 1000.0
         for name in ("queue_ms", "request_ms", "server_ms", "draw_ms")
-        if all(name in t for t in panoramas)
+        if all(t.get(name) is not None for t in panoramas)
     }
     return {
         "page_median_s": statistics.median(values),
         "page_p95_s": float(np.percentile(values, 95)),
         "page_samples": len(values),
+        **parts,
     }
 
 
@@ -320,6 +326,8 @@ def plot(document: dict[str, Any]) -> Any:
     names = [
         ("polar map, numpy", figures["polar_numpy_s"]),
         ("polar map, compiled", figures["polar_compiled_s"]),
+        (f"PCA, {document['scene']['bases_stored']} bases", figures["pca_stored_s"]),
+        ("PCA, 128 bases", figures["pca_128_s"]),
         ("stage call (before)", figures["stage_s"]),
         ("new observer", rows[-1]["median_s"]),
         ("slider move", figures["slider_median_s"]),
