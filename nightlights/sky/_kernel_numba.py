@@ -25,12 +25,13 @@ from scipy.special import erfcx
 
 from nightlights._typing import FloatArray
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
+from nightlights.sky.kernel import GARSTANG_LOBE_NORM
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
 _SQRT_PI = math.sqrt(math.pi)
-_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2}
+_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe": 3}
 
 #: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
@@ -38,6 +39,7 @@ _MAX_TABLE_STEP_TAU = 0.01
 # layout of the float parameter vector passed to the compiled code
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
 _P_RADIUS, _P_TOP, _P_CORE, _P_HALF_N, _P_UP_NORM, _P_MIN_H = 6, 7, 8, 9, 10, 11
+_P_LOBE_NORM = 12  # (module constants are frozen into numba's cache: pass them in)
 # layout of the integer flags
 _F_FLAT, _F_EXTINCTION, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2, 3
 
@@ -46,7 +48,7 @@ def model_parameters(
     atmosphere: Atmosphere, emission: str, core_radius: float, uplight_exponent: float
 ) -> tuple[FloatArray, NDArray[np.int64]]:
     """Pack the model into the float and integer vectors read by :func:`luminance_rays`."""
-    params = np.zeros(12)
+    params = np.zeros(13)
     params[_P_BETA_M] = atmosphere.molecular_extinction
     params[_P_H_M] = atmosphere.molecular_scale_height
     params[_P_BETA_A] = atmosphere.aerosol_extinction
@@ -59,6 +61,7 @@ def model_parameters(
     params[_P_HALF_N] = uplight_exponent / 2.0
     params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
     params[_P_MIN_H] = smallest_scale_height(atmosphere)
+    params[_P_LOBE_NORM] = GARSTANG_LOBE_NORM
     flags = np.zeros(4, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EXTINCTION] = int(atmosphere.extinction)
@@ -345,6 +348,7 @@ def _ray(
     # emission and phase constants
     half_n = p[_P_HALF_N]
     up_norm = p[_P_UP_NORM]
+    lobe_norm = p[_P_LOBE_NORM] / (2.0 * math.pi)
     hg_num = (1.0 - g * g) / (4.0 * math.pi)
     hg_a = 1.0 + g * g
     total = 0.0
@@ -382,6 +386,10 @@ def _ray(
                 sin2 = min(max(1.0 - cos_emit * cos_emit, 0.0), 1.0)
                 powered = sin2 * sin2 if half_n == 2.0 else sin2**half_n
                 intensity = powered / up_norm
+            elif emission == 3:
+                psi = math.acos(min(cos_emit, 1.0))
+                psi2 = psi * psi
+                intensity = lobe_norm * psi2 * psi2
             else:
                 intensity = 1.0 / (2.0 * math.pi)
             cos_sc = -(tx * vx + ty * vy + tz * vz) / safe_s

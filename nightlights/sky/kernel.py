@@ -45,7 +45,9 @@ from nightlights.sky.quadrature import gauss_legendre, tangent_panel_nodes
 __all__ = [
     "BACKENDS",
     "EMISSION_MODELS",
+    "GARSTANG_LOBE_NORM",
     "emission_intensity",
+    "garstang_weights",
     "line_of_sight_integrand",
     "optical_depth",
     "sky_luminance",
@@ -54,13 +56,18 @@ __all__ = [
 ]
 
 #: Emission angular distributions, each normalised to 1 lm emitted into the upper hemisphere.
-EMISSION_MODELS = ("lambertian", "uplight", "isotropic")
+EMISSION_MODELS = ("lambertian", "uplight", "isotropic", "garstang_lobe")
 
 #: Line-of-sight integrators of :func:`sky_luminance` (same model and nodes).
 BACKENDS = ("auto", "numba", "numpy")
 
 #: Default exponent n of the direct-uplight lobe sin^n(theta) about the local vertical [1].
 UPLIGHT_EXPONENT = 4.0
+
+#: Normalisation c of Garstang's low-angle term c psi^4 / (2 pi): 1 / int_0^{pi/2} psi^4 sin psi
+#: dpsi, in closed form 1 / (24 - 12 pi + pi^3 / 2) = 0.55432 (Garstang 1986 rounds it to
+#: 0.554) [1].
+GARSTANG_LOBE_NORM = 1.0 / (24.0 - 12.0 * math.pi + math.pi**3 / 2.0)
 
 _DEFAULT_ATMOSPHERE = Atmosphere()
 _CHUNK_ELEMENTS = 3_000_000
@@ -75,9 +82,17 @@ def emission_intensity(
 
     - ``"lambertian"``: :math:`I = \\cos\\theta / \\pi` (reflection by the ground);
     - ``"uplight"``: :math:`I = \\sin^n\\theta / (\\pi B(1/2, n/2 + 1))`, a lobe peaking at
-      the horizon (direct uplight of luminaires, mostly just above the horizontal); n = 4 by
-      default puts half the flux within 33 deg of the horizon;
-    - ``"isotropic"``: :math:`I = 1 / (2\\pi)` (validation).
+      the horizon (direct uplight of luminaires, mostly just above the horizontal). For the
+      default n = 4 the intensity halves 33 deg above the horizon (sin^4 theta = 1/2 at
+      theta = 57 deg), and half the flux leaves within 16 deg of the horizon (see Examples);
+    - ``"isotropic"``: :math:`I = 1 / (2\\pi)` (validation);
+    - ``"garstang_lobe"``: :math:`I = c\\,\\theta^4 / (2\\pi)`, theta in radians, the
+      low-angle term of Garstang's (1986) emission function, with
+      :math:`c = 1 / \\int_0^{\\pi/2} \\theta^4 \\sin\\theta\\,d\\theta = 0.5543`
+      (:data:`GARSTANG_LOBE_NORM`; Garstang's 0.554). Garstang's full function,
+      :math:`(2 G (1 - F) \\cos\\theta + 0.554 F \\theta^4) / (2\\pi)` per lumen of the
+      city's output, is the mix of ``"lambertian"`` and this lobe of
+      :func:`garstang_weights`.
 
     Nothing is emitted below the horizontal (cos theta <= 0).
 
@@ -97,7 +112,29 @@ def emission_intensity(
 
     References
     ----------
-    Normalisation: 2 pi int_0^1 (1 - mu^2)^(n/2) dmu = pi B(1/2, n/2 + 1).
+    .. [1] Normalisation of the sin^n lobe: 2 pi int_0^1 (1 - mu^2)^(n/2) dmu = pi B(1/2, n/2 + 1).
+    .. [2] Garstang, R. H. 1986, "Model for artificial night-sky illumination", PASP 98, 364-375,
+       the upward emission function (reconstructed from its published form; the normalisation is
+       checked in the Examples).
+
+    Examples
+    --------
+    Every model puts 1 lm into the upper hemisphere; Garstang's c is 0.554:
+
+    >>> from scipy.integrate import quad
+    >>> flux = lambda m: 2 * np.pi * quad(lambda mu: float(emission_intensity(mu, m)), 0, 1)[0]
+    >>> [round(flux(m), 9) for m in EMISSION_MODELS]
+    [1.0, 1.0, 1.0, 1.0]
+    >>> round(GARSTANG_LOBE_NORM, 4)
+    0.5543
+
+    Half the flux of the sin^4 lobe leaves within 16 deg of the horizon (emission angles
+    74-90 deg from the vertical):
+
+    >>> edge = np.sin(np.radians(16.3))
+    >>> near = quad(lambda mu: float(emission_intensity(mu, "uplight")), 0, edge)[0]
+    >>> round(2 * np.pi * near, 2)
+    0.5
     """
     mu = np.asarray(cos_zenith, dtype=float)
     up = mu > 0
@@ -109,7 +146,54 @@ def emission_intensity(
         return np.where(up, sin2 ** (uplight_exponent / 2.0), 0.0) / norm
     if model == "isotropic":
         return np.where(up, 1.0 / (2.0 * math.pi), 0.0)
+    if model == "garstang_lobe":
+        psi = np.arccos(np.clip(mu, 0.0, 1.0))
+        return np.where(up, GARSTANG_LOBE_NORM * psi**4, 0.0) / (2.0 * math.pi)
     raise InputError(f"emission model {model!r}; expected one of {EMISSION_MODELS}")
+
+
+def garstang_weights(upward_fraction: float, reflectance: float) -> dict[str, float]:
+    """Garstang's (1986) emission function as a mix of unit-flux shapes.
+
+    Garstang's intensity per lumen of a city's output,
+    :math:`I = (2 G (1 - F) \\cos\\psi + 0.554 F \\psi^4) / (2\\pi)`, sends
+    G (1 - F) + F lumens upwards: F directly (the low-angle lobe) and G (1 - F) by reflection
+    of the downward flux (Lambertian). Per lumen of upward flux it is
+
+    .. math::
+        I = w_L \\frac{\\cos\\psi}{\\pi} + (1 - w_L) \\frac{c \\psi^4}{2\\pi},
+        \\quad w_L = \\frac{G (1 - F)}{G (1 - F) + F}.
+
+    Parameters
+    ----------
+    upward_fraction
+        F, the fraction of the luminaires' flux emitted directly upwards, in [0, 1] [1].
+    reflectance
+        G, the ground's reflectance (albedo) for the downward flux, in [0, 1] [1].
+
+    Returns
+    -------
+    dict
+        Weights of ``"lambertian"`` and ``"garstang_lobe"``, summing to 1 [1].
+
+    References
+    ----------
+    .. [1] Garstang, R. H. 1986, PASP 98, 364-375 (the upward emission function).
+
+    Examples
+    --------
+    >>> {k: round(v, 3) for k, v in garstang_weights(0.15, 0.15).items()}
+    {'lambertian': 0.459, 'garstang_lobe': 0.541}
+    """
+    f, g = float(upward_fraction), float(reflectance)
+    if not (0.0 <= f <= 1.0 and 0.0 <= g <= 1.0) or g * (1.0 - f) + f <= 0.0:
+        raise InputError(
+            f"Garstang F={upward_fraction!r}, G={reflectance!r}; expected both in [0, 1] and "
+            "some upward flux (F > 0 or G > 0)"
+        )
+    reflected = g * (1.0 - f)
+    lambertian = reflected / (reflected + f)
+    return {"lambertian": lambertian, "garstang_lobe": 1.0 - lambertian}
 
 
 def slant_optical_depth(

@@ -1,0 +1,126 @@
+"""Emission functions of the skyglow kernel: Garstang's (1986) low-angle lobe and its mixes.
+
+Sources: Garstang, R. H. 1986, PASP 98, 364-375 (the emission function
+(2 G (1 - F) cos psi + 0.554 F psi^4) / (2 pi) per lumen of a city's output).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from nightlights.errors import InputError
+from nightlights.sky import _kernel_numba
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.kernel import (
+    GARSTANG_LOBE_NORM,
+    emission_intensity,
+    garstang_weights,
+    sky_luminance,
+)
+
+
+def test_garstang_lobe_normalisation_is_garstangs_0554() -> None:
+    """c = 1 / int_0^{pi/2} psi^4 sin psi dpsi, by quadrature and in closed form; Garstang
+    (1986) prints 0.554."""
+    integral = quad(lambda psi: psi**4 * math.sin(psi), 0.0, math.pi / 2)[0]
+    assert GARSTANG_LOBE_NORM == pytest.approx(1.0 / integral, rel=1e-12)
+    assert round(GARSTANG_LOBE_NORM, 3) == 0.554
+    flux = quad(
+        lambda psi: (
+            2 * math.pi * math.sin(psi) * float(emission_intensity(math.cos(psi), "garstang_lobe"))
+        ),
+        0.0,
+        math.pi / 2,
+    )[0]
+    assert flux == pytest.approx(1.0, rel=1e-10)
+
+
+def test_garstang_lobe_shape() -> None:
+    """Zero at the zenith, growing as psi^4 towards the horizon, nothing below it."""
+    psi = np.radians([0.0, 30.0, 60.0, 90.0])
+    intensity = emission_intensity(np.cos(psi), "garstang_lobe")
+    assert intensity[0] == 0.0
+    np.testing.assert_allclose(
+        intensity[1:], GARSTANG_LOBE_NORM * psi[1:] ** 4 / (2 * math.pi), rtol=1e-12
+    )
+    assert float(emission_intensity(-0.2, "garstang_lobe")) == 0.0
+
+
+def test_sin4_lobe_half_flux_and_half_intensity() -> None:
+    """The sin^4 lobe: half its flux within 16.3 deg of the horizon; its intensity halves
+    32.8 deg above it (sin^4 theta = 1/2)."""
+
+    def fraction(elevation_deg: float) -> float:
+        edge = math.sin(math.radians(elevation_deg))
+        return 2 * math.pi * quad(lambda mu: float(emission_intensity(mu, "uplight")), 0, edge)[0]
+
+    assert fraction(16.3) == pytest.approx(0.5, abs=2e-3)
+    half = 90.0 - math.degrees(math.asin(0.5**0.25))
+    assert half == pytest.approx(32.8, abs=0.05)
+    mu = math.cos(math.radians(90.0 - half))
+    assert float(emission_intensity(mu, "uplight")) == pytest.approx(
+        0.5 * float(emission_intensity(1e-12, "uplight")), rel=1e-12
+    )
+
+
+def test_garstang_weights() -> None:
+    """F = G = 0.15: 0.459 Lambertian + 0.541 lobe; the mix is Garstang's function per
+    upward lumen."""
+    w = garstang_weights(0.15, 0.15)
+    assert w["lambertian"] == pytest.approx(0.459, abs=5e-4)
+    assert w["garstang_lobe"] == pytest.approx(0.541, abs=5e-4)
+    f, g = 0.1, 0.2
+    w = garstang_weights(f, g)
+    mu = np.linspace(0.01, 1.0, 50)
+    mix = w["lambertian"] * emission_intensity(mu, "lambertian") + w[
+        "garstang_lobe"
+    ] * emission_intensity(mu, "garstang_lobe")
+    psi = np.arccos(mu)
+    garstang = (2 * g * (1 - f) * mu + GARSTANG_LOBE_NORM * f * psi**4) / (2 * math.pi)
+    np.testing.assert_allclose(mix, garstang / (g * (1 - f) + f), rtol=1e-12)
+    assert garstang_weights(0.0, 0.3) == {"lambertian": 1.0, "garstang_lobe": 0.0}
+    for bad in ((-0.1, 0.1), (0.1, 1.5), (0.0, 0.0), (float("nan"), 0.1)):
+        with pytest.raises(InputError, match="Garstang"):
+            garstang_weights(*bad)
+
+
+@pytest.mark.parametrize(
+    "atmosphere", [Atmosphere(), Atmosphere(flat_earth=True), Atmosphere(extinction=False)]
+)
+def test_garstang_lobe_numba_matches_numpy(atmosphere: Atmosphere) -> None:
+    """The compiled lobe against the numpy reference, per ray and on the grid form."""
+    rng = np.random.default_rng(3)
+    n = 800
+    el = rng.uniform(0.5, 90.0, n)
+    az = rng.uniform(0.0, 360.0, n)
+    r = np.exp(rng.uniform(np.log(5.0), np.log(3e5), n))
+    h_c = rng.choice([0.0, 400.0], n)
+    h_o = rng.choice([0.0, 1000.0], n)
+    kw = {"atmosphere": atmosphere, "emission": "garstang_lobe", "nodes": 12}
+    ref = sky_luminance(
+        el, az, r, source_altitude=h_c, observer_altitude=h_o, backend="numpy", **kw
+    )
+    fast = sky_luminance(
+        el, az, r, source_altitude=h_c, observer_altitude=h_o, backend="numba", **kw
+    )
+    assert np.array_equal(ref > 0, fast > 0) and (ref > 0).mean() > 0.5
+    np.testing.assert_allclose(fast, ref, rtol=1e-6)
+    e, a, d = np.array([5.0, 30.0, 80.0]), np.linspace(0, 180, 7), np.geomspace(50, 2e5, 6)
+    grid = _kernel_numba.luminance_grid(
+        e,
+        a,
+        d,
+        source_altitude=0.0,
+        observer_altitude=0.0,
+        core_radius=1.0,
+        uplight_exponent=4.0,
+        **kw,
+    )
+    rays = sky_luminance(
+        e[:, None, None], a[None, :, None], d[None, None, :], backend="numpy", **kw
+    )
+    np.testing.assert_allclose(grid, rays, rtol=5e-5, atol=1e-30)
