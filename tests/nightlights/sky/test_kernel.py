@@ -106,6 +106,7 @@ def test_zenith_independent_of_azimuth() -> None:
 
 
 def _disc_exponent(atmosphere: Atmosphere, emission: str) -> float:
+    """Exponent of the zenith glow of a uniform lit plane from beyond radius d, 10-100 km."""
     distance = np.geomspace(1e3, 1e6, 121)
     b = sky_luminance(90.0, 0.0, distance, atmosphere=atmosphere, emission=emission)
     per_log = b * 2.0 * math.pi * distance**2  # flux per unit ln(r) of a uniform disc
@@ -115,20 +116,32 @@ def _disc_exponent(atmosphere: Atmosphere, emission: str) -> float:
     return float(np.polyfit(np.log(distance[sel]), np.log(beyond[sel]), 1)[0])
 
 
-def test_uniform_disc_beyond_d_falls_as_inverse_square_root() -> None:
-    """Validation (4), Walker's law (zenith ~ D^-2.5, so the disc beyond d ~ d^-0.5).
+@pytest.mark.parametrize(
+    ("atmosphere", "emission", "measured"),
+    [
+        (Atmosphere(extinction=False), "uplight", -0.533),
+        (Atmosphere(extinction=False), "lambertian", -1.092),
+        (Atmosphere(turbidity=1.0), "uplight", -0.771),
+        (Atmosphere(turbidity=1.0), "lambertian", -1.339),
+        (Atmosphere(), "uplight", -1.175),
+        (Atmosphere(), "lambertian", -1.607),
+    ],
+)
+def test_uniform_disc_tail_exponents_recorded(
+    atmosphere: Atmosphere, emission: str, measured: float
+) -> None:
+    """The zenith glow of a uniform lit plane from sources beyond radius d, fitted over
+    d = 10-100 km (spherical Earth): a recorded regression, not a validation.
 
-    Configuration that gives it: low-angle direct-uplight emission (sin^4 lobe), spherical
-    Earth, turbidity 2, no extinction: fitted exponent -0.53 over 10-100 km (tolerance 0.1).
-    With extinction (default atmosphere) the tail falls faster: about -1.2 for uplight and -1.6
-    for Lambertian emission, because beyond ~30 km both legs run at low elevation through the
-    aerosol layer; the test records that too.
+    This is not Walker's law, which concerns one source seen 45 deg up towards it
+    (``test_validation_slopes.py``). A single-source zenith law D^-n would give a tail
+    d^(2 - n); the tail exponent integrates the zenith luminance over distance, so it tests
+    a different quantity, seen from a different direction. Measured: without extinction the
+    uplight tail is -0.53 (as if n = 2.5) and the Lambertian -1.09; pure air (turbidity 1)
+    -0.77 and -1.34; turbidity 2 -1.18 and -1.61. Garstang's published model is not
+    reconstructed here to compare against.
     """
-    no_extinction = Atmosphere(extinction=False)
-    assert _disc_exponent(no_extinction, "uplight") == pytest.approx(-0.5, abs=0.1)
-    assert (
-        _disc_exponent(Atmosphere(), "lambertian") < _disc_exponent(Atmosphere(), "uplight") < -1.0
-    )
+    assert _disc_exponent(atmosphere, emission) == pytest.approx(measured, abs=0.02)
 
 
 def test_turbidity_brightens_near_and_darkens_far() -> None:
