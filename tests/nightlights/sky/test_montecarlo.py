@@ -1,0 +1,181 @@
+"""Multiple-scattering Monte Carlo: order 1 against the kernel, one photon's bookkeeping
+against the numpy reference, sampling checks within 3 standard errors, flux conservation,
+seeding."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nightlights.errors import InputError
+from nightlights.sky import _montecarlo_numba as compiled
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.geometry import altitude
+from nightlights.sky.kernel import (
+    emission_intensity,
+    optical_depth,
+    sky_luminance,
+    slant_optical_depth,
+)
+from nightlights.sky.montecarlo import monte_carlo_luminance, point_source_luminance
+from nightlights.sky.quadrature import gauss_legendre
+
+DISTANCES = np.array([1e3, 3e3, 10e3, 30e3, 50e3])
+SPHERE = Atmosphere()
+FLAT = Atmosphere(flat_earth=True)
+
+
+@pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
+@pytest.mark.parametrize("emission", ["lambertian", "uplight"])
+@pytest.mark.parametrize("elevation", [90.0, 45.0])
+def test_order_one_is_the_kernel(atmosphere: Atmosphere, emission: str, elevation: float) -> None:
+    # order 1 takes the source as the first event of the ray-integrated estimator: the
+    # kernel's integral with its nodes, so it has no variance and must agree to round-off
+    # (the erfcx of the compiled kernel is tabulated: 1e-8)
+    mc = monte_carlo_luminance(
+        elevation, 0.0, DISTANCES, atmosphere=atmosphere, emission=emission, max_order=1
+    )
+    kernel = sky_luminance(elevation, 0.0, DISTANCES, atmosphere=atmosphere, emission=emission)
+    np.testing.assert_allclose(mc.single, kernel, rtol=1e-7)
+    assert np.all(mc.standard_error == 0.0)
+
+
+def test_order_one_off_the_source_plane_and_raised() -> None:
+    el, az = np.array([20.0, 60.0, 10.0]), np.array([90.0, 180.0, 30.0])
+    r = np.array([5e3, 20e3, 40e3])
+    kwargs = {"source_altitude": 200.0, "observer_altitude": 500.0, "emission": "isotropic"}
+    mc = monte_carlo_luminance(el, az, r, max_order=1, **kwargs)  # type: ignore[arg-type]
+    kernel = sky_luminance(el, az, r, **kwargs)  # type: ignore[arg-type]
+    np.testing.assert_allclose(mc.single, kernel, rtol=1e-7)
+
+
+def _rays(el: list[float], r: list[float], atmosphere: Atmosphere) -> np.ndarray:
+    n = len(el)
+    return compiled.observer_rays(
+        np.array(el), np.zeros(n), np.array(r), np.zeros(n), atmosphere=atmosphere
+    )
+
+
+@pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
+def test_one_photon_against_numpy_reference(atmosphere: Atmosphere) -> None:
+    # replay a recorded history: the optical depth between events is the sampled one, the
+    # weights follow the albedo, and each event's estimate is the numpy integral
+    atm = Atmosphere(
+        turbidity=4.0, aerosol_albedo=0.9, flat_earth=atmosphere.flat_earth, asymmetry=0.6
+    )
+    el, r = [90.0, 45.0, 20.0], [10e3, 3e3, 30e3]
+    rays = _rays(el, r, atm)
+    params, flags = compiled.model_parameters(atm, "uplight", 1.0, 4.0, 0.0)
+    x_gl, w_gl = gauss_legendre(12)
+    for photon in range(200):  # the first photon that scatters at least three times
+        record, tally, budget = compiled.trace_photon(7, photon, 8, rays, x_gl, w_gl, params, flags)
+        if len(record) >= 3:
+            break
+    assert len(record) >= 3
+    previous = np.array([0.0, 0.0, 0.0])
+    weight = 1.0
+    for k, row in enumerate(record):
+        position, incoming, before, tau_star = row[:3], row[3:6], row[6], row[7]
+        # the flight ended where its optical depth (Gauss-Legendre chord) reached the sample
+        tau = optical_depth(previous, position, atm, leg_nodes=64)
+        assert tau == pytest.approx(tau_star, rel=2e-4)
+        assert before == pytest.approx(weight, rel=1e-12)
+        h = float(altitude(position, earth_radius=atm.earth_radius, flat_earth=atm.flat_earth))
+        sig_m = atm.molecular_extinction * math.exp(-h / atm.molecular_scale_height)
+        sig_a = atm.aerosol_extinction * math.exp(-h / atm.aerosol_scale_height)
+        weight = before * (sig_m + 0.9 * sig_a) / (sig_m + sig_a)
+        for j in range(len(el)):
+            reference = weight * point_source_luminance(
+                position, incoming, el[j], 0.0, r[j], atmosphere=atm, nodes=48, leg_nodes=32
+            )
+            assert tally[k + 2, j] == pytest.approx(reference, rel=2e-3)
+        previous = position
+    assert budget.sum() == pytest.approx(1.0, rel=1e-12)
+
+
+def _escape_probability(atmosphere: Atmosphere, emission: str) -> float:
+    """Fraction of the flux leaving through the top unscattered: int I exp(-tau) dOmega."""
+    mu, w = gauss_legendre(400)
+    mu = 0.5 * (mu + 1.0)
+    top = atmosphere.top_altitude
+    radius = atmosphere.earth_radius
+    length = np.sqrt((radius * mu) ** 2 + top * (2 * radius + top)) - radius * mu
+    if atmosphere.flat_earth:
+        length = top / mu
+    tau = slant_optical_depth(0.0, mu, length, atmosphere)
+    return float(np.sum(0.5 * w * 2 * math.pi * emission_intensity(mu, emission) * np.exp(-tau)))
+
+
+@pytest.mark.parametrize("emission", ["lambertian", "uplight"])
+@pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
+def test_first_flights_within_three_standard_errors(atmosphere: Atmosphere, emission: str) -> None:
+    # sampling of the emission and of the free path: with max_order = 2 a photon stops at its
+    # first event, so the flux still in flight is the collided fraction
+    photons = 20_000
+    mc = monte_carlo_luminance(
+        90.0, 0.0, 1e3, atmosphere=atmosphere, emission=emission, photons=photons, max_order=2
+    )
+    expected = _escape_probability(atmosphere, emission)
+    escaped = mc.flux["top"] + mc.flux["ground"]
+    assert mc.flux["ground"] == 0.0  # the source emits upwards from sea level
+    error = math.sqrt(expected * (1 - expected) / photons)
+    assert abs(escaped - expected) < 3 * error
+
+
+@pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
+def test_flux_is_conserved(atmosphere: Atmosphere) -> None:
+    atm = Atmosphere(turbidity=6.0, aerosol_albedo=0.8, flat_earth=atmosphere.flat_earth)
+    mc = monte_carlo_luminance(45.0, 0.0, 5e3, atmosphere=atm, photons=4000, max_order=60)
+    assert sum(mc.flux.values()) == pytest.approx(1.0, abs=1e-12)
+    assert mc.flux["in_flight"] < 1e-3
+    assert mc.flux["absorbed"] > 0 and mc.flux["ground"] > 0 and mc.flux["top"] > 0
+
+
+def test_phase_sampling_within_three_standard_errors() -> None:
+    # Rayleigh: <mu^2> = 2/5; Henyey-Greenstein: <mu> = g
+    u = (np.arange(20_000) + 0.5) / 20_000
+    rng = np.random.default_rng(3)
+    u = rng.permutation(u)
+    rayleigh = np.array([compiled._sample_rayleigh(x) for x in u])
+    assert np.all(np.abs(rayleigh) <= 1.0 + 1e-12)
+    assert np.mean(rayleigh**2) == pytest.approx(0.4, abs=3 * np.std(rayleigh**2) / 141)
+    for g in (0.7, -0.3):
+        hg = np.array([compiled._sample_hg(x, g) for x in rng.random(20_000)])
+        assert abs(np.mean(hg) - g) < 3 * np.std(hg) / math.sqrt(hg.size)
+
+
+def test_seeded_and_reproducible() -> None:
+    kwargs = {"photons": 500, "max_order": 10}
+    a = monte_carlo_luminance([90.0, 45.0], 0.0, 10e3, seed=11, **kwargs)  # type: ignore[arg-type]
+    b = monte_carlo_luminance([90.0, 45.0], 0.0, 10e3, seed=11, **kwargs)  # type: ignore[arg-type]
+    c = monte_carlo_luminance([90.0, 45.0], 0.0, 10e3, seed=12, **kwargs)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(a.luminance, b.luminance)
+    np.testing.assert_array_equal(a.standard_error, b.standard_error)
+    assert not np.array_equal(a.luminance, c.luminance)
+    # the photon streams do not depend on how photons are shared among blocks (threads)
+    rays = _rays([90.0], [10e3], SPHERE)
+    params, flags = compiled.model_parameters(SPHERE, "lambertian", 1.0, 4.0, 0.0)
+    x_gl, w_gl = gauss_legendre(12)
+    one = compiled.transport(5, 300, 10, rays, x_gl, w_gl, params, flags, blocks=1)
+    many = compiled.transport(5, 300, 10, rays, x_gl, w_gl, params, flags, blocks=7)
+    np.testing.assert_allclose(one[0], many[0], rtol=1e-12)
+
+
+def test_multiple_scattering_adds_light_with_errors() -> None:
+    mc = monte_carlo_luminance([90.0, 45.0], 0.0, 10e3, photons=2000, max_order=20, seed=2)
+    assert np.all(mc.ratio > 1.0)
+    assert np.all(mc.ratio_standard_error > 0) and np.all(mc.ratio_standard_error < 0.2)
+    assert np.all(mc.luminance >= 0)
+
+
+def test_invalid_input() -> None:
+    with pytest.raises(InputError, match="extinction"):
+        monte_carlo_luminance(90.0, 0.0, 1e3, atmosphere=Atmosphere(extinction=False))
+    with pytest.raises(InputError, match="elevation"):
+        monte_carlo_luminance(0.0, 0.0, 1e3)
+    with pytest.raises(InputError, match="seed"):
+        monte_carlo_luminance(90.0, 0.0, 1e3, seed=-1)
+    with pytest.raises(InputError, match="emission"):
+        monte_carlo_luminance(90.0, 0.0, 1e3, emission="laser")
