@@ -31,14 +31,16 @@ from scipy.special import beta as beta_function
 
 from nightlights._typing import FloatArray
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
+from nightlights.sky.kernel import GARSTANG_LOBE_NORM
 
 __all__ = ["model_parameters", "observer_rays", "trace_photon", "transport"]
 
-_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2}
+_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe": 3}
 
 # layout of the float parameter vector
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
 _P_RADIUS, _P_TOP, _P_CORE, _P_HALF_N, _P_UP_NORM, _P_MIN_H, _P_H_C = 6, 7, 8, 9, 10, 11, 12
+_P_LOBE_NORM = 13
 # layout of the integer flags
 _F_FLAT, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2
 # layout of a ray row: observer position, view direction, sin(elevation), observer altitude,
@@ -63,7 +65,7 @@ def model_parameters(
     source_altitude: float,
 ) -> tuple[FloatArray, NDArray[np.int64]]:
     """Pack the model into the float and integer vectors read by the compiled code."""
-    params = np.zeros(13)
+    params = np.zeros(14)
     params[_P_BETA_M] = atmosphere.molecular_extinction
     params[_P_H_M] = atmosphere.molecular_scale_height
     params[_P_BETA_A] = atmosphere.aerosol_extinction
@@ -77,6 +79,7 @@ def model_parameters(
     params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
     params[_P_MIN_H] = smallest_scale_height(atmosphere)
     params[_P_H_C] = source_altitude
+    params[_P_LOBE_NORM] = GARSTANG_LOBE_NORM
     flags = np.zeros(3, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EMISSION] = _EMISSION_CODES[emission]
@@ -299,6 +302,9 @@ def _emission(mu: float, code: int, p: FloatArray) -> float:  # pragma: no cover
         return mu / math.pi
     if code == 1:
         return max(1.0 - mu * mu, 0.0) ** p[_P_HALF_N] / p[_P_UP_NORM]
+    if code == 3:  # Garstang's psi^4 lobe, psi the emission zenith angle
+        psi = math.acos(min(mu, 1.0))
+        return p[_P_LOBE_NORM] * psi**4 / (2.0 * math.pi)
     return 1.0 / (2.0 * math.pi)
 
 
@@ -315,9 +321,13 @@ def _sample_emission(
         return math.sqrt(_next(state))  # Lambertian: mu^2 uniform
     if code == 2:
         return _next(state)
-    while True:  # sin^n lobe: uniform mu accepted with probability (1 - mu^2)^(n/2)
+    while True:  # uniform mu accepted with the intensity relative to its peak at the horizon
         mu = _next(state)
-        if _next(state) <= max(1.0 - mu * mu, 0.0) ** p[_P_HALF_N]:
+        if code == 3:
+            accept = (math.acos(min(mu, 1.0)) / (0.5 * math.pi)) ** 4
+        else:
+            accept = max(1.0 - mu * mu, 0.0) ** p[_P_HALF_N]
+        if _next(state) <= accept:
             return mu
 
 

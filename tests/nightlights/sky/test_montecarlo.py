@@ -28,7 +28,7 @@ FLAT = Atmosphere(flat_earth=True)
 
 
 @pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
-@pytest.mark.parametrize("emission", ["lambertian", "uplight"])
+@pytest.mark.parametrize("emission", ["lambertian", "uplight", "garstang_lobe"])
 @pytest.mark.parametrize("elevation", [90.0, 45.0])
 def test_order_one_is_the_kernel(atmosphere: Atmosphere, emission: str, elevation: float) -> None:
     # order 1 takes the source as the first event of the ray-integrated estimator: the
@@ -108,7 +108,7 @@ def _escape_probability(atmosphere: Atmosphere, emission: str) -> float:
     return float(np.sum(0.5 * w * 2 * math.pi * emission_intensity(mu, emission) * np.exp(-tau)))
 
 
-@pytest.mark.parametrize("emission", ["lambertian", "uplight"])
+@pytest.mark.parametrize("emission", ["lambertian", "uplight", "garstang_lobe"])
 @pytest.mark.parametrize("atmosphere", [SPHERE, FLAT], ids=["sphere", "flat"])
 def test_first_flights_within_three_standard_errors(atmosphere: Atmosphere, emission: str) -> None:
     # sampling of the emission and of the free path: with max_order = 2 a photon stops at its
@@ -179,3 +179,16 @@ def test_invalid_input() -> None:
         monte_carlo_luminance(90.0, 0.0, 1e3, seed=-1)
     with pytest.raises(InputError, match="emission"):
         monte_carlo_luminance(90.0, 0.0, 1e3, emission="laser")
+
+
+def test_turned_direction_keeps_the_scattering_angle() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        if rng.random() < 0.1:
+            d = np.array([0.0, 0.0, rng.choice([-1.0, 1.0])])
+        mu, phi = rng.uniform(-1, 1), rng.uniform(0, 2 * math.pi)
+        new = np.array(compiled._turn(*d, mu, phi))
+        assert np.linalg.norm(new) == pytest.approx(1.0, abs=1e-12)
+        assert float(new @ d) == pytest.approx(mu, abs=1e-9)
