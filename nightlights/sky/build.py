@@ -12,9 +12,13 @@ x ``supersample`` directions and at least 4 distances. Relative azimuths are sym
 Dataset layout (read by :mod:`nightlights.sky.panorama`): coordinates ``observer_altitude``,
 ``source_altitude``, ``distance`` (bin centres; edges in ``distance_edges``), ``elevation``
 (pixel centres 90 - (i + 0.5) 90 / n_elevation), ``azimuth`` (relative to the source,
-k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``),
-``basis``, ``coefficient`` (+ ``coefficient_uplight``), ``basis_fft_real``,
-``basis_fft_imag``, ``explained_energy``; attributes from :meth:`KernelSpec.to_attrs`.
+k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``,
+``kernel_garstang_lobe``), ``basis``, ``coefficient`` (+ ``coefficient_uplight``,
+``coefficient_garstang_lobe``), ``basis_fft_real``, ``basis_fft_imag``, ``explained_energy``;
+attributes from :meth:`KernelSpec.to_attrs`. Every emission shape's images go into one PCA per
+observer altitude, so all shapes share the bases and differ only in their coefficients; a band
+whose emission function mixes shapes reads the same mix of coefficient tables (skyglow is
+linear in the emission function).
 
 References
 ----------
@@ -42,7 +46,7 @@ from nightlights.sky.pca import compress_kernel
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
-__all__ = ["SUPERSAMPLE_DISTANCES", "compute_kernel"]
+__all__ = ["EMISSION_TABLES", "SUPERSAMPLE_DISTANCES", "compute_kernel"]
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +54,13 @@ log = logging.getLogger(__name__)
 #: source direction, at least: there the image changes fastest with distance (the source moves
 #: across the pixel within one bin).
 SUPERSAMPLE_DISTANCES = 4
+
+#: The (image, coefficient) variables of each emission shape a kernel can tabulate.
+EMISSION_TABLES = {
+    "lambertian": ("kernel", "coefficient"),
+    "uplight": ("kernel_uplight", "coefficient_uplight"),
+    "garstang_lobe": ("kernel_garstang_lobe", "coefficient_garstang_lobe"),
+}
 
 
 def _sub_distances(edges: FloatArray, n: int) -> tuple[FloatArray, FloatArray]:
@@ -321,13 +332,7 @@ def compute_kernel(
             bar.advance(task)
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
     _check_tables(tables, spec)
-    ds = compress_kernel(
-        tables["lambertian"],
-        tables.get("uplight"),
-        pca_energy=spec.pca_energy,
-        n_components=spec.n_components,
-        store_tables=spec.store_tables,
-    )
+    ds = _compress(tables, spec)
     ds = ds.assign_coords(
         observer_altitude=("observer_altitude", h_o, {"units": "m"}),
         source_altitude=("source_altitude", h_c, {"units": "m"}),
@@ -344,12 +349,54 @@ def compute_kernel(
     ds.attrs["pca_centered"] = 0
     ds.attrs["pca_row_normalised"] = 1
     ds.attrs["units"] = "cd m-2 lm-1"
-    ds.attrs["emission"] = "lambertian (kernel); sin^n lobe (kernel_uplight)"
+    ds.attrs["emission"] = "lambertian (kernel); sin^n lobe (kernel_uplight)" + (
+        "; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else ""
+    )
     ds.attrs["description"] = (
         "Single-scattering sky luminance per lumen of upward flux of a ground source "
         "(nightlights.sky, Dobashi et al. 2023 Sec. 3)"
     )
     ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
+    return ds
+
+
+def _compress(tables: dict[str, np.ndarray], spec: KernelSpec) -> xr.Dataset:
+    """PCA of all emission shapes' tables together (shared bases), one variable pair each.
+
+    The Lambertian and uplight tables go through :func:`compress_kernel` as they always did;
+    further shapes are stacked after them along the source-altitude axis (the PCA rows are
+    then the Lambertian, uplight and further images in that order, as with two tables) and
+    their coefficients split off again.
+    """
+    emissions = list(tables)
+    extra = [e for e in emissions if e not in ("lambertian", "uplight")]
+    if not extra:
+        return compress_kernel(
+            tables["lambertian"],
+            tables.get("uplight"),
+            pca_energy=spec.pca_energy,
+            n_components=spec.n_components,
+            store_tables=spec.store_tables,
+        )
+    n_c = tables["lambertian"].shape[1]
+    stacked = np.concatenate([tables[e] for e in emissions], axis=1)
+    ds = compress_kernel(
+        stacked,
+        pca_energy=spec.pca_energy,
+        n_components=spec.n_components,
+        store_tables=spec.store_tables,
+    )
+    unit = {"units": "cd m-2 lm-1"}
+    coefficient = ds["coefficient"]
+    images = ds["kernel"] if spec.store_tables else None
+    ds = ds.drop_vars([name for name in ("kernel", "coefficient") if name in ds])
+    for index, emission in enumerate(emissions):
+        image_name, coefficient_name = EMISSION_TABLES[emission]
+        part = {"source_altitude": slice(index * n_c, (index + 1) * n_c)}
+        attrs = unit | {"emission": emission}
+        ds[coefficient_name] = (coefficient.dims, coefficient[part].values, attrs)
+        if images is not None:
+            ds[image_name] = (images.dims, images[part].values, attrs)
     return ds
 
 

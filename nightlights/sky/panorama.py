@@ -9,10 +9,16 @@ convolution in azimuth of the polar flux map with the kernel images, done with F
   ``L = irfft( sum_k rfft(H_k) rfft(B_k) )`` (Eqs. 8-9): one inverse FFT per elevation row;
 - ``naive``: the reference, direct integration of the kernel for every lit cell at its own
   position (Dobashi's baseline), with no binning and no PCA.
+
+A kernel slice's rows are the emission shapes the kernel tabulates (``lambertian``, then
+``uplight``, ``garstang_lobe`` when present); :func:`band_slice` turns them into one row per
+emission band, each the mix of shapes of the band's :class:`~nightlights.sky.spec.
+EmissionFunction`. Without it, band 0 reads the Lambertian row and band 1 the uplight row.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,8 +32,10 @@ from numpy.typing import NDArray
 from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.build import EMISSION_TABLES
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.polar import PolarMap
+from nightlights.sky.spec import EmissionFunction
 
 MODES = ("pca", "exact", "naive")
 
@@ -39,9 +47,9 @@ class KernelSlice:
     Attributes
     ----------
     kernel
-        ``(bands, n_r, n_el, n_az)`` images [cd m-2 lm-1] (band 0 Lambertian, 1 uplight).
+        ``(rows, n_r, n_el, n_az)`` images [cd m-2 lm-1], one row per entry of ``emissions``.
     coefficient
-        ``(bands, n_r, n_components)`` PCA coefficients [cd m-2 lm-1].
+        ``(rows, n_r, n_components)`` PCA coefficients [cd m-2 lm-1].
     basis_fft
         ``(n_components, n_el, n_freq)`` complex rfft of the bases over azimuth [1].
     distance_edges
@@ -53,6 +61,11 @@ class KernelSlice:
     observer_weights
         Weights of the observer levels whose components are interleaved (one level: ``(1,)``;
         between two: ``(1 - w, w)``) [1].
+    emissions
+        What each row is: the kernel's shapes (``lambertian``, ``uplight``, ...), or, after
+        :func:`band_slice`, the emission bands' function tags.
+    per_band
+        Whether the rows are emission bands (:func:`band_slice`) rather than kernel shapes.
     """
 
     kernel: FloatArray
@@ -62,6 +75,8 @@ class KernelSlice:
     elevation: FloatArray
     observer_altitude: float = float("nan")
     observer_weights: tuple[float, ...] = (1.0,)
+    emissions: tuple[str, ...] = ("lambertian", "uplight")
+    per_band: bool = False
 
     @cached_property
     def basis_fft_by_frequency(self) -> NDArray[np.complex128]:
@@ -147,9 +162,10 @@ def _observer_pieces(h_o: FloatArray, value: float) -> list[tuple[int, float]]:
 class _LevelArrays:
     """One observer level's tables at one source altitude, as numpy arrays."""
 
-    kernel: FloatArray  # (bands, n_r, n_el, n_az), or n_az = 0 without raw images
-    coefficient: FloatArray  # (bands, n_r, n_components)
+    kernel: FloatArray  # (rows, n_r, n_el, n_az), or n_az = 0 without raw images
+    coefficient: FloatArray  # (rows, n_r, n_components)
     spectrum: NDArray[np.complex128]  # (n_components, n_el, n_freq)
+    emissions: tuple[str, ...]  # the shape of each row
 
 
 def _level_arrays(
@@ -160,10 +176,9 @@ def _level_arrays(
         level = level.isel(source_altitude=0)
     else:
         level = level.interp(source_altitude=source_altitude)
-    names = ["kernel"] + (["kernel_uplight"] if "kernel_uplight" in level else [])
-    coefficient_names = ["coefficient"] + (
-        ["coefficient_uplight"] if "coefficient_uplight" in level else []
-    )
+    emissions = tuple(e for e, (_, coef) in EMISSION_TABLES.items() if coef in level)
+    names = [EMISSION_TABLES[e][0] for e in emissions]
+    coefficient_names = [EMISSION_TABLES[e][1] for e in emissions]
     if "kernel" in level and tables:
         images = np.stack([level[n].values.astype(float) for n in names])
     else:  # a PCA-only kernel (built with store_tables=False), or the images not wanted
@@ -173,6 +188,7 @@ def _level_arrays(
         kernel=images,
         coefficient=np.stack([level[n].values.astype(float) for n in coefficient_names]),
         spectrum=level["basis_fft_real"].values + 1j * level["basis_fft_imag"].values,
+        emissions=emissions,
     )
 
 
@@ -197,6 +213,61 @@ def _compose(
         elevation=np.asarray(kernel["elevation"].values, dtype=float),
         observer_altitude=observer_altitude,
         observer_weights=tuple(float(weight) for weight, _ in pieces),
+        emissions=pieces[0][1].emissions,
+    )
+
+
+def band_slice(tables: KernelSlice, functions: Sequence[EmissionFunction]) -> KernelSlice:
+    """The slice with one row per emission band: each band's mix of the kernel's shapes.
+
+    Skyglow is linear in the emission function, so a band whose function is
+    sum_e w_e (shape e) reads sum_e w_e (coefficients of shape e), and the same mix of the
+    raw images.
+
+    Parameters
+    ----------
+    tables
+        A slice whose rows are the kernel's shapes (:func:`kernel_slice`,
+        :class:`KernelLevels`).
+    functions
+        One emission function per band.
+
+    Returns
+    -------
+    KernelSlice
+        Rows = bands; ``emissions`` holds the bands' function tags.
+
+    Raises
+    ------
+    InputError
+        A band reads a shape the kernel did not tabulate.
+    """
+    if tables.per_band:
+        raise InputError("the kernel slice already has one row per emission band")
+    rows = {name: index for index, name in enumerate(tables.emissions)}
+    mix = np.zeros((len(functions), len(tables.emissions)))
+    for band, function in enumerate(functions):
+        for shape in function.shapes:
+            if shape not in rows:
+                raise InputError(
+                    f"emission band {band + 1} ({function.tag}) needs the kernel's {shape} "
+                    f"table, which it lacks (it has {', '.join(tables.emissions)}); build the "
+                    f"kernel with {shape}"
+                )
+        for shape, weight in function.weights:
+            if weight > 0:
+                mix[band, rows[shape]] = weight
+    images = tables.kernel
+    if tables.has_tables:
+        images = np.einsum("be,e...->b...", mix, images)
+    else:
+        images = np.zeros((len(functions), *images.shape[1:]))
+    return dataclasses.replace(
+        tables,
+        kernel=images,
+        coefficient=np.einsum("be,e...->b...", mix, tables.coefficient),
+        emissions=tuple(function.tag for function in functions),
+        per_band=True,
     )
 
 
@@ -304,7 +375,12 @@ def _pairs(
 
 def _check_bands(polar: PolarMap, tables: KernelSlice) -> None:
     bands = polar.flux.shape[0]
-    if bands > tables.coefficient.shape[0]:
+    if tables.per_band and bands != len(tables.emissions):
+        raise InputError(
+            f"the emission has {bands} bands but the kernel slice was made for "
+            f"{len(tables.emissions)} ({', '.join(tables.emissions)})"
+        )
+    if not tables.per_band and tables.emissions[:bands] != ("lambertian", "uplight")[:bands]:
         raise InputError(
             f"the emission has {bands} bands (Lambertian + uplight) but the kernel has no "
             "uplight table; build it with uplight"
@@ -400,6 +476,7 @@ def panorama_naive(
     atmosphere: Atmosphere | None = None,
     nodes: int = 24,
     uplight_exponent: float = UPLIGHT_EXPONENT,
+    functions: Sequence[EmissionFunction] | None = None,
 ) -> FloatArray:
     """Reference panorama: the kernel integrated directly for each lit cell at its centre.
 
@@ -424,7 +501,9 @@ def panorama_naive(
     nodes
         Gauss-Legendre nodes per ray half [1].
     uplight_exponent
-        Exponent n of the uplight lobe sin^n (band 1) [1].
+        Exponent n of the uplight lobe sin^n [1].
+    functions
+        Emission function of each band; default band 0 Lambertian, band 1 uplight.
 
     Returns
     -------
@@ -441,7 +520,11 @@ def panorama_naive(
     heights = np.broadcast_to(np.asarray(source_altitude, dtype=float), data.shape[1:])
     azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
     result = np.zeros((elevation.size, n_az))
-    for band, kind in zip(range(data.shape[0]), ("lambertian", "uplight"), strict=False):
+    if functions is None:
+        functions = [EmissionFunction.parse(kind) for kind in ("lambertian", "uplight")]
+    if len(functions) < data.shape[0]:
+        raise InputError(f"{data.shape[0]} emission bands but {len(functions)} functions")
+    for band, function in zip(range(data.shape[0]), functions, strict=False):
         rows, cols = np.nonzero(data[band])
         cx = transform.c + transform.a * (cols + 0.5) + transform.b * (rows + 0.5)
         cy = transform.f + transform.d * (cols + 0.5) + transform.e * (rows + 0.5)
@@ -451,15 +534,18 @@ def panorama_naive(
         flux = data[band, rows, cols] * cell * cell
         for i in range(r.size):
             relative = (azimuth[None, :] - source_azimuth[i]) % 360.0
-            result += flux[i] * sky_luminance(
-                elevation[:, None],
-                relative,
-                r[i],
-                source_altitude=heights[rows[i], cols[i]],
-                observer_altitude=observer_altitude,
-                atmosphere=atmosphere,
-                emission=kind,
-                nodes=nodes,
-                uplight_exponent=uplight_exponent,
-            )
+            for shape, weight in function.weights:
+                if weight <= 0:
+                    continue
+                result += (weight * flux[i]) * sky_luminance(
+                    elevation[:, None],
+                    relative,
+                    r[i],
+                    source_altitude=heights[rows[i], cols[i]],
+                    observer_altitude=observer_altitude,
+                    atmosphere=atmosphere,
+                    emission=shape,
+                    nodes=nodes,
+                    uplight_exponent=uplight_exponent,
+                )
     return result

@@ -7,6 +7,10 @@ holds every parameter that changes the numbers: the axes, the atmosphere, the em
 components, the quadrature and the compression. The content hash of the specification keys the
 kernel cache; :meth:`KernelSpec.to_attrs` and :meth:`KernelSpec.from_attrs` carry it through the
 NetCDF attributes.
+
+Each band of an emission raster carries its angular emission function
+(:class:`EmissionFunction`, the band tag ``emission_function``); it names the mix of the
+kernel's tabulated shapes that band reads.
 """
 
 from __future__ import annotations
@@ -27,13 +31,16 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.kernel import UPLIGHT_EXPONENT
+from nightlights.sky.kernel import UPLIGHT_EXPONENT, garstang_weights
 
 __all__ = [
+    "DEFAULT_EMISSION_FUNCTION",
+    "EMISSION_FUNCTION_TAG",
     "KERNEL_FORMAT_VERSION",
     "MAX_KERNEL_RANGE",
     "MAX_SOURCE_LEVELS",
     "SOURCE_LEVEL_SPACING",
+    "EmissionFunction",
     "KernelSpec",
     "distance_grid",
     "panorama_elevations",
@@ -44,6 +51,89 @@ __all__ = [
 
 #: Bumped whenever the physics or the file layout changes, so that caches are rebuilt.
 KERNEL_FORMAT_VERSION = 2
+
+
+#: Band tag naming an emission band's angular function (:meth:`EmissionFunction.parse`).
+EMISSION_FUNCTION_TAG = "emission_function"
+
+#: Emission function of a single-band raster without the tag (a satellite night-lights
+#: raster, any user raster): Garstang's (1986) function with F = G = 0.15 [1].
+DEFAULT_EMISSION_FUNCTION = "garstang:0.15,0.15"
+
+
+@dataclass(frozen=True)
+class EmissionFunction:
+    """The angular emission function of one emission band, as a mix of kernel shapes.
+
+    Skyglow is linear in the emission function, so a band whose function is a weighted sum
+    of the unit-flux shapes a kernel tabulates (:func:`~nightlights.sky.kernel.
+    emission_intensity`) reads the same weighted sum of their coefficient tables.
+
+    Attributes
+    ----------
+    tag
+        Canonical text of the band tag ``emission_function``: ``lambertian``, ``uplight``
+        or ``garstang:F,G``.
+    weights
+        ``(shape, weight)`` pairs: kernel shapes (``lambertian``, ``uplight``,
+        ``garstang_lobe``) and their weights per lumen of the band's upward flux [1].
+
+    Examples
+    --------
+    >>> f = EmissionFunction.parse("garstang:0.15,0.15")
+    >>> f.tag, [(shape, round(w, 3)) for shape, w in f.weights]
+    ('garstang:0.15,0.15', [('lambertian', 0.459), ('garstang_lobe', 0.541)])
+    >>> EmissionFunction.parse("lambertian").shapes
+    ('lambertian',)
+    """
+
+    tag: str
+    weights: tuple[tuple[str, float], ...]
+
+    @property
+    def shapes(self) -> tuple[str, ...]:
+        """The kernel shapes the function reads (weight > 0)."""
+        return tuple(shape for shape, weight in self.weights if weight > 0)
+
+    @classmethod
+    def parse(cls, text: str, *, source: str = "emission_function") -> EmissionFunction:
+        """The function a band tag names.
+
+        Parameters
+        ----------
+        text
+            ``lambertian``, ``uplight`` or ``garstang:F,G`` (F the luminaires' direct
+            upward fraction, G the ground reflectance, both in [0, 1]).
+        source
+            Where the text came from, for messages.
+
+        Returns
+        -------
+        EmissionFunction
+            The function.
+
+        Raises
+        ------
+        InputError
+            Text of no known form.
+        """
+        name, _, argument = str(text).strip().partition(":")
+        name = name.strip().lower()
+        if name in ("lambertian", "uplight") and not argument:
+            return cls(name, ((name, 1.0),))
+        if name == "garstang":
+            try:
+                f, g = (float(x) for x in argument.split(","))
+            except ValueError:
+                raise InputError(
+                    f"{source} {text!r}; expected garstang:F,G with two numbers"
+                ) from None
+            try:
+                weights = garstang_weights(f, g)
+            except InputError as exc:
+                raise InputError(f"{source} {text!r}: {exc}") from None
+            return cls(f"garstang:{f:g},{g:g}", tuple(weights.items()))
+        raise InputError(f"{source} {text!r}; expected lambertian, uplight or garstang:F,G")
 
 
 def panorama_elevations(n_elevation: int) -> FloatArray:
@@ -161,6 +251,10 @@ class KernelSpec:
         Atmosphere model; default :class:`~nightlights.sky.atmosphere.Atmosphere`.
     uplight
         Also tabulate ``kernel_uplight`` for the low-angle direct-uplight lobe.
+    garstang_lobe
+        Also tabulate ``kernel_garstang_lobe`` for the low-angle term of Garstang's (1986)
+        emission function; with ``kernel`` it serves every Garstang mix
+        (:func:`~nightlights.sky.kernel.garstang_weights`).
     uplight_exponent
         Exponent n of the uplight lobe sin^n [1].
     nodes
@@ -209,6 +303,7 @@ class KernelSpec:
     atmosphere: Atmosphere = field(default_factory=Atmosphere)
     uplight: bool = False
     uplight_exponent: float = UPLIGHT_EXPONENT
+    garstang_lobe: bool = False
     nodes: int = 12
     leg_nodes: int | None = None
     core_radius: float = 1.0
@@ -267,7 +362,7 @@ class KernelSpec:
         for name in ("n_elevation", "n_azimuth", "nodes", "sub_distances", "sub_pixels"):
             setattr_(self, name, int(getattr(self, name)))
         setattr_(self, "supersample", int(self.supersample))
-        for name in ("uplight", "store_tables"):
+        for name in ("uplight", "garstang_lobe", "store_tables"):
             setattr_(self, name, bool(getattr(self, name)))
         for name in ("uplight_exponent", "core_radius", "pca_energy"):
             setattr_(self, name, float(getattr(self, name)))
@@ -284,7 +379,7 @@ class KernelSpec:
         if not all(isinstance(n, (int, np.integer)) and n > 0 for n in sizes):
             return  # the checks below name the bad value
         levels = len(np.ravel(self.source_altitudes)) * len(np.ravel(self.observer_altitudes))
-        emissions = 2 if self.uplight else 1
+        emissions = 1 + int(bool(self.uplight)) + int(bool(self.garstang_lobe))
         check_memory(
             2 * 4.0 * emissions * levels * float(np.prod(sizes, dtype=float)),
             f"the kernel of {n_r} distances x {self.n_elevation} x {self.n_azimuth} pixels",
@@ -316,8 +411,10 @@ class KernelSpec:
 
     @property
     def emissions(self) -> tuple[str, ...]:
-        """The emission components tabulated: ``lambertian`` (and ``uplight``)."""
-        return ("lambertian", "uplight") if self.uplight else ("lambertian",)
+        """The emission shapes tabulated, in table order: ``lambertian`` (then ``uplight``,
+        ``garstang_lobe``)."""
+        optional = (("uplight", self.uplight), ("garstang_lobe", self.garstang_lobe))
+        return ("lambertian", *(name for name, wanted in optional if wanted))
 
     # -- identity ------------------------------------------------------------------------
 
@@ -328,9 +425,10 @@ class KernelSpec:
         -------
         dict
             Every parameter and grid (the key names are those of kernel format 2, so that
-            cached kernels keep their hash).
+            cached kernels keep their hash; the optional tables add a key only when present).
         """
-        return {
+        optional: dict[str, Any] = {"garstang_lobe": True} if self.garstang_lobe else {}
+        return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
             "distance_edges": list(self.distance_edges or ()),
             "source_altitudes": list(self.source_altitudes),
@@ -385,6 +483,7 @@ class KernelSpec:
         attrs["kernel_format_version"] = KERNEL_FORMAT_VERSION
         attrs["content_hash"] = self.content_hash
         attrs["uplight"] = int(self.uplight)
+        attrs["garstang_lobe"] = int(self.garstang_lobe)
         attrs["store_tables"] = int(self.store_tables)
         attrs["n_components_requested"] = -1 if self.n_components is None else self.n_components
         return attrs
@@ -439,6 +538,7 @@ class KernelSpec:
             atmosphere=Atmosphere.from_parameters(attrs),
             uplight=bool(number("uplight")),
             uplight_exponent=float(number("uplight_exponent")),
+            garstang_lobe=bool(int(attrs.get("garstang_lobe", 0))),
             nodes=int(number("nodes")),
             leg_nodes=optional("leg_nodes"),
             core_radius=float(number("core_radius")),
@@ -536,6 +636,7 @@ def scene_kernel_spec(
     n_distance: int,
     uplight: bool,
     source_altitudes: ArrayLike = (0.0,),
+    garstang_lobe: bool = False,
 ) -> KernelSpec:
     """Kernel sized to the scene: distances from 10 m to the farthest corner of the emission
     (at most :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
@@ -556,6 +657,8 @@ def scene_kernel_spec(
         Tabulate the uplight lobe too.
     source_altitudes
         Source-altitude levels [m].
+    garstang_lobe
+        Tabulate Garstang's low-angle lobe too.
 
     Returns
     -------
@@ -578,4 +681,5 @@ def scene_kernel_spec(
         source_altitudes=tuple(float(h) for h in np.ravel(source_altitudes)),
         atmosphere=Atmosphere(turbidity=turbidity),
         uplight=uplight,
+        garstang_lobe=garstang_lobe,
     )

@@ -10,17 +10,29 @@ import math
 
 import numpy as np
 import pytest
+import xarray as xr
+from affine import Affine
 from scipy.integrate import quad
 
 from nightlights.errors import InputError
 from nightlights.sky import _kernel_numba
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.build import compute_kernel
 from nightlights.sky.kernel import (
     GARSTANG_LOBE_NORM,
     emission_intensity,
     garstang_weights,
     sky_luminance,
 )
+from nightlights.sky.panorama import (
+    band_slice,
+    kernel_slice,
+    panorama_exact,
+    panorama_naive,
+    panorama_pca,
+)
+from nightlights.sky.polar import polar_map
+from nightlights.sky.spec import EmissionFunction, KernelSpec
 
 
 def test_garstang_lobe_normalisation_is_garstangs_0554() -> None:
@@ -209,3 +221,121 @@ def test_far_field_slope_of_the_garstang_lobe() -> None:
         assert measured == pytest.approx(-2.0 + 8.0 / math.pi * mean_height / distance, abs=0.003)
     assert slopes[-1] == pytest.approx(-2.0, abs=0.02)
     assert -1.9 > slopes[0] > slopes[1] > slopes[2] > -2.0
+
+
+# -- kernel tables of the lobe and band mixes -----------------------------------------------
+
+SMALL = {"r_min": 5.0, "r_max": 20_000.0, "n_distance": 16, "n_elevation": 8, "n_azimuth": 32}
+
+
+@pytest.fixture(scope="module")
+def lobe_kernel() -> xr.Dataset:
+    """Lambertian, uplight and Garstang-lobe tables with shared bases (~1 s)."""
+    spec = KernelSpec(**SMALL, uplight=True, garstang_lobe=True, source_altitudes=(0.0, 100.0))
+    return compute_kernel(spec, progress=False)
+
+
+def test_lobe_table_shares_the_bases(lobe_kernel: xr.Dataset) -> None:
+    """One basis for every shape; each shape's images are its coefficients times the bases
+    (to the PCA energy target), and the Lambertian and uplight images are those of a kernel
+    without the lobe."""
+    k = lobe_kernel.sizes["component"]
+    basis = lobe_kernel["basis"].values.reshape(1, k, -1)
+    for image, coefficient in (
+        ("kernel", "coefficient"),
+        ("kernel_uplight", "coefficient_uplight"),
+        ("kernel_garstang_lobe", "coefficient_garstang_lobe"),
+    ):
+        table = lobe_kernel[image].values
+        rebuilt = np.einsum("ocrk,okp->ocrp", lobe_kernel[coefficient].values, basis)
+        error = np.abs(rebuilt - table.reshape(rebuilt.shape)).max() / table.max()
+        assert error < 2e-3, image
+    spec = KernelSpec(**SMALL, uplight=True, source_altitudes=(0.0, 100.0))
+    plain = compute_kernel(spec, progress=False)
+    np.testing.assert_array_equal(plain["kernel"].values, lobe_kernel["kernel"].values)
+    np.testing.assert_array_equal(
+        plain["kernel_uplight"].values, lobe_kernel["kernel_uplight"].values
+    )
+    assert lobe_kernel.attrs["garstang_lobe"] == 1 and plain.attrs["garstang_lobe"] == 0
+
+
+def test_spec_round_trip_and_hash_of_kernels_without_the_lobe() -> None:
+    """The lobe changes the hash only when tabulated: cached kernels keep theirs."""
+    plain, lobe = KernelSpec(**SMALL), KernelSpec(**SMALL, garstang_lobe=True)
+    assert "garstang_lobe" not in plain.parameters()
+    assert plain.content_hash != lobe.content_hash
+    assert KernelSpec.from_attrs(lobe.to_attrs()) == lobe
+    legacy = {k: v for k, v in plain.to_attrs().items() if k != "garstang_lobe"}
+    assert KernelSpec.from_attrs(legacy) == plain
+    assert lobe.emissions == ("lambertian", "garstang_lobe")
+
+
+def test_emission_function_tags() -> None:
+    assert EmissionFunction.parse("lambertian").weights == (("lambertian", 1.0),)
+    assert EmissionFunction.parse(" Uplight ").tag == "uplight"
+    f = EmissionFunction.parse("garstang:0.1,0.2")
+    assert f.tag == "garstang:0.1,0.2"
+    assert dict(f.weights) == pytest.approx(garstang_weights(0.1, 0.2))
+    for bad in ("cosine", "garstang:0.1", "garstang:a,b", "garstang:2,0.1", "lambertian:1"):
+        with pytest.raises(InputError, match="emission_function"):
+            EmissionFunction.parse(bad)
+
+
+def _one_band_scene() -> tuple[np.ndarray, Affine]:
+    emission = np.zeros((1, 40, 40))
+    emission[0, 5:9, 30:34] = 2.0
+    emission[0, 25, 3] = 40.0
+    emission[0, 20, 21] = 5.0  # next to the observer
+    return emission, Affine(100.0, 0.0, 0.0, 0.0, -100.0, 4000.0)
+
+
+def test_a_band_mix_reads_the_mix_of_coefficient_tables(lobe_kernel: xr.Dataset) -> None:
+    """garstang:F,G on one band = w_L x (Lambertian panorama) + (1 - w_L) x (lobe
+    panorama), in pca and exact mode, and agrees with the direct integration."""
+    emission, transform = _one_band_scene()
+    observer = (2000.0, 2000.0)
+    raw = kernel_slice(lobe_kernel, observer_altitude=0.0)
+    assert raw.emissions == ("lambertian", "uplight", "garstang_lobe")
+    polar = polar_map(
+        emission, transform, observer, distance_edges=raw.distance_edges, n_az=raw.n_az
+    )
+    garstang = EmissionFunction.parse("garstang:0.15,0.15")
+    parts = {
+        name: panorama_pca(polar, band_slice(raw, [EmissionFunction.parse(name)]))
+        for name in ("lambertian",)
+    }
+    lobe_only = EmissionFunction("garstang_lobe", (("garstang_lobe", 1.0),))
+    parts["garstang_lobe"] = panorama_pca(polar, band_slice(raw, [lobe_only]))
+    mixed = band_slice(raw, [garstang])
+    assert mixed.per_band and mixed.emissions == ("garstang:0.15,0.15",)
+    w = dict(garstang.weights)
+    expected = w["lambertian"] * parts["lambertian"] + w["garstang_lobe"] * parts["garstang_lobe"]
+    np.testing.assert_allclose(panorama_pca(polar, mixed), expected, rtol=1e-10, atol=0)
+    exact = panorama_exact(polar, mixed)
+    naive = panorama_naive(
+        emission,
+        transform,
+        observer,
+        elevation=raw.elevation,
+        n_az=raw.n_az,
+        observer_altitude=0.0,
+        functions=[garstang],
+    )
+    bright = naive > 0.01 * naive.max()
+    assert np.mean(np.abs(exact[bright] - naive[bright]) / naive[bright]) < 0.1
+    assert exact[0].mean() == pytest.approx(naive[0].mean(), rel=0.05)
+    # the lobe sends more light to the far sky than the Lambertian shape: the mix lies between
+    zenith = {name: image[0].mean() for name, image in parts.items()}
+    assert min(zenith.values()) < exact[0].mean() < max(zenith.values())
+
+
+def test_a_band_mix_needs_the_shapes_in_the_kernel() -> None:
+    kernel = compute_kernel(KernelSpec(**SMALL, uplight=True), progress=False)
+    raw = kernel_slice(kernel, observer_altitude=0.0)
+    with pytest.raises(InputError, match="garstang_lobe table"):
+        band_slice(raw, [EmissionFunction.parse("garstang:0.15,0.15")])
+    two = band_slice(raw, [EmissionFunction.parse("uplight"), EmissionFunction.parse("lambertian")])
+    np.testing.assert_array_equal(two.coefficient[0], raw.coefficient[1])
+    np.testing.assert_array_equal(two.coefficient[1], raw.coefficient[0])
+    with pytest.raises(InputError, match="already"):
+        band_slice(two, [EmissionFunction.parse("lambertian")])
