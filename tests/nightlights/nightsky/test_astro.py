@@ -153,8 +153,20 @@ def test_refraction_saemundsson_values() -> None:
     h = np.linspace(-10.0, 90.0, 2001)
     apparent = h + refraction(h)
     assert np.all(np.diff(apparent) > 0)  # monotonic, also below the formula's turning point
+    # held below the turning point at h = sqrt(10.3) - 5.11 = -1.91 deg, at 0.744 deg
+    assert refraction([-1.9, -5.0, -30.0]) == pytest.approx([0.744] * 3, abs=1e-3)
     with pytest.raises(InputError, match="pressure_hpa"):
         refraction(10.0, pressure_hpa=-1.0)
+
+
+def test_refraction_inverts_bennett() -> None:
+    # Bennett 1982 (Meeus Eq. 16.3) gives R from the apparent elevation h0:
+    # R = 1'/tan(h0 + 7.31/(h0 + 4.4)); Saemundsson built his formula as its inverse.
+    h = np.linspace(0.0, 90.0, 901)
+    saemundsson = refraction(h) * 60.0
+    h0 = h + saemundsson / 60.0
+    bennett = 1.0 / np.tan(np.radians(h0 + 7.31 / (h0 + 4.4)))
+    assert np.max(np.abs(bennett - saemundsson)) < 0.062
 
 
 def test_airmass_kasten_young() -> None:
