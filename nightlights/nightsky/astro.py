@@ -394,9 +394,15 @@ def _unit_vectors(ra: NDArray[np.float64], dec: NDArray[np.float64]) -> NDArray[
 def _angles(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Right ascension in [0, 360) and declination [deg] of vectors, shape (..., 3)."""
     x, y, z = xyz[..., 0], xyz[..., 1], xyz[..., 2]
-    ra = np.degrees(np.arctan2(y, x)) % 360.0
+    ra = _wrap_360(np.degrees(np.arctan2(y, x)))
     dec = np.degrees(np.arctan2(z, np.hypot(x, y)))
     return ra, dec
+
+
+def _wrap_360(angle: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angles in [0, 360) [deg]; ``% 360`` alone gives 360.0 for tiny negative angles."""
+    wrapped = np.mod(angle, 360.0)
+    return np.where(wrapped >= 360.0, 0.0, wrapped)
 
 
 def proper_motion(
@@ -539,7 +545,7 @@ def equatorial_to_horizontal(
     north = np.sin(d) * math.cos(phi) - np.cos(d) * np.cos(h) * math.sin(phi)
     east = -np.cos(d) * np.sin(h)
     up = np.sin(d) * math.sin(phi) + np.cos(d) * np.cos(h) * math.cos(phi)
-    azimuth = np.degrees(np.arctan2(east, north)) % 360.0
+    azimuth = _wrap_360(np.degrees(np.arctan2(east, north)))
     elevation = np.degrees(np.arctan2(up, np.hypot(north, east)))
     return azimuth, elevation
 

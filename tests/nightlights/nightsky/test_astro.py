@@ -11,6 +11,9 @@ from datetime import UTC, datetime, timedelta, timezone
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.typing import ArrayLike
 
 from nightlights.errors import InputError
 from nightlights.nightsky import load_catalog, star_positions
@@ -224,10 +227,16 @@ def _ephem_altaz(
     return np.array(az), np.array(alt)
 
 
-def _separation(az1: np.ndarray, el1: np.ndarray, az2: np.ndarray, el2: np.ndarray) -> np.ndarray:
-    a1, e1, a2, e2 = map(np.radians, (az1, el1, az2, el2))
-    cos = np.sin(e1) * np.sin(e2) + np.cos(e1) * np.cos(e2) * np.cos(a1 - a2)
-    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+def _separation(az1: ArrayLike, el1: ArrayLike, az2: ArrayLike, el2: ArrayLike) -> np.ndarray:
+    """Angle between two directions [deg], as atan2(|u x v|, u . v) (exact near 0 and 180)."""
+
+    def unit(az: ArrayLike, el: ArrayLike) -> np.ndarray:
+        a, e = np.radians(az), np.radians(el)
+        return np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], axis=-1)
+
+    u, v = unit(az1, el1), unit(az2, el2)
+    cross = np.linalg.norm(np.cross(u, v), axis=-1)
+    return np.degrees(np.arctan2(cross, np.sum(u * v, axis=-1)))
 
 
 @pytest.mark.parametrize("refract", [False, True], ids=["airless", "refracted"])
@@ -248,3 +257,24 @@ def test_star_positions_agree_with_ephem(refract: bool) -> None:
             error = _separation(az, el, ref_az, ref_el)[visible]
             worst = max(worst, float(error.max()))
     assert worst < 0.05
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(-180.0, 180.0),
+    st.floats(-89.0, 89.0),
+    st.floats(0.0, 360.0),
+    st.floats(-89.0, 89.0),
+    st.floats(-89.0, 89.0),
+)
+def test_horizon_transform_is_a_rotation(
+    hour_angle: float, dec1: float, dh: float, dec2: float, lat: float
+) -> None:
+    # without refraction the horizon frame is a rigid rotation of the equatorial one:
+    # angular separations survive it
+    az, el = equatorial_to_horizontal([hour_angle, hour_angle + dh], [dec1, dec2], lat)
+    # the same angle on the equatorial sphere (hour angle runs opposite to azimuth's sense,
+    # which a separation does not see)
+    expected = float(_separation(hour_angle, dec1, hour_angle + dh, dec2))
+    assert float(_separation(az[0], el[0], az[1], el[1])) == pytest.approx(expected, abs=1e-7)
+    assert np.all((az >= 0) & (az < 360)) and np.all(np.abs(el) <= 90)

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nightlights.errors import InputError
 from nightlights.nightsky import MoonState, moon_sky_brightness, moon_state, sun_position
@@ -208,3 +210,22 @@ def test_moon_sky_brightness_on_a_grid() -> None:
     down = MoonState(150.0, -3.0, 384_400.0, 0.259, 20.0, 0.97, 250.0)
     assert np.all(moon_sky_brightness(down, elevation, azimuth)[elevation[:, 0] >= 0] == 0)
     assert moon_sky_brightness(moon, np.empty(0), np.empty(0)).shape == (0,)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(0.0, 360.0),
+    st.floats(0.0, 90.0),
+    st.floats(0.0, 180.0),
+    st.floats(0.5, 179.5),
+    st.floats(0.0, 89.0),
+)
+def test_moonlight_is_positive_and_mirror_symmetric(
+    moon_az: float, moon_el: float, phase: float, offset: float, el: float
+) -> None:
+    # Eq. 15 depends on the sky point only through rho and Z: it is the same on both sides of
+    # the Moon's vertical circle, and positive above the horizon while the Moon is up
+    moon = MoonState(moon_az, moon_el, 384_400.0, 0.259, phase, 0.5, 0.0)
+    sky = moon_sky_brightness(moon, [el, el], [moon_az + offset, moon_az - offset])
+    assert np.all(sky > 0)
+    assert sky[0] == pytest.approx(sky[1], rel=1e-9)
