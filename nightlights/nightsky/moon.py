@@ -431,9 +431,11 @@ class MoonState:
     position_angle_of_bright_limb : float
         Position angle of the midpoint of the bright limb, from north through east [deg].
     parallactic_angle : float
-        Angle at the Moon from north to the zenith, same sense [deg]; the bright limb points
-        ``position_angle_of_bright_limb - parallactic_angle`` from the direction to the
-        zenith (Meeus 1998, ch. 48).
+        Angle at the Moon from north to the zenith, same sense [deg]. With
+        ``z = position_angle_of_bright_limb - parallactic_angle`` (the bright limb's angle from
+        the direction to the zenith, Meeus 1998, ch. 48), the midpoint of the bright limb lies
+        toward ``(-sin z, cos z)`` from the disc's centre in a picture with azimuth growing to
+        the right and elevation up.
     """
 
     azimuth: float

@@ -229,3 +229,34 @@ def test_moonlight_is_positive_and_mirror_symmetric(
     sky = moon_sky_brightness(moon, [el, el], [moon_az + offset, moon_az - offset])
     assert np.all(sky > 0)
     assert sky[0] == pytest.approx(sky[1], rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("when", "lon", "lat"),
+    [
+        ("2024-01-18T18:00:00Z", 24.94, 60.17),
+        ("2024-01-30T04:00:00Z", 24.94, 60.17),
+        ("2024-03-14T19:00:00Z", 151.2, -33.9),
+        ("2024-03-28T02:00:00Z", -70.4, -24.6),
+    ],
+)
+def test_bright_limb_faces_the_sun_in_the_picture(when: str, lon: float, lat: float) -> None:
+    # the bright limb's midpoint lies on the great circle toward the Sun: its direction in the
+    # (azimuth right, elevation up) tangent plane at the Moon is (-sin z, cos z)
+    moon = moon_state(when, lon, lat, refraction=False)
+    sun_az, sun_el = sun_position(when, lon, lat)
+
+    def unit(az: float, el: float) -> np.ndarray:
+        a, e = math.radians(az), math.radians(el)
+        return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+
+    m, s = unit(moon.azimuth, moon.elevation), unit(sun_az, sun_el)
+    a, e = math.radians(moon.azimuth), math.radians(moon.elevation)
+    right = np.array([-math.sin(a), math.cos(a), 0.0])
+    up = np.array([-math.sin(e) * math.cos(a), -math.sin(e) * math.sin(a), math.cos(e)])
+    toward_sun = s - float(s @ m) * m
+    seen = math.atan2(float(toward_sun @ right), float(toward_sun @ up))
+    z = math.radians(moon.position_angle_of_bright_limb - moon.parallactic_angle)
+    predicted = math.atan2(-math.sin(z), math.cos(z))
+    difference = (math.degrees(predicted - seen) + 180.0) % 360.0 - 180.0
+    assert difference == pytest.approx(0.0, abs=1e-6)
