@@ -485,7 +485,7 @@ def apparent_place(
     """Apparent right ascension and declination of stars of J2000.0, Meeus (1998) ch. 21-23.
 
     Proper motion to the date, precession (IAU 1976), annual aberration, nutation (main
-    terms); stellar parallax (under 1" for every catalogue star) is left out.
+    terms); stellar parallax (at most 0.751", alpha Cen, in the catalogue) is left out.
 
     Parameters
     ----------
