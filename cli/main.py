@@ -41,6 +41,7 @@ COMMAND_MODULES = (
     "cli.photometry",
     "cli.demo",
     "cli.explore",
+    "cli.sky",
 )
 
 

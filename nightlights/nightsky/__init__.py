@@ -31,6 +31,28 @@ _LAZY: dict[str, str] = {
     "moon_state": "nightlights.nightsky.moon",
     "moon_sky_brightness": "nightlights.nightsky.moon",
     # --- render helper: names of background.py, tonemap.py, render.py, stage.py below ---
+    "NaturalSky": "nightlights.nightsky.background",
+    "natural_sky_luminance": "nightlights.nightsky.background",
+    "schaefer_twilight": "nightlights.nightsky.background",
+    "starlight_density": "nightlights.nightsky.background",
+    "twilight_phase": "nightlights.nightsky.background",
+    "van_rhijn_factor": "nightlights.nightsky.background",
+    "SkyImage": "nightlights.nightsky.render",
+    "SkyOptions": "nightlights.nightsky.render",
+    "View": "nightlights.nightsky.render",
+    "ballesteros_temperature": "nightlights.nightsky.render",
+    "render_sky": "nightlights.nightsky.render",
+    "schaefer_limiting_magnitude": "nightlights.nightsky.render",
+    "splat_points": "nightlights.nightsky.render",
+    "view_pixels": "nightlights.nightsky.render",
+    "SkyRenderResult": "nightlights.nightsky.stage",
+    "sky_render": "nightlights.nightsky.stage",
+    "ToneMapping": "nightlights.nightsky.tonemap",
+    "blue_shift": "nightlights.nightsky.tonemap",
+    "mesopic_weight": "nightlights.nightsky.tonemap",
+    "scotopic_luminance": "nightlights.nightsky.tonemap",
+    "tone_map": "nightlights.nightsky.tonemap",
+    "visual_acuity": "nightlights.nightsky.tonemap",
     # --- end of the render helper's block ---
 }
 
@@ -40,6 +62,73 @@ if TYPE_CHECKING:
     from nightlights.nightsky.moon import MoonState, moon_sky_brightness, moon_state, sun_position
 
     # --- render helper: TYPE_CHECKING imports below ---
+    # isort: split
+    from nightlights.nightsky.background import (
+        NaturalSky as NaturalSky,
+    )
+    from nightlights.nightsky.background import (
+        natural_sky_luminance as natural_sky_luminance,
+    )
+    from nightlights.nightsky.background import (
+        schaefer_twilight as schaefer_twilight,
+    )
+    from nightlights.nightsky.background import (
+        starlight_density as starlight_density,
+    )
+    from nightlights.nightsky.background import (
+        twilight_phase as twilight_phase,
+    )
+    from nightlights.nightsky.background import (
+        van_rhijn_factor as van_rhijn_factor,
+    )
+    from nightlights.nightsky.render import (
+        SkyImage as SkyImage,
+    )
+    from nightlights.nightsky.render import (
+        SkyOptions as SkyOptions,
+    )
+    from nightlights.nightsky.render import (
+        View as View,
+    )
+    from nightlights.nightsky.render import (
+        ballesteros_temperature as ballesteros_temperature,
+    )
+    from nightlights.nightsky.render import (
+        render_sky as render_sky,
+    )
+    from nightlights.nightsky.render import (
+        schaefer_limiting_magnitude as schaefer_limiting_magnitude,
+    )
+    from nightlights.nightsky.render import (
+        splat_points as splat_points,
+    )
+    from nightlights.nightsky.render import (
+        view_pixels as view_pixels,
+    )
+    from nightlights.nightsky.stage import (
+        SkyRenderResult as SkyRenderResult,
+    )
+    from nightlights.nightsky.stage import (
+        sky_render as sky_render,
+    )
+    from nightlights.nightsky.tonemap import (
+        ToneMapping as ToneMapping,
+    )
+    from nightlights.nightsky.tonemap import (
+        blue_shift as blue_shift,
+    )
+    from nightlights.nightsky.tonemap import (
+        mesopic_weight as mesopic_weight,
+    )
+    from nightlights.nightsky.tonemap import (
+        scotopic_luminance as scotopic_luminance,
+    )
+    from nightlights.nightsky.tonemap import (
+        tone_map as tone_map,
+    )
+    from nightlights.nightsky.tonemap import (
+        visual_acuity as visual_acuity,
+    )
     # --- end of the render helper's block ---
 
 __all__ = [
@@ -54,6 +143,11 @@ __all__ = [
     "star_positions",
     "sun_position",
     # --- render helper: public names below ---
+    *(
+        name
+        for name, module in _LAZY.items()
+        if module.rsplit(".", 1)[1] in ("background", "tonemap", "render", "stage")
+    ),
     # --- end of the render helper's block ---
 ]
 

@@ -1,0 +1,392 @@
+"""File stage ``sky_render``: the night sky of a place and time as a picture or linear NetCDF.
+
+The sky is composed by :func:`nightlights.nightsky.render.render_sky` (natural background,
+twilight, Moon, stars and the artificial skyglow of a panorama written by
+``nightlights skyglow``), then either tone-mapped to a PNG with a legend
+(:mod:`nightlights.nightsky.tonemap`) or written in linear units to NetCDF.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from nightlights._typing import PathLike
+from nightlights.errors import InputError
+from nightlights.io import atomic_output
+from nightlights.io.outputs import OutputSet
+from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
+from nightlights.nightsky.tonemap import ToneMapping, tone_map
+from nightlights.sky.brightness import luminance_to_magnitude
+
+__all__ = ["SkyRenderResult", "legend_text", "read_panorama", "sky_render"]
+
+#: Output formats by file suffix.
+FORMATS = {".png": "png", ".nc": "netcdf"}
+#: Default image size (width, height) [pixel] by projection; a fisheye is width x width.
+DEFAULT_SIZE = {"equirectangular": (2048, 512), "fisheye": (1024, 1024), "perspective": (1280, 800)}
+
+
+@dataclass(frozen=True)
+class SkyRenderResult:
+    """What ``sky_render`` drew.
+
+    Attributes
+    ----------
+    image
+        The linear image and its summary (:class:`~nightlights.nightsky.render.SkyImage`).
+    lonlat
+        Observer's longitude and latitude used [deg].
+    legend
+        The legend line.
+    path
+        The file written, or None.
+    """
+
+    image: SkyImage
+    lonlat: tuple[float, float]
+    legend: str
+    path: Path | None = None
+
+
+def read_panorama(panorama: xr.Dataset | PathLike) -> xr.Dataset:
+    """A skyglow panorama dataset, opened from a NetCDF path or passed through.
+
+    Parameters
+    ----------
+    panorama
+        Dataset or NetCDF path written by ``nightlights skyglow``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded dataset with ``luminance`` on (elevation, azimuth).
+    """
+    if isinstance(panorama, xr.Dataset):
+        dataset = panorama
+    else:
+        path = Path(panorama)
+        if not path.exists():
+            raise InputError(f"{path}: panorama does not exist")
+        with xr.open_dataset(path, engine="h5netcdf") as opened:
+            dataset = opened.load()
+    if "luminance" not in dataset or set(dataset["luminance"].dims) != {"elevation", "azimuth"}:
+        raise InputError(
+            "panorama: expected a 'luminance' variable on (elevation, azimuth) as written by "
+            "nightlights skyglow"
+        )
+    return dataset
+
+
+def panorama_lonlat(panorama: xr.Dataset) -> tuple[float, float]:
+    """Observer longitude and latitude [deg] from a panorama's ``observer_x/y`` and ``crs``.
+
+    Parameters
+    ----------
+    panorama
+        Skyglow panorama dataset.
+
+    Returns
+    -------
+    tuple of float
+        (lon, lat) [deg].
+    """
+    from pyproj import CRS, Transformer
+
+    attrs = panorama.attrs
+    missing = [name for name in ("observer_x", "observer_y", "crs") if name not in attrs]
+    if missing:
+        raise InputError(
+            f"panorama has no {', '.join(missing)} attribute; give the place with lonlat"
+        )
+    transformer = Transformer.from_crs(CRS.from_user_input(attrs["crs"]), 4326, always_xy=True)
+    lon, lat = transformer.transform(float(attrs["observer_x"]), float(attrs["observer_y"]))
+    return float(lon), float(lat)
+
+
+def legend_text(time: Any, lonlat: tuple[float, float], summary: dict[str, Any]) -> str:
+    """The picture's legend: time, place, zenith brightness natural + artificial, Bortle class.
+
+    Parameters
+    ----------
+    time
+        The instant (shown in UTC to the minute).
+    lonlat
+        Observer's longitude and latitude [deg].
+    summary
+        :attr:`~nightlights.nightsky.render.SkyImage.summary`.
+
+    Returns
+    -------
+    str
+        Two lines of text.
+
+    Examples
+    --------
+    >>> summary = {"zenith_natural_cd_m2": 171e-6, "zenith_artificial_cd_m2": 0.0,
+    ...            "zenith_sky_brightness": 22.0, "bortle_class_zenith": 1, "sky_phase": "night",
+    ...            "stars_drawn": 2000, "zenith_limiting_magnitude": 6.6}
+    >>> print(legend_text("2026-01-15T20:00Z", (24.95, 60.17), summary))
+    2026-01-15 20:00 UTC   24.950 E 60.170 N   night, Moon not drawn
+    zenith 22.00 mag arcsec-2 (natural 22.00, artificial none), Bortle 1; 2000 stars to 6.6 mag
+    """
+    lon, lat = lonlat
+    from datetime import datetime, timedelta
+
+    from nightlights.nightsky.astro import julian_date
+
+    # the instant as the astronomy module reads it (an ISO text without offset is UTC)
+    instant = datetime(2000, 1, 1, 12) + timedelta(days=julian_date(time) - 2451545.0)
+    when = (instant + timedelta(seconds=30)).strftime("%Y-%m-%d %H:%M")
+
+    def mag(value: float) -> str:
+        return f"{float(luminance_to_magnitude(value)):.2f}" if value > 0 else "none"
+
+    moon = "Moon not drawn"
+    if "moon_elevation_deg" in summary:
+        fraction = 100.0 * summary["moon_illuminated_fraction"]
+        where = "up" if summary["moon_elevation_deg"] >= 0 else "down"
+        moon = f"Moon {where} ({summary['moon_elevation_deg']:.0f} deg), {fraction:.0f} % lit"
+    first = (
+        f"{when} UTC   {abs(lon):.3f} {'E' if lon >= 0 else 'W'} "
+        f"{abs(lat):.3f} {'N' if lat >= 0 else 'S'}   {summary['sky_phase']}, {moon}"
+    )
+    total = summary["zenith_sky_brightness"]
+    second = (
+        f"zenith {total:.2f} mag arcsec-2 (natural {mag(summary['zenith_natural_cd_m2'])}, "
+        f"artificial {mag(summary['zenith_artificial_cd_m2'])}), "
+        f"Bortle {summary['bortle_class_zenith']}; {summary['stars_drawn']} stars to "
+        f"{summary['zenith_limiting_magnitude']:.1f} mag"
+    )
+    return f"{first}\n{second}"
+
+
+def sky_render(
+    output: PathLike | None,
+    *,
+    time: Any,
+    lonlat: tuple[float, float] | None = None,
+    panorama: xr.Dataset | PathLike | None = None,
+    natural_only: bool = False,
+    artificial_only: bool = False,
+    projection: str = "equirectangular",
+    width: int | None = None,
+    height: int | None = None,
+    view_azimuth: float = 180.0,
+    view_elevation: float = 30.0,
+    field_of_view: float = 90.0,
+    tone_mapping: ToneMapping | None = None,
+    stars: bool = True,
+    moon: bool = True,
+    limiting_magnitude: bool = True,
+    spectrum: str = "LED_4000K",
+    legend: bool = True,
+) -> SkyRenderResult:
+    """Render the night sky of a place and time; write a PNG (tone-mapped) or NetCDF (linear).
+
+    Parameters
+    ----------
+    output
+        ``.png`` (tone-mapped picture with a legend) or ``.nc`` (``luminance`` [cd m-2] and
+        ``xyz`` [cd m-2] on (elevation, azimuth) pixel centres [deg]; equirectangular only);
+        None writes nothing.
+    time
+        Instant: aware datetime, ISO 8601 text or numpy datetime64 (UTC).
+    lonlat
+        Observer's longitude and latitude [deg]; default the panorama's observer.
+    panorama
+        Skyglow panorama (dataset or NetCDF path from ``nightlights skyglow``).
+    natural_only, artificial_only
+        Draw only the natural sky (background, twilight, Moon, stars) or only the skyglow.
+    projection
+        ``equirectangular``, ``fisheye`` or ``perspective``.
+    width, height
+        Image size [pixel] (defaults by projection in :data:`DEFAULT_SIZE`).
+    view_azimuth, view_elevation, field_of_view
+        Perspective view direction and horizontal field of view [deg].
+    tone_mapping
+        Tone mapping of the PNG (default the dark-adapted eye, ``ToneMapping()``).
+    stars, moon
+        Draw the stars; draw the Moon and its light.
+    limiting_magnitude
+        Leave out stars fainter than the eye's limit against the local sky.
+    spectrum
+        Luminaire spectrum that colours a luminance-only panorama.
+    legend
+        Add the legend strip below the PNG.
+
+    Returns
+    -------
+    SkyRenderResult
+        The image, the place, the legend and the path written.
+    """
+    target = Path(output) if output is not None else None
+    kind = None
+    if target is not None:
+        kind = FORMATS.get(target.suffix.lower())
+        if kind is None:
+            raise InputError(f"{target}: expected a .png or .nc output")
+        if kind == "netcdf" and projection != "equirectangular":
+            raise InputError(
+                f"{target}: NetCDF output holds the (elevation, azimuth) grid; use "
+                f"projection 'equirectangular', not {projection!r}"
+            )
+    if natural_only and artificial_only:
+        raise InputError("natural_only and artificial_only exclude each other")
+    dataset = read_panorama(panorama) if panorama is not None else None
+    if artificial_only and dataset is None:
+        raise InputError("artificial_only needs a skyglow panorama")
+    if lonlat is None:
+        if dataset is None:
+            raise InputError("no place: give lonlat or a panorama with an observer")
+        lonlat = panorama_lonlat(dataset)
+    lon, lat = (float(v) for v in lonlat)
+    if not (-180.0 <= lon <= 360.0 and -90.0 <= lat <= 90.0):
+        raise InputError(f"lonlat {lon}, {lat}: expected longitude -180..360, latitude -90..90")
+    outputs = OutputSet(target)
+    default_w, default_h = DEFAULT_SIZE.get(projection, (1024, 512))
+    view = View(
+        projection,
+        width if width is not None else default_w,
+        height if height is not None else default_h,
+        azimuth=view_azimuth,
+        elevation=view_elevation,
+        field_of_view=field_of_view,
+    )
+    options = SkyOptions(
+        natural=not artificial_only,
+        artificial=not natural_only,
+        stars=stars,
+        moon=moon,
+        limiting_magnitude=limiting_magnitude,
+        spectrum=spectrum,
+    )
+    image = render_sky(time, lon, lat, view=view, panorama=dataset, options=options)
+    text = legend_text(time, (lon, lat), image.summary)
+    with outputs:
+        if target is not None and kind == "png":
+            rgb = tone_map(image.xyz, tone_mapping, pixel_size=image.pixels.pixel_size)
+            write_png(rgb, outputs.temporary(target), text if legend else "", view.projection)
+        elif target is not None:
+            sky_dataset(image, time, (lon, lat)).to_netcdf(
+                outputs.temporary(target), engine="h5netcdf"
+            )
+    return SkyRenderResult(image, (lon, lat), text, target)
+
+
+def sky_dataset(image: SkyImage, time: Any, lonlat: tuple[float, float]) -> xr.Dataset:
+    """Linear NetCDF content of an equirectangular sky image.
+
+    Parameters
+    ----------
+    image
+        Equirectangular :class:`~nightlights.nightsky.render.SkyImage`.
+    time
+        The instant.
+    lonlat
+        Observer's longitude and latitude [deg].
+
+    Returns
+    -------
+    xarray.Dataset
+        ``luminance`` and ``xyz`` [cd m-2] on (elevation, azimuth) pixel centres [deg].
+    """
+    if image.pixels.view.projection != "equirectangular":
+        raise InputError("only an equirectangular image maps onto (elevation, azimuth)")
+    elevation = image.pixels.elevation[:, 0]
+    azimuth = image.pixels.azimuth[0]
+    summary = {
+        key: (value if not isinstance(value, float) or math.isfinite(value) else str(value))
+        for key, value in image.summary.items()
+    }
+    return xr.Dataset(
+        {
+            "luminance": (
+                ("elevation", "azimuth"),
+                image.luminance,
+                {"units": "cd m-2", "long_name": "sky luminance, natural and artificial"},
+            ),
+            "xyz": (
+                ("elevation", "azimuth", "band"),
+                image.xyz,
+                {"units": "cd m-2", "long_name": "CIE 1931 XYZ tristimulus luminance"},
+            ),
+        },
+        coords={
+            "elevation": (
+                "elevation",
+                elevation,
+                {"units": "degree", "long_name": "elevation of pixel centre"},
+            ),
+            "azimuth": (
+                "azimuth",
+                azimuth,
+                {"units": "degree", "long_name": "azimuth clockwise from north"},
+            ),
+            "band": ("band", ["X", "Y", "Z"]),
+        },
+        attrs={"time": str(time), "longitude": lonlat[0], "latitude": lonlat[1], **summary},
+    )
+
+
+def write_png(rgb: np.ndarray, path: PathLike, legend: str, projection: str) -> Path:
+    """Write an sRGB image pixel for pixel, with an optional legend strip below it.
+
+    Parameters
+    ----------
+    rgb
+        ``(rows, cols, 3)`` sRGB in [0, 1].
+    path
+        Output PNG, written atomically.
+    legend
+        Legend text ("" for none).
+    projection
+        A fisheye gets N, E, S, W marks at its rim (east on the left: the sky seen from below).
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows, cols = rgb.shape[:2]
+    dpi = 100
+    strip = 40 if legend else 0
+    fig = plt.figure(figsize=(cols / dpi, (rows + strip) / dpi), dpi=dpi, facecolor="black")
+    fig.figimage(np.clip(rgb, 0.0, 1.0), xo=0, yo=strip, origin="upper")
+    total = rows + strip
+    if legend:
+        fig.text(
+            0.005,
+            (strip / 2) / total,
+            legend,
+            color="white",
+            fontsize=8,
+            va="center",
+            family="monospace",
+        )
+    if projection == "fisheye":
+        marks = {"N": (0.5, 0.985), "S": (0.5, 0.015), "E": (0.015, 0.5), "W": (0.985, 0.5)}
+        for label, (x, y) in marks.items():
+            fig.text(
+                x,
+                (strip + y * rows) / total,
+                label,
+                color="0.8",
+                fontsize=10,
+                ha="center",
+                va="center",
+            )
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png", facecolor="black")
+    plt.close(fig)
+    return Path(path)

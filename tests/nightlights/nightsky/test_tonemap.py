@@ -1,0 +1,122 @@
+"""Night-vision tone mapping: Jensen et al. 2001 blue shift, Larson et al. 1997 scotopic
+luminance and acuity, the display curve, the camera mode."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+import pytest
+
+from nightlights.errors import InputError
+from nightlights.nightsky.background import rayleigh_sunlight_xyz
+from nightlights.nightsky.tonemap import (
+    BLUE_POINT,
+    ToneMapping,
+    acuity_blur_sigma,
+    blackbody_white,
+    blue_shift,
+    mesopic_weight,
+    scotopic_luminance,
+    tone_map,
+    visual_acuity,
+)
+
+#: Chromaticities of night light: sodium-like, warm LED, daylight, hot star, scattered sunlight.
+LIGHTS = [
+    blackbody_white(2000.0),
+    blackbody_white(3000.0),
+    blackbody_white(6504.0),
+    blackbody_white(20000.0),
+    rayleigh_sunlight_xyz(),
+]
+
+
+def chromaticity(xyz: np.ndarray) -> np.ndarray:
+    return xyz[..., :2] / xyz.sum(axis=-1, keepdims=True)
+
+
+def test_scotopic_luminance_of_equal_energy_white() -> None:
+    # Larson et al. 1997, Eq. 2 with X = Y = Z = 1: 1.33 x 3 - 1.68 = 2.31 (exact)
+    assert scotopic_luminance([1.0, 1.0, 1.0]) == pytest.approx(2.31, rel=1e-12)
+    assert scotopic_luminance([0.0, 1.0, 1.0]) == 0.0  # no X: no defined ratio, no light
+
+
+def test_mesopic_weight_limits_and_monotonic() -> None:
+    y = np.logspace(-6, 3, 400)
+    s = mesopic_weight(y)
+    assert np.all(np.diff(s) >= 0)
+    assert np.all(s[y <= 1e-2] == 0.0)
+    assert np.all(s[y >= 10**0.6] == 1.0)
+    # smoothstep midpoint: log10 Y = -2 + 1.3 gives s = 0.5 exactly
+    assert mesopic_weight(10.0**-0.7) == pytest.approx(0.5, abs=1e-12)
+
+
+@pytest.mark.parametrize("light", LIGHTS)
+def test_photopic_colours_kept_above_the_mesopic_range(light: np.ndarray) -> None:
+    xyz = light * np.array([4.0, 10.0, 1000.0])[:, None]
+    np.testing.assert_allclose(blue_shift(xyz), xyz, rtol=1e-12)
+
+
+@pytest.mark.parametrize("light", LIGHTS)
+def test_blue_shift_converges_to_the_blue_point_far_below(light: np.ndarray) -> None:
+    xyz = light * np.array([1e-2, 1e-4, 1e-7])[:, None]
+    shifted = blue_shift(xyz)
+    np.testing.assert_allclose(chromaticity(shifted), [BLUE_POINT] * 3, atol=1e-12)
+    # the luminance shown is 0.4468 of the scotopic luminance (Jensen et al. 2001, Sec. 7)
+    np.testing.assert_allclose(shifted[:, 1], 0.4468 * scotopic_luminance(xyz), rtol=1e-12)
+
+
+@pytest.mark.parametrize("light", LIGHTS)
+def test_tone_map_is_monotonic_in_luminance(light: np.ndarray) -> None:
+    luminance = np.logspace(-7, 4, 600)
+    image = (luminance[:, None] * light)[:, None, :]
+    for mode in ("eye", "photo"):
+        rgb = tone_map(image, ToneMapping(mode=mode, exposure=30.0))[:, 0, :]
+        shown = colour.sRGB_to_XYZ(rgb)[:, 1]  # the displayed luminance
+        assert np.all(np.diff(shown) >= -1e-12), mode
+        assert shown[-1] > shown[0]
+
+
+def test_tone_map_keeps_photopic_chromaticity_and_shows_blue_far_below() -> None:
+    light = blackbody_white(3000.0)
+    bright = (10.0 * light)[None, None, :]
+    dark = (1e-5 * light)[None, None, :]
+    for xyz, expected in ((bright, chromaticity(light)), (dark, np.array(BLUE_POINT))):
+        # exposure chosen so that the display value stays inside the sRGB cube
+        rgb = tone_map(xyz, ToneMapping(exposure=0.2 / xyz[0, 0, 1], acuity_blur=False))
+        back = colour.sRGB_to_XYZ(rgb[0, 0])
+        np.testing.assert_allclose(chromaticity(back), expected, atol=2e-3)
+
+
+def test_visual_acuity_follows_larson_and_blur_grows_in_the_dark() -> None:
+    # Larson et al. 1997, Eq. 7 at L_a = 1 cd m-2: 17.25 atan(0.35) + 25.72
+    assert visual_acuity(1.0) == pytest.approx(17.25 * np.arctan(0.35) + 25.72, rel=1e-12)
+    sigmas = [acuity_blur_sigma(la) for la in (1e-5, 1e-3, 1.0, 100.0)]
+    assert sigmas == sorted(sigmas, reverse=True)
+
+
+def test_blur_keeps_a_uniform_sky_and_black_outside() -> None:
+    xyz = np.full((40, 40, 3), 1e-4) * blackbody_white(6504.0)
+    xyz[:5] = np.nan
+    rgb = tone_map(xyz, ToneMapping(exposure=300.0), pixel_size=1.0)
+    assert np.all(rgb[:5] == 0.0)
+    np.testing.assert_allclose(rgb[5:], np.broadcast_to(rgb[20, 20], rgb[5:].shape), atol=1e-9)
+
+
+def test_photo_white_balance_makes_the_light_neutral() -> None:
+    xyz = (0.05 * blackbody_white(3000.0))[None, None, :]
+    rgb = tone_map(xyz, ToneMapping(mode="photo", exposure=10.0, white_temperature=3000.0))
+    assert np.ptp(rgb) < 2e-3
+    raw = tone_map(xyz, ToneMapping(mode="photo", exposure=10.0))
+    assert raw[0, 0, 0] > raw[0, 0, 2]  # without balance, 3000 K light is orange
+
+
+def test_bad_parameters_are_refused() -> None:
+    with pytest.raises(InputError, match="mode"):
+        ToneMapping(mode="film")
+    with pytest.raises(InputError, match="exposure"):
+        ToneMapping(exposure=0.0)
+    with pytest.raises(InputError, match="colour temperature"):
+        blackbody_white(500.0)
+    with pytest.raises(InputError, match="log_range"):
+        mesopic_weight(1.0, log_range=(1.0, -1.0))
