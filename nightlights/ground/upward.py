@@ -9,11 +9,13 @@ coarse grid, which the skyglow stages take as their source:
    block aggregation); and each luminaire's flux above the horizontal, from its photometry
    in the world frame (after tilt and roll), deposited in the cell holding its light point
    and divided by the cell area. The two are separate bands because they leave the ground
-   with different angular distributions (Lambertian vs low-angle direct uplight).
+   with different angular distributions (Lambertian vs low-angle direct uplight), tagged
+   ``emission_function`` = ``lambertian`` and ``uplight``.
 2. From a VIIRS Day/Night Band radiance raster (:func:`emission_from_viirs`), for users
-   without street data (see :func:`viirs_radiance_to_flux_density`).
+   without street data (see :func:`viirs_radiance_to_flux_density`): one band tagged with
+   the emission function that turned its nadir radiance into flux.
 
-Length: about 690 lines, because the two routes to one product share its raster, its
+Length: about 745 lines, because the two routes to one product share its raster, its
 float32 round trip, its checked writing and its memory checks made before reading; split in
 two modules they would import each other's private helpers.
 """
@@ -60,6 +62,7 @@ from nightlights.io import (
     raster_on_grid,
     source_label,
 )
+from nightlights.sky.spec import EMISSION_FUNCTION_TAG, EmissionFunction
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -186,8 +189,10 @@ def dnb_luminous_efficacy(
     return float(K_PHOTOPIC * np.trapezoid(power * photopic, wavelengths) / in_band)
 
 
-def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> FloatArray:
-    """Upward luminous flux density of a Lambertian ground seen by VIIRS DNB.
+def viirs_radiance_to_flux_density(
+    radiance: ArrayLike, efficacy: float, *, zenith_intensity: float = 1.0 / math.pi
+) -> FloatArray:
+    """Upward luminous flux density of a ground seen at nadir by VIIRS DNB.
 
     Parameters
     ----------
@@ -196,6 +201,10 @@ def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> Floa
     efficacy
         Lumens per DNB watt of the source spectrum (:func:`dnb_luminous_efficacy`)
         [lm W-1].
+    zenith_intensity
+        Intensity straight up per lumen of upward flux of the emission function,
+        I_1(0): 1 / pi for a Lambertian ground (default), w_L / pi for Garstang's function
+        (only its Lambertian part shines straight up) [cd lm-1].
 
     Returns
     -------
@@ -204,16 +213,26 @@ def viirs_radiance_to_flux_density(radiance: ArrayLike, efficacy: float) -> Floa
 
     Notes
     -----
-    .. math:: M_v = \\pi\\, L\\, 10^{-5}\\, K
+    .. math:: M_v = \\frac{L\\, 10^{-5}\\, K}{I_1(0)} \\quad (= \\pi L 10^{-5} K
+        \\text{ for a Lambertian ground})
 
-    A Lambertian emitter of radiance L has exitance :math:`\\pi L`; :math:`10^{-5}` turns
-    nW cm-2 into W m-2. The satellite sees near-nadir radiance, so uplight leaving at low
-    angles and light blocked by buildings and trees are outside this model.
+    The satellite sees the intensity straight up, I(0) = M_v A I_1(0), from a cell of area A,
+    as the luminance L_v = I(0) / A = M_v I_1(0); :math:`10^{-5}` turns nW cm-2 into W m-2.
+    Flux leaving at low angles is inferred only through the emission function; light blocked
+    by buildings and trees is outside this model.
     """
-    return np.pi * np.asarray(radiance, dtype=float) * NANOWATT_PER_CM2 * efficacy
+    if not (np.isfinite(zenith_intensity) and zenith_intensity > 0):
+        raise InputError(
+            f"zenith_intensity {zenith_intensity!r} cd lm-1; expected > 0 (an emission "
+            "function that sends no light straight up cannot be inferred from nadir radiance)"
+        )
+    lambertian = np.pi * np.asarray(radiance, dtype=float) * NANOWATT_PER_CM2 * efficacy
+    return lambertian * ((1.0 / math.pi) / zenith_intensity)
 
 
-def flux_density_to_viirs_radiance(flux_density: ArrayLike, efficacy: float) -> FloatArray:
+def flux_density_to_viirs_radiance(
+    flux_density: ArrayLike, efficacy: float, *, zenith_intensity: float = 1.0 / math.pi
+) -> FloatArray:
     """DNB radiance of an upward luminous flux density; the inverse of
     :func:`viirs_radiance_to_flux_density`.
 
@@ -223,13 +242,17 @@ def flux_density_to_viirs_radiance(flux_density: ArrayLike, efficacy: float) -> 
         Upward luminous flux density [lm m-2].
     efficacy
         Lumens per DNB watt of the source spectrum [lm W-1].
+    zenith_intensity
+        Intensity straight up per lumen of upward flux, I_1(0) (default Lambertian,
+        1 / pi) [cd lm-1].
 
     Returns
     -------
     numpy.ndarray
         DNB radiance [nW cm-2 sr-1].
     """
-    return np.asarray(flux_density, dtype=float) / (np.pi * NANOWATT_PER_CM2 * efficacy)
+    lambertian = np.asarray(flux_density, dtype=float) / (np.pi * NANOWATT_PER_CM2 * efficacy)
+    return lambertian * (zenith_intensity / (1.0 / math.pi))
 
 
 @dataclass(frozen=True)
@@ -425,8 +448,16 @@ def emission(
         units=("lm m-2", "lm m-2"),
         tags={key: str(value) for key, value in tags.items()},
         band_tags=(
-            {"quantity": "upward luminous flux density", "model": "Lambertian, albedo x E"},
-            {"quantity": "upward luminous flux density", "model": "direct luminaire uplight"},
+            {
+                "quantity": "upward luminous flux density",
+                "model": "Lambertian, albedo x E",
+                EMISSION_FUNCTION_TAG: "lambertian",
+            },
+            {
+                "quantity": "upward luminous flux density",
+                "model": "direct luminaire uplight",
+                EMISSION_FUNCTION_TAG: "uplight",
+            },
         ),
     )
     return EmissionResult(result, _write(result, output, outputs), totals)
@@ -479,6 +510,7 @@ def emission_from_viirs(
     resolution: float | None = None,
     target_crs: str | CRS | None = None,
     band: tuple[float, float] = DNB_BAND,
+    emission_function: str = "lambertian",
 ) -> EmissionResult:
     """Upward luminous flux density from a VIIRS Day/Night Band radiance raster.
 
@@ -499,6 +531,13 @@ def emission_from_viirs(
         local UTM zone of the raster's centre.
     band
         Flat DNB pass band [nm].
+    emission_function
+        Angular emission function of the city's light (``lambertian`` or ``garstang:F,G``,
+        :class:`~nightlights.sky.spec.EmissionFunction`): it sets the flux the nadir
+        radiance implies (:func:`viirs_radiance_to_flux_density`) and is written as the
+        band's ``emission_function`` tag, which the skyglow stage reads. Garstang's
+        F = G = 0.15 gives 1 / 0.459 = 2.18 times the Lambertian flux: its low-angle lobe is
+        invisible from nadir.
 
     Returns
     -------
@@ -539,6 +578,13 @@ def emission_from_viirs(
     0.2543
     """
     label = source_label(viirs, "VIIRS raster")
+    function = EmissionFunction.parse(emission_function, source="emission_function")
+    zenith_intensity = float(function.intensity(1.0))
+    if zenith_intensity <= 0:
+        raise InputError(
+            f"emission_function {function.tag!r} sends no light straight up, so nadir radiance "
+            "cannot give its flux; expected lambertian or garstang:F,G with G (1 - F) > 0"
+        )
     if resolution is not None:
         resolution = check_resolution(resolution)
     target_crs = parse_crs(target_crs, option="target_crs")
@@ -564,7 +610,7 @@ def emission_from_viirs(
         )
         radiance = np.where(negative, 0.0, radiance)
     efficacy = dnb_luminous_efficacy(spectrum, band=band)
-    density = viirs_radiance_to_flux_density(radiance, efficacy)
+    density = viirs_radiance_to_flux_density(radiance, efficacy, zenith_intensity=zenith_intensity)
     target = _viirs_target_crs(src_crs, bounds, target_crs, label)
     grid = _viirs_grid(src_crs, src_transform, (height, width), bounds, target, resolution)
     if grid is None:
@@ -596,7 +642,11 @@ def emission_from_viirs(
         "spectrum": spectrum,
         "dnb_band_nm": f"{band[0]}-{band[1]}",
         "dnb_luminous_efficacy_lm_per_W": efficacy,
-        "factor_lm_m2_per_nW_cm2_sr": np.pi * NANOWATT_PER_CM2 * efficacy,
+        "factor_lm_m2_per_nW_cm2_sr": np.pi
+        * NANOWATT_PER_CM2
+        * efficacy
+        * ((1.0 / math.pi) / zenith_intensity),
+        EMISSION_FUNCTION_TAG: function.tag,
     }
     result = Raster(
         _as_written(out),
@@ -605,7 +655,13 @@ def emission_from_viirs(
         descriptions=("upward",),
         units=("lm m-2",),
         tags={key: str(value) for key, value in tags.items()},
-        band_tags=({"quantity": "upward luminous flux density", "model": "VIIRS DNB, Lambertian"},),
+        band_tags=(
+            {
+                "quantity": "upward luminous flux density",
+                "model": f"VIIRS DNB, {function.tag}",
+                EMISSION_FUNCTION_TAG: function.tag,
+            },
+        ),
     )
     return EmissionResult(result, _write(result, output, outputs), {"upward": total})
 

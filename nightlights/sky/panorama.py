@@ -250,9 +250,9 @@ def band_slice(tables: KernelSlice, functions: Sequence[EmissionFunction]) -> Ke
         for shape in function.shapes:
             if shape not in rows:
                 raise InputError(
-                    f"emission band {band + 1} ({function.tag}) needs the kernel's {shape} "
-                    f"table, which it lacks (it has {', '.join(tables.emissions)}); build the "
-                    f"kernel with {shape}"
+                    f"emission band {band + 1} ({function.tag}) reads the {shape} shape but the "
+                    f"kernel has no {shape} table (only {', '.join(tables.emissions)}); build it "
+                    f"with {shape}"
                 )
         for shape, weight in function.weights:
             if weight > 0:

@@ -30,6 +30,7 @@ from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.panorama import (
     MODES,
     KernelSlice,
+    band_slice,
     kernel_levels,
     panorama_exact,
     panorama_naive,
@@ -86,8 +87,11 @@ def skyglow_panorama(
     ----------
     emission
         Upward flux density [lm m-2] in a projected CRS (a
-        :class:`~nightlights.io.Raster`, a DataArray or a path); one band = Lambertian, two
-        bands = Lambertian + direct uplight (the ``emission`` stage's output).
+        :class:`~nightlights.io.Raster`, a DataArray or a path), one or two bands, each with
+        the emission function of its ``emission_function`` tag (lambertian, uplight,
+        garstang:F,G); without tags one band is read as garstang:0.15,0.15 and two bands as
+        Lambertian + direct uplight (the ``emission`` stage's output, which tags them). See
+        :func:`~nightlights.sky.setup.band_emission_functions`.
     observer
         Observer position (x, y) in ``observer_crs`` [m or deg].
     kernel
@@ -128,8 +132,9 @@ def skyglow_panorama(
     SkyglowScene
         ``panorama``: a Dataset of ``luminance`` [cd m-2], ``sky_brightness``
         [mag arcsec-2] and ``terrain_mask`` over (elevation, azimuth) [deg] (and ``X``, ``Y``,
-        ``Z`` [cd m-2] for ``RGB``), with the observer, kernel and zenith figures in the
-        attributes; ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
+        ``Z`` [cd m-2] for ``RGB``), with the observer, kernel and zenith figures and each
+        band's emission function (``emission_functions``, ``emission_function_sources``) in
+        the attributes; ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
         the panorama after the polar map [s].
 
     Examples
@@ -184,10 +189,13 @@ def skyglow_panorama(
             band_spec = dataclasses.replace(
                 spec, atmosphere=dataclasses.replace(spec.atmosphere, wavelength_nm=wavelength)
             )
-            band_tables[band] = kernel_levels(
-                get_or_build_kernel(band_spec, cache_dir=cache_dir, progress=progress).kernel,
-                observer_altitude=observer_altitude,
-            )
+            band_tables[band] = [
+                band_slice(level, setup.functions)
+                for level in kernel_levels(
+                    get_or_build_kernel(band_spec, cache_dir=cache_dir, progress=progress).kernel,
+                    observer_altitude=observer_altitude,
+                )
+            ]
     start = time.perf_counter()
     if mode == "pca":
         luminance = panorama_pca(polars, slices, components=components)
@@ -206,6 +214,7 @@ def skyglow_panorama(
             source_altitude=window_heights,
             atmosphere=_kernel_atmosphere(table),
             uplight_exponent=float(table.attrs.get("uplight_exponent", UPLIGHT_EXPONENT)),
+            functions=setup.functions,
         )
     xyz = None
     if bands == "RGB":
@@ -249,6 +258,8 @@ def skyglow_panorama(
         "kernel_hash": str(table.attrs.get("content_hash", "")),
         "mode": mode,
         "emission": label,
+        "emission_functions": "; ".join(f.tag for f in setup.functions),
+        "emission_function_sources": "; ".join(setup.function_notes),
         "emitted_flux_lm": float(polar.total_flux.sum()),
         "flux_beyond_kernel_lm": float(polar.dropped_flux.sum()),
         **dataset.attrs,

@@ -2,12 +2,15 @@
 
 :func:`prepare_scene` reads and checks the emission, places the observer in its CRS, reads the
 terrain, and loads (or builds and caches) the kernel with one slice per source-altitude level at
-the observer's altitude. :func:`nightlights.sky.scene.skyglow_panorama` and the inverse maps
+the observer's altitude, one row per emission band: the mix of kernel shapes of the band's
+emission function (band tag ``emission_function``, :func:`band_emission_functions`).
+:func:`nightlights.sky.scene.skyglow_panorama` and the inverse maps
 (:mod:`nightlights.inverse`) start from its :class:`SceneSetup`.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 from dataclasses import dataclass
@@ -24,7 +27,7 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
-from nightlights.sky.panorama import KernelSlice, kernel_levels
+from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import (
     PolarCells,
     lit_polar_cells,
@@ -32,7 +35,10 @@ from nightlights.sky.polar import (
     supersampling,
 )
 from nightlights.sky.spec import (
+    DEFAULT_EMISSION_FUNCTION,
+    EMISSION_FUNCTION_TAG,
     MAX_KERNEL_RANGE,
+    EmissionFunction,
     KernelSpec,
     scene_kernel_spec,
     source_levels,
@@ -43,11 +49,14 @@ __all__ = [
     "EmissionInput",
     "RasterInput",
     "SceneSetup",
+    "band_emission_functions",
     "check_kernel_grid",
     "level_offset",
     "prepare_scene",
     "scene_memory",
 ]
+
+log = logging.getLogger(__name__)
 
 #: What a stage accepts as a raster input (an emission may also be given as its lit cells).
 RasterInput = Raster | xr.DataArray | PathLike
@@ -93,7 +102,11 @@ class SceneSetup:
     levels
         The kernel's source-altitude levels, increasing [m].
     slices
-        One kernel slice per level at the observer's altitude.
+        One kernel slice per level at the observer's altitude, one row per emission band.
+    functions
+        The emission function each band was given.
+    function_notes
+        Where each band's function came from: ``tag``, ``default`` or why another was used.
     """
 
     label: str
@@ -108,6 +121,8 @@ class SceneSetup:
     spec: KernelSpec | None
     levels: FloatArray
     slices: list[KernelSlice]
+    functions: tuple[EmissionFunction, ...] = ()
+    function_notes: tuple[str, ...] = ()
 
     @property
     def crs(self) -> CRS:
@@ -213,8 +228,10 @@ def prepare_scene(
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
     if cells.count > 2:
         raise InputError(
-            f"{label}: {cells.count} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+            f"{label}: {cells.count} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
+    functions, notes = band_emission_functions(emission, cells.count, label=label)
+    shapes = {shape for function in functions for shape in function.shapes}
     _check_flux(cells, label)
     xy = _observer_xy(observer, observer_crs, cells.crs)
     if not (np.isfinite(observer_height) and observer_height >= 0):
@@ -244,7 +261,8 @@ def prepare_scene(
             n_elevation=64 if n_elevation is None else n_elevation,
             n_azimuth=256 if n_azimuth is None else n_azimuth,
             n_distance=64 if n_distance is None else n_distance,
-            uplight=cells.count == 2,
+            uplight="uplight" in shapes,
+            garstang_lobe="garstang_lobe" in shapes,
         )
         table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
@@ -256,6 +274,8 @@ def prepare_scene(
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     offset = level_offset(heights, None, levels)
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
+    functions, notes = _kernel_functions(functions, notes, slices[0].emissions, label)
+    slices = [band_slice(s, functions) for s in slices]
     if kernel is not None:
         _check_reach(cells, xy, float(slices[0].distance_edges[-1]), label, observer, observer_crs)
     first = slices[0]
@@ -285,7 +305,105 @@ def prepare_scene(
         spec=spec,
         levels=levels,
         slices=slices,
+        functions=functions,
+        function_notes=notes,
     )
+
+
+#: Emission functions of the bands of an untagged two-band raster (the emission stage's
+#: layout: reflected light, then the luminaires' direct uplight).
+TWO_BAND_FUNCTIONS = ("lambertian", "uplight")
+
+
+def band_emission_functions(
+    emission: EmissionInput, count: int, *, label: str = "emission raster"
+) -> tuple[tuple[EmissionFunction, ...], tuple[str, ...]]:
+    """The emission function of every band: its ``emission_function`` tag, or the default.
+
+    Without the tag, a single band is read as :data:`~nightlights.sky.spec.
+    DEFAULT_EMISSION_FUNCTION` (Garstang 1986, F = G = 0.15: a satellite or user raster
+    of a city's total upward flux) and the two bands of an untagged two-band raster as
+    Lambertian and uplight (the layout of the ``emission`` stage, which tags them). With a
+    given kernel that has no ``garstang_lobe`` table, :func:`prepare_scene` reads an untagged
+    single band as Lambertian instead (logged; the panorama's attributes say so).
+
+    Parameters
+    ----------
+    emission
+        The emission input: a :class:`~nightlights.io.Raster` (its ``band_tags``), a
+        DataArray (its attribute ``emission_function``: one text, or one per band), a path
+        (the file's band tags) or :class:`~nightlights.io.raster.LitCells` (no tags).
+    count
+        Number of bands [1].
+    label
+        How the emission is named in messages.
+
+    Returns
+    -------
+    functions : tuple of EmissionFunction
+        One per band.
+    notes : tuple of str
+        ``tag`` or ``default`` per band.
+
+    Raises
+    ------
+    InputError
+        A tag that names no emission function.
+    """
+    tags = _band_tags(emission, count)
+    defaults = (DEFAULT_EMISSION_FUNCTION,) if count == 1 else TWO_BAND_FUNCTIONS
+    functions, notes = [], []
+    for band in range(count):
+        text = tags[band]
+        source = f"{label} band {band + 1} tag {EMISSION_FUNCTION_TAG}"
+        functions.append(EmissionFunction.parse(text or defaults[band], source=source))
+        notes.append("tag" if text else "default")
+    return tuple(functions), tuple(notes)
+
+
+def _band_tags(emission: EmissionInput, count: int) -> list[str | None]:
+    """The ``emission_function`` tag of each band, None where there is none."""
+    if isinstance(emission, Raster):
+        return [emission.band_tags[i].get(EMISSION_FUNCTION_TAG) for i in range(count)]
+    if isinstance(emission, xr.DataArray):
+        value = emission.attrs.get(EMISSION_FUNCTION_TAG)
+        if value is None or isinstance(value, str):
+            return [value] * count  # one text: every band
+        values: list[str | None] = [str(v) for v in np.ravel(value)]
+        return (values + [None] * count)[:count]
+    if isinstance(emission, LitCells):
+        return [None] * count
+    import rasterio
+
+    with rasterio.open(emission) as dataset:
+        return [dataset.tags(i + 1).get(EMISSION_FUNCTION_TAG) for i in range(count)]
+
+
+def _kernel_functions(
+    functions: tuple[EmissionFunction, ...],
+    notes: tuple[str, ...],
+    available: tuple[str, ...],
+    label: str,
+) -> tuple[tuple[EmissionFunction, ...], tuple[str, ...]]:
+    """The functions a kernel can serve: an untagged single band whose default
+    (:data:`~nightlights.sky.spec.DEFAULT_EMISSION_FUNCTION`) needs a table a given kernel
+    lacks is read as Lambertian, as before the default existed (logged, and stated in the
+    outputs' attributes); any other missing table is refused by
+    :func:`~nightlights.sky.panorama.band_slice`."""
+    if len(functions) != 1 or notes[0] != "default":
+        return functions, notes
+    missing = [shape for shape in functions[0].shapes if shape not in available]
+    if not missing:
+        return functions, notes
+    log.warning(
+        "%s: untagged single band read as lambertian, not the default %s: the kernel has no "
+        "%s table",
+        label,
+        functions[0].tag,
+        ", ".join(missing),
+    )
+    note = f"default {functions[0].tag} needs the kernel's {', '.join(missing)} table: lambertian"
+    return (EmissionFunction.parse("lambertian"),), (note,)
 
 
 #: Bytes per polar sub-point while the cells are split and binned (coordinates, distance,

@@ -31,7 +31,7 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.kernel import UPLIGHT_EXPONENT, garstang_weights
+from nightlights.sky.kernel import UPLIGHT_EXPONENT, emission_intensity, garstang_weights
 
 __all__ = [
     "DEFAULT_EMISSION_FUNCTION",
@@ -94,6 +94,33 @@ class EmissionFunction:
     def shapes(self) -> tuple[str, ...]:
         """The kernel shapes the function reads (weight > 0)."""
         return tuple(shape for shape, weight in self.weights if weight > 0)
+
+    def intensity(self, cos_zenith: ArrayLike) -> FloatArray:
+        """Intensity per lumen of upward flux: the weighted shapes of
+        :func:`~nightlights.sky.kernel.emission_intensity`.
+
+        Parameters
+        ----------
+        cos_zenith
+            Cosine of the emission direction's angle from the local vertical [1].
+
+        Returns
+        -------
+        numpy.ndarray
+            Intensity [cd lm-1].
+
+        Examples
+        --------
+        >>> f = EmissionFunction.parse("garstang:0.15,0.15")
+        >>> round(float(f.intensity(1.0)) * np.pi, 3)  # straight up: the Lambertian part
+        0.459
+        """
+        mu = np.asarray(cos_zenith, dtype=float)
+        total = np.zeros(mu.shape)
+        for shape, weight in self.weights:
+            if weight > 0:
+                total = total + weight * emission_intensity(mu, shape)
+        return total
 
     @classmethod
     def parse(cls, text: str, *, source: str = "emission_function") -> EmissionFunction:

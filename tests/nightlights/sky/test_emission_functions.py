@@ -7,6 +7,7 @@ Sources: Garstang, R. H. 1986, PASP 98, 364-375 (the emission function
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,12 @@ from affine import Affine
 from scipy.integrate import quad
 
 from nightlights.errors import InputError
+from nightlights.ground.upward import (
+    emission_from_viirs,
+    flux_density_to_viirs_radiance,
+    viirs_radiance_to_flux_density,
+)
+from nightlights.io import Raster
 from nightlights.sky import _kernel_numba
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import compute_kernel
@@ -32,7 +39,14 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map
-from nightlights.sky.spec import EmissionFunction, KernelSpec
+from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.setup import band_emission_functions
+from nightlights.sky.spec import (
+    DEFAULT_EMISSION_FUNCTION,
+    EMISSION_FUNCTION_TAG,
+    EmissionFunction,
+    KernelSpec,
+)
 
 
 def test_garstang_lobe_normalisation_is_garstangs_0554() -> None:
@@ -332,10 +346,138 @@ def test_a_band_mix_reads_the_mix_of_coefficient_tables(lobe_kernel: xr.Dataset)
 def test_a_band_mix_needs_the_shapes_in_the_kernel() -> None:
     kernel = compute_kernel(KernelSpec(**SMALL, uplight=True), progress=False)
     raw = kernel_slice(kernel, observer_altitude=0.0)
-    with pytest.raises(InputError, match="garstang_lobe table"):
+    with pytest.raises(InputError, match="no garstang_lobe table"):
         band_slice(raw, [EmissionFunction.parse("garstang:0.15,0.15")])
     two = band_slice(raw, [EmissionFunction.parse("uplight"), EmissionFunction.parse("lambertian")])
     np.testing.assert_array_equal(two.coefficient[0], raw.coefficient[1])
     np.testing.assert_array_equal(two.coefficient[1], raw.coefficient[0])
     with pytest.raises(InputError, match="already"):
         band_slice(two, [EmissionFunction.parse("lambertian")])
+
+
+# -- the band tag emission_function ----------------------------------------------------------
+
+CITY_TRANSFORM = Affine(100.0, 0.0, 500_000.0, 0.0, -100.0, 6_702_000.0)
+CITY_OBSERVER = (501_000.0, 6_701_000.0)
+SCENE_GRID = {"n_elevation": 8, "n_azimuth": 32, "n_distance": 12}
+
+
+def _city(tags: tuple[dict[str, str], ...] = ({},)) -> Raster:
+    data = np.zeros((len(tags), 20, 20))
+    data[:, 3:7, 12:16] = 2.0
+    data[:, 15, 4] = 30.0
+    return Raster(data, CITY_TRANSFORM, "EPSG:32635", band_tags=tags)
+
+
+def test_band_functions_from_tags_and_defaults(tmp_path: Path) -> None:
+    """Tags of a Raster, a DataArray and a file; untagged: one band garstang:0.15,0.15, two
+    bands lambertian + uplight."""
+    functions, notes = band_emission_functions(_city(), 1)
+    assert [f.tag for f in functions] == [DEFAULT_EMISSION_FUNCTION] and notes == ("default",)
+    functions, notes = band_emission_functions(_city(({}, {})), 2)
+    assert [f.tag for f in functions] == ["lambertian", "uplight"]
+    tagged = _city(({EMISSION_FUNCTION_TAG: "garstang:0.1,0.2"}, {}))
+    functions, notes = band_emission_functions(tagged, 2)
+    assert [f.tag for f in functions] == ["garstang:0.1,0.2", "uplight"]
+    assert notes == ("tag", "default")
+    path = tagged.write(tmp_path / "tagged.tif")
+    assert band_emission_functions(path, 2)[0] == functions
+    array = _city().to_xarray().assign_attrs({EMISSION_FUNCTION_TAG: "uplight"})
+    assert band_emission_functions(array, 1)[0][0].tag == "uplight"
+    assert band_emission_functions(_city().lit_cells(), 1)[1] == ("default",)
+    with pytest.raises(InputError, match="band 1 tag emission_function 'cos'"):
+        band_emission_functions(_city(({EMISSION_FUNCTION_TAG: "cos"},)), 1)
+
+
+def test_untagged_single_band_reads_garstang_with_a_scene_kernel(tmp_path: Path) -> None:
+    """The scene kernel gets the lobe table; the panorama equals the tagged garstang band's
+    and its attributes say which function the band was given."""
+    untagged = skyglow_panorama(
+        _city(), CITY_OBSERVER, cache_dir=tmp_path, progress=False, **SCENE_GRID
+    ).panorama
+    assert untagged.attrs["emission_functions"] == "garstang:0.15,0.15"
+    assert untagged.attrs["emission_function_sources"] == "default"
+    tagged = skyglow_panorama(
+        _city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)),
+        CITY_OBSERVER,
+        cache_dir=tmp_path,
+        progress=False,
+        **SCENE_GRID,
+    ).panorama
+    assert tagged.attrs["emission_function_sources"] == "tag"
+    np.testing.assert_array_equal(untagged["luminance"], tagged["luminance"])
+    lambertian = skyglow_panorama(
+        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)),
+        CITY_OBSERVER,
+        cache_dir=tmp_path,
+        progress=False,
+        **SCENE_GRID,
+    ).panorama
+    assert lambertian.attrs["emission_functions"] == "lambertian"
+    # the low-angle lobe lights the sky near the horizon more than a Lambertian ground
+    low = untagged["luminance"].values[-1].mean() / lambertian["luminance"].values[-1].mean()
+    assert low > 1.0
+
+
+def test_untagged_band_with_a_given_kernel_without_the_lobe(small_kernel: xr.Dataset) -> None:
+    """Read as Lambertian, as before the default, and said so; a tagged Garstang band needs
+    the lobe table."""
+    kwargs = {"observer_height": 0.0}
+    untagged = skyglow_panorama(_city(), CITY_OBSERVER, small_kernel, **kwargs).panorama
+    assert untagged.attrs["emission_functions"] == "lambertian"
+    assert "needs the kernel's garstang_lobe table" in untagged.attrs["emission_function_sources"]
+    lambertian = skyglow_panorama(
+        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)), CITY_OBSERVER, small_kernel, **kwargs
+    ).panorama
+    np.testing.assert_array_equal(untagged["luminance"], lambertian["luminance"])
+    with pytest.raises(InputError, match="no garstang_lobe table"):
+        skyglow_panorama(
+            _city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)),
+            CITY_OBSERVER,
+            small_kernel,
+            **kwargs,
+        )
+
+
+def test_tagged_bands_pca_against_naive(lobe_kernel: xr.Dataset) -> None:
+    """Two bands with their own functions (uplight, garstang) in pca mode against the direct
+    integration of each band's mix."""
+    city = _city(({EMISSION_FUNCTION_TAG: "uplight"}, {EMISSION_FUNCTION_TAG: "garstang:0.2,0.1"}))
+    observer = (501_000.0, 6_700_500.0)
+    kwargs = {"observer_height": 0.0}
+    pca = skyglow_panorama(city, observer, lobe_kernel, **kwargs).panorama
+    naive = skyglow_panorama(city, observer, lobe_kernel, mode="naive", **kwargs).panorama
+    assert pca.attrs["emission_functions"] == "uplight; garstang:0.2,0.1"
+    a, b = pca["luminance"].values, naive["luminance"].values
+    bright = b > 0.01 * b.max()
+    assert np.mean(np.abs(a[bright] - b[bright]) / b[bright]) < 0.1
+    assert a[0].mean() == pytest.approx(b[0].mean(), rel=0.05)
+
+
+def test_emission_stages_write_the_tag() -> None:
+    """The VIIRS stage tags its band and scales the flux by 1 / (pi I_1(0)): Garstang's
+    F = G = 0.15 gives 1 / 0.459 = 2.18 times the Lambertian flux."""
+    dnb = Raster(
+        np.full((1, 4, 4), 20.0),
+        Affine(450, 0, 500_000, 0, -450, 6_700_000),
+        "EPSG:32635",
+        ("radiance",),
+        ("nW cm-2 sr-1",),
+    )
+    plain = emission_from_viirs(dnb, spectrum="LED_4000K")
+    assert plain.raster.band_tags[0][EMISSION_FUNCTION_TAG] == "lambertian"
+    garstang = emission_from_viirs(
+        dnb, spectrum="LED_4000K", emission_function="garstang:0.15,0.15"
+    )
+    assert garstang.raster.band_tags[0][EMISSION_FUNCTION_TAG] == "garstang:0.15,0.15"
+    ratio = garstang.total_flux["upward"] / plain.total_flux["upward"]
+    assert ratio == pytest.approx(1.0 / garstang_weights(0.15, 0.15)["lambertian"], rel=1e-6)
+    assert ratio == pytest.approx(2.18, abs=0.005)
+    with pytest.raises(InputError, match="no light straight up"):
+        emission_from_viirs(dnb, spectrum="LED_4000K", emission_function="uplight")
+    radiance = flux_density_to_viirs_radiance(
+        viirs_radiance_to_flux_density(20.0, 300.0, zenith_intensity=0.1),
+        300.0,
+        zenith_intensity=0.1,
+    )
+    assert float(radiance) == pytest.approx(20.0, rel=1e-12)
