@@ -2,7 +2,8 @@
 
 ``normalize`` maps a street layer's fields onto the canonical ones, ``sample`` fills the
 missing street and lighting fields from a Bayesian network, ``fit`` estimates such a network
-from streets whose lighting is known, and ``place`` puts light systems along the streets.
+from streets whose lighting is known, ``learn`` estimates one from mapped street lamps, and
+``place`` puts light systems along the streets.
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ from cli.options import (
 
 if TYPE_CHECKING:
     from nightlights.streets import NormalizeReport
+
+#: nightlights.streets._learn.DEFAULT_MAX_DISTANCE [m] (mirrored: ``--help`` must not import the
+#: library; tests/cli/test_streets_learn.py checks that the two agree)
+DEFAULT_MAX_DISTANCE = 25.0
 
 _NETWORK_HELP = (
     f"Catalogue network ({', '.join(NETWORK_CATALOG)}; default {DEFAULT_NETWORK}) "
@@ -223,6 +228,97 @@ def fit_command(
     from rich.console import Console
 
     Console(stderr=True).print(f"fitted network -> {result.path} (use --network {result.path})")
+
+
+@streets.command("learn")
+@files_argument("STREETS LAMPS OUT_DIR")
+@output_option
+@overwrite_option
+@click.option("--network", default=None, metavar="BASE", help="Base network: " + _NETWORK_HELP)
+@click.option(
+    "--max-distance",
+    default=DEFAULT_MAX_DISTANCE,
+    show_default=True,
+    type=click.FloatRange(min=0, min_open=True),
+    help="Largest lamp-to-street distance [m].",
+)
+@click.option(
+    "--prior",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Pseudo-observations per parent combination from the base network (0: maximum "
+    "likelihood).",
+)
+@click.option(
+    "--lamps-layer",
+    default=None,
+    help="Layer of the LAMPS file (default: 'points' for OSM files, else the first).",
+)
+@seed_option
+def learn_command(
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
+    network: str | None,
+    max_distance: float,
+    prior: float,
+    lamps_layer: str | None,
+    seed: int | None,
+) -> None:
+    """Learn a network from STREETS (normalised) and the mapped lamps in LAMPS; write it to
+    the folder OUT_DIR.
+
+    Each lamp goes to the nearest street within --max-distance (a street it runs along
+    beats one that ends beside it); streets with two lamps on one side give arrangement and
+    spacing, tagged heights give mounting height; streets without lamps stay unobserved
+    (only lit=no says a street is unlit). The base network's tables are fitted to this
+    evidence with the base as prior. OUT_DIR also gets learn_report.json and the evidence
+    layers evidence_streets.gpkg and evidence_lamps.gpkg.
+    """
+    import nightlights.streets as nls
+
+    (streets_path, lamps_path), dst = resolve_inout(
+        files,
+        output,
+        inputs=2,
+        usage="STREETS LAMPS OUT_DIR",
+        overwrite=True,  # the stage checks the folder itself (--overwrite: network folders)
+    )
+    result = nls.learn(
+        streets_path,
+        lamps_path,
+        dst,
+        network=network,
+        max_distance=max_distance,
+        prior=prior,
+        seed=seed,
+        lamps_layer=lamps_layer,
+        overwrite=overwrite,
+    )
+    print_learn_report(result.report, dst)
+
+
+def print_learn_report(report: Any, dst: str) -> None:
+    """Print the lamps assigned, the streets with evidence and its agreement (stderr)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(stderr=True)
+    console.print(
+        f"{report.assigned} of {report.lamps} lamps on {report.streets_with_lamps} of "
+        f"{report.streets} streets (within {report.max_distance:g} m; "
+        f"{report.assigned - report.interior} beside a street end); "
+        f"{report.unlit_tagged} streets tagged lit=no took none",
+        highlight=False,
+    )
+    table = Table("field", "streets with evidence", "agreeing", "values", title="evidence")
+    for name, evidence in report.fields.items():
+        values = ", ".join(f"{key} {value:g}" for key, value in evidence.summary.items())
+        share = "-" if not evidence.streets else f"{evidence.agreeing} ({evidence.agreement:.0%})"
+        table.add_row(name, str(evidence.streets), share, values)
+    console.print(table)
+    console.print(f"learned network -> {dst} (use --network {dst})", highlight=False)
 
 
 @streets.command("place")

@@ -46,7 +46,7 @@ def test_catalogue_lists_networks_and_default() -> None:
     assert {"europe", "north_america"} <= set(catalog_names())
     assert default_network_name() == "europe"
     assert load_network().name == "europe"
-    with pytest.raises(CatalogError, match="europe, generic, north_america"):
+    with pytest.raises(CatalogError, match="europe, generic, helsinki, north_america"):
         load_network("atlantis")
 
 

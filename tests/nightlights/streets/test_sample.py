@@ -113,7 +113,7 @@ def test_impossible_evidence_leaves_no_output(tmp_path: Path) -> None:
 def test_unknown_network_lists_catalogue(tmp_path: Path) -> None:
     src = tmp_path / "s.gpkg"
     write_normalized(normalized_layer(ROWS), src)
-    with pytest.raises(CatalogError, match="europe, generic, north_america"):
+    with pytest.raises(CatalogError, match="europe, generic, helsinki, north_america"):
         sample(src, tmp_path / "o.gpkg", network="mars")
 
 
