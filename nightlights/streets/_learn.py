@@ -75,10 +75,10 @@ from bayesnets.binding import Binding
 from bayesnets.errors import BayesNetError, BayesNetWarning
 from bayesnets.network import CONFIG_NAME
 from nightlights._typing import PathLike
-from nightlights.errors import EmptyInputError, InputError, OutputError
+from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
-from nightlights.streets._checks import rng_from_seed
+from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._mapping import parse_length, parse_packed_tags
 from nightlights.streets._sample import fill_lighting, resolve_network
 from nightlights.streets.schema import (
@@ -1043,7 +1043,18 @@ def _read_lamps(
     if "highway" in points:
         points = points.loc[points["highway"].astype(str) == "street_lamp"]
     points = points.loc[~(points.geometry.isna() | points.geometry.is_empty)]
-    points = points.loc[points.geometry.geom_type == "Point"]
+    points = points.explode(index_parts=False)  # a multi-point is one lamp per point
+    kept = (points.geometry.geom_type == "Point").to_numpy() & finite_vertices(
+        points.geometry.to_numpy()
+    )
+    if (~kept).any():
+        warnings.warn(
+            f"{source}: {int((~kept).sum())} lamp feature(s) that are not points with finite "
+            "coordinates dropped",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+    points = points.loc[kept]
     if points.empty:
         raise EmptyInputError(f"{source}: no lamp points (highway=street_lamp for OSM layers)")
     return points.to_crs(crs).reset_index(drop=True), source

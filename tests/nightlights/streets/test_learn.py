@@ -14,7 +14,8 @@ import shapely
 from shapely import LineString, Point
 
 from bayesnets import load_network, read_network
-from nightlights.errors import EmptyInputError, InputError, OutputError
+from bayesnets.errors import FitWarning
+from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
 from nightlights.streets import (
     assign_lamps,
     learn,
@@ -326,6 +327,24 @@ def test_bad_inputs_are_refused() -> None:
         learn(streets, far)
     with pytest.raises(EmptyInputError, match="no lamp points"):
         learn(streets, lamps.loc[lamps["highway"] != "street_lamp"])
+    lines = lamps.copy()
+    lines["geometry"] = [LineString([(p.x, p.y), (p.x + 1, p.y)]) for p in lines.geometry]
+    with pytest.warns(DataQualityWarning, match="not points"):
+        with pytest.raises(EmptyInputError, match="no lamp points"):
+            learn(streets, lines)
+
+
+def test_multi_points_are_lamps_each() -> None:
+    streets, lamps = _city(n_streets=3)
+    row = lamps.loc[lamps["highway"] == "street_lamp"]
+    merged = gpd.GeoDataFrame(
+        {"highway": ["street_lamp"]}, geometry=[shapely.MultiPoint(list(row.geometry))], crs=CRS
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitWarning)
+        one = learn(streets, merged, seed=0, iterations=1).report
+        many = learn(streets, row, seed=0, iterations=1).report
+    assert one.lamps == many.lamps == len(row)
 
 
 def test_learn_lighting_network_without_lamp_evidence_keeps_lighting_tables() -> None:
