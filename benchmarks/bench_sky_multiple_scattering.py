@@ -39,6 +39,8 @@ EMISSIONS = ("lambertian", "garstang_lobe")
 #: Garstang's (1986) double-scattering factors for K = 1, quoted at second hand [km, 1].
 GARSTANG_DOUBLE = ((10, 1.6), (50, 1.95), (150, 2.5))
 MAX_ORDER = 50
+#: Distances of the documentation's ratio table [km].
+SHOWN_KM = (1, 3, 10, 30, 50, 100, 150, 300)
 
 
 def rays() -> tuple[np.ndarray, np.ndarray]:
@@ -154,6 +156,76 @@ def error_against_cost(reference: dict, sweep: list[int], kernel_seconds: float)
     return out
 
 
+def _cell(values: list, errors: list, index: int) -> str:
+    return f"{values[index]:.2f} ± {errors[index]:.2f}"
+
+
+def tables(result: dict) -> dict:
+    """Records for the documentation's tables (json-table markers)."""
+    el = np.array(result["ray_elevation_deg"])
+    km = np.array(result["ray_distance_km"])
+    ratio_rows, runs = [], []
+    for label, case in result["cases"].items():
+        for key in (*EMISSIONS, "garstang_mix"):
+            for elevation in ELEVATIONS:
+                row = {"atmosphere": label, "emission": key, "elevation_deg": elevation}
+                for d in SHOWN_KM:
+                    i = int(np.flatnonzero((el == elevation) & (km == d))[0])
+                    row[f"{d} km"] = _cell(case[key]["ratio"], case[key]["ratio_se"], i)
+                ratio_rows.append(row)
+        for key in EMISSIONS:
+            run_row = case[key]
+            runs.append(
+                {
+                    "atmosphere": label,
+                    "emission": key,
+                    "photons": run_row["photons"],
+                    "seconds": run_row["seconds"],
+                    "events": run_row["events"],
+                    "rays": int(km.size),
+                    "flux_top": run_row["flux"]["top"],
+                    "flux_ground": run_row["flux"]["ground"],
+                    "flux_absorbed": run_row["flux"]["absorbed"],
+                }
+            )
+    k1 = result["cases"]["K = 1"]["garstang_mix"]
+    comparison = []
+    for d, quoted in GARSTANG_DOUBLE:
+        i = int(np.flatnonzero((el == 90.0) & (km == d))[0])
+        comparison.append(
+            {
+                "distance_km": d,
+                "garstang_quoted": quoted,
+                "orders_1_2": _cell(k1["ratio_orders_1_2"], k1["ratio_orders_1_2_se"], i),
+                "all_orders": _cell(k1["ratio"], k1["ratio_se"], i),
+            }
+        )
+    cost = result["error_against_cost"]
+    kernel = cost["kernel_seconds_per_ray"]
+    cost_rows = [
+        {"method": "single scattering", "seconds_per_ray": kernel, **cost["single"]},
+        {
+            "method": "single x fitted factor",
+            "seconds_per_ray": kernel,
+            **{k: v for k, v in cost["single_times_factor"].items() if k.startswith("m")},
+        },
+    ]
+    for row in cost["monte_carlo"]:
+        cost_rows.append(
+            {
+                "method": f"Monte Carlo, {row['photons']:,} photons (SE)",
+                "seconds_per_ray": row["seconds_per_ray"],
+                **row["relative_se"],
+            }
+        )
+    return {
+        "ratio_table": ratio_rows,
+        "garstang_comparison": comparison,
+        "cost_table": cost_rows,
+        "runs": runs,
+    }
+
+
 def main() -> None:
     parser = harness.argument_parser(__doc__, quick="4,000 photons per case, two sweep points")
     args = harness.parse_args(parser)
@@ -189,6 +261,7 @@ def main() -> None:
     result["error_against_cost"] = error_against_cost(
         result["cases"]["T = 2"]["lambertian"], sweep, kernel.best
     )
+    result.update(tables(result))
     result["note"] = (
         "Standard errors are those of the mean over photons; the ray-integrated estimator has "
         "a heavy tail (events passing near a view ray), so errors from few photons are "
