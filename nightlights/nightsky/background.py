@@ -157,7 +157,7 @@ def starlight_density(
     azimuth: ArrayLike,
     *,
     smoothing: float = STARLIGHT_SMOOTHING,
-    grid_step: float = 3.0,
+    grid_step: float = 4.0,
 ) -> FloatArray:
     """Smoothed number density of stars relative to its mean over the whole sky [1].
 

@@ -61,9 +61,12 @@ ARCSEC2_SR = (math.pi / (180.0 * 3600.0)) ** 2
 ZERO_MAGNITUDE_ILLUMINANCE = ZERO_POINT_LUMINANCE * ARCSEC2_SR
 #: One nanolambert [cd m-2]: 1 L = 1e4 / pi cd m-2.
 NANOLAMBERT = 1e-9 * 1e4 / math.pi
-#: Standard deviation of the star point-spread function [pixel]: the smallest that keeps a
-#: star's centroid within 0.05 pixel of its true position (benchmarks/bench_sky_render.py).
-PSF_SIGMA = 0.6
+#: Standard deviation of the star point-spread function [pixel]. In the sweep of
+#: benchmarks/bench_sky_render.py, 0.7 is the smallest sigma that keeps a star's flux-weighted
+#: centroid within 1e-4 pixel of its true position (0.35 is off by up to 0.04 pixel), and the
+#: largest share of a star's flux in one pixel then varies by a factor 1.5 with its sub-pixel
+#: position (3.3 at 0.25).
+PSF_SIGMA = 0.7
 #: Half-width of the splatting stencil [sigma]: the Gaussian beyond 3 sigma holds 0.27 % of the
 #: flux in each axis; the weights are renormalised, so the flux is kept exactly.
 PSF_RADIUS = 3.0
@@ -197,10 +200,12 @@ def view_pixels(view: View) -> Pixels:
         band = np.radians(d_az) * (
             np.sin(np.radians(el + d_el / 2.0)) - np.sin(np.radians(el - d_el / 2.0))
         )
-        elevation = np.repeat(el[:, None], cols, axis=1)
-        azimuth = np.repeat(az[None, :], rows, axis=0)
-        solid = np.repeat(band[:, None], cols, axis=1)
-        return Pixels(view, elevation, azimuth, solid, np.ones((rows, cols), bool), d_az)
+        # read-only broadcast views: every row shares its elevation, every column its azimuth
+        elevation = np.broadcast_to(el[:, None], (rows, cols))
+        azimuth = np.broadcast_to(az[None, :], (rows, cols))
+        solid = np.broadcast_to(band[:, None], (rows, cols))
+        sky = np.broadcast_to(np.True_, (rows, cols))
+        return Pixels(view, elevation, azimuth, solid, sky, d_az)
     if view.projection == "fisheye":
         step = 180.0 / rows  # zenith angle per pixel [deg]
         dx, dy = np.meshgrid(np.arange(cols) + 0.5 - cols / 2, np.arange(rows) + 0.5 - rows / 2)
@@ -485,15 +490,17 @@ def splat_disc(
         return splat_points(
             pixels, np.array([elevation]), np.array([azimuth]), values[None, :], sigma=PSF_SIGMA
         )
-    e1, e2 = np.radians(pixels.elevation), math.radians(elevation)
+    size = np.degrees(np.sqrt(pixels.solid_angle))
+    # only pixels within the disc's elevation band (plus two pixels) can be covered
+    near = pixels.sky & (np.abs(pixels.elevation - elevation) <= angular_radius + 2.0 * size)
+    e1, e2 = np.radians(pixels.elevation[near]), math.radians(elevation)
     cos_sep = np.sin(e1) * math.sin(e2) + np.cos(e1) * math.cos(e2) * np.cos(
-        np.radians(pixels.azimuth - azimuth)
+        np.radians(pixels.azimuth[near] - azimuth)
     )
     separation = np.degrees(np.arccos(np.clip(cos_sep, -1.0, 1.0)))
-    size = np.degrees(np.sqrt(pixels.solid_angle))
-    cover = np.clip((angular_radius - separation) / size + 0.5, 0.0, 1.0) * pixels.sky
-    weight = cover * pixels.solid_angle
-    total = weight.sum()
+    cover = np.zeros(pixels.view.shape)
+    cover[near] = np.clip((angular_radius - separation) / size[near] + 0.5, 0.0, 1.0)
+    total = (cover * pixels.solid_angle).sum()
     if total <= 0:
         return np.zeros((*pixels.view.shape, values.size))
     luminance = cover / total  # flux x weight / solid angle, weight / solid angle = cover
@@ -623,6 +630,18 @@ def _bilinear(grid: FloatArray, rows: ArrayLike, cols: ArrayLike) -> FloatArray:
     return np.stack(channels, axis=-1).reshape(*r.shape, grid.shape[-1])
 
 
+def _bilinear_separable(grid: FloatArray, rows: FloatArray, cols: FloatArray) -> FloatArray:
+    """:func:`_bilinear` on the product of fractional ``rows`` and ``cols``: (rows, cols, c)."""
+    r = np.clip(rows, 0.0, grid.shape[0] - 1.0)
+    r0 = np.minimum(r.astype(np.intp), grid.shape[0] - 2)
+    fr = (r - r0)[:, None, None]
+    along = grid[r0] * (1.0 - fr) + grid[r0 + 1] * fr
+    c = np.mod(cols, grid.shape[1] - 1.0)
+    c0 = np.minimum(c.astype(np.intp), grid.shape[1] - 2)
+    fc = (c - c0)[None, :, None]
+    return along[:, c0] * (1.0 - fc) + along[:, c0 + 1] * fc
+
+
 def panorama_lookup(panorama: Any, elevation: ArrayLike, azimuth: ArrayLike) -> FloatArray:
     """Bilinear lookup of a skyglow panorama at directions, periodic in azimuth.
 
@@ -747,7 +766,12 @@ def render_sky(
             glow = glow * np.array([ratios["X"], 1.0, ratios["Z"]])
         grid += glow
     step = (grid_el[1] - grid_el[0], grid_az[1] - grid_az[0])
-    xyz = _bilinear(grid, pixels.elevation / step[0], pixels.azimuth / step[1])
+    if view.projection == "equirectangular":  # separable: rows share elevation, columns azimuth
+        xyz = _bilinear_separable(
+            grid, pixels.elevation[:, 0] / step[0], pixels.azimuth[0] / step[1]
+        )
+    else:
+        xyz = _bilinear(grid, pixels.elevation / step[0], pixels.azimuth / step[1])
     if moon is not None and moon.elevation >= 0.0:
         m_moon = moon_v_magnitude(moon.phase_angle) + k * float(airmass(moon.elevation))
         moon_flux = ZERO_MAGNITUDE_ILLUMINANCE * 10.0 ** (-0.4 * m_moon)
@@ -771,7 +795,8 @@ def render_sky(
         flux = star_xyz(vmag[visible], stars.bv[up][visible])
         xyz += splat_points(pixels, s_el[visible], s_az[visible], flux, sigma=options.psf_sigma)
         drawn = int(visible.sum())
-    xyz = np.where(pixels.sky[..., None], xyz, np.nan)
+    if not pixels.sky.all():
+        xyz[~pixels.sky] = np.nan
     zenith_total = zenith_natural + zenith_artificial
     magnitude = float(luminance_to_magnitude(zenith_total)) if zenith_total > 0 else math.inf
     summary.update(

@@ -375,20 +375,30 @@ def xyz_to_srgb(xyz: ArrayLike) -> FloatArray:
     ----------
     IEC 61966-2-1 (1999).
     """
-    import colour
-
     values = np.nan_to_num(np.asarray(xyz, dtype=float), nan=0.0)
-    linear = np.asarray(colour.XYZ_to_RGB(values, "sRGB", apply_cctf_encoding=False), dtype=float)
+    linear = values @ _srgb_matrix().T
     luminance = np.maximum(values[..., 1], 0.0)
     over = luminance > 1.0
-    linear = np.where(over[..., None], linear / np.where(over, luminance, 1.0)[..., None], linear)
+    if np.any(over):
+        linear[over] /= luminance[over][:, None]
     grey = np.minimum(luminance, 1.0)[..., None]
     away = linear - grey
     with np.errstate(divide="ignore", invalid="ignore"):
         room = np.where(away > 0, (1.0 - grey) / away, np.where(away < 0, grey / -away, np.inf))
     mix = np.clip(np.min(room, axis=-1, keepdims=True), 0.0, 1.0)
     linear = np.clip(grey + mix * away, 0.0, 1.0)
-    return np.asarray(colour.cctf_encoding(linear, function="sRGB"), dtype=float)
+    # IEC 61966-2-1 transfer function
+    return np.where(
+        linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1.0 / 2.4) - 0.055
+    )
+
+
+@functools.cache
+def _srgb_matrix() -> FloatArray:
+    """XYZ to linear sRGB (D65) matrix of colour-science."""
+    import colour
+
+    return np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB, dtype=float)
 
 
 @dataclass(frozen=True)

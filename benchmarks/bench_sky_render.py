@@ -1,0 +1,222 @@
+"""Night-sky rendering: time against resolution, and the star point-spread knob.
+
+Part 1, resolution: :func:`nightlights.nightsky.render.render_sky` of an equirectangular
+panorama (azimuth 0-360 across, elevation 0-90 down) from 256 x 64 to 2048 x 1024 pixels, with
+every catalogue star above the horizon drawn (no limiting magnitude), the natural background,
+the Moon (up) and a 64 x 256 artificial skyglow panorama; then the night-vision tone
+mapping of the same image. Also fisheye and perspective views of about 2 million pixels.
+Time: wall time, best of 3, and the CPU time of one call (the process's own time, less
+disturbed than the wall time by other jobs on the shared machine).
+
+Part 2, the point-spread knob: ``sigma`` [pixel] of
+:func:`~nightlights.nightsky.render.splat_points` for 960 stars at random sub-pixel positions
+on a 2048 x 1024 panorama. Errors against the exact values: the flux error of each star (sum
+of luminance x solid angle against its illuminance) with the weights renormalised (the
+renderer) and without (the Gaussian truncated at 3 sigma and pixel-integrated), the centroid
+error (flux-weighted mean pixel position against the true position, the sampling bias that
+makes small stars jump between pixels as they move), and the spread of the largest share of a
+star's flux in one pixel with its sub-pixel position (max / min - 1, the "twinkling" of an
+undersampled star). Time: splatting all catalogue stars, best of 3.
+
+Run: ``python benchmarks/bench_sky_render.py [--quick] [--out DIR]`` (``--quick``: fewer sizes
+and sigmas). Writes ``sky_render.json`` and ``.png`` (see ``_harness.py`` for where).
+"""
+
+from __future__ import annotations
+
+import time
+
+import _harness as harness
+import numpy as np
+import xarray as xr
+
+from nightlights.nightsky.astro import star_positions
+from nightlights.nightsky.catalog import load_catalog
+from nightlights.nightsky.moon import moon_state
+from nightlights.nightsky.render import (
+    PSF_SIGMA,
+    SkyOptions,
+    View,
+    render_sky,
+    splat_points,
+    view_pixels,
+)
+from nightlights.nightsky.tonemap import tone_map
+
+#: Helsinki, a winter evening with the waxing gibbous Moon up.
+TIME, LON, LAT = "2026-01-27T19:00:00Z", 24.95, 60.17
+SIZES = ((256, 64), (512, 128), (1024, 256), (2048, 512), (2048, 1024))
+OTHER_VIEWS = (
+    View("fisheye", 1448, 1448),
+    View("perspective", 2048, 1024, azimuth=180.0, elevation=30.0, field_of_view=100.0),
+)
+SIGMAS = (0.25, 0.35, 0.5, 0.6, 0.7, 0.85, 1.0, 1.5, 2.0)
+
+
+def panorama() -> xr.Dataset:
+    """A city glow: 64 x 256, brightest toward the south-west near the horizon."""
+    elevation = 90.0 - (np.arange(64) + 0.5) * 90.0 / 64
+    azimuth = (np.arange(256) + 0.5) * 360.0 / 256
+    el, az = np.meshgrid(elevation, azimuth, indexing="ij")
+    glow = 2e-4 + 3e-3 * np.exp(-el / 15.0) * (1.0 + np.cos(np.radians(az - 225.0))) / 2.0
+    return xr.Dataset(
+        {"luminance": (("elevation", "azimuth"), glow)},
+        coords={"elevation": elevation, "azimuth": azimuth},
+    )
+
+
+def resolution_rows(sizes: tuple, pano: xr.Dataset) -> list[dict]:
+    options = SkyOptions(limiting_magnitude=False)
+    views = [View("equirectangular", w, h) for w, h in sizes] + list(OTHER_VIEWS)
+    rows = []
+    for view in views:
+        timing = harness.repeat(
+            lambda view=view: render_sky(TIME, LON, LAT, view=view, panorama=pano, options=options),
+            3,
+        )
+        image = timing.value
+        cpu_start = time.process_time()
+        render_sky(TIME, LON, LAT, view=view, panorama=pano, options=options)
+        cpu = time.process_time() - cpu_start
+        tone = harness.repeat(
+            lambda image=image: tone_map(image.xyz, pixel_size=image.pixels.pixel_size), 3
+        )
+        rows.append(
+            {
+                "projection": view.projection,
+                "width": view.shape[1],
+                "height": view.shape[0],
+                "pixels": view.shape[0] * view.shape[1],
+                "render_seconds": timing.best,
+                "render_cpu_seconds": cpu,
+                "tone_map_seconds": tone.best,
+                "stars_drawn": image.summary["stars_drawn"],
+            }
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def psf_rows(sigmas: tuple) -> list[dict]:
+    view = View("equirectangular", 2048, 1024)
+    pixels = view_pixels(view)
+    rng = np.random.default_rng(3)
+    # one star per cell of 3 deg (elevation 10-58) x 6 deg (azimuth), 1 deg or more from the
+    # cell's edges: a splat of 3 sigma <= 6 pixels (0.53 deg x 1.05 deg) stays in its cell
+    cell_el, cell_az = np.meshgrid(np.arange(16), np.arange(60), indexing="ij")
+    elevation = 10.0 + 3.0 * cell_el.ravel() + 1.5 + rng.uniform(-0.5, 0.5, cell_el.size)
+    azimuth = 6.0 * cell_az.ravel() + 3.0 + rng.uniform(-0.5, 0.5, cell_az.size)
+    rows_true, cols_true, _ = pixels.locate(elevation, azimuth)
+    flux = np.ones(elevation.size)
+    inside = (pixels.elevation >= 10.0) & (pixels.elevation < 58.0)
+    owners = ((pixels.elevation[inside] - 10.0) // 3.0).astype(int) * 60 + (
+        pixels.azimuth[inside] // 6.0
+    ).astype(int)
+    index_r, index_c = (i[inside] for i in np.indices(view.shape))
+    catalog = load_catalog()
+    star_az, star_el = star_positions(catalog, TIME, LON, LAT)
+    up = star_el >= 0
+    rows = []
+    for sigma in sigmas:
+        totals = {}
+        for normalise in (True, False):
+            image = splat_points(pixels, elevation, azimuth, flux, sigma=sigma, normalise=normalise)
+            weight = (image[..., 0] * pixels.solid_angle)[inside]
+            totals[normalise] = np.bincount(owners, weight, minlength=elevation.size)
+        # the renormalised image is the last one made with normalise=True: redo it for moments
+        image = splat_points(pixels, elevation, azimuth, flux, sigma=sigma)
+        weight = (image[..., 0] * pixels.solid_angle)[inside]
+        total = totals[True]
+        centre_r = np.bincount(owners, weight * index_r, minlength=elevation.size) / total
+        centre_c = np.bincount(owners, weight * index_c, minlength=elevation.size) / total
+        centroid = np.hypot(centre_r - rows_true, centre_c - cols_true)
+        share = np.zeros(elevation.size)  # the largest share of a star's flux in one pixel
+        np.maximum.at(share, owners, weight)
+        timing = harness.repeat(
+            lambda sigma=sigma: splat_points(
+                pixels, star_el[up], star_az[up], np.ones((int(up.sum()), 3)), sigma=sigma
+            ),
+            3,
+        )
+        rows.append(
+            {
+                "sigma_pixels": sigma,
+                "max_flux_error_normalised": float(np.max(np.abs(total - 1.0))),
+                "mean_flux_error_truncated": float(np.mean(np.abs(totals[False] - 1.0))),
+                "mean_centroid_error_pixels": float(np.mean(centroid)),
+                "max_centroid_error_pixels": float(np.max(centroid)),
+                "peak_share_spread": float(share.max() / share.min() - 1.0),
+                "splat_seconds_all_stars": timing.best,
+                "stars_splatted": int(up.sum()),
+            }
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def main() -> None:
+    parser = harness.argument_parser(__doc__, quick="3 sizes, 4 sigmas")
+    args = harness.parse_args(parser)
+    sizes = SIZES[::2] if args.quick else SIZES
+    sigmas = SIGMAS[::2] if args.quick else SIGMAS
+    moon = moon_state(TIME, LON, LAT)
+    result = {
+        "scene": (
+            f"{TIME}, {LON} E {LAT} N: Moon at {moon.elevation:.1f} deg, "
+            f"{100 * moon.illuminated_fraction:.0f} % lit; 64 x 256 artificial panorama; every "
+            "catalogue star above the horizon"
+        ),
+        "target_seconds_2048x1024": 1.0,
+        "default_sigma_pixels": PSF_SIGMA,
+        "resolution": resolution_rows(sizes, panorama()),
+        "psf": psf_rows(sigmas),
+        "note": "Timings from a shared 2-core machine, noisy; best of 3.",
+    }
+    harness.write_results(args.out, "sky_render", result, quick=args.quick, plot=plot, dpi=110)
+
+
+def plot(result: dict):
+    plt = harness.pyplot()
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    equi = [r for r in result["resolution"] if r["projection"] == "equirectangular"]
+    other = [r for r in result["resolution"] if r["projection"] != "equirectangular"]
+    px = [r["pixels"] for r in equi]
+    ax1.loglog(px, [r["render_seconds"] for r in equi], "o-", label="render (linear XYZ)")
+    ax1.loglog(px, [r["render_cpu_seconds"] for r in equi], "o:", label="render, CPU time")
+    ax1.loglog(px, [r["tone_map_seconds"] for r in equi], "s--", label="tone map (eye)")
+    for r in other:
+        ax1.loglog(r["pixels"], r["render_seconds"], "^", label=f"render, {r['projection']}")
+    for r in equi:
+        ax1.annotate(f"{r['width']}x{r['height']}", (r["pixels"], r["render_seconds"]), fontsize=7)
+    ax1.axhline(result["target_seconds_2048x1024"], color="grey", lw=0.8, ls=":")
+    ax1.set_xlabel("pixels")
+    ax1.set_ylabel("time [s], best of 3")
+    ax1.set_title("render time, all catalogue stars", fontsize=10)
+    ax1.legend(fontsize=7)
+    psf = result["psf"]
+    sigma = [r["sigma_pixels"] for r in psf]
+    ax2.semilogy(sigma, [r["mean_centroid_error_pixels"] for r in psf], "o-", label="centroid [px]")
+    ax2.semilogy(sigma, [r["peak_share_spread"] for r in psf], "s-", label="peak spread [1]")
+    ax2.semilogy(
+        sigma,
+        [max(r["mean_flux_error_truncated"], 1e-17) for r in psf],
+        "^--",
+        label="flux error, truncated, not renormalised",
+    )
+    ax2.semilogy(
+        sigma,
+        [max(r["max_flux_error_normalised"], 1e-17) for r in psf],
+        "v:",
+        label="flux error, renormalised (renderer)",
+    )
+    ax2.axvline(result["default_sigma_pixels"], color="grey", lw=0.8, ls=":")
+    ax2.set_xlabel("point-spread sigma [pixel]")
+    ax2.set_ylabel("error")
+    ax2.set_title("star point-spread knob, 2048 x 1024", fontsize=10)
+    ax2.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+if __name__ == "__main__":
+    main()
