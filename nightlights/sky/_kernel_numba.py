@@ -9,7 +9,7 @@ terms) are computed once per ray instead of once per node. Rays run in parallel 
 Only the closed-form leg optical depths are compiled; ``leg_nodes`` (Gauss quadrature of the
 legs, a reference) stays on the numpy path.
 
-Length: about 610 lines, because one compiled ray loop and the closed-form leg optical
+Length: about 650 lines, because one compiled ray loop and the closed-form leg optical
 depths it inlines are kept together so that numba compiles them as one unit.
 """
 
@@ -25,13 +25,19 @@ from scipy.special import erfcx
 
 from nightlights._typing import FloatArray
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
-from nightlights.sky.kernel import GARSTANG_LOBE_NORM
+from nightlights.sky.kernel import (
+    GARSTANG_LOBE_NORM,
+    TABULATED_PREFIX,
+    parse_tabulated_emission,
+    tabulated_norm,
+)
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
 _SQRT_PI = math.sqrt(math.pi)
 _EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe": 3}
+_TABULATED_CODE = 4
 
 #: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
@@ -44,10 +50,21 @@ _P_LOBE_NORM = 12  # (module constants are frozen into numba's cache: pass them 
 _F_FLAT, _F_EXTINCTION, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2, 3
 
 
+def emission_table(emission: str) -> FloatArray:
+    """Shape (2, m): a tabulated emission function's angles [rad] and intensities
+    [cd lm-1] (normalised), read by the compiled tabulated branch; a dummy for the others."""
+    if not emission.startswith(TABULATED_PREFIX):
+        return np.zeros((2, 2))
+    _, angles, intensities = parse_tabulated_emission(emission)
+    norm = tabulated_norm(angles, intensities)
+    return np.ascontiguousarray(np.stack([np.radians(angles), intensities * norm]))
+
+
 def model_parameters(
     atmosphere: Atmosphere, emission: str, core_radius: float, uplight_exponent: float
 ) -> tuple[FloatArray, NDArray[np.int64]]:
-    """Pack the model into the float and integer vectors read by :func:`luminance_rays`."""
+    """Pack the model into the float and integer vectors read by :func:`luminance_rays`
+    (a tabulated emission's table: :func:`emission_table`)."""
     params = np.zeros(13)
     params[_P_BETA_M] = atmosphere.molecular_extinction
     params[_P_H_M] = atmosphere.molecular_scale_height
@@ -65,7 +82,8 @@ def model_parameters(
     flags = np.zeros(4, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EXTINCTION] = int(atmosphere.extinction)
-    flags[_F_EMISSION] = _EMISSION_CODES[emission]
+    tabulated = emission.startswith(TABULATED_PREFIX)
+    flags[_F_EMISSION] = _TABULATED_CODE if tabulated else _EMISSION_CODES[emission]
     flags[_F_ISOTROPIC_MOLECULES] = int(atmosphere.molecular_phase == "isotropic")
     return params, flags
 
@@ -270,9 +288,11 @@ def _ray(
     table: FloatArray,
     observer_table: FloatArray,
     inv_dz: float,
+    emission_tab: FloatArray,
 ) -> float:  # pragma: no cover - compiled
     """Luminance along one ray; ``observer_table`` (2, m) of this ray's observer-side factors
-    (:func:`_observer_table`) replaces their closed form when m > 0."""
+    (:func:`_observer_table`) replaces their closed form when m > 0; ``emission_tab`` is the
+    tabulated emission function (:func:`emission_table`)."""
     tabulated = observer_table.shape[1] > 1
     last = observer_table.shape[1] - 1
     flat = flags[_F_FLAT] != 0
@@ -349,6 +369,7 @@ def _ray(
     half_n = p[_P_HALF_N]
     up_norm = p[_P_UP_NORM]
     lobe_norm = p[_P_LOBE_NORM] / (2.0 * math.pi)
+    last_tab = emission_tab.shape[1] - 1
     hg_num = (1.0 - g * g) / (4.0 * math.pi)
     hg_a = 1.0 + g * g
     total = 0.0
@@ -390,6 +411,15 @@ def _ray(
                 psi = math.acos(min(cos_emit, 1.0))
                 psi2 = psi * psi
                 intensity = lobe_norm * psi2 * psi2
+            elif emission == 4:
+                # linear interpolation in the emission angle (kernel.tabulated_emission_intensity)
+                psi = math.acos(min(cos_emit, 1.0))
+                k = min(max(np.searchsorted(emission_tab[0], psi) - 1, 0), last_tab - 1)
+                span = emission_tab[0, k + 1] - emission_tab[0, k]
+                frac = min(max((psi - emission_tab[0, k]) / span, 0.0), 1.0)
+                intensity = emission_tab[1, k] + frac * (
+                    emission_tab[1, k + 1] - emission_tab[1, k]
+                )
             else:
                 intensity = 1.0 / (2.0 * math.pi)
             cos_sc = -(tx * vx + ty * vy + tz * vz) / safe_s
@@ -454,11 +484,14 @@ def _rays(
     p: FloatArray,
     flags: NDArray[np.int64],
     table: FloatArray,
+    emission_tab: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     none = np.zeros((2, 0))
     for i in prange(el.size):
-        out[i] = _ray(el[i], az[i], r[i], h_c[i], h_o[i], x_gl, w_gl, p, flags, table, none, 0.0)
+        out[i] = _ray(
+            el[i], az[i], r[i], h_c[i], h_o[i], x_gl, w_gl, p, flags, table, none, 0.0, emission_tab
+        )
 
 
 @njit(parallel=True, cache=True)
@@ -474,6 +507,7 @@ def _grid(
     flags: NDArray[np.int64],
     table: FloatArray,
     table_size: int,
+    emission_tab: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     for e in prange(el.size):
@@ -493,6 +527,7 @@ def _grid(
                     table,
                     observer_table,
                     inv_dz,
+                    emission_tab,
                 )
 
 
@@ -546,7 +581,7 @@ def luminance_rays(
     )
     out = np.zeros(el.size)
     if out.size:
-        _rays(el, az, r, h_c, h_o, x, w, params, flags, _TABLE, out)
+        _rays(el, az, r, h_c, h_o, x, w, params, flags, _TABLE, emission_table(emission), out)
     return out
 
 
@@ -612,6 +647,7 @@ def luminance_grid(
             flags,
             _TABLE,
             int(table_size),
+            emission_table(emission),
             out,
         )
     return out

@@ -41,12 +41,12 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
-from nightlights.sky.kernel import sky_luminance_grid
+from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance_grid
 from nightlights.sky.pca import compress_kernel
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
-__all__ = ["EMISSION_TABLES", "SUPERSAMPLE_DISTANCES", "compute_kernel"]
+__all__ = ["EMISSION_TABLES", "SUPERSAMPLE_DISTANCES", "compute_kernel", "table_names"]
 
 log = logging.getLogger(__name__)
 
@@ -55,12 +55,20 @@ log = logging.getLogger(__name__)
 #: across the pixel within one bin).
 SUPERSAMPLE_DISTANCES = 4
 
-#: The (image, coefficient) variables of each emission shape a kernel can tabulate.
+#: The (image, coefficient) variables of each emission shape a kernel can tabulate
+#: (``tabulated``: the function in the attribute ``tabulated_emission``).
 EMISSION_TABLES = {
     "lambertian": ("kernel", "coefficient"),
     "uplight": ("kernel_uplight", "coefficient_uplight"),
     "garstang_lobe": ("kernel_garstang_lobe", "coefficient_garstang_lobe"),
+    "tabulated": ("kernel_tabulated", "coefficient_tabulated"),
 }
+
+
+def table_names(emission: str) -> tuple[str, str]:
+    """The (image, coefficient) variables of an emission shape (a tabulated function's
+    text: the ``tabulated`` pair)."""
+    return EMISSION_TABLES["tabulated" if emission.startswith(TABULATED_PREFIX) else emission]
 
 
 def _sub_distances(edges: FloatArray, n: int) -> tuple[FloatArray, FloatArray]:
@@ -349,8 +357,10 @@ def compute_kernel(
     ds.attrs["pca_centered"] = 0
     ds.attrs["pca_row_normalised"] = 1
     ds.attrs["units"] = "cd m-2 lm-1"
-    ds.attrs["emission"] = "lambertian (kernel); sin^n lobe (kernel_uplight)" + (
-        "; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else ""
+    ds.attrs["emission"] = (
+        "lambertian (kernel); sin^n lobe (kernel_uplight)"
+        + ("; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else "")
+        + ("; tabulated_emission (kernel_tabulated)" if spec.tabulated_emission else "")
     )
     ds.attrs["description"] = (
         "Single-scattering sky luminance per lumen of upward flux of a ground source "
@@ -391,9 +401,9 @@ def _compress(tables: dict[str, np.ndarray], spec: KernelSpec) -> xr.Dataset:
     images = ds["kernel"] if spec.store_tables else None
     ds = ds.drop_vars([name for name in ("kernel", "coefficient") if name in ds])
     for index, emission in enumerate(emissions):
-        image_name, coefficient_name = EMISSION_TABLES[emission]
+        image_name, coefficient_name = table_names(emission)
         part = {"source_altitude": slice(index * n_c, (index + 1) * n_c)}
-        attrs = unit | {"emission": emission}
+        attrs = unit | {"emission": emission.partition(":")[0]}
         ds[coefficient_name] = (coefficient.dims, coefficient[part].values, attrs)
         if images is not None:
             ds[image_name] = (images.dims, images[part].values, attrs)
@@ -405,11 +415,13 @@ def _check_tables(tables: dict[str, np.ndarray], spec: KernelSpec) -> None:
     for any scene."""
     for emission, table in tables.items():
         if not np.all(np.isfinite(table)):
-            raise InputError(f"the {emission} kernel has non-finite values; check the atmosphere")
+            raise InputError(
+                f"the {emission[:40]} kernel has non-finite values; check the atmosphere"
+            )
         if not np.any(table > 0):
             atm = spec.atmosphere
             raise InputError(
-                f"the {emission} kernel is zero everywhere: with turbidity {atm.turbidity:g} "
+                f"the {emission[:40]} kernel is zero everywhere: with turbidity {atm.turbidity:g} "
                 f"(aerosol optical depth {atm.aerosol_depth:.3g}) no light reaches the observer "
                 f"from {spec.r_min:g}-{spec.r_max:g} m; lower the turbidity or optical depth"
             )

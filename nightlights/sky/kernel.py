@@ -23,13 +23,17 @@ Gauss-Legendre nodes after the substitution u = u_p + d tan t. A ray passing thr
 in closed form (:func:`slant_optical_depth`: exact on a flat Earth, second-order altitude on a
 sphere); :func:`optical_depth` integrates a chord with Gauss-Legendre nodes as a reference.
 
-Length: about 630 lines, because the numpy reference of the line-of-sight integral and its
-validated helpers belong together; the compiled twin is :mod:`nightlights.sky._kernel_numba`.
+Length: about 850 lines, because the numpy reference of the line-of-sight integral, its
+validated helpers and the emission functions it integrates (the named shapes, Garstang's mix,
+tabulated functions) belong together; the compiled twin is :mod:`nightlights.sky._kernel_numba`.
 """
 
 from __future__ import annotations
 
+import functools
+import json
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -46,13 +50,16 @@ __all__ = [
     "BACKENDS",
     "EMISSION_MODELS",
     "GARSTANG_LOBE_NORM",
+    "TABULATED_PREFIX",
     "emission_intensity",
     "garstang_weights",
     "line_of_sight_integrand",
     "optical_depth",
+    "parse_tabulated_emission",
     "sky_luminance",
     "sky_luminance_grid",
     "slant_optical_depth",
+    "tabulated_emission_intensity",
 ]
 
 #: Emission angular distributions, each normalised to 1 lm emitted into the upper hemisphere.
@@ -68,6 +75,10 @@ UPLIGHT_EXPONENT = 4.0
 #: dpsi, in closed form 1 / (24 - 12 pi + pi^3 / 2) = 0.55432 (Garstang 1986 rounds it to
 #: 0.554) [1].
 GARSTANG_LOBE_NORM = 1.0 / (24.0 - 12.0 * math.pi + math.pi**3 / 2.0)
+
+#: Prefix of a tabulated emission function: ``tabulated:{"angles": [...], "intensities":
+#: [...]}``, angles from the local vertical [deg], 0 to 90, relative intensities [1].
+TABULATED_PREFIX = "tabulated:"
 
 _DEFAULT_ATMOSPHERE = Atmosphere()
 _CHUNK_ELEMENTS = 3_000_000
@@ -101,7 +112,8 @@ def emission_intensity(
     cos_zenith
         Cosine of the angle between the emission direction and the local vertical [1].
     model
-        One of :data:`EMISSION_MODELS`.
+        One of :data:`EMISSION_MODELS`, or a tabulated function ``tabulated:<json>``
+        (:func:`parse_tabulated_emission`, :func:`tabulated_emission_intensity`).
     uplight_exponent
         Exponent n of the uplight lobe [1].
 
@@ -149,7 +161,130 @@ def emission_intensity(
     if model == "garstang_lobe":
         psi = np.arccos(np.clip(mu, 0.0, 1.0))
         return np.where(up, GARSTANG_LOBE_NORM * psi**4, 0.0) / (2.0 * math.pi)
+    if isinstance(model, str) and model.startswith(TABULATED_PREFIX):
+        _, angles, intensities = parse_tabulated_emission(model)
+        return tabulated_emission_intensity(mu, angles, intensities)
     raise InputError(f"emission model {model!r}; expected one of {EMISSION_MODELS}")
+
+
+@functools.lru_cache(maxsize=64)
+def parse_tabulated_emission(text: str) -> tuple[str, FloatArray, FloatArray]:
+    """The angles and relative intensities of a tabulated emission function.
+
+    Parameters
+    ----------
+    text
+        ``tabulated:{"angles": [...], "intensities": [...]}``: emission angles from the local
+        vertical, increasing from 0 (straight up) to 90 (horizontal) [deg], and the relative
+        intensity at each (>= 0, not all 0) [1].
+
+    Returns
+    -------
+    canonical : str
+        The text in canonical form (compact JSON, floats).
+    angles : numpy.ndarray
+        [deg], read-only.
+    intensities : numpy.ndarray
+        As given (not normalised) [1], read-only.
+
+    Raises
+    ------
+    InputError
+        Not of that form.
+
+    Examples
+    --------
+    >>> parse_tabulated_emission('tabulated:{"angles": [0, 90], "intensities": [1, 1]}')[0]
+    'tabulated:{"angles":[0.0,90.0],"intensities":[1.0,1.0]}'
+    """
+    body = text[len(TABULATED_PREFIX) :] if text.startswith(TABULATED_PREFIX) else None
+    try:
+        table: Any = json.loads(body) if body is not None else None
+        angles: FloatArray = np.array(table["angles"], dtype=np.float64)
+        intensities: FloatArray = np.array(table["intensities"], dtype=np.float64)
+    except (ValueError, TypeError, KeyError):
+        raise InputError(
+            f'emission function {text[:80]!r}; expected tabulated:{{"angles": [deg, 0 to 90], '
+            '"intensities": [relative, one per angle]}'
+        ) from None
+    fine = (
+        angles.ndim == 1
+        and angles.shape == intensities.shape
+        and angles.size >= 2
+        and bool(np.all(np.isfinite(angles)) and np.all(np.isfinite(intensities)))
+    )
+    if not fine or angles[0] != 0.0 or angles[-1] != 90.0 or np.any(np.diff(angles) <= 0):
+        raise InputError(
+            f"tabulated emission angles {angles.tolist()!r}; expected >= 2 increasing angles "
+            "from 0 to 90 deg, one finite intensity each"
+        )
+    if np.any(intensities < 0) or not np.any(intensities > 0):
+        raise InputError(
+            f"tabulated emission intensities {intensities.tolist()!r}; expected >= 0, not all 0"
+        )
+    canonical = TABULATED_PREFIX + json.dumps(
+        {"angles": angles.tolist(), "intensities": intensities.tolist()}, separators=(",", ":")
+    )
+    angles.flags.writeable = False
+    intensities.flags.writeable = False
+    return canonical, angles, intensities
+
+
+def tabulated_emission_intensity(
+    cos_zenith: ArrayLike, angles: ArrayLike, intensities: ArrayLike
+) -> FloatArray:
+    """Intensity per lumen of upward flux of a tabulated emission function.
+
+    The relative intensity t(theta) is interpolated linearly in the emission angle theta
+    between the tabulated angles and scaled to 1 lm into the upper hemisphere,
+
+    .. math::
+        I(\\theta) = \\frac{t(\\theta)}{2\\pi \\int_0^{\\pi/2} t(\\theta)
+        \\sin\\theta \\, d\\theta},
+
+    the integral exact for the piecewise-linear t: on a segment [a, b] with slope m,
+    t_a (cos a - cos b) + m (sin b - sin a - (b - a) cos b).
+
+    Parameters
+    ----------
+    cos_zenith
+        Cosine of the emission direction's angle from the local vertical [1].
+    angles
+        Tabulated angles from the vertical, 0 to 90, increasing [deg].
+    intensities
+        Relative intensities at ``angles`` [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Intensity [cd lm-1]; 0 below the horizontal.
+
+    Examples
+    --------
+    A table of cos theta at 1 deg steps is the Lambertian shape, 1 / pi straight up (to
+    3e-5, the linear interpolation):
+
+    >>> deg = np.arange(91.0)
+    >>> round(float(tabulated_emission_intensity(1.0, deg, np.cos(np.radians(deg)))) * np.pi, 4)
+    1.0
+    """
+    mu = np.asarray(cos_zenith, dtype=float)
+    theta = np.degrees(np.arccos(np.clip(mu, 0.0, 1.0)))
+    value = np.interp(theta, np.asarray(angles, dtype=float), np.asarray(intensities, dtype=float))
+    return np.where(mu > 0, value, 0.0) * tabulated_norm(angles, intensities)
+
+
+def tabulated_norm(angles: ArrayLike, intensities: ArrayLike) -> float:
+    """1 / (2 pi int_0^{pi/2} t(theta) sin theta dtheta) for a piecewise-linear t(theta)
+    [cd lm-1 per unit of t] (see :func:`tabulated_emission_intensity`)."""
+    a = np.radians(np.asarray(angles, dtype=float))
+    t = np.asarray(intensities, dtype=float)
+    lo, hi = a[:-1], a[1:]
+    slope = np.diff(t) / (hi - lo)
+    piece = t[:-1] * (np.cos(lo) - np.cos(hi)) + slope * (
+        np.sin(hi) - np.sin(lo) - (hi - lo) * np.cos(hi)
+    )
+    return 1.0 / (2.0 * math.pi * float(np.sum(piece)))
 
 
 def garstang_weights(upward_fraction: float, reflectance: float) -> dict[str, float]:
@@ -325,8 +460,13 @@ def _check_options(
     emission: str, nodes: int, leg_nodes: int | None, core_radius: float, backend: str
 ) -> None:
     """Validation shared by :func:`sky_luminance` and :func:`sky_luminance_grid`."""
-    if emission not in EMISSION_MODELS:
-        raise InputError(f"emission model {emission!r}; expected one of {EMISSION_MODELS}")
+    if isinstance(emission, str) and emission.startswith(TABULATED_PREFIX):
+        parse_tabulated_emission(emission)
+    elif emission not in EMISSION_MODELS:
+        raise InputError(
+            f"emission model {emission!r}; expected one of {EMISSION_MODELS} or "
+            f"{TABULATED_PREFIX}<json>"
+        )
     if nodes < 1 or (leg_nodes is not None and leg_nodes < 1):
         raise InputError(f"nodes {nodes!r}, leg_nodes {leg_nodes!r}; expected >= 1")
     if not core_radius > 0:
@@ -376,7 +516,8 @@ def sky_luminance(
     atmosphere
         Atmosphere model.
     emission
-        Angular distribution of the source, one of :data:`EMISSION_MODELS`.
+        Angular distribution of the source, one of :data:`EMISSION_MODELS` or a tabulated
+        function ``tabulated:<json>`` (:func:`parse_tabulated_emission`).
     nodes
         Gauss-Legendre nodes per panel of the line of sight (three panels: before the closest
         approach, after it, and past one density scale length) [1].

@@ -176,9 +176,12 @@ def _level_arrays(
         level = level.isel(source_altitude=0)
     else:
         level = level.interp(source_altitude=source_altitude)
-    emissions = tuple(e for e, (_, coef) in EMISSION_TABLES.items() if coef in level)
-    names = [EMISSION_TABLES[e][0] for e in emissions]
-    coefficient_names = [EMISSION_TABLES[e][1] for e in emissions]
+    present = [e for e, (_, coef) in EMISSION_TABLES.items() if coef in level]
+    names = [EMISSION_TABLES[e][0] for e in present]
+    coefficient_names = [EMISSION_TABLES[e][1] for e in present]
+    # a tabulated function's row is named by its text, which the bands' tags match
+    tabulated = str(kernel.attrs.get("tabulated_emission", ""))
+    emissions = tuple(tabulated if e == "tabulated" else e for e in present)
     if "kernel" in level and tables:
         images = np.stack([level[n].values.astype(float) for n in names])
     else:  # a PCA-only kernel (built with store_tables=False), or the images not wanted

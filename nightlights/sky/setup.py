@@ -27,6 +27,7 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
+from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import (
     PolarCells,
@@ -51,6 +52,7 @@ __all__ = [
     "SceneSetup",
     "band_emission_functions",
     "check_kernel_grid",
+    "kernel_band_functions",
     "level_offset",
     "prepare_scene",
     "scene_memory",
@@ -263,6 +265,7 @@ def prepare_scene(
             n_distance=64 if n_distance is None else n_distance,
             uplight="uplight" in shapes,
             garstang_lobe="garstang_lobe" in shapes,
+            tabulated_emission=_tabulated(shapes, label),
         )
         table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
@@ -274,7 +277,7 @@ def prepare_scene(
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     offset = level_offset(heights, None, levels)
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
-    functions, notes = _kernel_functions(functions, notes, slices[0].emissions, label)
+    functions, notes = kernel_band_functions(functions, notes, slices[0].emissions, label)
     slices = [band_slice(s, functions) for s in slices]
     if kernel is not None:
         _check_reach(cells, xy, float(slices[0].distance_edges[-1]), label, observer, observer_crs)
@@ -308,6 +311,17 @@ def prepare_scene(
         functions=functions,
         function_notes=notes,
     )
+
+
+def _tabulated(shapes: set[str], label: str) -> str | None:
+    """The one tabulated function of the bands, None without; a scene kernel holds one."""
+    tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
+    if len(tabulated) > 1:
+        raise InputError(
+            f"{label}: {len(tabulated)} different tabulated emission functions; a kernel "
+            "tabulates one (give them one table, or compute the bands separately)"
+        )
+    return tabulated[0] if tabulated else None
 
 
 #: Emission functions of the bands of an untagged two-band raster (the emission stage's
@@ -379,17 +393,33 @@ def _band_tags(emission: EmissionInput, count: int) -> list[str | None]:
         return [dataset.tags(i + 1).get(EMISSION_FUNCTION_TAG) for i in range(count)]
 
 
-def _kernel_functions(
+def kernel_band_functions(
     functions: tuple[EmissionFunction, ...],
     notes: tuple[str, ...],
     available: tuple[str, ...],
     label: str,
 ) -> tuple[tuple[EmissionFunction, ...], tuple[str, ...]]:
-    """The functions a kernel can serve: an untagged single band whose default
-    (:data:`~nightlights.sky.spec.DEFAULT_EMISSION_FUNCTION`) needs a table a given kernel
-    lacks is read as Lambertian, as before the default existed (logged, and stated in the
-    outputs' attributes); any other missing table is refused by
-    :func:`~nightlights.sky.panorama.band_slice`."""
+    """The functions a kernel can serve, for :func:`~nightlights.sky.panorama.band_slice`.
+
+    An untagged single band whose default (:data:`~nightlights.sky.spec.
+    DEFAULT_EMISSION_FUNCTION`) needs a table the kernel lacks is read as Lambertian, as
+    before the default existed (logged, and stated in the outputs' attributes); any other
+    missing table is refused by :func:`~nightlights.sky.panorama.band_slice`.
+
+    Parameters
+    ----------
+    functions, notes
+        From :func:`band_emission_functions`.
+    available
+        The kernel's shapes (``KernelSlice.emissions`` of :func:`kernel_levels`).
+    label
+        How the emission is named in the log.
+
+    Returns
+    -------
+    functions, notes
+        As given, or with the single band's default replaced.
+    """
     if len(functions) != 1 or notes[0] != "default":
         return functions, notes
     missing = [shape for shape in functions[0].shapes if shape not in available]

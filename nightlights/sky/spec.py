@@ -31,7 +31,13 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.kernel import UPLIGHT_EXPONENT, emission_intensity, garstang_weights
+from nightlights.sky.kernel import (
+    TABULATED_PREFIX,
+    UPLIGHT_EXPONENT,
+    emission_intensity,
+    garstang_weights,
+    parse_tabulated_emission,
+)
 
 __all__ = [
     "DEFAULT_EMISSION_FUNCTION",
@@ -72,11 +78,12 @@ class EmissionFunction:
     Attributes
     ----------
     tag
-        Canonical text of the band tag ``emission_function``: ``lambertian``, ``uplight``
-        or ``garstang:F,G``.
+        Canonical text of the band tag ``emission_function``: ``lambertian``, ``uplight``,
+        ``garstang:F,G`` or ``tabulated:<json>``.
     weights
         ``(shape, weight)`` pairs: kernel shapes (``lambertian``, ``uplight``,
-        ``garstang_lobe``) and their weights per lumen of the band's upward flux [1].
+        ``garstang_lobe``, or the canonical text of a tabulated function, which has its own
+        kernel table) and their weights per lumen of the band's upward flux [1].
 
     Examples
     --------
@@ -129,8 +136,11 @@ class EmissionFunction:
         Parameters
         ----------
         text
-            ``lambertian``, ``uplight`` or ``garstang:F,G`` (F the luminaires' direct
-            upward fraction, G the ground reflectance, both in [0, 1]).
+            ``lambertian``, ``uplight``, ``garstang:F,G`` (F the luminaires' direct
+            upward fraction, G the ground reflectance, both in [0, 1]) or
+            ``tabulated:{"angles": [...], "intensities": [...]}`` (angles from the vertical,
+            0 to 90 [deg], relative intensities;
+            :func:`~nightlights.sky.kernel.parse_tabulated_emission`).
         source
             Where the text came from, for messages.
 
@@ -144,6 +154,12 @@ class EmissionFunction:
         InputError
             Text of no known form.
         """
+        if str(text).strip().startswith(TABULATED_PREFIX):
+            try:
+                canonical = parse_tabulated_emission(str(text).strip())[0]
+            except InputError as exc:
+                raise InputError(f"{source}: {exc}") from None
+            return cls(canonical, ((canonical, 1.0),))
         name, _, argument = str(text).strip().partition(":")
         name = name.strip().lower()
         if name in ("lambertian", "uplight") and not argument:
@@ -160,7 +176,9 @@ class EmissionFunction:
             except InputError as exc:
                 raise InputError(f"{source} {text!r}: {exc}") from None
             return cls(f"garstang:{f:g},{g:g}", tuple(weights.items()))
-        raise InputError(f"{source} {text!r}; expected lambertian, uplight or garstang:F,G")
+        raise InputError(
+            f"{source} {text!r}; expected lambertian, uplight, garstang:F,G or tabulated:<json>"
+        )
 
 
 def panorama_elevations(n_elevation: int) -> FloatArray:
@@ -282,6 +300,9 @@ class KernelSpec:
         Also tabulate ``kernel_garstang_lobe`` for the low-angle term of Garstang's (1986)
         emission function; with ``kernel`` it serves every Garstang mix
         (:func:`~nightlights.sky.kernel.garstang_weights`).
+    tabulated_emission
+        Also tabulate ``kernel_tabulated`` for this tabulated emission function
+        (``tabulated:<json>``, stored in canonical form; one per kernel).
     uplight_exponent
         Exponent n of the uplight lobe sin^n [1].
     nodes
@@ -331,6 +352,7 @@ class KernelSpec:
     uplight: bool = False
     uplight_exponent: float = UPLIGHT_EXPONENT
     garstang_lobe: bool = False
+    tabulated_emission: str | None = None
     nodes: int = 12
     leg_nodes: int | None = None
     core_radius: float = 1.0
@@ -382,6 +404,10 @@ class KernelSpec:
             raise InputError(f"core_radius {self.core_radius!r} m; expected a positive length")
         if not (np.isfinite(self.uplight_exponent) and self.uplight_exponent >= 0):
             raise InputError(f"uplight_exponent {self.uplight_exponent!r}; expected >= 0")
+        if self.tabulated_emission is not None:
+            setattr_(
+                self, "tabulated_emission", parse_tabulated_emission(self.tabulated_emission)[0]
+            )
         if self.n_components is None and not 0 < self.pca_energy <= 1:
             raise InputError(f"pca_energy {self.pca_energy!r}; expected 0 < energy <= 1")
         if self.n_components is not None and self.n_components < 1:
@@ -406,7 +432,9 @@ class KernelSpec:
         if not all(isinstance(n, (int, np.integer)) and n > 0 for n in sizes):
             return  # the checks below name the bad value
         levels = len(np.ravel(self.source_altitudes)) * len(np.ravel(self.observer_altitudes))
-        emissions = 1 + int(bool(self.uplight)) + int(bool(self.garstang_lobe))
+        emissions = 1 + sum(
+            bool(x) for x in (self.uplight, self.garstang_lobe, self.tabulated_emission)
+        )
         check_memory(
             2 * 4.0 * emissions * levels * float(np.prod(sizes, dtype=float)),
             f"the kernel of {n_r} distances x {self.n_elevation} x {self.n_azimuth} pixels",
@@ -439,9 +467,10 @@ class KernelSpec:
     @property
     def emissions(self) -> tuple[str, ...]:
         """The emission shapes tabulated, in table order: ``lambertian`` (then ``uplight``,
-        ``garstang_lobe``)."""
+        ``garstang_lobe``, the tabulated function's text)."""
         optional = (("uplight", self.uplight), ("garstang_lobe", self.garstang_lobe))
-        return ("lambertian", *(name for name, wanted in optional if wanted))
+        tabulated = (self.tabulated_emission,) if self.tabulated_emission else ()
+        return ("lambertian", *(name for name, wanted in optional if wanted), *tabulated)
 
     # -- identity ------------------------------------------------------------------------
 
@@ -455,6 +484,8 @@ class KernelSpec:
             cached kernels keep their hash; the optional tables add a key only when present).
         """
         optional: dict[str, Any] = {"garstang_lobe": True} if self.garstang_lobe else {}
+        if self.tabulated_emission:
+            optional["tabulated_emission"] = self.tabulated_emission
         return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
             "distance_edges": list(self.distance_edges or ()),
@@ -511,6 +542,7 @@ class KernelSpec:
         attrs["content_hash"] = self.content_hash
         attrs["uplight"] = int(self.uplight)
         attrs["garstang_lobe"] = int(self.garstang_lobe)
+        attrs["tabulated_emission"] = self.tabulated_emission or ""
         attrs["store_tables"] = int(self.store_tables)
         attrs["n_components_requested"] = -1 if self.n_components is None else self.n_components
         return attrs
@@ -566,6 +598,7 @@ class KernelSpec:
             uplight=bool(number("uplight")),
             uplight_exponent=float(number("uplight_exponent")),
             garstang_lobe=bool(int(attrs.get("garstang_lobe", 0))),
+            tabulated_emission=str(attrs.get("tabulated_emission", "")) or None,
             nodes=int(number("nodes")),
             leg_nodes=optional("leg_nodes"),
             core_radius=float(number("core_radius")),
@@ -664,6 +697,7 @@ def scene_kernel_spec(
     uplight: bool,
     source_altitudes: ArrayLike = (0.0,),
     garstang_lobe: bool = False,
+    tabulated_emission: str | None = None,
 ) -> KernelSpec:
     """Kernel sized to the scene: distances from 10 m to the farthest corner of the emission
     (at most :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
@@ -686,6 +720,8 @@ def scene_kernel_spec(
         Source-altitude levels [m].
     garstang_lobe
         Tabulate Garstang's low-angle lobe too.
+    tabulated_emission
+        A tabulated emission function to tabulate too (``tabulated:<json>``).
 
     Returns
     -------
@@ -709,4 +745,5 @@ def scene_kernel_spec(
         atmosphere=Atmosphere(turbidity=turbidity),
         uplight=uplight,
         garstang_lobe=garstang_lobe,
+        tabulated_emission=tabulated_emission,
     )

@@ -6,6 +6,7 @@ Sources: Garstang, R. H. 1986, PASP 98, 364-375 (the emission function
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from nightlights.sky.kernel import (
     GARSTANG_LOBE_NORM,
     emission_intensity,
     garstang_weights,
+    parse_tabulated_emission,
     sky_luminance,
 )
 from nightlights.sky.panorama import (
@@ -481,3 +483,110 @@ def test_emission_stages_write_the_tag() -> None:
         zenith_intensity=0.1,
     )
     assert float(radiance) == pytest.approx(20.0, rel=1e-12)
+
+
+# -- tabulated emission functions -----------------------------------------------------------
+
+PEAKED = 'tabulated:{"angles": [0, 30, 60, 80, 90], "intensities": [0.2, 0.3, 1.0, 2.0, 0.5]}'
+
+
+def _cosine_table(step: float = 1.0) -> str:
+    angles = np.arange(0.0, 90.0 + step / 2, step)
+    table = {"angles": angles.tolist(), "intensities": np.cos(np.radians(angles)).tolist()}
+    return "tabulated:" + json.dumps(table)
+
+
+def test_tabulated_function_parse_and_normalisation() -> None:
+    canonical = parse_tabulated_emission(PEAKED)[0]
+    assert canonical.startswith('tabulated:{"angles":[0.0,30.0') and " " not in canonical
+    assert EmissionFunction.parse(PEAKED).tag == canonical
+    flux = 2 * math.pi * quad(lambda mu: float(emission_intensity(mu, PEAKED)), 0, 1, limit=200)[0]
+    assert flux == pytest.approx(1.0, rel=1e-8)
+    # linear in the angle between the nodes; 0 below the horizon
+    mid = float(emission_intensity(math.cos(math.radians(70.0)), PEAKED))
+    assert mid == pytest.approx(
+        1.5 * float(emission_intensity(math.cos(math.radians(60.0)), PEAKED))
+    )
+    assert float(emission_intensity(-0.1, PEAKED)) == 0.0
+    # cos theta at 1 deg steps is the Lambertian shape within the interpolation error
+    mu = np.linspace(0.05, 1.0, 20)
+    np.testing.assert_allclose(
+        emission_intensity(mu, _cosine_table()), emission_intensity(mu, "lambertian"), rtol=2e-4
+    )
+    bad = (
+        "tabulated:[1, 2]",
+        'tabulated:{"angles": [0, 45], "intensities": [1, 1]}',
+        'tabulated:{"angles": [0, 90, 60], "intensities": [1, 1, 1]}',
+        'tabulated:{"angles": [0, 90], "intensities": [0, 0]}',
+        'tabulated:{"angles": [0, 90], "intensities": [1, -1]}',
+        'tabulated:{"angles": [0, 90], "intensities": [1]}',
+    )
+    for text in bad:
+        with pytest.raises(InputError, match="tabulated"):
+            EmissionFunction.parse(text)
+
+
+@pytest.mark.parametrize("atmosphere", [Atmosphere(), Atmosphere(flat_earth=True)])
+def test_tabulated_numba_matches_numpy(atmosphere: Atmosphere) -> None:
+    rng = np.random.default_rng(5)
+    n = 600
+    el, az = rng.uniform(0.5, 90.0, n), rng.uniform(0.0, 360.0, n)
+    r = np.exp(rng.uniform(np.log(5.0), np.log(3e5), n))
+    kw = {"atmosphere": atmosphere, "emission": PEAKED, "nodes": 12}
+    ref = sky_luminance(el, az, r, backend="numpy", **kw)
+    fast = sky_luminance(el, az, r, backend="numba", **kw)
+    assert np.array_equal(ref > 0, fast > 0)
+    np.testing.assert_allclose(fast, ref, rtol=1e-6)
+    e, a, d = np.array([5.0, 45.0]), np.linspace(0, 180, 5), np.geomspace(50, 1e5, 5)
+    grid = _kernel_numba.luminance_grid(
+        e,
+        a,
+        d,
+        source_altitude=0.0,
+        observer_altitude=0.0,
+        core_radius=1.0,
+        uplight_exponent=4.0,
+        **kw,
+    )
+    rays = sky_luminance(
+        e[:, None, None], a[None, :, None], d[None, None, :], backend="numpy", **kw
+    )
+    np.testing.assert_allclose(grid, rays, rtol=5e-5)
+
+
+def test_tabulated_kernel_table_and_band(tmp_path: Path) -> None:
+    """A tabulated band gets its own table in the scene kernel; a cosine table reproduces the
+    Lambertian band's panorama."""
+    cosine = _cosine_table(0.5)
+    spec = KernelSpec(**SMALL, tabulated_emission=cosine)
+    assert spec.emissions == ("lambertian", parse_tabulated_emission(cosine)[0])
+    assert KernelSpec.from_attrs(spec.to_attrs()) == spec
+    assert spec.content_hash != KernelSpec(**SMALL).content_hash
+    kernel = compute_kernel(spec, progress=False)
+    np.testing.assert_allclose(
+        kernel["kernel_tabulated"].values, kernel["kernel"].values, rtol=1e-4, atol=0
+    )
+    tabulated = skyglow_panorama(
+        _city(({EMISSION_FUNCTION_TAG: cosine},)),
+        CITY_OBSERVER,
+        cache_dir=tmp_path,
+        progress=False,
+        **SCENE_GRID,
+    ).panorama
+    assert tabulated.attrs["emission_functions"] == parse_tabulated_emission(cosine)[0]
+    lambertian = skyglow_panorama(
+        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)),
+        CITY_OBSERVER,
+        cache_dir=tmp_path,
+        progress=False,
+        **SCENE_GRID,
+    ).panorama
+    np.testing.assert_allclose(tabulated["luminance"], lambertian["luminance"], rtol=1e-3)
+    with pytest.raises(InputError, match="2 different tabulated"):
+        skyglow_panorama(
+            _city(({EMISSION_FUNCTION_TAG: cosine}, {EMISSION_FUNCTION_TAG: PEAKED})),
+            CITY_OBSERVER,
+            cache_dir=tmp_path,
+            progress=False,
+            **SCENE_GRID,
+        )
