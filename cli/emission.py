@@ -11,6 +11,8 @@ Two sources, one subcommand each:
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from cli.options import (
@@ -132,6 +134,13 @@ def parse_albedo(text: str) -> float | str:
     help="Output cell size [m] (default: GDAL's estimate of the native pixel size).",
 )
 @target_crs_option
+@click.option(
+    "--emission-function",
+    default=None,
+    help="Angular emission function of the lights (lambertian, garstang:F,G, tabulated:<json>; "
+    "default lambertian): sets the flux the nadir radiance implies; written as the band's tag "
+    "for skyglow.",
+)
 def viirs_command(
     files: tuple[str, ...],
     output: str | None,
@@ -139,6 +148,7 @@ def viirs_command(
     spectrum: str,
     resolution: float | None,
     target_crs: str | None,
+    emission_function: str | None,
 ) -> None:
     """Upward flux density of a VIIRS day/night-band radiance raster INPUT [nW cm-2 sr-1];
     write OUTPUT (COG, band upward [lm m-2])."""
@@ -149,9 +159,11 @@ def viirs_command(
     (viirs,), out = resolve_inout(
         files, output, inputs=1, usage="INPUT OUTPUT", overwrite=overwrite
     )
-    result = nl.emission_from_viirs(
-        viirs, out, spectrum=spectrum, resolution=resolution, target_crs=target_crs
-    )
+    options: dict[str, Any] = {"spectrum": spectrum, "resolution": resolution}
+    options["target_crs"] = target_crs
+    if emission_function is not None:  # the stage's default otherwise
+        options["emission_function"] = emission_function
+    result = nl.emission_from_viirs(viirs, out, **options)
     from rich.console import Console
 
     Console(stderr=True).print(f"{result.total_flux['upward']:.4g} lm upward -> {out}")

@@ -89,6 +89,19 @@ def kernel() -> None:
 @click.option(
     "--uplight/--no-uplight", default=False, show_default=True, help="Also tabulate direct uplight."
 )
+@click.option(
+    "--garstang-lobe/--no-garstang-lobe",
+    default=False,
+    show_default=True,
+    help="Also tabulate Garstang's (1986) low-angle lobe (serves every garstang:F,G band).",
+)
+@click.option(
+    "--tabulated-emission",
+    default=None,
+    metavar="TEXT",
+    help='Also tabulate this emission function: tabulated:{"angles": [deg, 0 to 90], '
+    '"intensities": [relative]}.',
+)
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
 @click.option(
     "--tables/--no-tables",
@@ -125,6 +138,8 @@ def build(
     old_components: int | None,
     sub_distances: int,
     uplight: bool,
+    garstang_lobe: bool,
+    tabulated_emission: str | None,
     flat_earth: bool,
     tables: bool,
     backend: str,
@@ -154,6 +169,8 @@ def build(
         n_components=components,
         sub_distances=sub_distances,
         uplight=uplight,
+        garstang_lobe=garstang_lobe,
+        tabulated_emission=tabulated_emission,
         store_tables=tables,
     )
     start = time.perf_counter()
