@@ -45,6 +45,7 @@ _LAZY: dict[str, str] = {
     "schaefer_limiting_magnitude": "nightlights.nightsky.render",
     "splat_points": "nightlights.nightsky.render",
     "view_pixels": "nightlights.nightsky.render",
+    "zenith_summary": "nightlights.nightsky.render",
     "SkyRenderResult": "nightlights.nightsky.stage",
     "sky_render": "nightlights.nightsky.stage",
     "ToneMapping": "nightlights.nightsky.tonemap",
@@ -63,72 +64,31 @@ if TYPE_CHECKING:
 
     # --- render helper: TYPE_CHECKING imports below ---
     # isort: split
-    from nightlights.nightsky.background import (
-        NaturalSky as NaturalSky,
-    )
-    from nightlights.nightsky.background import (
-        natural_sky_luminance as natural_sky_luminance,
-    )
-    from nightlights.nightsky.background import (
-        schaefer_twilight as schaefer_twilight,
-    )
-    from nightlights.nightsky.background import (
-        starlight_density as starlight_density,
-    )
-    from nightlights.nightsky.background import (
-        twilight_phase as twilight_phase,
-    )
-    from nightlights.nightsky.background import (
-        van_rhijn_factor as van_rhijn_factor,
-    )
-    from nightlights.nightsky.render import (
-        SkyImage as SkyImage,
-    )
-    from nightlights.nightsky.render import (
-        SkyOptions as SkyOptions,
-    )
-    from nightlights.nightsky.render import (
-        View as View,
-    )
-    from nightlights.nightsky.render import (
-        ballesteros_temperature as ballesteros_temperature,
-    )
-    from nightlights.nightsky.render import (
-        render_sky as render_sky,
-    )
+    from nightlights.nightsky.background import NaturalSky as NaturalSky
+    from nightlights.nightsky.background import natural_sky_luminance as natural_sky_luminance
+    from nightlights.nightsky.background import schaefer_twilight as schaefer_twilight
+    from nightlights.nightsky.background import starlight_density as starlight_density
+    from nightlights.nightsky.background import twilight_phase as twilight_phase
+    from nightlights.nightsky.background import van_rhijn_factor as van_rhijn_factor
+    from nightlights.nightsky.render import SkyImage as SkyImage
+    from nightlights.nightsky.render import SkyOptions as SkyOptions
+    from nightlights.nightsky.render import View as View
+    from nightlights.nightsky.render import ballesteros_temperature as ballesteros_temperature
+    from nightlights.nightsky.render import render_sky as render_sky
     from nightlights.nightsky.render import (
         schaefer_limiting_magnitude as schaefer_limiting_magnitude,
     )
-    from nightlights.nightsky.render import (
-        splat_points as splat_points,
-    )
-    from nightlights.nightsky.render import (
-        view_pixels as view_pixels,
-    )
-    from nightlights.nightsky.stage import (
-        SkyRenderResult as SkyRenderResult,
-    )
-    from nightlights.nightsky.stage import (
-        sky_render as sky_render,
-    )
-    from nightlights.nightsky.tonemap import (
-        ToneMapping as ToneMapping,
-    )
-    from nightlights.nightsky.tonemap import (
-        blue_shift as blue_shift,
-    )
-    from nightlights.nightsky.tonemap import (
-        mesopic_weight as mesopic_weight,
-    )
-    from nightlights.nightsky.tonemap import (
-        scotopic_luminance as scotopic_luminance,
-    )
-    from nightlights.nightsky.tonemap import (
-        tone_map as tone_map,
-    )
-    from nightlights.nightsky.tonemap import (
-        visual_acuity as visual_acuity,
-    )
+    from nightlights.nightsky.render import splat_points as splat_points
+    from nightlights.nightsky.render import view_pixels as view_pixels
+    from nightlights.nightsky.render import zenith_summary as zenith_summary
+    from nightlights.nightsky.stage import SkyRenderResult as SkyRenderResult
+    from nightlights.nightsky.stage import sky_render as sky_render
+    from nightlights.nightsky.tonemap import ToneMapping as ToneMapping
+    from nightlights.nightsky.tonemap import blue_shift as blue_shift
+    from nightlights.nightsky.tonemap import mesopic_weight as mesopic_weight
+    from nightlights.nightsky.tonemap import scotopic_luminance as scotopic_luminance
+    from nightlights.nightsky.tonemap import tone_map as tone_map
+    from nightlights.nightsky.tonemap import visual_acuity as visual_acuity
     # --- end of the render helper's block ---
 
 __all__ = [

@@ -30,7 +30,7 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -810,3 +810,62 @@ def render_sky(
         }
     )
     return SkyImage(xyz, pixels, summary)
+
+
+def zenith_summary(
+    artificial_luminance: float,
+    *,
+    time: Any = None,
+    lon: float | None = None,
+    lat: float | None = None,
+    options: SkyOptions | None = None,
+) -> dict[str, Any]:
+    """Zenith sky brightness natural + artificial, for the summaries of the skyglow stages.
+
+    Parameters
+    ----------
+    artificial_luminance
+        Artificial skyglow at the zenith [cd m-2].
+    time
+        Instant (UTC); with ``lon`` and ``lat`` the natural sky of that night (star density,
+        twilight, Moon). None takes the moonless natural sky of :class:`SkyOptions`'s
+        :class:`~nightlights.nightsky.background.NaturalSky` (22.0 mag arcsec-2).
+    lon, lat
+        Observer's longitude and latitude [deg], with ``time``.
+    options
+        What the natural sky holds (default ``SkyOptions()``).
+
+    Returns
+    -------
+    dict
+        ``zenith_natural_cd_m2``, ``zenith_artificial_cd_m2``, ``zenith_sky_brightness``
+        [mag arcsec-2] of their sum, ``zenith_natural_sky_brightness`` and
+        ``bortle_class_zenith``.
+
+    Examples
+    --------
+    >>> summary = zenith_summary(3.65e-3)  # the demo's Esplanadi panorama
+    >>> round(summary["zenith_sky_brightness"], 2), summary["bortle_class_zenith"]
+    (18.63, 7)
+    """
+    options = options if options is not None else SkyOptions()
+    if not artificial_luminance >= 0:
+        raise InputError(f"artificial zenith luminance {artificial_luminance}: expected >= 0")
+    if time is None:
+        natural = float(natural_sky_luminance([90.0], sky=options.natural_sky)["total"][0])
+    else:
+        if lon is None or lat is None:
+            raise InputError("zenith summary at a time needs lon and lat")
+        tiny = View("equirectangular", 8, 2)
+        natural = render_sky(
+            time, lon, lat, view=tiny, options=replace(options, artificial=False, stars=False)
+        ).summary["zenith_natural_cd_m2"]
+    total = natural + float(artificial_luminance)
+    magnitude = float(luminance_to_magnitude(total))
+    return {
+        "zenith_natural_cd_m2": natural,
+        "zenith_artificial_cd_m2": float(artificial_luminance),
+        "zenith_natural_sky_brightness": float(luminance_to_magnitude(natural)),
+        "zenith_sky_brightness": magnitude,
+        "bortle_class_zenith": int(bortle_class(magnitude)),
+    }

@@ -25,6 +25,7 @@ from nightlights.nightsky.render import (
     splat_points,
     star_xyz,
     view_pixels,
+    zenith_summary,
 )
 
 #: Sirius (HR 2491) culminating 37 deg high at 35 N on the Greenwich meridian; Sun 57 deg and
@@ -207,3 +208,15 @@ def test_daylight_and_empty_requests_are_refused() -> None:
         render_sky(SIRIUS_TIME, 0.0, 35.0, options=SkyOptions(natural=False, artificial=False))
     with pytest.raises(InputError, match="projection"):
         View("mercator")
+
+
+def test_zenith_summary_adds_natural_and_artificial() -> None:
+    moonless = zenith_summary(0.0)
+    assert moonless["zenith_sky_brightness"] == pytest.approx(22.0, abs=1e-9)
+    assert moonless["bortle_class_zenith"] == 1
+    view = View("equirectangular", 64, 16)
+    image = render_sky(SIRIUS_TIME, SIRIUS_LON, SIRIUS_LAT, view=view)
+    night = zenith_summary(1e-3, time=SIRIUS_TIME, lon=SIRIUS_LON, lat=SIRIUS_LAT)
+    assert night["zenith_natural_cd_m2"] == pytest.approx(image.summary["zenith_natural_cd_m2"])
+    total = image.summary["zenith_natural_cd_m2"] + 1e-3
+    assert night["zenith_sky_brightness"] == pytest.approx(-2.5 * math.log10(total / 1.08e5))
