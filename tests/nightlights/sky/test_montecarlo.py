@@ -192,3 +192,24 @@ def test_turned_direction_keeps_the_scattering_angle() -> None:
         new = np.array(compiled._turn(*d, mu, phi))
         assert np.linalg.norm(new) == pytest.approx(1.0, abs=1e-12)
         assert float(new @ d) == pytest.approx(mu, abs=1e-9)
+
+
+@pytest.mark.parametrize("emission", ["lambertian", "uplight", "garstang_lobe", "isotropic"])
+def test_emission_sampling_within_three_standard_errors(emission: str) -> None:
+    # the sampled emission cosines have the moments of 2 pi I(mu) dmu
+    params, flags = compiled.model_parameters(SPHERE, emission, 1.0, 4.0, 0.0)
+    state = compiled._seed_state(9, 0)
+    mu = np.array(
+        [
+            compiled._sample_emission(state, int(flags[compiled._F_EMISSION]), params)
+            for _ in range(20_000)
+        ]
+    )
+    x, w = gauss_legendre(200)
+    x = 0.5 * (x + 1.0)
+    density = 0.5 * w * 2 * math.pi * emission_intensity(x, emission)
+    assert float(np.sum(density)) == pytest.approx(1.0, rel=1e-6)
+    for power in (1, 2):
+        expected = float(np.sum(density * x**power))
+        sample = mu**power
+        assert abs(sample.mean() - expected) < 3 * sample.std() / math.sqrt(sample.size)
