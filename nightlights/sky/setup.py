@@ -6,6 +6,10 @@ the observer's altitude, one row per emission band: the mix of kernel shapes of 
 emission function (band tag ``emission_function``, :func:`band_emission_functions`).
 :func:`nightlights.sky.scene.skyglow_panorama` and the inverse maps
 (:mod:`nightlights.inverse`) start from its :class:`SceneSetup`.
+
+Length: about 650 lines, because every check a scene passes before its kernel is used (the
+emission, its bands' emission functions, the observer, the terrain, the reach, the memory) is
+shared by the skyglow, inverse and explore stages and kept in one place.
 """
 
 from __future__ import annotations

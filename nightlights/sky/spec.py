@@ -11,6 +11,10 @@ NetCDF attributes.
 Each band of an emission raster carries its angular emission function
 (:class:`EmissionFunction`, the band tag ``emission_function``); it names the mix of the
 kernel's tabulated shapes that band reads.
+
+Length: about 750 lines, because the specification, its axes and the emission functions that
+choose among its tables are one description of what a kernel holds, and the scene-sized
+specification is made from them.
 """
 
 from __future__ import annotations
