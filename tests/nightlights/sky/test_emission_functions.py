@@ -116,11 +116,17 @@ def test_garstang_weights() -> None:
             garstang_weights(*bad)
 
 
+#: A tabulated emission function peaking 10 deg above the horizon.
+PEAKED = 'tabulated:{"angles": [0, 30, 60, 80, 90], "intensities": [0.2, 0.3, 1.0, 2.0, 0.5]}'
+
+
+@pytest.mark.parametrize("emission", ["garstang_lobe", PEAKED])
 @pytest.mark.parametrize(
     "atmosphere", [Atmosphere(), Atmosphere(flat_earth=True), Atmosphere(extinction=False)]
 )
-def test_garstang_lobe_numba_matches_numpy(atmosphere: Atmosphere) -> None:
-    """The compiled lobe against the numpy reference, per ray and on the grid form."""
+def test_new_shapes_numba_match_numpy(emission: str, atmosphere: Atmosphere) -> None:
+    """The compiled lobe and tabulated branch against the numpy reference, per ray and on
+    the grid form."""
     rng = np.random.default_rng(3)
     n = 800
     el = rng.uniform(0.5, 90.0, n)
@@ -128,7 +134,7 @@ def test_garstang_lobe_numba_matches_numpy(atmosphere: Atmosphere) -> None:
     r = np.exp(rng.uniform(np.log(5.0), np.log(3e5), n))
     h_c = rng.choice([0.0, 400.0], n)
     h_o = rng.choice([0.0, 1000.0], n)
-    kw = {"atmosphere": atmosphere, "emission": "garstang_lobe", "nodes": 12}
+    kw = {"atmosphere": atmosphere, "emission": emission, "nodes": 12}
     ref = sky_luminance(
         el, az, r, source_altitude=h_c, observer_altitude=h_o, backend="numpy", **kw
     )
@@ -487,8 +493,6 @@ def test_emission_stages_write_the_tag() -> None:
 
 # -- tabulated emission functions -----------------------------------------------------------
 
-PEAKED = 'tabulated:{"angles": [0, 30, 60, 80, 90], "intensities": [0.2, 0.3, 1.0, 2.0, 0.5]}'
-
 
 def _cosine_table(step: float = 1.0) -> str:
     angles = np.arange(0.0, 90.0 + step / 2, step)
@@ -524,34 +528,6 @@ def test_tabulated_function_parse_and_normalisation() -> None:
     for text in bad:
         with pytest.raises(InputError, match="tabulated"):
             EmissionFunction.parse(text)
-
-
-@pytest.mark.parametrize("atmosphere", [Atmosphere(), Atmosphere(flat_earth=True)])
-def test_tabulated_numba_matches_numpy(atmosphere: Atmosphere) -> None:
-    rng = np.random.default_rng(5)
-    n = 600
-    el, az = rng.uniform(0.5, 90.0, n), rng.uniform(0.0, 360.0, n)
-    r = np.exp(rng.uniform(np.log(5.0), np.log(3e5), n))
-    kw = {"atmosphere": atmosphere, "emission": PEAKED, "nodes": 12}
-    ref = sky_luminance(el, az, r, backend="numpy", **kw)
-    fast = sky_luminance(el, az, r, backend="numba", **kw)
-    assert np.array_equal(ref > 0, fast > 0)
-    np.testing.assert_allclose(fast, ref, rtol=1e-6)
-    e, a, d = np.array([5.0, 45.0]), np.linspace(0, 180, 5), np.geomspace(50, 1e5, 5)
-    grid = _kernel_numba.luminance_grid(
-        e,
-        a,
-        d,
-        source_altitude=0.0,
-        observer_altitude=0.0,
-        core_radius=1.0,
-        uplight_exponent=4.0,
-        **kw,
-    )
-    rays = sky_luminance(
-        e[:, None, None], a[None, :, None], d[None, None, :], backend="numpy", **kw
-    )
-    np.testing.assert_allclose(grid, rays, rtol=5e-5)
 
 
 def test_tabulated_kernel_table_and_band(tmp_path: Path) -> None:
