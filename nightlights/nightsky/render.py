@@ -462,12 +462,18 @@ def splat_disc(
     azimuth: float,
     angular_radius: float,
     flux: ArrayLike,
+    *,
+    sun: tuple[float, float] | None = None,
+    phase_angle: float = 0.0,
 ) -> FloatArray:
-    """Luminance image of a uniform disc (the Moon) that carries a given flux.
+    """Luminance image of a uniform disc (the Moon), optionally in phase, carrying a flux.
 
     Pixels are weighted by the fraction of them the disc covers (a linear ramp one pixel wide
     across the rim) times their solid angle, and the weights normalised, so the image holds the
     flux exactly; a disc smaller than two pixels is drawn as a point (:func:`splat_points`).
+    With ``sun``, only the lit part is drawn: in the disc's own frame, x toward the Sun along
+    the great circle and y across, both in disc radii, a point is lit where
+    x >= -cos(phase angle) sqrt(1 - y^2) (the terminator, an ellipse; the same one-pixel ramp).
 
     Parameters
     ----------
@@ -479,6 +485,10 @@ def splat_disc(
         Radius of the disc [deg].
     flux
         ``(c,)`` illuminance per channel [lx].
+    sun
+        (azimuth, elevation) of the Sun [deg]; None draws the full disc.
+    phase_angle
+        Sun-Moon-observer angle [deg]: 0 full, 90 quarter, 180 new.
 
     Returns
     -------
@@ -493,18 +503,36 @@ def splat_disc(
     size = np.degrees(np.sqrt(pixels.solid_angle))
     # only pixels within the disc's elevation band (plus two pixels) can be covered
     near = pixels.sky & (np.abs(pixels.elevation - elevation) <= angular_radius + 2.0 * size)
-    e1, e2 = np.radians(pixels.elevation[near]), math.radians(elevation)
-    cos_sep = np.sin(e1) * math.sin(e2) + np.cos(e1) * math.cos(e2) * np.cos(
-        np.radians(pixels.azimuth[near] - azimuth)
-    )
-    separation = np.degrees(np.arccos(np.clip(cos_sep, -1.0, 1.0)))
-    cover = np.zeros(pixels.view.shape)
-    cover[near] = np.clip((angular_radius - separation) / size[near] + 0.5, 0.0, 1.0)
-    total = (cover * pixels.solid_angle).sum()
+    centre = _direction(np.array(elevation), np.array(azimuth))
+    points = _direction(pixels.elevation[near], pixels.azimuth[near])
+    separation = np.degrees(np.arccos(np.clip(points @ centre, -1.0, 1.0)))
+    ramp = size[near] / angular_radius  # one pixel in disc radii
+    cover = np.clip((angular_radius - separation) / size[near] + 0.5, 0.0, 1.0)
+    if sun is not None:
+        toward = _direction(np.array(sun[1]), np.array(sun[0]))
+        toward = toward - (toward @ centre) * centre
+        norm = np.linalg.norm(toward)
+        if norm > 0:
+            toward /= norm
+            across = np.cross(centre, toward)
+            scale = math.radians(angular_radius)
+            x = points @ toward / scale
+            y = points @ across / scale
+            edge = -math.cos(math.radians(phase_angle)) * np.sqrt(np.clip(1.0 - y * y, 0.0, 1.0))
+            cover = cover * np.clip((x - edge) / ramp + 0.5, 0.0, 1.0)
+    image = np.zeros(pixels.view.shape)
+    image[near] = cover
+    total = (image * pixels.solid_angle).sum()
     if total <= 0:
         return np.zeros((*pixels.view.shape, values.size))
-    luminance = cover / total  # flux x weight / solid angle, weight / solid angle = cover
+    luminance = image / total  # flux x weight / solid angle, weight / solid angle = cover
     return luminance[..., None] * values[None, None, :]
+
+
+def _direction(elevation: FloatArray, azimuth: FloatArray) -> FloatArray:
+    """(..., 3) unit vectors (east, north, up) of directions in degrees."""
+    el, az = np.radians(elevation), np.radians(azimuth)
+    return np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=-1)
 
 
 def moon_v_magnitude(phase_angle: float) -> float:
@@ -781,6 +809,8 @@ def render_sky(
             moon.azimuth,
             moon.angular_radius,
             moon_flux * blackbody_white(SUN_TEMPERATURE),
+            sun=(sun_az, sun_el),
+            phase_angle=moon.phase_angle,
         )
     drawn = 0
     if options.natural and options.stars:

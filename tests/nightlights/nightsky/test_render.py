@@ -220,3 +220,35 @@ def test_zenith_summary_adds_natural_and_artificial() -> None:
     assert night["zenith_natural_cd_m2"] == pytest.approx(image.summary["zenith_natural_cd_m2"])
     total = image.summary["zenith_natural_cd_m2"] + 1e-3
     assert night["zenith_sky_brightness"] == pytest.approx(-2.5 * math.log10(total / 1.08e5))
+
+
+def test_moon_phase_lit_fraction_and_side() -> None:
+    from nightlights.nightsky.moon import moon_state, sun_position
+
+    when, lon, lat = "2026-01-25T20:00:00Z", 24.95, 60.17
+    moon = moon_state(when, lon, lat)
+    sun_az, sun_el = sun_position(when, lon, lat)
+    view = View(
+        "perspective", 300, 300, azimuth=moon.azimuth, elevation=moon.elevation, field_of_view=1.2
+    )
+    pixels = view_pixels(view)
+    lit = splat_disc(
+        pixels,
+        moon.elevation,
+        moon.azimuth,
+        moon.angular_radius,
+        [1.0],
+        sun=(sun_az, sun_el),
+        phase_angle=moon.phase_angle,
+    )[..., 0]
+    disc = splat_disc(pixels, moon.elevation, moon.azimuth, moon.angular_radius, [1.0])[..., 0]
+    assert (lit * pixels.solid_angle).sum() == pytest.approx(1.0, rel=1e-12)
+    area = ((lit > 0) * pixels.solid_angle).sum() / ((disc > 0) * pixels.solid_angle).sum()
+    assert area == pytest.approx(moon.illuminated_fraction, abs=0.02)
+    # the lit side faces the Sun: its centroid moves toward the Sun's place in the image
+    rows, cols = np.indices(view.shape)
+    centre = np.array([(lit * rows).sum(), (lit * cols).sum()]) / lit.sum()
+    middle = np.array(pixels.locate(np.array([moon.elevation]), np.array([moon.azimuth]))[:2])
+    # toward the Sun in the camera frame: its azimuth is larger (right), its elevation lower
+    assert sun_az > moon.azimuth and sun_el < moon.elevation
+    assert centre[1] > middle[1, 0] and centre[0] > middle[0, 0]
