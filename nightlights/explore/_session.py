@@ -61,9 +61,16 @@ from nightlights.io.raster import LitCells
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
-from nightlights.sky.panorama import KernelLevels, KernelSlice, panorama_pca
+from nightlights.sky.kernel import TABULATED_PREFIX
+from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import PolarMap, lit_mask, lit_polar_cells, source_level_weights
-from nightlights.sky.setup import _check_reach, _observer_xy, level_offset, prepare_scene
+from nightlights.sky.setup import (
+    _check_reach,
+    _observer_xy,
+    band_emission_functions,
+    level_offset,
+    prepare_scene,
+)
 from nightlights.sky.spec import scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
@@ -107,8 +114,10 @@ class ExploreSession:
     Parameters
     ----------
     emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path); one band
-        Lambertian, two bands Lambertian + direct uplight.
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
+        two bands, each with the emission function of its ``emission_function`` tag
+        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight), as
+        the skyglow stage reads them.
     lights
         Optional luminaire layer (any vector format) shown on the map.
     kernel
@@ -185,6 +194,8 @@ class ExploreSession:
             progress=progress,
         )
         self._table = setup.table
+        # each band reads its emission function's mix of the kernel's tables (band_slice)
+        self._functions = setup.functions
         stored = int(setup.slices[0].coefficient.shape[-1] // len(setup.slices[0].observer_weights))
         if components is not None and not 1 <= components <= stored:
             raise InputError(f"components={components}; the kernel stores 1-{stored}")
@@ -237,6 +248,10 @@ class ExploreSession:
                     float(np.nanmax(relief)) + self._observer_height,
                 }
             )
+        # the tables the bands' emission functions need, as the skyglow stage builds them
+        functions, _ = band_emission_functions(raster, raster.count, label=self.label)
+        shapes = {shape for function in functions for shape in function.shapes}
+        tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
         spec = scene_kernel_spec(
             raster,
             (left, bottom),
@@ -245,8 +260,10 @@ class ExploreSession:
             n_elevation=64,
             n_azimuth=256,
             n_distance=64,
-            uplight=raster.count == 2,
+            uplight="uplight" in shapes,
             source_altitudes=source_levels(heights),
+            garstang_lobe="garstang_lobe" in shapes,
+            tabulated_emission=tabulated[0] if tabulated else None,
         )
         if len(eye) > 1:
             import dataclasses
@@ -1067,7 +1084,8 @@ class ExploreSession:
     def _slices_at(self, altitude: float) -> list[KernelSlice]:
         key = float(altitude)
         if key not in self._slices:
-            self._remember(self._slices, key, self._levels.at(key))
+            slices = [band_slice(s, self._functions) for s in self._levels.at(key)]
+            self._remember(self._slices, key, slices)
         return self._slices[key]
 
     def _below_terrain(self, xy: tuple[float, float], eye: float) -> np.ndarray | None:

@@ -69,9 +69,16 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude
-from nightlights.sky.panorama import KernelSlice, kernel_levels
+from nightlights.sky.kernel import TABULATED_PREFIX
+from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
-from nightlights.sky.setup import RasterInput, check_kernel_grid, level_offset
+from nightlights.sky.setup import (
+    RasterInput,
+    band_emission_functions,
+    check_kernel_grid,
+    kernel_band_functions,
+    level_offset,
+)
 from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
@@ -378,6 +385,10 @@ def darkness(
     label = source_label(emission, "emission raster")
     raster = as_raster(emission)
     data = _check_emission(raster, label)
+    # each band's emission function (its tag, or the default), read as the skyglow stage does
+    functions, notes = band_emission_functions(raster, data.shape[0], label=label)
+    shapes = {shape for function in functions for shape in function.shapes}
+    tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
     if not (math.isfinite(observer_height) and observer_height >= 0):
         raise InputError(f"observer height {observer_height!r} m; expected a finite value >= 0")
     chunk = _check_chunk_size(chunk_size)
@@ -410,16 +421,13 @@ def darkness(
                 n_elevation=64 if n_elevation is None else n_elevation,
                 n_azimuth=256 if n_azimuth is None else n_azimuth,
                 n_distance=64 if n_distance is None else n_distance,
-                uplight=data.shape[0] == 2,
+                uplight="uplight" in shapes,
+                garstang_lobe="garstang_lobe" in shapes,
+                tabulated_emission=tabulated[0] if tabulated else None,
             ),
             observer_altitudes=tuple(source_levels(eye)),
         )
         table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
-    if data.shape[0] == 2 and "coefficient_uplight" not in table:
-        raise InputError(
-            f"{label}: 2 bands (Lambertian + uplight) but the kernel has no uplight table; "
-            "build it with uplight"
-        )
     start = time.perf_counter()
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
@@ -436,6 +444,8 @@ def darkness(
     edges = np.asarray(table["distance_edges"].values, dtype=float)
     _warn_range(raster, edges[-1])
     by_level = [kernel_levels(table, observer_altitude=h) for h in observer_levels]
+    functions, notes = kernel_band_functions(functions, notes, by_level[0][0].emissions, label)
+    by_level = [[band_slice(s, functions) for s in slices] for slices in by_level]
     zenith = [[zenith_per_lumen(t)[: data.shape[0]] for t in slices] for slices in by_level]
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
@@ -468,6 +478,8 @@ def darkness(
     tags = {
         "nightlights_stage": "darkness",
         "emission": label,
+        "emission_functions": "; ".join(function.tag for function in functions),
+        "emission_function_sources": "; ".join(notes),
         "kernel_hash": str(table.attrs.get("content_hash", "")),
         "kernel_range_m": float(edges[-1]),
         "turbidity": float(table.attrs.get("turbidity", np.nan)),

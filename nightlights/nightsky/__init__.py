@@ -1,9 +1,11 @@
-"""The natural night sky: stars, the Sun and the Moon, seen from a place at a time.
+"""The natural night sky and the eye: stars, the Sun, the Moon, the sky's own glow, tone mapping.
 
 Star positions come from the Yale Bright Star Catalogue shipped with the package (9,096 stars
 to V = 6.5) and Meeus's algorithms (apparent place, sidereal time, refraction); the Sun and the
-Moon from Meeus's low-accuracy theories; moonlight on the sky from Krisciunas & Schaefer (1991).
-Everything is imported lazily.
+Moon from Meeus's low-accuracy theories; moonlight on the sky from Krisciunas & Schaefer
+(1991). The natural background, the composed picture in three projections and the
+night-vision tone mapping are in ``background``, ``render`` and ``tonemap``;
+:func:`sky_render` is the stage. Everything is imported lazily.
 
 References
 ----------
@@ -30,7 +32,6 @@ _LAZY: dict[str, str] = {
     "MoonState": "nightlights.nightsky.moon",
     "moon_state": "nightlights.nightsky.moon",
     "moon_sky_brightness": "nightlights.nightsky.moon",
-    # --- render helper: names of background.py, tonemap.py, render.py, stage.py below ---
     "NaturalSky": "nightlights.nightsky.background",
     "natural_sky_luminance": "nightlights.nightsky.background",
     "schaefer_twilight": "nightlights.nightsky.background",
@@ -54,61 +55,91 @@ _LAZY: dict[str, str] = {
     "scotopic_luminance": "nightlights.nightsky.tonemap",
     "tone_map": "nightlights.nightsky.tonemap",
     "visual_acuity": "nightlights.nightsky.tonemap",
-    # --- end of the render helper's block ---
 }
 
 if TYPE_CHECKING:
-    from nightlights.nightsky.astro import airmass, julian_date, refraction, star_positions
-    from nightlights.nightsky.catalog import StarCatalog, load_catalog
-    from nightlights.nightsky.moon import MoonState, moon_sky_brightness, moon_state, sun_position
-
-    # --- render helper: TYPE_CHECKING imports below ---
-    # isort: split
-    from nightlights.nightsky.background import NaturalSky as NaturalSky
-    from nightlights.nightsky.background import natural_sky_luminance as natural_sky_luminance
-    from nightlights.nightsky.background import schaefer_twilight as schaefer_twilight
-    from nightlights.nightsky.background import starlight_density as starlight_density
-    from nightlights.nightsky.background import twilight_phase as twilight_phase
-    from nightlights.nightsky.background import van_rhijn_factor as van_rhijn_factor
-    from nightlights.nightsky.render import SkyImage as SkyImage
-    from nightlights.nightsky.render import SkyOptions as SkyOptions
-    from nightlights.nightsky.render import View as View
-    from nightlights.nightsky.render import ballesteros_temperature as ballesteros_temperature
-    from nightlights.nightsky.render import render_sky as render_sky
-    from nightlights.nightsky.render import (
-        schaefer_limiting_magnitude as schaefer_limiting_magnitude,
+    from nightlights.nightsky.astro import (
+        airmass,
+        julian_date,
+        refraction,
+        star_positions,
     )
-    from nightlights.nightsky.render import splat_points as splat_points
-    from nightlights.nightsky.render import view_pixels as view_pixels
-    from nightlights.nightsky.render import zenith_summary as zenith_summary
-    from nightlights.nightsky.stage import SkyRenderResult as SkyRenderResult
-    from nightlights.nightsky.stage import sky_render as sky_render
-    from nightlights.nightsky.tonemap import ToneMapping as ToneMapping
-    from nightlights.nightsky.tonemap import blue_shift as blue_shift
-    from nightlights.nightsky.tonemap import mesopic_weight as mesopic_weight
-    from nightlights.nightsky.tonemap import scotopic_luminance as scotopic_luminance
-    from nightlights.nightsky.tonemap import tone_map as tone_map
-    from nightlights.nightsky.tonemap import visual_acuity as visual_acuity
-    # --- end of the render helper's block ---
+    from nightlights.nightsky.background import (
+        NaturalSky,
+        natural_sky_luminance,
+        schaefer_twilight,
+        starlight_density,
+        twilight_phase,
+        van_rhijn_factor,
+    )
+    from nightlights.nightsky.catalog import (
+        StarCatalog,
+        load_catalog,
+    )
+    from nightlights.nightsky.moon import (
+        MoonState,
+        moon_sky_brightness,
+        moon_state,
+        sun_position,
+    )
+    from nightlights.nightsky.render import (
+        SkyImage,
+        SkyOptions,
+        View,
+        ballesteros_temperature,
+        render_sky,
+        schaefer_limiting_magnitude,
+        splat_points,
+        view_pixels,
+        zenith_summary,
+    )
+    from nightlights.nightsky.stage import (
+        SkyRenderResult,
+        sky_render,
+    )
+    from nightlights.nightsky.tonemap import (
+        ToneMapping,
+        blue_shift,
+        mesopic_weight,
+        scotopic_luminance,
+        tone_map,
+        visual_acuity,
+    )
 
 __all__ = [
     "MoonState",
+    "NaturalSky",
+    "SkyImage",
+    "SkyOptions",
+    "SkyRenderResult",
     "StarCatalog",
+    "ToneMapping",
+    "View",
     "airmass",
+    "ballesteros_temperature",
+    "blue_shift",
     "julian_date",
     "load_catalog",
+    "mesopic_weight",
     "moon_sky_brightness",
     "moon_state",
+    "natural_sky_luminance",
     "refraction",
+    "render_sky",
+    "schaefer_limiting_magnitude",
+    "schaefer_twilight",
+    "scotopic_luminance",
+    "sky_render",
+    "splat_points",
     "star_positions",
+    "starlight_density",
     "sun_position",
-    # --- render helper: public names below ---
-    *(
-        name
-        for name, module in _LAZY.items()
-        if module.rsplit(".", 1)[1] in ("background", "tonemap", "render", "stage")
-    ),
-    # --- end of the render helper's block ---
+    "tone_map",
+    "twilight_phase",
+    "van_rhijn_factor",
+    "view_pixels",
+    "visual_acuity",
+    "zenith_summary",
 ]
 
 

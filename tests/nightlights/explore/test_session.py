@@ -368,3 +368,23 @@ def test_scene_kernel_reaches_across_the_raster(tmp_path) -> None:
     assert session.kernel_info["range_m"] >= diagonal
     corner = session.panorama(500_001.0, 6_698_801.0)
     assert corner.zenith_luminance > 0
+
+
+def test_each_band_reads_its_emission_function_as_the_stage_does() -> None:
+    # An untagged single band is Garstang's F = G = 0.15 mix when the kernel has the lobe
+    # table, and a tagged band reads its own function: the session must mix the kernel's
+    # tables as the skyglow stage does.
+    spec = KernelSpec(
+        r_max=3000.0, n_distance=10, n_elevation=8, n_azimuth=32, garstang_lobe=True, uplight=True
+    )
+    table = build_kernel(spec, progress=False).kernel
+    untagged = _raster(1)
+    tagged = Raster(untagged.data, TRANSFORM, CRS, band_tags=({"emission_function": "uplight"},))
+    lambertian = ExploreSession(untagged, kernel=build_kernel(
+        KernelSpec(r_max=3000.0, n_distance=10, n_elevation=8, n_azimuth=32), progress=False
+    ).kernel).panorama(*OBSERVER).luminance  # fmt: skip
+    for raster in (untagged, tagged):
+        view = ExploreSession(raster, kernel=table).panorama(*OBSERVER)
+        reference = skyglow_panorama(raster, OBSERVER, table, progress=False).panorama
+        assert _relative(view.luminance, reference["luminance"].values) < 1e-9
+        assert not np.allclose(view.luminance, lambertian, rtol=1e-3)

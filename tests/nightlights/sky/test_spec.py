@@ -38,6 +38,8 @@ CHANGES = {
     "pca_energy": 0.99,
     "n_components": 2,
     "store_tables": False,
+    "garstang_lobe": True,
+    "tabulated_emission": 'tabulated:{"angles": [0, 90], "intensities": [1, 2]}',
 }
 
 
