@@ -2,19 +2,19 @@
 
 Knob: the scattering orders kept. :func:`nightlights.sky.montecarlo.monte_carlo_luminance`
 follows photons from a ground point source through the kernel's atmosphere (sphere) and
-estimates the luminance per order along view rays at the zenith and 45 deg up towards the
-source, 1-300 km away. Cases: turbidity T = 2 (the kernel's default atmosphere) and Garstang's
-clarity K = 1 (:func:`nightlights.sky.atmosphere.garstang_atmosphere`), each for a Lambertian
-source and Garstang's psi^4 lobe; Garstang's emission function (F = G = 0.15) is their mix
-(:func:`nightlights.sky.kernel.garstang_weights`; the runs are independent, so the errors
-add in quadrature). Reported per ray: the ratio (all orders) / (single) with its standard
+estimates the luminance per order along view rays at the zenith and 45 deg up towards and
+away from the source, 1-300 km away. Cases: turbidity T = 2 (the kernel's default atmosphere)
+and Garstang's clarity K = 1 (:func:`nightlights.sky.atmosphere.garstang_atmosphere`), each
+for a Lambertian source and Garstang's psi^4 lobe; Garstang's emission function (F = G = 0.15)
+is their mix (:func:`nightlights.sky.kernel.garstang_weights`; the runs are independent, so
+the errors add in quadrature). Reported per ray: the ratio (all orders) / (single) with its standard
 error, and (orders 1 + 2) / (single), the quantity of Garstang's (1986) double-scattering
 factor (about 1.6 at 10 km, 1.95 at 50 km, 2.5 at 150 km for K = 1, values quoted from his
 paper at second hand and not re-read here).
 
 Error against cost (T = 2, Lambertian; reference: the main run): single scattering alone
 (error 1 - 1 / ratio); single scattering times a smooth factor fitted to the reference ratio
-(cubic in ln r per elevation, weights 1 / SE^2; its error is the fit's deviation from the
+(cubic in ln r per view direction, weights 1 / SE^2; its error is the fit's deviation from the
 reference, which includes the reference's own noise); the full Monte Carlo at fewer photons
 (other seeds). Cost per view ray: the kernel's time per ray (the factor is a table look-up),
 and the Monte Carlo's run time divided by the rays it serves.
@@ -34,7 +34,8 @@ from nightlights.sky.kernel import garstang_weights, sky_luminance
 from nightlights.sky.montecarlo import monte_carlo_luminance
 
 DISTANCES_KM = (1, 2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100, 150, 200, 300)
-ELEVATIONS = (90.0, 45.0)
+#: View directions (elevation, azimuth relative to the source) [deg].
+DIRECTIONS = ((90.0, 0.0), (45.0, 0.0), (45.0, 180.0))
 EMISSIONS = ("lambertian", "garstang_lobe")
 #: Garstang's (1986) double-scattering factors for K = 1, quoted at second hand [km, 1].
 GARSTANG_DOUBLE = ((10, 1.6), (50, 1.95), (150, 2.5))
@@ -43,18 +44,19 @@ MAX_ORDER = 50
 SHOWN_KM = (1, 3, 10, 30, 50, 100, 150, 300)
 
 
-def rays() -> tuple[np.ndarray, np.ndarray]:
+def rays() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = np.array(DISTANCES_KM, dtype=float) * 1e3
-    el = np.repeat(np.array(ELEVATIONS), r.size)
-    return el, np.tile(r, len(ELEVATIONS))
+    el = np.repeat(np.array([d[0] for d in DIRECTIONS]), r.size)
+    az = np.repeat(np.array([d[1] for d in DIRECTIONS]), r.size)
+    return el, az, np.tile(r, len(DIRECTIONS))
 
 
 def run(atmosphere: Atmosphere, emission: str, photons: int, seed: int) -> dict:
-    el, r = rays()
+    el, az, r = rays()
     mc, seconds = harness.timed(
         lambda: monte_carlo_luminance(
             el,
-            0.0,
+            az,
             r,
             atmosphere=atmosphere,
             emission=emission,
@@ -100,11 +102,11 @@ def mix(rows: dict[str, dict]) -> dict:
 
 
 def fitted_factor(ratio: np.ndarray, se: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, list]:
-    """Cubic in ln r per elevation, weighted by 1 / SE^2, fitted to the ratio."""
+    """Cubic in ln r per view direction, weighted by 1 / SE^2, fitted to the ratio."""
     fit = np.zeros_like(ratio)
     coefficients = []
-    n = r.size // len(ELEVATIONS)
-    for i in range(len(ELEVATIONS)):
+    n = r.size // len(DIRECTIONS)
+    for i in range(len(DIRECTIONS)):
         sl = slice(i * n, (i + 1) * n)
         x = np.log(r[sl] / 1e3)
         w = 1.0 / np.maximum(se[sl], 1e-3 * ratio[sl])
@@ -115,7 +117,7 @@ def fitted_factor(ratio: np.ndarray, se: np.ndarray, r: np.ndarray) -> tuple[np.
 
 
 def error_against_cost(reference: dict, sweep: list[int], kernel_seconds: float) -> dict:
-    _, r = rays()
+    _, _, r = rays()
     n_rays = r.size
     total_ref = np.array(reference["total"])
     ratio = np.array(reference["ratio"])
@@ -136,7 +138,9 @@ def error_against_cost(reference: dict, sweep: list[int], kernel_seconds: float)
         "single": summary(1.0 - 1.0 / ratio),
         "single_times_factor": {
             **summary(np.abs(fit / ratio - 1.0)),
-            "coefficients_ln_km": dict(zip(map(str, ELEVATIONS), coefficients, strict=True)),
+            "coefficients_ln_km": dict(
+                zip((f"{e:g}/{a:g}" for e, a in DIRECTIONS), coefficients, strict=True)
+            ),
         },
         "monte_carlo": [],
     }
@@ -163,14 +167,21 @@ def _cell(values: list, errors: list, index: int) -> str:
 def tables(result: dict) -> dict:
     """Records for the documentation's tables (json-table markers)."""
     el = np.array(result["ray_elevation_deg"])
+    az = np.array(result["ray_azimuth_deg"])
     km = np.array(result["ray_distance_km"])
     ratio_rows, runs = [], []
     for label, case in result["cases"].items():
         for key in (*EMISSIONS, "garstang_mix"):
-            for elevation in ELEVATIONS:
-                row = {"atmosphere": label, "emission": key, "elevation_deg": elevation}
+            for elevation, azimuth in DIRECTIONS:
+                row = {
+                    "atmosphere": label,
+                    "emission": key,
+                    "elevation_deg": elevation,
+                    "azimuth_deg": azimuth,
+                }
                 for d in SHOWN_KM:
-                    i = int(np.flatnonzero((el == elevation) & (km == d))[0])
+                    here = (el == elevation) & (az == azimuth) & (km == d)
+                    i = int(np.flatnonzero(here)[0])
                     row[f"{d} km"] = _cell(case[key]["ratio"], case[key]["ratio_se"], i)
                 ratio_rows.append(row)
         for key in EMISSIONS:
@@ -191,7 +202,7 @@ def tables(result: dict) -> dict:
     k1 = result["cases"]["K = 1"]["garstang_mix"]
     comparison = []
     for d, quoted in GARSTANG_DOUBLE:
-        i = int(np.flatnonzero((el == 90.0) & (km == d))[0])
+        i = int(np.flatnonzero((el == 90.0) & (az == 0.0) & (km == d))[0])
         comparison.append(
             {
                 "distance_km": d,
@@ -235,11 +246,12 @@ def main() -> None:
         photons = {"lambertian": 300_000, "garstang_lobe": 150_000}
         sweep = [1_000, 3_000, 10_000, 30_000]
     monte_carlo_luminance(90.0, 0.0, 1e3, photons=10, max_order=3)  # compile
-    el, r = rays()
+    el, az, r = rays()
     result: dict = {
         "distances_km": list(DISTANCES_KM),
-        "elevations_deg": list(ELEVATIONS),
+        "directions_deg": [list(d) for d in DIRECTIONS],
         "ray_elevation_deg": el.tolist(),
+        "ray_azimuth_deg": az.tolist(),
         "ray_distance_km": (r / 1e3).tolist(),
         "max_order": MAX_ORDER,
         "garstang_double_scattering_quoted": GARSTANG_DOUBLE,
@@ -256,8 +268,8 @@ def main() -> None:
             **rows,
             "garstang_mix": mix(rows),
         }
-    sky_luminance(el, 0.0, r)  # compile
-    kernel = harness.repeat(lambda: sky_luminance(el, 0.0, r), repeats=5)
+    sky_luminance(el, az, r)  # compile
+    kernel = harness.repeat(lambda: sky_luminance(el, az, r), repeats=5)
     result["error_against_cost"] = error_against_cost(
         result["cases"]["T = 2"]["lambertian"], sweep, kernel.best
     )
@@ -272,12 +284,14 @@ def main() -> None:
 
 def plot(result: dict):
     plt = harness.pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, axes = plt.subplots(2, 2, figsize=(13, 10))
+    axes = axes.ravel()
     d = np.array(result["ray_distance_km"])
     ray_el = np.array(result["ray_elevation_deg"])
+    ray_az = np.array(result["ray_azimuth_deg"])
     styles = {"lambertian": "o-", "garstang_lobe": "s--", "garstang_mix": "^-"}
-    for ax, el in zip(axes[:2], result["elevations_deg"], strict=True):
-        sel = ray_el == el
+    for ax, (el, az) in zip(axes[:3], result["directions_deg"], strict=True):
+        sel = (ray_el == el) & (ray_az == az)
         for label, case in result["cases"].items():
             for key, style in styles.items():
                 row = case[key]
@@ -300,17 +314,18 @@ def plot(result: dict):
             capsize=2,
             label="K = 1, Garstang mix, orders 1+2 only",
         )
-        if el == 90.0:
+        if el == 90.0 and az == 0.0:
             gd = np.array(result["garstang_double_scattering_quoted"], dtype=float)
             ax.plot(gd[:, 0], gd[:, 1], "kD", ms=7, mfc="none", label="Garstang 1986 (quoted)")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("distance of the source [km]")
         ax.set_ylabel("(all orders) / (single scattering)")
-        ax.set_title(f"elevation {el:g} deg (towards the source)")
+        side = "zenith" if el == 90.0 else ("towards" if az == 0.0 else "away from")
+        ax.set_title(f"elevation {el:g} deg, {side} the source" if el != 90.0 else "zenith")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=6)
-    ax = axes[2]
+    ax = axes[3]
     cost = result["error_against_cost"]
     kernel = cost["kernel_seconds_per_ray"]
     for key, marker in (("median_to_100km", "o"), ("median_all", "s")):
