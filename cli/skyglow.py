@@ -180,6 +180,15 @@ def skyglow(
         f"{out}",
         soft_wrap=True,
     )
+    from nightlights.nightsky.render import zenith_summary
+
+    total = zenith_summary(result.zenith_luminance)
+    Console(stderr=True).print(
+        f"with a moonless natural sky ({total['zenith_natural_cd_m2']:.3g} cd m-2): zenith "
+        f"{total['zenith_sky_brightness']:.2f} mag arcsec-2 natural + artificial, Bortle class "
+        f"{total['bortle_class_zenith']} (a given night: nightlights sky render)",
+        soft_wrap=True,
+    )
 
 
 commands = [skyglow]

@@ -75,6 +75,9 @@ _LAZY: dict[str, str] = {
     "DarknessResult": "nightlights.inverse",
     # interactive: any observer, edits and dimming in memory (and in the browser)
     "ExploreSession": "nightlights.explore",
+    # the whole night sky: stars, Moon, natural background, the eye
+    "sky_render": "nightlights.nightsky",
+    "SkyRenderResult": "nightlights.nightsky",
     # data types
     "Raster": "nightlights.io",
 }
@@ -100,6 +103,7 @@ if TYPE_CHECKING:
         least_dimming,
     )
     from nightlights.io import Raster
+    from nightlights.nightsky import SkyRenderResult, sky_render
     from nightlights.sky import (
         KernelResult,
         KernelSpec,
@@ -145,9 +149,9 @@ __all__ = [
     "InfluenceResult",
     "InputError",
     "IrradianceResult",
-    "LearnResult",
     "KernelResult",
     "KernelSpec",
+    "LearnResult",
     "NightlightsError",
     "NightlightsWarning",
     "NormalizeResult",
@@ -157,6 +161,7 @@ __all__ = [
     "ReduceResult",
     "SampleResult",
     "SkyRegion",
+    "SkyRenderResult",
     "SkyglowResult",
     "__version__",
     "build_kernel",
@@ -173,5 +178,6 @@ __all__ = [
     "normalize",
     "place",
     "sample",
+    "sky_render",
     "skyglow",
 ]

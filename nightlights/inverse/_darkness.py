@@ -331,8 +331,9 @@ def darkness(
     Parameters
     ----------
     emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path); one band
-        = Lambertian, two = Lambertian + direct uplight.
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
+        two bands, each with the emission function of its ``emission_function`` tag
+        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight).
     output
         COG to write atomically (2 bands); None writes nothing.
     observer_height
@@ -650,7 +651,7 @@ def _check_emission(raster: Raster, label: str) -> FloatArray:
     data = raster.data
     if data.shape[0] > 2:
         raise InputError(
-            f"{label}: {data.shape[0]} bands; expected 1 (Lambertian) or 2 (Lambertian + uplight)"
+            f"{label}: {data.shape[0]} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
     infinite = int(np.count_nonzero(np.isinf(data)))
     if infinite:

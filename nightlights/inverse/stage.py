@@ -108,8 +108,9 @@ def inverse_q(
     Parameters
     ----------
     emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path); one
-        band Lambertian, two bands Lambertian + direct uplight.
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
+        two bands, each with the emission function of its ``emission_function`` tag
+        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight).
     output
         Q raster (COG), written atomically; None writes nothing.
     observer

@@ -142,7 +142,9 @@ def skyglow(
     ----------
     emission
         Upward flux density [lm m-2] in a projected CRS: a :class:`~nightlights.io.Raster`, a
-        DataArray or a path; one band = Lambertian, two bands = Lambertian + direct uplight.
+        DataArray or a path; one or two bands, each with the emission function of its
+        ``emission_function`` tag (untagged: one band Garstang's F = G = 0.15, two bands
+        Lambertian + direct uplight).
     output
         Panorama NetCDF; None writes nothing. It, ``png`` and ``polar_output`` are all
         checked before the computation and appear together at the end, or none of them.
@@ -227,6 +229,7 @@ def skyglow(
     dataset = scene.panorama
     zenith = float(dataset.attrs["zenith_luminance_cd_m2"])
     zenith_mag = float(dataset.attrs["zenith_sky_brightness"])
+    dataset.attrs.update(_with_natural_sky(zenith))
     with outputs:
         if target is not None:
             dataset.to_netcdf(outputs.temporary(target), engine="h5netcdf")
@@ -244,6 +247,19 @@ def skyglow(
         scene.seconds,
         target,
     )
+
+
+def _with_natural_sky(artificial: float) -> dict[str, float | int]:
+    """The zenith with a moonless natural sky added (airglow, zodiacal light, starlight:
+    22.0 mag arcsec-2), beside the artificial figures, which stay as they are."""
+    from nightlights.nightsky.render import zenith_summary
+
+    summary = zenith_summary(artificial)
+    return {
+        "zenith_natural_cd_m2": float(summary["zenith_natural_cd_m2"]),
+        "zenith_total_sky_brightness": float(summary["zenith_sky_brightness"]),
+        "bortle_class_zenith_total": int(summary["bortle_class_zenith"]),
+    }
 
 
 def _render(

@@ -74,6 +74,8 @@ def test_every_public_name_resolves() -> None:
         "inverse_reduce",
         "least_dimming",
         "darkness",
+        "learn",
+        "sky_render",
     ],
 )
 def test_stage_documented(name: str) -> None:

@@ -94,3 +94,17 @@ def test_png_and_polar_written_only_when_asked(tmp_path: Path, small_kernel: xr.
     )
     assert result.path is None
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png", "polar.nc"]
+
+
+def test_summary_adds_the_natural_sky_beside_the_artificial(small_kernel: xr.Dataset) -> None:
+    from nightlights.sky.brightness import luminance_to_magnitude
+
+    attrs = skyglow(
+        _raster(), observer=OBSERVER, observer_height=0.0, kernel=small_kernel
+    ).panorama.attrs
+    natural, artificial = attrs["zenith_natural_cd_m2"], attrs["zenith_luminance_cd_m2"]
+    assert float(luminance_to_magnitude(natural)) == pytest.approx(22.0, abs=0.01)
+    total = float(luminance_to_magnitude(natural + artificial))
+    assert attrs["zenith_total_sky_brightness"] == pytest.approx(total)
+    assert attrs["zenith_total_sky_brightness"] < min(22.0, attrs["zenith_sky_brightness"])
+    assert attrs["bortle_class_zenith_total"] >= attrs["bortle_class_zenith"]
