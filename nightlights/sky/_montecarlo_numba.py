@@ -16,7 +16,7 @@ The numpy reference of this module is :func:`nightlights.sky.montecarlo.point_so
 (the estimator of one scattering event) together with :func:`nightlights.sky.kernel.optical_depth`
 (the free paths of a recorded photon), compared in the tests.
 
-Length: about 720 lines, because the random-number stream, the transport, and the
+Length: about 730 lines, because the random-number stream, the transport, and the
 ray-integrated estimator are one compiled unit that numba inlines together.
 """
 

@@ -38,14 +38,12 @@ do not depend on the number of threads. Standard errors are those of the mean ov
 References
 ----------
 [1] Garstang, R. H. 1986, "Model for artificial night-sky illumination", PASP 98, 364-375
-    (single and double scattering of city light).
-[2] Kocifaj, M. 2007, "Light-pollution model for cloudy and cloudless night skies with ground-
-    based light sources", Applied Optics 46, 3013-3022 (multiple scattering, for comparison).
-[3] Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution
+    (single and double scattering of city light; the benchmark compares with his factor).
+[2] Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution
     for the Night Sky", ACM TOG 42(6) 219, Sec. 3.2 (the single-scattering integral).
-[4] Steele, G. L., Lea, D. & Flood, C. H. 2014, "Fast splittable pseudorandom number
+[3] Steele, G. L., Lea, D. & Flood, C. H. 2014, "Fast splittable pseudorandom number
     generators", OOPSLA 2014 (SplitMix64).
-[5] Marchuk, G. I. et al. 1980, "The Monte Carlo Methods in Atmospheric Optics", Springer
+[4] Marchuk, G. I. et al. 1980, "The Monte Carlo Methods in Atmospheric Optics", Springer
     (local and next-event estimators).
 """
 
@@ -188,7 +186,7 @@ def monte_carlo_luminance(
 
     References
     ----------
-    Marchuk et al. 1980 (next-event estimation); Dobashi et al. 2023, Sec. 3.2 (the ray
+    Marchuk et al. 1980 [4] (next-event estimation); Dobashi et al. 2023 [2], Sec. 3.2 (the ray
     integral).
 
     Examples
