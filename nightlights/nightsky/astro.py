@@ -619,8 +619,8 @@ def airmass(elevation: ArrayLike) -> NDArray[np.float64]:
 
     Examples
     --------
-    >>> np.round(airmass([90.0, 30.0, 0.0]), 3)
-    array([ 1.   ,  1.994, 37.92 ])
+    >>> np.round(airmass([90.0, 30.0, 0.0]), 3).tolist()
+    [1.0, 1.994, 37.92]
     """
     h = np.asarray(elevation, dtype=float)
     with np.errstate(invalid="ignore"):

@@ -224,6 +224,15 @@ def sky_render(
     -------
     SkyRenderResult
         The image, the place, the legend and the path written.
+
+    Examples
+    --------
+    >>> result = sky_render(
+    ...     None, time="2026-01-25T20:00:00Z", lonlat=(24.95, 60.17), natural_only=True,
+    ...     width=256, height=64,
+    ... )
+    >>> 20.0 < result.image.summary["zenith_sky_brightness"] < 23.0
+    True
     """
     target = Path(output) if output is not None else None
     kind = None

@@ -25,7 +25,7 @@ from scipy.special import erfcx
 
 from nightlights._typing import FloatArray
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
-from nightlights.sky.kernel import (
+from nightlights.sky.emission_shapes import (
     GARSTANG_LOBE_NORM,
     TABULATED_PREFIX,
     parse_tabulated_emission,
