@@ -466,6 +466,14 @@ def tone_map(
     numpy.ndarray
         ``(rows, cols, 3)`` sRGB in [0, 1].
     """
+    return _tone_map(xyz, options, pixel_size, compiled=True)
+
+
+def _tone_map(
+    xyz: ArrayLike, options: ToneMapping | None, pixel_size: float | None, *, compiled: bool
+) -> FloatArray:
+    """:func:`tone_map` with its per-pixel steps compiled (:mod:`._tone_map_numba`) or in
+    numpy (the reference)."""
     options = options if options is not None else ToneMapping()
     values = np.asarray(xyz, dtype=float)
     valid = np.all(np.isfinite(values), axis=-1)
@@ -479,17 +487,41 @@ def tone_map(
         if options.white_temperature is not None:
             values = white_balance(values, options.white_temperature)
         scale = options.exposure if options.exposure is not None else 1.0 / (20.0 * adaptation)
-        display = scale * values
     else:
-        values = blue_shift(
-            values,
-            blue_point=options.blue_point,
-            scotopic_scale=options.scotopic_scale,
-            log_range=options.mesopic_log_range,
-        )
+        if compiled:
+            from nightlights.nightsky._tonemap_numba import blue_shift_pixels
+
+            low, high = options.mesopic_log_range
+            if not high > low:
+                raise InputError(f"log_range {(low, high)}: expected low < high [log10 cd m-2]")
+            flat = np.ascontiguousarray(values.reshape(-1, 3))
+            values = blue_shift_pixels(
+                flat, *options.blue_point, options.scotopic_scale, low, high
+            ).reshape(values.shape)
+        else:
+            values = blue_shift(
+                values,
+                blue_point=options.blue_point,
+                scotopic_scale=options.scotopic_scale,
+                log_range=options.mesopic_log_range,
+            )
         if options.acuity_blur and pixel_size is not None and pixel_size > 0:
             values = _blur(values, valid, acuity_blur_sigma(adaptation) / pixel_size)
         scale = options.exposure if options.exposure is not None else options.key / adaptation
+    if compiled:
+        from nightlights.nightsky._tonemap_numba import display_pixels
+
+        rgb = display_pixels(
+            np.ascontiguousarray(values.reshape(-1, 3)),
+            valid.reshape(-1),
+            float(scale),
+            options.mode != "photo",
+            _srgb_matrix(),
+        )
+        return rgb.reshape(values.shape)
+    if options.mode == "photo":
+        display = scale * values
+    else:
         lum = values[..., 1]
         compressed = reinhard_global(lum, scale)
         ratio = np.divide(compressed, lum, out=np.zeros_like(lum), where=lum > 0)
@@ -504,9 +536,11 @@ def _blur(values: FloatArray, valid: NDArray[np.bool_], sigma_pixels: float) -> 
 
     if sigma_pixels < 0.3:
         return values
+    # one pass over the three channels, none across them
+    blurred = gaussian_filter(values, (sigma_pixels, sigma_pixels, 0.0), mode="nearest")
+    if valid.all():  # nothing to renormalise: the weight is 1 everywhere
+        return blurred
     weight = gaussian_filter(valid.astype(float), sigma_pixels, mode="nearest")
-    out = np.empty_like(values)
-    for channel in range(values.shape[-1]):
-        blurred = gaussian_filter(values[..., channel], sigma_pixels, mode="nearest")
-        out[..., channel] = np.divide(blurred, weight, out=np.zeros_like(blurred), where=weight > 0)
-    return out
+    return np.divide(
+        blurred, weight[..., None], out=np.zeros_like(blurred), where=weight[..., None] > 0
+    )

@@ -120,3 +120,29 @@ def test_bad_parameters_are_refused() -> None:
         blackbody_white(500.0)
     with pytest.raises(InputError, match="log_range"):
         mesopic_weight(1.0, log_range=(1.0, -1.0))
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        ToneMapping(),
+        ToneMapping(acuity_blur=False, exposure=3e4),
+        ToneMapping(mode="photo"),
+        ToneMapping(mode="photo", white_temperature=4000.0, exposure=2e3),
+    ],
+)
+def test_compiled_tone_map_equals_the_numpy_reference(options: ToneMapping) -> None:
+    from nightlights.nightsky.tonemap import _tone_map
+
+    # a sky from far below the mesopic range to above it, every light colour, some pixels
+    # with no sky (NaN), some black, and luminances above the display white
+    rng = np.random.default_rng(5)
+    luminance = 10.0 ** rng.uniform(-7.0, 3.0, (40, 60))
+    lights = np.array(LIGHTS)[rng.integers(0, len(LIGHTS), (40, 60))]
+    xyz = lights / lights[..., 1:2] * luminance[..., None]
+    xyz[:3] = np.nan
+    xyz[5, :10] = 0.0
+    compiled = _tone_map(xyz, options, 0.05, compiled=True)
+    reference = _tone_map(xyz, options, 0.05, compiled=False)
+    np.testing.assert_allclose(compiled, reference, rtol=0, atol=1e-12)
+    assert np.all(compiled[:3] == 0.0)
