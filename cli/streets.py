@@ -19,7 +19,6 @@ from cli.options import (
     DEFAULT_ALONG_JITTER,
     DEFAULT_CANDIDATES,
     DEFAULT_MERGE_FRACTION,
-    DEFAULT_NETWORK,
     NETWORK_CATALOG,
     catalog_option,
     crs_option,
@@ -39,8 +38,8 @@ if TYPE_CHECKING:
 DEFAULT_MAX_DISTANCE = 25.0
 
 _NETWORK_HELP = (
-    f"Catalogue network ({', '.join(NETWORK_CATALOG)}; default {DEFAULT_NETWORK}) "
-    "or a network folder."
+    f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: the "
+    "network for where the streets lie, as streets sample chooses it."
 )
 _SAMPLE_NETWORK_HELP = (
     f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: chosen "

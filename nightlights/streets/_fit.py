@@ -26,7 +26,7 @@ from bayesnets.errors import BayesNetError
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
 from nightlights.io import as_vector
-from nightlights.streets._sample import resolve_network
+from nightlights.streets._sample import network_by_location, resolve_network
 from nightlights.streets.schema import observed_field
 
 __all__ = ["FitResult", "fit", "fit_lighting_network", "known_values"]
@@ -144,7 +144,9 @@ def fit(
         Network folder to write; must not exist or be empty. Written to a temporary folder
         first and renamed, so a failure leaves nothing behind. None writes nothing.
     network
-        Base network (object, catalogue name or folder); default: the catalogue default.
+        Base network (object, catalogue name or folder); default: the catalogue network for
+        where the streets lie (as ``streets sample`` chooses it), or the catalogue default for
+        a table without a CRS.
     prior
         Prior strength in pseudo-observations per parent combination [1].
     name
@@ -197,6 +199,9 @@ def fit(
             raise EmptyInputError(f"{source}: no features to fit a network from")
         if name is None and target is not None:
             name = target.name
+        if network is None and frame.crs is not None:
+            # the base network for where the streets lie, as streets sample chooses it
+            network, _ = network_by_location(frame, source=str(source))
         try:
             fitted = fit_lighting_network(frame, network, prior=prior, name=name)
         except BayesNetError as exc:

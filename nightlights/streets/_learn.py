@@ -83,7 +83,7 @@ from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._mapping import parse_length, parse_packed_tags
-from nightlights.streets._sample import fill_lighting, resolve_network
+from nightlights.streets._sample import fill_lighting, network_by_location, resolve_network
 from nightlights.streets.schema import (
     ARRANGEMENTS,
     STREET_CLASSES,
@@ -851,7 +851,8 @@ def learn(
         empty unless ``overwrite``. Written to a temporary folder first and renamed.
         None writes nothing.
     network
-        Base network (object, catalogue name or folder); default: the catalogue default.
+        Base network (object, catalogue name or folder); default: the catalogue network for
+        where the streets lie (as ``streets sample`` chooses it).
     max_distance
         Largest lamp-to-street distance [m].
     prior
@@ -924,6 +925,9 @@ def learn(
         )
     points, lamp_source = _read_lamps(lamps, lamps_layer, frame.crs)
     frame = frame.reset_index(drop=True)
+    if network is None:
+        # the base network for where the streets lie, as streets sample chooses it
+        network, _ = network_by_location(frame, source=str(source))
     base = resolve_network(network)
     rank = _street_rank(frame)
     lit = frame["lit"].astype("boolean") if "lit" in frame else pd.Series(pd.NA, index=frame.index)

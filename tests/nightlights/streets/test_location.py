@@ -123,3 +123,47 @@ def test_empty_layer_gets_generic_without_warning() -> None:
         result = sample(layer_at(2.35, 48.86, "EPSG:32631").iloc[:0], seed=0)
     assert result.network == "generic" and result.location is not None
     assert math.isnan(result.location[0])
+
+
+def test_fit_and_learn_take_the_base_network_of_the_location(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Without a network, fit and learn start from the network streets sample would choose.
+    from shapely.geometry import LineString, Point
+
+    import nightlights.streets._fit as fit_module
+    import nightlights.streets._learn as learn_module
+    from nightlights.streets import fit, learn
+
+    streets = gpd.GeoDataFrame(
+        {
+            "street_class": ["local", "local"],
+            "lit": [True, True],
+            "mounting_height": [6.0, 8.0],
+            "spacing": [24.0, 30.0],
+        },
+        geometry=[
+            LineString([(583_000.0, 4_507_000.0 + y), (583_400.0, 4_507_000.0 + y)])
+            for y in (0.0, 60.0)
+        ],
+        crs="EPSG:32618",  # UTM 18N: New York
+    )
+    chosen: list[object] = []
+    for module in (fit_module, learn_module):
+        original = module.resolve_network
+
+        def spy(network: object, _original: object = original) -> object:
+            chosen.append(network)
+            return _original(network)  # type: ignore[operator]
+
+        monkeypatch.setattr(module, "resolve_network", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit(streets)
+        lamps = gpd.GeoDataFrame(
+            geometry=[Point(583_000 + x, 4_507_004) for x in (10.0, 40.0, 70.0, 100.0)],
+            crs="EPSG:32618",
+        )
+        learn(streets, lamps, seed=0, iterations=1)
+    assert chosen[0] == "north_america"
+    assert "north_america" in chosen[1:]
