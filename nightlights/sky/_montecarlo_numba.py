@@ -27,11 +27,11 @@ import math
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
-from scipy.special import beta as beta_function
 
 from nightlights._typing import FloatArray
-from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
-from nightlights.sky.kernel import GARSTANG_LOBE_NORM
+from nightlights.errors import InputError
+from nightlights.sky._kernel_numba import model_parameters as kernel_model_parameters
+from nightlights.sky.atmosphere import Atmosphere
 
 __all__ = ["model_parameters", "observer_rays", "trace_photon", "transport"]
 
@@ -39,10 +39,10 @@ _EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe
 
 # layout of the float parameter vector
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
-_P_RADIUS, _P_TOP, _P_CORE, _P_HALF_N, _P_UP_NORM, _P_MIN_H, _P_H_C = 6, 7, 8, 9, 10, 11, 12
-_P_LOBE_NORM = 13
-# layout of the integer flags
-_F_FLAT, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2
+_P_RADIUS, _P_TOP, _P_CORE, _P_HALF_N, _P_UP_NORM, _P_MIN_H, _P_LOBE_NORM = (6, 7, 8, 9, 10, 11, 12)
+_P_H_C = 13  # after the kernel's own vector (nightlights.sky._kernel_numba.model_parameters)
+# layout of the integer flags (the kernel's; extinction is always on here)
+_F_FLAT, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 2, 3
 # layout of a ray row: observer position, view direction, sin(elevation), observer altitude,
 # distance to the top of the model atmosphere
 _R_OX, _R_OY, _R_OZ, _R_VX, _R_VY, _R_VZ, _R_SIN_EL, _R_H_O, _R_U_TOP = range(9)
@@ -64,27 +64,13 @@ def model_parameters(
     uplight_exponent: float,
     source_altitude: float,
 ) -> tuple[FloatArray, NDArray[np.int64]]:
-    """Pack the model into the float and integer vectors read by the compiled code."""
-    params = np.zeros(14)
-    params[_P_BETA_M] = atmosphere.molecular_extinction
-    params[_P_H_M] = atmosphere.molecular_scale_height
-    params[_P_BETA_A] = atmosphere.aerosol_extinction
-    params[_P_H_A] = atmosphere.aerosol_scale_height
-    params[_P_ALBEDO] = atmosphere.aerosol_albedo
-    params[_P_G] = atmosphere.asymmetry
-    params[_P_RADIUS] = atmosphere.earth_radius
-    params[_P_TOP] = atmosphere.top_altitude
-    params[_P_CORE] = core_radius
-    params[_P_HALF_N] = uplight_exponent / 2.0
-    params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
-    params[_P_MIN_H] = smallest_scale_height(atmosphere)
-    params[_P_H_C] = source_altitude
-    params[_P_LOBE_NORM] = GARSTANG_LOBE_NORM
-    flags = np.zeros(3, dtype=np.int64)
-    flags[_F_FLAT] = int(atmosphere.flat_earth)
-    flags[_F_EMISSION] = _EMISSION_CODES[emission]
-    flags[_F_ISOTROPIC_MOLECULES] = int(atmosphere.molecular_phase == "isotropic")
-    return params, flags
+    """The kernel's parameter and flag vectors with the source altitude appended."""
+    if emission not in _EMISSION_CODES:
+        raise InputError(
+            f"emission {emission!r}; the Monte Carlo samples {', '.join(_EMISSION_CODES)}"
+        )
+    params, flags = kernel_model_parameters(atmosphere, emission, core_radius, uplight_exponent)
+    return np.append(params, float(source_altitude)), flags
 
 
 def observer_rays(
