@@ -61,13 +61,13 @@ from nightlights.io.raster import LitCells
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
-from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import PolarMap, lit_mask, lit_polar_cells, source_level_weights
 from nightlights.sky.setup import (
     _check_reach,
     _observer_xy,
     band_emission_functions,
+    kernel_tables,
     level_offset,
     prepare_scene,
 )
@@ -250,8 +250,6 @@ class ExploreSession:
             )
         # the tables the bands' emission functions need, as the skyglow stage builds them
         functions, _ = band_emission_functions(raster, raster.count, label=self.label)
-        shapes = {shape for function in functions for shape in function.shapes}
-        tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
         spec = scene_kernel_spec(
             raster,
             (left, bottom),
@@ -260,10 +258,8 @@ class ExploreSession:
             n_elevation=64,
             n_azimuth=256,
             n_distance=64,
-            uplight="uplight" in shapes,
             source_altitudes=source_levels(heights),
-            garstang_lobe="garstang_lobe" in shapes,
-            tabulated_emission=tabulated[0] if tabulated else None,
+            **kernel_tables(functions, self.label),
         )
         if len(eye) > 1:
             import dataclasses

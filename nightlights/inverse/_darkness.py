@@ -69,7 +69,6 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude
-from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
 from nightlights.sky.setup import (
@@ -77,6 +76,7 @@ from nightlights.sky.setup import (
     band_emission_functions,
     check_kernel_grid,
     kernel_band_functions,
+    kernel_tables,
     level_offset,
 )
 from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
@@ -388,8 +388,6 @@ def darkness(
     data = _check_emission(raster, label)
     # each band's emission function (its tag, or the default), read as the skyglow stage does
     functions, notes = band_emission_functions(raster, data.shape[0], label=label)
-    shapes = {shape for function in functions for shape in function.shapes}
-    tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
     if not (math.isfinite(observer_height) and observer_height >= 0):
         raise InputError(f"observer height {observer_height!r} m; expected a finite value >= 0")
     chunk = _check_chunk_size(chunk_size)
@@ -422,9 +420,7 @@ def darkness(
                 n_elevation=64 if n_elevation is None else n_elevation,
                 n_azimuth=256 if n_azimuth is None else n_azimuth,
                 n_distance=64 if n_distance is None else n_distance,
-                uplight="uplight" in shapes,
-                garstang_lobe="garstang_lobe" in shapes,
-                tabulated_emission=tabulated[0] if tabulated else None,
+                **kernel_tables(functions, label),
             ),
             observer_altitudes=tuple(source_levels(eye)),
         )

@@ -17,7 +17,9 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 import xarray as xr
@@ -57,6 +59,7 @@ __all__ = [
     "band_emission_functions",
     "check_kernel_grid",
     "kernel_band_functions",
+    "kernel_tables",
     "level_offset",
     "prepare_scene",
     "scene_memory",
@@ -237,7 +240,6 @@ def prepare_scene(
             f"{label}: {cells.count} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
     functions, notes = band_emission_functions(emission, cells.count, label=label)
-    shapes = {shape for function in functions for shape in function.shapes}
     _check_flux(cells, label)
     xy = _observer_xy(observer, observer_crs, cells.crs)
     if not (np.isfinite(observer_height) and observer_height >= 0):
@@ -267,9 +269,7 @@ def prepare_scene(
             n_elevation=64 if n_elevation is None else n_elevation,
             n_azimuth=256 if n_azimuth is None else n_azimuth,
             n_distance=64 if n_distance is None else n_distance,
-            uplight="uplight" in shapes,
-            garstang_lobe="garstang_lobe" in shapes,
-            tabulated_emission=_tabulated(shapes, label),
+            **kernel_tables(functions, label),
         )
         table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
     kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
@@ -314,6 +314,39 @@ def prepare_scene(
         slices=slices,
         functions=functions,
         function_notes=notes,
+    )
+
+
+class KernelTables(TypedDict):
+    """Which shape tables a scene kernel tabulates (arguments of ``scene_kernel_spec``)."""
+
+    uplight: bool
+    garstang_lobe: bool
+    tabulated_emission: str | None
+
+
+def kernel_tables(functions: Sequence[EmissionFunction], label: str) -> KernelTables:
+    """The :func:`~nightlights.sky.spec.scene_kernel_spec` arguments that tabulate the
+    shapes the bands' emission functions need.
+
+    Parameters
+    ----------
+    functions
+        One emission function per band (:func:`band_emission_functions`).
+    label
+        How the emission is named in messages.
+
+    Returns
+    -------
+    dict
+        ``uplight``, ``garstang_lobe`` and ``tabulated_emission`` (the one tabulated function,
+        or None; a kernel holds one, more are refused).
+    """
+    shapes = {shape for function in functions for shape in function.shapes}
+    return KernelTables(
+        uplight="uplight" in shapes,
+        garstang_lobe="garstang_lobe" in shapes,
+        tabulated_emission=_tabulated(shapes, label),
     )
 
 
