@@ -23,6 +23,7 @@ from nightlights.io.outputs import OutputSet
 from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
 from nightlights.nightsky.tonemap import ToneMapping, tone_map
 from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights.sky.scene import panorama_coords
 
 __all__ = ["SkyRenderResult", "legend_text", "read_panorama", "sky_render"]
 
@@ -326,19 +327,7 @@ def sky_dataset(image: SkyImage, time: Any, lonlat: tuple[float, float]) -> xr.D
                 {"units": "cd m-2", "long_name": "CIE 1931 XYZ tristimulus luminance"},
             ),
         },
-        coords={
-            "elevation": (
-                "elevation",
-                elevation,
-                {"units": "degree", "long_name": "elevation of pixel centre"},
-            ),
-            "azimuth": (
-                "azimuth",
-                azimuth,
-                {"units": "degree", "long_name": "azimuth clockwise from north"},
-            ),
-            "band": ("band", ["X", "Y", "Z"]),
-        },
+        coords={**panorama_coords(elevation, azimuth), "band": ("band", ["X", "Y", "Z"])},
         attrs={"time": str(time), "longitude": lonlat[0], "latitude": lonlat[1], **summary},
     )
 

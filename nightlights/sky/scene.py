@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -301,18 +302,7 @@ def _panorama_dataset(
                 {"long_name": "1 where the terrain (DEM) hides the sky"},
             ),
         },
-        coords={
-            "elevation": (
-                "elevation",
-                elevation,
-                {"units": "degree", "long_name": "elevation of pixel centre"},
-            ),
-            "azimuth": (
-                "azimuth",
-                azimuth,
-                {"units": "degree", "long_name": "azimuth clockwise from north"},
-            ),
-        },
+        coords=panorama_coords(elevation, azimuth),
         attrs={
             "zenith_luminance_cd_m2": zenith,
             "zenith_sky_brightness": zenith_mag,
@@ -331,6 +321,23 @@ def _panorama_dataset(
                 },
             )
     return dataset
+
+
+def panorama_coords(elevation: FloatArray, azimuth: FloatArray) -> dict[str, Any]:
+    """The (elevation, azimuth) coordinates of a sky grid dataset, pixel centres [deg],
+    azimuth clockwise from north: the convention every panorama file shares."""
+    return {
+        "elevation": (
+            "elevation",
+            elevation,
+            {"units": "degree", "long_name": "elevation of pixel centre"},
+        ),
+        "azimuth": (
+            "azimuth",
+            azimuth,
+            {"units": "degree", "long_name": "azimuth clockwise from north"},
+        ),
+    }
 
 
 def _kernel_atmosphere(table: xr.Dataset) -> Atmosphere:
