@@ -193,7 +193,7 @@ def fit(
     target = Path(output) if output is not None else None
     if target is not None and target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise OutputError(f"{target}: exists and is not an empty folder")
-    with _network_folder(target) as tmp:
+    with network_folder(target) as tmp:
         frame, source = as_vector(streets, name="streets")
         if frame.empty:
             raise EmptyInputError(f"{source}: no features to fit a network from")
@@ -214,10 +214,11 @@ def fit(
 
 
 @contextlib.contextmanager
-def _network_folder(target: Path | None) -> Iterator[Path | None]:
+def network_folder(target: Path | None) -> Iterator[Path | None]:
     """A temporary folder beside ``target``, made before the work starts (so that a missing
-    or read-only parent folder fails at once) and renamed onto ``target`` at the end; on
-    any error it is removed and ``target`` is left as it was."""
+    or read-only parent folder fails at once) and swapped onto ``target`` at the end (an
+    existing folder there is moved aside and removed: the callers check first that it may
+    be replaced); on any error it is removed and ``target`` is left as it was."""
     if target is None:
         yield None
         return
@@ -228,16 +229,19 @@ def _network_folder(target: Path | None) -> Iterator[Path | None]:
         tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
     except OSError as exc:
         raise OutputError(f"{target}: cannot write to folder {parent} ({exc.strerror})") from exc
+    old = None
     try:
         yield tmp
         try:
             if target.exists():
-                target.rmdir()
+                old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
+                os.replace(target, old / "network")
             os.replace(tmp, target)
         except OSError as exc:
             raise OutputError(
                 f"{target}: cannot write the network folder ({exc.strerror})"
             ) from exc
     finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)

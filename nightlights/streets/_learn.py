@@ -56,14 +56,10 @@ iterated fit share one street table and its column names; each step is a functio
 
 from __future__ import annotations
 
-import contextlib
 import datetime
 import json
 import os
-import shutil
-import tempfile
 import warnings
-from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -82,6 +78,7 @@ from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, 
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
+from nightlights.streets._fit import network_folder
 from nightlights.streets._mapping import parse_length, parse_packed_tags
 from nightlights.streets._sample import fill_lighting, network_by_location, resolve_network
 from nightlights.streets.schema import (
@@ -976,7 +973,8 @@ def learn(
     evidence_layer = _evidence_layer(frame, evidence)
     lamp_layer = _lamp_layer(points, frame, assignment)
     if target is not None:
-        with _network_output(target) as tmp:
+        with network_folder(target) as tmp:
+            assert tmp is not None  # a folder for a target
             write_network(learned, tmp)
             (tmp / REPORT_FILE).write_text(
                 json.dumps(report.as_dict(), indent=2) + "\n", encoding="utf-8"
@@ -1006,34 +1004,6 @@ def _check_target(target: Path, overwrite: bool) -> None:
         raise OutputError(
             f"{target}: not a network folder (no {CONFIG_NAME}); --overwrite replaces only those"
         )
-
-
-@contextlib.contextmanager
-def _network_output(target: Path) -> Iterator[Path]:
-    """A temporary folder beside ``target``, swapped onto it when the block succeeds."""
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"{target}: parent folder {parent} does not exist")
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
-    except OSError as exc:
-        raise OutputError(f"{target}: cannot write to folder {parent} ({exc.strerror})") from exc
-    old = None
-    try:
-        yield tmp
-        try:
-            if target.exists():
-                old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
-                os.replace(target, old / "network")
-            os.replace(tmp, target)
-        except OSError as exc:
-            raise OutputError(
-                f"{target}: cannot write the network folder ({exc.strerror})"
-            ) from exc
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
 
 
 def _read_lamps(
