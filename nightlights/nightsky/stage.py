@@ -74,8 +74,13 @@ def read_panorama(panorama: xr.Dataset | PathLike) -> xr.Dataset:
         path = Path(panorama)
         if not path.exists():
             raise InputError(f"{path}: panorama does not exist")
-        with xr.open_dataset(path, engine="h5netcdf") as opened:
-            dataset = opened.load()
+        try:
+            with xr.open_dataset(path, engine="h5netcdf") as opened:
+                dataset = opened.load()
+        except (OSError, ValueError) as exc:
+            raise InputError(
+                f"{path}: not a NetCDF panorama of nightlights skyglow ({exc})"
+            ) from exc
     if "luminance" not in dataset or set(dataset["luminance"].dims) != {"elevation", "azimuth"}:
         raise InputError(
             "panorama: expected a 'luminance' variable on (elevation, azimuth) as written by "

@@ -252,3 +252,12 @@ def test_moon_phase_lit_fraction_and_side() -> None:
     # toward the Sun in the camera frame: its azimuth is larger (right), its elevation lower
     assert sun_az > moon.azimuth and sun_el < moon.elevation
     assert centre[1] > middle[1, 0] and centre[0] > middle[0, 0]
+
+
+def test_a_file_that_is_not_a_panorama_is_one_line_error(tmp_path) -> None:
+    from nightlights.nightsky import sky_render
+
+    fake = tmp_path / "pano.nc"
+    fake.write_bytes(b"not a NetCDF file")
+    with pytest.raises(InputError, match="not a NetCDF panorama"):
+        sky_render(None, time="2026-01-25T20:00:00Z", panorama=fake)
