@@ -1,4 +1,9 @@
-"""Vector layers: read anything GDAL reads, write GeoPackage with explicit field types."""
+"""Vector layers: read anything GDAL reads, write GeoPackage with explicit field types.
+
+GeoPackages are written as version 1.2 (:data:`GPKG_VERSION`) so that GDAL 3.6 and the QGIS
+built on it (Debian 12) open them without a version warning, with the layer's QGIS style, when
+given one, in the ``layer_styles`` table (:mod:`nightlights.io.styles`).
+"""
 
 from __future__ import annotations
 
@@ -14,10 +19,15 @@ import pyogrio
 
 from nightlights.errors import InputError, OutputError
 from nightlights.io.atomic import atomic_output
+from nightlights.io.styles import LayerStyle, add_layer_style
 
 FieldType = Literal["int", "float", "bool", "str"]
 
 _OSM_SUFFIXES = (".pbf", ".osm", ".osm.gz", ".osm.bz2")
+
+#: GeoPackage version written (OGC 12-128r15, GeoPackage 1.2.1): GDAL 3.7 and later default
+#: to 1.4, which GDAL 3.6 (Debian 12's, under its QGIS 3.22) opens with a warning.
+GPKG_VERSION = "1.2"
 
 
 def read_vector(
@@ -109,8 +119,9 @@ def write_gpkg(
     *,
     layer: str,
     schema: Mapping[str, FieldType] | None = None,
+    style: LayerStyle | None = None,
 ) -> Path:
-    """Write ``frame`` to a GeoPackage atomically, with explicit field types.
+    """Write ``frame`` to a GeoPackage (version 1.2) atomically, with explicit field types.
 
     Parameters
     ----------
@@ -123,6 +134,9 @@ def write_gpkg(
     schema
         Field name to type (``int``, ``float``, ``bool``, ``str``). Listed fields are cast,
         with missing values kept as nulls; unlisted fields keep their dtype.
+    style
+        QGIS style stored as the layer's default in the ``layer_styles`` table
+        (:func:`~nightlights.io.styles.add_layer_style`); None stores none.
 
     Returns
     -------
@@ -137,7 +151,12 @@ def write_gpkg(
             raise OutputError(f"{path}: schema names field {column!r} that the layer lacks")
         out[column] = _cast(out[column], kind)
     with atomic_output(path) as tmp:
-        pyogrio.write_dataframe(out, tmp, layer=layer, driver="GPKG")
+        pyogrio.write_dataframe(
+            out, tmp, layer=layer, driver="GPKG", dataset_options={"VERSION": GPKG_VERSION}
+        )
+        if style is not None:
+            geometry_column = pyogrio.read_info(tmp, layer=layer)["geometry_name"] or "geom"
+            add_layer_style(tmp, layer, style, geometry_column=geometry_column)
     return Path(path)
 
 
