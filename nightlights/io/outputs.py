@@ -16,6 +16,10 @@ again, so the process still ends as terminated (exit status 143 from a shell). A
 arrives while the outputs are being renamed is held until the renaming is done. Python runs
 signal handlers between bytecodes, so a signal that arrives during a long call into GDAL takes
 effect when that call returns.
+
+A writer may leave a style sidecar beside a temporary (a ``.qml`` of the same name, which
+QGIS reads as the layer's default style: :data:`SIDECAR_SUFFIXES`); it is renamed onto the
+output's sidecar together with the output, and removed with the temporary.
 """
 
 from __future__ import annotations
@@ -38,6 +42,17 @@ from nightlights.errors import OutputError
 __all__ = ["OutputSet", "Terminated"]
 
 PathLike = str | os.PathLike[str]
+
+#: Side files that travel with an output: the temporary's name with this suffix is renamed
+#: onto the output's name with it (QGIS's default-style ``.qml`` beside a raster).
+SIDECAR_SUFFIXES = (".qml",)
+
+
+def _sidecars(path: Path) -> list[Path]:
+    """The sidecar paths of ``path`` (none for a path that is itself a sidecar)."""
+    if path.suffix in SIDECAR_SUFFIXES:
+        return []
+    return [path.with_suffix(suffix) for suffix in SIDECAR_SUFFIXES]
 
 
 class Terminated(KeyboardInterrupt):
@@ -297,6 +312,12 @@ class OutputSet:
         for temporary, path in pairs:
             if not temporary.exists():
                 raise OutputError(f"{path}: the writer produced no file")
+        pairs += [
+            (side, final)
+            for temporary, path in list(pairs)
+            for side, final in zip(_sidecars(temporary), _sidecars(path), strict=True)
+            if side.exists()
+        ]
         backups: dict[Path, Path] = {}
         done: list[Path] = []
         try:
@@ -339,3 +360,6 @@ class OutputSet:
     def _clean(self) -> None:
         for temporary in self._temporaries.values():
             _remove_with_side_files(temporary)
+            for side in _sidecars(temporary):
+                with contextlib.suppress(FileNotFoundError, IsADirectoryError):
+                    os.unlink(side)

@@ -1,5 +1,8 @@
 """Rasters: the in-memory :class:`Raster` and its float32 Cloud-Optimised GeoTIFF form.
 
+Every GeoTIFF is written with its QGIS style beside it (a ``.qml`` of the same name, chosen
+from the bands by :func:`nightlights.io.styles.raster_qml`).
+
 Every raster stage computes on a :class:`Raster` (bands, transform, CRS, band names and
 units) and has a file form that reads and writes one; :func:`as_raster` accepts a
 :class:`Raster`, an :class:`xarray.DataArray` with ``band``/``y``/``x`` dims and
@@ -35,7 +38,8 @@ from rasterio.io import MemoryFile
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError, OutputError
-from nightlights.io.atomic import atomic_output
+from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import raster_qml, sidecar_path
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -73,8 +77,9 @@ def write_cog(
     tags: Mapping[str, Any] | None = None,
     compress: str = "DEFLATE",
     blocksize: int = 512,
+    qml: str | bool = True,
 ) -> Path:
-    """Write bands to a float32 Cloud-Optimised GeoTIFF, atomically.
+    """Write bands to a float32 Cloud-Optimised GeoTIFF and its QGIS style, atomically.
 
     Parameters
     ----------
@@ -94,6 +99,11 @@ def write_cog(
         GDAL compression (``DEFLATE``, ``ZSTD``, ``LZW``).
     blocksize
         Tile size [pixels].
+    qml
+        The style written beside the GeoTIFF as ``<name>.qml`` (:func:`sidecar_path`), which
+        QGIS loads as the raster's default style: True chooses it from the bands
+        (:func:`~nightlights.io.styles.raster_qml`), a string is the QML document itself,
+        False writes none. The two files appear together or not at all.
     """
     if not bands:
         raise OutputError(f"{path}: no bands to write")
@@ -123,16 +133,26 @@ def write_cog(
             mem.set_band_unit(index, band.unit)
         if tags:
             mem.update_tags(**{key: str(value) for key, value in tags.items()})
-        with atomic_output(path) as tmp:
+        if qml is True:
+            qml = raster_qml(
+                [band.description for band in bands],
+                [band.unit for band in bands],
+                [band.data for band in bands],
+                {key: str(value) for key, value in (tags or {}).items()},
+            )
+        style = sidecar_path(path) if qml else None
+        with OutputSet(path, style) as outputs:
             rasterio.shutil.copy(
                 mem,
-                tmp,
+                outputs.temporary(path),
                 driver="COG",
                 COMPRESS=compress,
                 BLOCKSIZE=str(blocksize),
                 OVERVIEWS="AUTO" if min(rows, cols) > blocksize else "NONE",
                 PREDICTOR="YES",
             )
+            if style is not None and isinstance(qml, str):
+                outputs.temporary(style).write_text(qml, encoding="utf-8")
     return Path(path)
 
 

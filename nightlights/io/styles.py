@@ -264,8 +264,7 @@ def _log_ramp_qml(
     items = []
     for k in range(steps + 1):
         value = low * 10.0 ** (k / LOG_RAMP_STOPS_PER_DECADE)
-        label = _label(value, unit) if k % LOG_RAMP_STOPS_PER_DECADE == 0 else ""
-        items.append((value, _ramp_colour(palette, k / steps), label))
+        items.append((value, _ramp_colour(palette, k / steps), _label(value, unit)))
     return _raster_document(
         band=band,
         items=items,
