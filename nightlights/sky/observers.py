@@ -1,0 +1,824 @@
+"""Many observers' skies at once: one summary point layer, a panorama per observer on request.
+
+The skyglow of an emission raster is computed for tens to thousands of observers in parallel
+with Dask. Every per-scene step is done once, as in the interactive session
+(:class:`~nightlights.explore.ExploreSession`): the emission and the kernel are checked and
+read by :func:`~nightlights.sky.setup.prepare_scene`, the lit cells' flux and source-level
+weights are kept, and the kernel's PCA tables are taken out of the dataset
+(:class:`~nightlights.sky.panorama.KernelLevels`). An observer then costs one compiled pass
+over the lit cells (:func:`~nightlights.sky._polar_numba.polar_flux_levels`), the PCA panorama
+(Dobashi et al. 2023, Eqs. 7-9), the terrain horizon when a DEM is given, and the lit cells'
+parts of the zenith (Dobashi et al. 2023, Eqs. 13-14 with zenith weights, as
+:func:`~nightlights.inverse.inverse_q` with ``metric="zenith"``). The observers are split into
+chunks, one Dask task each, run on the local threads, processes, in the calling thread, or on a
+``dask.distributed`` cluster.
+
+Every observer becomes one point of the summary layer (:data:`SUMMARY_FIELDS`): the zenith
+luminance, artificial, natural and total, its sky brightness and Bortle class, the brightest
+direction of the artificial skyglow, and the lit cells that give most of the artificial zenith
+luminance, in numbered columns (``top1_x``, ``top1_y``, ``top1_share``, ...: plain numeric
+fields that QGIS filters, labels and styles directly).
+
+References
+----------
+1. Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution
+   for the Night Sky", ACM TOG 42(6) 219, Eqs. 7-9 (panorama), 13-14 (a cell's part of a
+   region of the sky).
+2. Cinzano, P. 2005, "Night sky photometry with Sky Quality Meter", ISTIL Internal Report 9
+   (luminance to mag arcsec-2).
+3. Bortle, J. E. 2001, "Introducing the Bortle dark-sky scale", Sky & Telescope 101(2), 126.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import xarray as xr
+from affine import Affine
+from pyproj import CRS, Transformer
+from pyproj.exceptions import ProjError
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from nightlights._resources import check_memory
+from nightlights._typing import FloatArray, PathLike
+from nightlights.errors import CRSError, InputError, OutputExistsError
+from nightlights.inverse._influence import cell_values, region_table, zenith_weights
+from nightlights.io import OutputSet, as_vector, source_label, write_gpkg
+from nightlights.io.raster import as_lit_cells
+from nightlights.sky._polar_numba import polar_flux_levels
+from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
+from nightlights.sky.build import EMISSION_TABLES
+from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
+from nightlights.sky.polar import (
+    PolarCells,
+    PolarMap,
+    level_maps,
+    lit_polar_cells,
+    source_level_weights,
+)
+from nightlights.sky.scene import _panorama_dataset
+from nightlights.sky.setup import (
+    EmissionInput,
+    RasterInput,
+    _check_flux,
+    _check_reach,
+    band_emission_functions,
+    kernel_tables,
+    prepare_scene,
+)
+from nightlights.sky.spec import scene_kernel_spec, source_levels
+from nightlights.sky.store import KernelResult, get_or_build_kernel
+
+__all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
+
+#: Local Dask schedulers; a ``distributed.Client`` or a scheduler address also works.
+SCHEDULERS = ("threads", "processes", "synchronous")
+#: Layer name of the summary GeoPackage.
+SUMMARY_LAYER = "observers"
+#: Fields of the summary layer, before the ``top<i>_*`` columns, with their units.
+SUMMARY_FIELDS: dict[str, str] = {
+    "name": "",
+    "observer_altitude": "m above sea level (eye)",
+    "zenith_artificial": "cd m-2",
+    "zenith_natural": "cd m-2",
+    "zenith_total": "cd m-2",
+    "zenith_mag": "mag arcsec-2 (total)",
+    "bortle": "1-9 (total)",
+    "brightest_azimuth": "deg clockwise from north",
+    "brightest_elevation": "deg",
+    "brightest_luminance": "cd m-2 (artificial)",
+}
+#: Most observers per Dask task: few enough that the progress bar moves, many enough that a
+#: task's overhead (a few ms on the local schedulers) stays below its work [1].
+MAX_CHUNK = 64
+#: Tasks per worker the observers are split into, so that the workers stay busy to the end [1].
+TASKS_PER_WORKER = 4
+#: Bytes per panorama pixel held until the files are written (luminance, sky brightness and
+#: the terrain mask in the written dataset, plus the array returned by the task) [B].
+_PANORAMA_PIXEL_BYTES = 3 * 8 + 1
+#: Characters kept from an observer's name in its panorama's file name.
+_SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+@dataclass(frozen=True)
+class ObserversResult:
+    """What :func:`observers` computed.
+
+    Attributes
+    ----------
+    summary
+        One row per observer (:data:`SUMMARY_FIELDS`, then ``top<i>_x``, ``top<i>_y`` [m] and
+        ``top<i>_share`` [1] for i = 1..``top_cells``, and ``panorama``, the file's name,
+        when panoramas were written), point geometry in the emission's CRS.
+    panoramas
+        Observer name -> panorama NetCDF, only when panoramas were asked for.
+    seconds
+        Wall time of the observers' skies, after the scene and the kernel were ready [s].
+    path
+        The summary GeoPackage, or None when nothing was written.
+    """
+
+    summary: gpd.GeoDataFrame
+    panoramas: dict[str, Path]
+    seconds: float
+    path: Path | None
+
+
+@dataclass(frozen=True)
+class _Engine:
+    """Everything an observer's sky needs, computed once; what a Dask task receives.
+
+    Altitudes are the kernel's (shifted by ``offset`` as in
+    :class:`~nightlights.sky.setup.SceneSetup`).
+    """
+
+    rows: np.ndarray
+    cols: np.ndarray
+    values: FloatArray  # (bands, n) [lm m-2]
+    flux: FloatArray  # (bands, n) [lm]
+    level_weights: FloatArray  # (n_levels, n) [1]
+    transform: Affine
+    edges: FloatArray  # (n_r + 1,) [m]
+    n_az: int
+    elevation: FloatArray  # (n_el,) [deg]
+    offset: float  # [m]
+    functions: tuple[Any, ...]
+    slices: tuple[KernelSlice, ...] | None  # one eye altitude (no DEM): ready
+    table: xr.Dataset | None  # with a DEM: the PCA tables, for any eye altitude
+    dem: FloatArray | None
+    dem_transform: Affine | None
+    natural: float  # natural zenith luminance [cd m-2]
+    top_cells: int
+    keep_panoramas: bool
+
+    def sky(self, xy: tuple[float, float], eye: float, levels: _Levels) -> dict[str, Any]:
+        """One observer's figures (and panorama when kept) at eye altitude ``eye`` [m]."""
+        slices = list(self.slices) if self.slices is not None else levels.at(eye - self.offset)
+        top = None
+        if self.top_cells:
+            # the sub-points of the lit cells serve both the polar maps and each cell's part
+            # of the zenith (the compiled scatter gives the same maps, without the cells)
+            cells = lit_polar_cells(
+                self.rows,
+                self.cols,
+                self.values,
+                self.transform,
+                xy,
+                distance_edges=self.edges,
+                n_az=self.n_az,
+            )
+            polars = level_maps(cells, self.level_weights)
+            top = self._top_cells(cells, levels.zenith_tables(slices))
+        else:
+            maps, _ = polar_flux_levels(
+                self.rows,
+                self.cols,
+                self.flux,
+                self.level_weights,
+                self.transform,
+                xy,
+                distance_edges=self.edges,
+                n_az=self.n_az,
+            )
+            empty = np.zeros(1)
+            polars = [PolarMap(m, self.edges, self.n_az, empty, empty) for m in maps]
+        # Eqs. 7-9; PCA truncation can ring slightly below zero
+        luminance = np.maximum(panorama_pca(polars, slices), 0.0)
+        below = None
+        if self.dem is not None:
+            assert self.dem_transform is not None
+            horizon = horizon_elevation(
+                self.dem, self.dem_transform, xy, eye_altitude=eye, n_az=self.n_az
+            )
+            below = self.elevation[:, None] < horizon[None, :]
+            luminance = np.where(below, np.nan, luminance)
+        row = luminance[0]
+        zenith = float(np.nanmean(row)) if np.isfinite(row).any() else 0.0
+        out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
+        if top is not None:
+            out["top"] = top
+        if self.keep_panoramas:
+            out["luminance"] = luminance
+            out["below"] = below
+        return out
+
+    def _top_cells(self, cells: PolarCells, tables: list[FloatArray]) -> FloatArray:
+        """``(top_cells, 3)``: x, y [m] and share of the artificial zenith [1] of the lit
+        cells that give most of it (NaN rows when fewer cells give any).
+
+        A cell's part is :func:`~nightlights.inverse.inverse_q`'s with ``metric="zenith"``
+        (Dobashi et al. 2023, Eqs. 13-14 with the zenith row's weights); the parts of all
+        cells add up to the panorama's artificial zenith luminance.
+        """
+        values = cell_values(cells, self.level_weights, tables)
+        out = np.full((self.top_cells, 3), np.nan)
+        total = float(values.sum())
+        if not total > 0:
+            return out
+        count = min(self.top_cells, values.size)
+        order = np.argsort(-values, kind="stable")[:count]
+        order = order[values[order] > 0]
+        t = self.transform
+        out[: order.size, 0] = t.c + t.a * (self.cols[order] + 0.5)
+        out[: order.size, 1] = t.f + t.e * (self.rows[order] + 0.5)
+        out[: order.size, 2] = values[order] / total
+        return out
+
+
+class _Levels:
+    """One task's band slices of a kernel at the eye altitudes it meets (with a DEM)."""
+
+    def __init__(self, engine: _Engine) -> None:
+        self._engine = engine
+        self._levels: KernelLevels | None = None
+        self._slices: dict[float, list[KernelSlice]] = {}
+        # keyed by the slices' identity; the slices are kept with their tables
+        self._zenith: dict[int, tuple[list[KernelSlice], list[FloatArray]]] = {}
+
+    def at(self, altitude: float) -> list[KernelSlice]:
+        """The band slices at an eye altitude in the kernel's frame [m]."""
+        if altitude not in self._slices:
+            if self._levels is None:
+                assert self._engine.table is not None
+                self._levels = KernelLevels(self._engine.table, tables=False)
+            functions = self._engine.functions
+            self._slices[altitude] = [band_slice(s, functions) for s in self._levels.at(altitude)]
+        return self._slices[altitude]
+
+    def zenith_tables(self, slices: list[KernelSlice]) -> list[FloatArray]:
+        """Per source level: the artificial zenith luminance per lumen in each polar bin
+        (:func:`~nightlights.inverse._influence.region_table` of the zenith row) [cd m-2 lm-1]."""
+        key = id(slices[0])
+        if key not in self._zenith:
+            weights = zenith_weights(slices[0].elevation.size, slices[0].n_az)
+            self._zenith[key] = (slices, [region_table(t, weights) for t in slices])
+        return self._zenith[key][1]
+
+
+def _brightest(luminance: FloatArray, elevation: FloatArray) -> dict[str, float]:
+    """Azimuth [deg], elevation [deg] and luminance [cd m-2] of the brightest pixel."""
+    filled = np.nan_to_num(luminance, nan=-1.0)
+    index = int(np.argmax(filled))
+    value = float(filled.flat[index])
+    if not value > 0:
+        return {"azimuth": math.nan, "elevation": math.nan, "luminance": 0.0}
+    row, col = divmod(index, luminance.shape[1])
+    return {
+        "azimuth": (col + 0.5) * 360.0 / luminance.shape[1],
+        "elevation": float(elevation[row]),
+        "luminance": value,
+    }
+
+
+def _observe_chunk(
+    engine: _Engine, points: FloatArray, single_thread: bool
+) -> list[dict[str, Any]]:
+    """The skies of a chunk of observers: rows of (x, y, eye altitude) [m]."""
+    import numba
+
+    previous = numba.get_num_threads()
+    if single_thread:
+        numba.set_num_threads(1)  # the scheduler runs the tasks in parallel
+    try:
+        levels = _Levels(engine)
+        return [engine.sky((float(x), float(y)), float(eye), levels) for x, y, eye in points]
+    finally:
+        numba.set_num_threads(previous)
+
+
+def observers(
+    emission: EmissionInput,
+    output: PathLike | None = None,
+    *,
+    observers: Any,
+    observer_crs: str | None = None,
+    names: Sequence[str] | None = None,
+    kernel: KernelResult | xr.Dataset | PathLike | None = None,
+    dem: RasterInput | None = None,
+    observer_height: float = 1.7,
+    turbidity: float | None = None,
+    panoramas: PathLike | None = None,
+    top_cells: int = 5,
+    scheduler: str | Any = "threads",
+    num_workers: int | None = None,
+    cache_dir: PathLike | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+) -> ObserversResult:
+    """The skies of many observers in parallel: one summary point layer, panoramas on request.
+
+    Parameters
+    ----------
+    emission
+        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
+        two bands, each with the emission function of its ``emission_function`` tag, as
+        :func:`~nightlights.sky.skyglow` reads it.
+    output
+        Summary GeoPackage (layer :data:`SUMMARY_LAYER`); None writes nothing.
+    observers
+        The observers: an ``(n, 2)`` array of (x, y) in ``observer_crs``, a GeoDataFrame of
+        points, or a vector file of points (GeoPackage or any format GDAL reads); a layer's
+        ``name`` column names them.
+    observer_crs
+        CRS of an array of observers, or of a layer without one (default: the emission's).
+    names
+        One unique name per observer (default: the layer's ``name`` column, else
+        ``observer_1``, ``observer_2``, ...).
+    kernel
+        Precomputed kernel (path, dataset or :class:`~nightlights.sky.store.KernelResult`);
+        default: a scene kernel reaching from the farthest observer to the farthest lit cell
+        (tabulated at the lowest and highest eye altitude over a DEM), built or reused from
+        the cache.
+    dem
+        Terrain heights above sea level [m] in the emission's CRS: each observer stands on it
+        and sees its horizon.
+    observer_height
+        Eye height above the ground [m].
+    turbidity
+        Turbidity of a scene kernel [1] (default 2; with ``kernel`` the kernel's).
+    panoramas
+        Folder for one panorama NetCDF per observer (``<name>.nc``, the ``skyglow`` stage's
+        format, which ``nightlights sky render --panorama`` reads); None writes none.
+    top_cells
+        Lit cells listed per observer, by their part of the artificial zenith [1].
+    scheduler
+        ``threads``, ``processes`` or ``synchronous`` (local Dask schedulers), a
+        ``distributed.Client`` or a scheduler address (``tcp://host:8786``).
+    num_workers
+        Workers of the local ``threads`` and ``processes`` schedulers (default: one per core)
+        [1].
+    cache_dir
+        Kernel cache folder.
+    overwrite
+        Replace existing outputs.
+    progress
+        Progress bars (kernel build, observers).
+
+    Returns
+    -------
+    ObserversResult
+        The summary layer, the panorama files and the time taken.
+
+    Raises
+    ------
+    InputError
+        Observers that are not points, have no CRS, repeat a name, stand outside the DEM or
+        farther from every lit cell than the kernel reaches; an unknown scheduler; the
+        emission refused by :func:`~nightlights.sky.setup.prepare_scene`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from affine import Affine
+    >>> from nightlights.io import Raster
+    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
+    >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
+    >>> kernel = build_kernel(
+    ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
+    ... )
+    >>> result = observers(
+    ...     raster, observers=[[1000.0, 1000.0], [500.0, 500.0]], kernel=kernel,
+    ...     observer_height=0.0, top_cells=1, progress=False,
+    ... )
+    >>> result.summary["name"].tolist(), result.summary["top1_share"].tolist()
+    (['observer_1', 'observer_2'], [1.0, 1.0])
+    """
+    _check_scheduler(scheduler)
+    if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
+        raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
+    if not (math.isfinite(observer_height) and observer_height >= 0):
+        raise InputError(f"observer height {observer_height} m; expected a finite value >= 0")
+    label = source_label(emission, "emission raster")  # type: ignore[arg-type]
+    cells = as_lit_cells(emission)
+    if cells.crs is None or not cells.crs.is_projected:
+        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+    xy, given_names = _observer_points(observers, observer_crs, cells.crs)
+    labels = _names(names if names is not None else given_names, len(xy))
+    folder = Path(panoramas) if panoramas is not None else None
+    files = {name: folder / f"{_file_name(name)}.nc" for name in labels} if folder else {}
+    if folder is not None and not folder.is_dir():
+        raise InputError(f"panorama folder {folder} does not exist or is not a folder")
+    for path in [output, *files.values()]:
+        if path is not None and not overwrite and Path(path).exists():
+            raise OutputExistsError(f"{path}: exists; give overwrite to replace it")
+    outputs = OutputSet(output, *files.values())  # locations checked before any work
+    far = _farthest(cells.lit_bounds(), xy)
+    relief = None
+    eyes = np.full(len(xy), float(observer_height))
+    if dem is not None:
+        from nightlights.io import as_raster
+
+        relief = as_raster(dem)
+        eyes = _eye_altitudes(relief, xy, labels, observer_height)
+        if kernel is None:
+            _check_flux(cells, label)
+            kernel = _scene_kernel(emission, cells, relief, xy[far], eyes, turbidity, label,
+                                   cache_dir, progress)  # fmt: skip
+    setup = prepare_scene(
+        emission,
+        (float(xy[far][0]), float(xy[far][1])),
+        kernel,
+        relief,
+        observer_height=observer_height,
+        turbidity=turbidity,
+        cache_dir=cache_dir,
+        progress=progress,
+    )
+    reach = float(setup.slices[0].distance_edges[-1])
+    for name, point in zip(labels, xy, strict=True):
+        try:
+            _check_reach(setup.emission, (point[0], point[1]), reach, label, point, None)
+        except InputError as exc:
+            raise InputError(f"observer {name!r}: {exc}") from None
+    engine = _engine(setup, relief is not None, top_cells, folder is not None)
+    if folder is not None:
+        first = setup.slices[0]
+        check_memory(
+            len(xy) * first.elevation.size * first.n_az * _PANORAMA_PIXEL_BYTES,
+            f"{len(xy)} panoramas of {first.elevation.size} x {first.n_az} pixels",
+            option="write fewer panoramas at once (split the observers)",
+        )
+    start = time.perf_counter()
+    points = np.column_stack([xy, eyes])
+    skies = _run(engine, points, scheduler, num_workers, progress)
+    seconds = time.perf_counter() - start
+    summary = _summary(skies, xy, eyes, labels, setup.crs, engine, files)
+    with outputs:
+        for name, path in files.items():
+            dataset = _panorama(skies[labels.index(name)], setup, xy[labels.index(name)],
+                                eyes[labels.index(name)], observer_height, engine)  # fmt: skip
+            dataset.to_netcdf(outputs.temporary(path), engine="h5netcdf")
+        if output is not None:
+            _write_summary(summary, outputs.temporary(output), top_cells)
+    return ObserversResult(summary, files, seconds, Path(output) if output is not None else None)
+
+
+# --- inputs -----------------------------------------------------------------------------------
+
+
+def _check_scheduler(scheduler: Any) -> None:
+    if isinstance(scheduler, str):
+        if scheduler in SCHEDULERS or "://" in scheduler:
+            return
+        raise InputError(
+            f"scheduler {scheduler!r}; expected one of {', '.join(SCHEDULERS)}, a "
+            "distributed.Client or a scheduler address (tcp://host:8786)"
+        )
+    if type(scheduler).__name__ != "Client":
+        raise InputError(
+            f"scheduler of type {type(scheduler).__name__}; expected one of "
+            f"{', '.join(SCHEDULERS)}, a distributed.Client or a scheduler address"
+        )
+
+
+def _observer_points(
+    source: Any, observer_crs: str | None, crs: CRS
+) -> tuple[FloatArray, list[str] | None]:
+    """The observers as ``(n, 2)`` coordinates in the emission's CRS and the layer's names."""
+    names: list[str] | None = None
+    if isinstance(source, gpd.GeoDataFrame | str | os.PathLike):
+        frame, where = as_vector(source, name="observers")
+        if frame.crs is not None and observer_crs is not None:
+            if not CRS.from_user_input(observer_crs).equals(frame.crs):
+                raise InputError(
+                    f"{where}: the layer is in {frame.crs.name} but observer_crs is "
+                    f"{observer_crs}; give observer_crs only for a layer without a CRS"
+                )
+        if frame.crs is None and observer_crs is None:
+            raise CRSError(f"{where}: the observers' layer has no CRS; give observer_crs")
+        source_crs = frame.crs if frame.crs is not None else observer_crs
+        empty = frame.geometry.is_empty | frame.geometry.isna()
+        if empty.any() or not frame.geom_type.eq("Point").all():
+            bad = int(np.nonzero(empty.to_numpy() | ~frame.geom_type.eq("Point").to_numpy())[0][0])
+            raise InputError(
+                f"{where}: feature {bad} is a {frame.geom_type.iloc[bad] or 'empty geometry'}; "
+                "expected points"
+            )
+        points = np.column_stack([frame.geometry.x.to_numpy(), frame.geometry.y.to_numpy()])
+        if "name" in frame:
+            names = [str(v) for v in frame["name"]]
+    else:
+        points = np.asarray(source, dtype=float)
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise InputError(
+                f"observers of shape {points.shape}; expected (n, 2) coordinates (x, y)"
+            )
+        source_crs = observer_crs
+        where = "observers"
+    if points.shape[0] == 0:
+        raise InputError(f"{where}: no observer")
+    if not np.isfinite(points).all():
+        bad = int(np.nonzero(~np.isfinite(points).all(axis=1))[0][0])
+        raise InputError(f"{where}: observer {bad} at {points[bad].tolist()}; expected finite")
+    return _to_crs(points, source_crs, crs, where), names
+
+
+def _to_crs(points: FloatArray, source_crs: Any, crs: CRS, where: str) -> FloatArray:
+    if source_crs is None:
+        return points
+    try:
+        source = CRS.from_user_input(source_crs)
+    except Exception as exc:  # pyproj raises its own CRSError
+        raise CRSError(f"observer CRS {source_crs!r} is not a CRS: {exc}") from exc
+    if source.equals(crs):
+        return points
+    if source.is_geographic:
+        bad = np.nonzero((np.abs(points[:, 0]) > 360) | (np.abs(points[:, 1]) > 90))[0]
+        if bad.size:
+            x, y = points[bad[0]]
+            raise InputError(
+                f"{where}: observer {bad[0]} ({x:g}, {y:g}) in {source.name}: expected "
+                "longitude within +-360 deg and latitude within +-90 deg (X,Y = lon,lat)"
+            )
+    try:
+        transformer = Transformer.from_crs(source, crs, always_xy=True)
+        x, y = transformer.transform(points[:, 0], points[:, 1], errcheck=True)
+    except ProjError as exc:
+        raise CRSError(
+            f"{where}: the observers cannot be placed from {source.name} into the emission's "
+            f"CRS: {exc}"
+        ) from exc
+    out = np.column_stack([x, y]).astype(float)
+    if not np.isfinite(out).all():
+        raise CRSError(f"{where}: some observers have no position in the emission's CRS")
+    return out
+
+
+def _names(given: Sequence[Any] | None, count: int) -> list[str]:
+    if given is None:
+        return [f"observer_{i + 1}" for i in range(count)]
+    names = [str(v) for v in given]
+    if len(names) != count:
+        raise InputError(f"{len(names)} names for {count} observers")
+    seen: dict[str, int] = {}
+    for index, name in enumerate(names):
+        if not name.strip():
+            raise InputError(f"observer {index} has an empty name")
+        key = _file_name(name).lower()
+        if key in seen:
+            raise InputError(
+                f"observers {seen[key]} and {index} have the same name {name!r} (or names "
+                "that make the same file name); expected unique names"
+            )
+        seen[key] = index
+    return names
+
+
+def _file_name(name: str) -> str:
+    """An observer's name as a file name: characters other than letters, digits, ``.``,
+    ``_`` and ``-`` become ``_``."""
+    return _SAFE_NAME.sub("_", name.strip()).strip(".") or "_"
+
+
+def _farthest(bounds: tuple[float, float, float, float] | None, xy: FloatArray) -> int:
+    """The observer farthest from the lit cells' farthest corner: the kernel's reach."""
+    if bounds is None:
+        return 0
+    left, bottom, right, top = bounds
+    far = np.zeros(len(xy))
+    for cx in (left, right):
+        for cy in (bottom, top):
+            far = np.maximum(far, np.hypot(xy[:, 0] - cx, xy[:, 1] - cy))
+    return int(np.argmax(far))
+
+
+def _eye_altitudes(
+    relief: Any, xy: FloatArray, names: list[str], observer_height: float
+) -> FloatArray:
+    """Eye altitude of each observer above sea level on the DEM [m]."""
+    heights = relief.data[0]
+    out = np.empty(len(xy))
+    for index, (name, (x, y)) in enumerate(zip(names, xy, strict=True)):
+        try:
+            out[index] = ground_height(heights, relief.transform, x, y) + observer_height
+        except InputError as exc:
+            raise InputError(f"observer {name!r}: {exc}") from None
+    return out
+
+
+def _scene_kernel(
+    emission: EmissionInput,
+    cells: Any,
+    relief: Any,
+    far: FloatArray,
+    eyes: FloatArray,
+    turbidity: float | None,
+    label: str,
+    cache_dir: PathLike | None,
+    progress: bool,
+) -> xr.Dataset:
+    """A scene kernel over a DEM: from the farthest observer to the farthest lit cell, at the
+    lowest and the highest eye altitude (others between them are interpolated)."""
+    xy = (float(far[0]), float(far[1]))
+    terrain = scene_terrain(relief, cells, xy, 0.0, label=source_label(relief, "DEM"))
+    functions, _ = band_emission_functions(emission, cells.count, label=label)
+    spec = scene_kernel_spec(
+        cells,
+        xy,
+        observer_altitude=float(eyes.min()),
+        turbidity=2.0 if turbidity is None else turbidity,
+        n_elevation=64,
+        n_azimuth=256,
+        n_distance=64,
+        source_altitudes=source_levels(terrain.heights),
+        **kernel_tables(functions, label),
+    )
+    if float(eyes.max()) > float(eyes.min()):
+        altitudes = (float(eyes.min()), float(eyes.max()))
+        spec = dataclasses.replace(spec, observer_altitudes=altitudes)
+    return get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+
+
+def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:
+    from nightlights.nightsky.render import zenith_summary
+
+    cells = setup.emission
+    first = setup.slices[0]
+    table = None
+    if terrain:
+        # the PCA tables alone, in memory: what KernelLevels reads for any eye altitude
+        raw = [names[0] for names in EMISSION_TABLES.values() if names[0] in setup.table]
+        table = setup.table.drop_vars(raw).load()
+    return _Engine(
+        rows=np.asarray(cells.rows, dtype=np.int64),
+        cols=np.asarray(cells.cols, dtype=np.int64),
+        values=np.asarray(cells.values, dtype=float),
+        flux=np.nan_to_num(np.asarray(cells.values, dtype=float), nan=0.0)
+        * abs(cells.transform.a) ** 2,
+        level_weights=source_level_weights(setup.heights, setup.levels),
+        transform=cells.transform,
+        edges=np.asarray(first.distance_edges, dtype=float),
+        n_az=int(first.n_az),
+        elevation=np.asarray(first.elevation, dtype=float),
+        offset=float(setup.offset),
+        functions=tuple(setup.functions),
+        slices=None if terrain else tuple(setup.slices),
+        table=table,
+        dem=setup.terrain.dem if terrain else None,
+        dem_transform=setup.terrain.transform if terrain else None,
+        natural=float(zenith_summary(0.0)["zenith_natural_cd_m2"]),
+        top_cells=int(top_cells),
+        keep_panoramas=keep_panoramas,
+    )
+
+
+# --- the computation ----------------------------------------------------------------------------
+
+
+def _chunks(count: int, workers: int) -> list[slice]:
+    size = max(1, min(MAX_CHUNK, math.ceil(count / (TASKS_PER_WORKER * max(workers, 1)))))
+    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
+
+
+def _run(
+    engine: _Engine,
+    points: FloatArray,
+    scheduler: str | Any,
+    num_workers: int | None,
+    progress: bool,
+) -> list[dict[str, Any]]:
+    """Every observer's sky, in order, one Dask task per chunk of observers."""
+    import dask
+
+    from nightlights._parallel import TaskProgress, compute_distributed
+
+    local = isinstance(scheduler, str) and scheduler in SCHEDULERS
+    workers = num_workers or os.cpu_count() or 1
+    if scheduler == "synchronous":
+        workers = 1
+    single_thread = scheduler != "synchronous"
+    prefix = f"observers-{uuid.uuid4().hex}"
+    shared = dask.delayed(engine, name=f"{prefix}-engine", pure=True)
+    tasks = [
+        dask.delayed(_observe_chunk, name=f"{prefix}-chunk-{i}", pure=True)(
+            shared, points[part], single_thread
+        )
+        for i, part in enumerate(_chunks(len(points), workers))
+    ]
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
+    with Progress(*columns, TimeElapsedColumn(), transient=True, disable=not progress) as bar:
+        task = bar.add_task(f"observers: {len(points)} skies", total=len(tasks))
+        if local:
+            options: dict[str, Any] = {"scheduler": scheduler}
+            if scheduler != "synchronous" and num_workers is not None:
+                options["num_workers"] = num_workers
+            with TaskProgress(lambda: bar.advance(task), f"{prefix}-chunk"):
+                results = dask.compute(*tasks, **options)
+        else:
+            results = compute_distributed(tasks, scheduler, lambda: bar.advance(task))
+    return [sky for chunk in results for sky in chunk]
+
+
+# --- outputs ------------------------------------------------------------------------------------
+
+
+def _summary(
+    skies: list[dict[str, Any]],
+    xy: FloatArray,
+    eyes: FloatArray,
+    names: list[str],
+    crs: CRS,
+    engine: _Engine,
+    files: dict[str, Path],
+) -> gpd.GeoDataFrame:
+    artificial = np.array([s["zenith"] for s in skies], dtype=float)
+    natural = np.full(artificial.shape, engine.natural)
+    total = artificial + natural
+    magnitude = luminance_to_magnitude(total)
+    columns: dict[str, Any] = {
+        "name": names,
+        "observer_altitude": eyes,
+        "zenith_artificial": artificial,
+        "zenith_natural": natural,
+        "zenith_total": total,
+        "zenith_mag": magnitude,
+        "bortle": bortle_class(magnitude).astype(np.int64),
+        "brightest_azimuth": [s["azimuth"] for s in skies],
+        "brightest_elevation": [s["elevation"] for s in skies],
+        "brightest_luminance": [s["luminance"] for s in skies],
+    }
+    if engine.top_cells:
+        top = np.stack([s["top"] for s in skies])  # (n, top_cells, 3)
+        for i in range(engine.top_cells):
+            for j, what in enumerate(("x", "y", "share")):
+                columns[f"top{i + 1}_{what}"] = top[:, i, j]
+    if files:
+        columns["panorama"] = [files[name].name for name in names]
+    frame = pd.DataFrame(columns)
+    return gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=crs)
+
+
+def _write_summary(summary: gpd.GeoDataFrame, path: Path, top_cells: int) -> None:
+    schema: dict[str, Any] = {name: "float" for name in summary.columns if name != "geometry"}
+    schema.update({"name": "str", "bortle": "int"})
+    if "panorama" in summary:
+        schema["panorama"] = "str"
+    write_gpkg(summary, path, layer=SUMMARY_LAYER, schema=schema)
+    _style(path, top_cells)
+
+
+def _style(path: Path, top_cells: int) -> None:
+    """The layer's style in the GeoPackage's ``layer_styles``, when the styles module is
+    there: points coloured by zenith sky brightness."""
+    try:
+        from nightlights.io import styles
+    except ImportError:
+        return
+    write = getattr(styles, "write_observers_style", None)
+    if write is not None:
+        write(path, layer=SUMMARY_LAYER)
+
+
+def _panorama(
+    sky: dict[str, Any],
+    setup: Any,
+    xy: FloatArray,
+    eye: float,
+    observer_height: float,
+    engine: _Engine,
+) -> xr.Dataset:
+    """An observer's panorama as the ``skyglow`` stage writes it, natural sky attributes too."""
+    from nightlights.nightsky.render import zenith_summary
+
+    luminance = sky["luminance"]
+    below = sky["below"]
+    if below is None:
+        below = np.zeros(luminance.shape, dtype=bool)
+    dataset = _panorama_dataset(luminance, below, engine.elevation, None)
+    natural = zenith_summary(float(dataset.attrs["zenith_luminance_cd_m2"]))
+    dataset.attrs = {
+        "observer_x": float(xy[0]),
+        "observer_y": float(xy[1]),
+        "crs": setup.crs.to_wkt(),
+        "observer_height_m": float(observer_height),
+        "source_altitude_levels_m": setup.levels,
+        "observer_altitude_m": float(eye),
+        "kernel_altitude_offset_m": float(setup.offset),
+        "turbidity": float(setup.table.attrs.get("turbidity", np.nan)),
+        "kernel_hash": str(setup.table.attrs.get("content_hash", "")),
+        "mode": "pca",
+        "emission": setup.label,
+        "emission_functions": "; ".join(f.tag for f in setup.functions),
+        "emission_function_sources": "; ".join(setup.function_notes),
+        **dataset.attrs,
+        "zenith_natural_cd_m2": float(natural["zenith_natural_cd_m2"]),
+        "zenith_total_sky_brightness": float(natural["zenith_sky_brightness"]),
+        "bortle_class_zenith_total": int(natural["bortle_class_zenith"]),
+        "bands": "V",
+        "note": "artificial skyglow only (no natural sky background), single scattering",
+    }
+    return dataset
