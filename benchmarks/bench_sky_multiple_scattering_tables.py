@@ -1,0 +1,262 @@
+"""Multiple-scattering factor tables: measure the shipped ones, and chart their error and cost.
+
+The kernel's default multiplies single scattering by the Monte Carlo factor
+f(elevation, azimuth, distance) of :mod:`nightlights.sky.multiple`. This script
+
+1. measures the factor tables shipped with the package (turbidity 2 and Garstang's K = 1 at
+   550 nm; Lambertian, uplight sin^4 and Garstang's psi^4 lobe) with
+   :data:`~nightlights.sky.multiple.SHIPPED_PHOTONS` photons each and writes them to
+   ``nightlights/sky/data/multiple_scattering.json`` (skipped with ``--no-tables``);
+2. checks the default against an independent reference: the all-orders Monte Carlo of
+   ``bench_sky_multiple_scattering.py`` (300,000 Lambertian and 150,000 lobe photons, other
+   seeds, 15 distances 1-300 km, zenith and 45 deg towards and away from the source): the
+   relative error of single x interpolated factor, against single scattering's;
+3. charts the error of a table measured at kernel-build time against its photons and cost
+   (T = 2, Lambertian), the shipped table as the reference.
+
+Run: ``python benchmarks/bench_sky_multiple_scattering_tables.py [--quick] [--no-tables]
+[--out DIR]`` (``--quick``: 20,000-photon tables into the results folder only, fewer photon
+counts in the chart). Writes ``sky_multiple_scattering_tables.json`` and ``.png``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import _harness as harness
+import numpy as np
+
+from nightlights.sky import multiple
+from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
+from nightlights.sky.kernel import UPLIGHT_EXPONENT
+
+PACKAGE_TABLES = (
+    Path(__file__).resolve().parents[1]
+    / "nightlights"
+    / "sky"
+    / "data"
+    / "multiple_scattering.json"
+)
+ATMOSPHERES = {"T = 2": Atmosphere(turbidity=2.0), "K = 1": garstang_atmosphere(1.0)}
+SHAPES = ("lambertian", "uplight", "garstang_lobe")
+CHART_PHOTONS = (1_250, 2_500, 5_000, 10_000, 20_000)
+
+
+def measure_tables(photons: int) -> tuple[dict[str, object], list[dict[str, object]]]:
+    tables: dict[str, object] = {}
+    runs: list[dict[str, object]] = []
+    for label, atmosphere in ATMOSPHERES.items():
+        for shape in SHAPES:
+            (factor, error), seconds = harness.timed(
+                lambda a=atmosphere, s=shape: multiple._measure(a, s, photons, UPLIGHT_EXPONENT)
+            )
+            key = f"{shape}|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(atmosphere)}"
+            tables[key] = {
+                "atmosphere": label,
+                "emission": shape,
+                "photons": photons,
+                "seed": multiple.SEED,
+                "seconds": seconds,
+                "factor": np.round(factor, 6).tolist(),
+                "standard_error": np.round(error, 6).tolist(),
+            }
+            rel = error / factor
+            runs.append(
+                {
+                    "atmosphere": label,
+                    "emission": shape,
+                    "photons": photons,
+                    "seconds": round(seconds, 1),
+                    "median_relative_error": float(np.median(rel)),
+                    "max_relative_error_to_150km": float(
+                        np.max(rel[..., np.asarray(multiple.FACTOR_DISTANCES) <= 150e3])
+                    ),
+                }
+            )
+            print(runs[-1], flush=True)
+    return tables, runs
+
+
+def _shipped_table(
+    tables: dict[str, object], label: str, shape: str
+) -> multiple.MultipleScatteringTable:
+    key = f"{shape}|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(ATMOSPHERES[label])}"
+    entry = tables[key]
+    assert isinstance(entry, dict)
+    raw = np.asarray(entry["factor"], dtype=float)
+    err = np.asarray(entry["standard_error"], dtype=float)
+    return multiple.MultipleScatteringTable(
+        shape, multiple._smooth(raw, err), err, int(entry["photons"]), "shipped"
+    )
+
+
+def garstang_factor(quoted: list[list[float]], distance_km: np.ndarray) -> np.ndarray:
+    """Garstang's (1986) double-scattering factor for K = 1 as quoted (1.6, 1.95, 2.5 at 10,
+    50, 150 km), linear in ln r between, held outside; one value for every direction."""
+    km, factor = np.asarray(quoted, dtype=float).T
+    return np.interp(np.log(distance_km), np.log(km), factor)
+
+
+def against_reference(tables: dict[str, object]) -> list[dict[str, object]]:
+    """Three models against the all-orders reference of bench_sky_multiple_scattering.py:
+    single scattering, single x Garstang's quoted factor, and the default (single x the
+    shipped table; for Garstang's mix, each shape's single scattering times its own table)."""
+    reference = harness.previous_results("sky_multiple_scattering", harness.RESULTS)
+    if reference is None:
+        return []
+    el = np.asarray(reference["ray_elevation_deg"], dtype=float)
+    az = np.asarray(reference["ray_azimuth_deg"], dtype=float)
+    km = np.asarray(reference["ray_distance_km"], dtype=float)
+    quoted = reference["garstang_double_scattering_quoted"]
+    rows: list[dict[str, object]] = []
+    for label, cases in reference["cases"].items():
+        singles = {s: np.asarray(cases[s]["single"], dtype=float) for s in SHAPES if s in cases}
+        totals = {s: np.asarray(cases[s]["total"], dtype=float) for s in singles}
+        errors = {s: np.asarray(cases[s]["total_se"], dtype=float) for s in singles}
+        defaults = {
+            s: singles[s] * _shipped_table(tables, label, s)(el, az, km * 1e3) for s in singles
+        }
+        mixes = {s: {s: 1.0} for s in singles}
+        if "garstang_mix" in cases:
+            mixes["garstang_mix"] = {
+                k: float(v) for k, v in cases["garstang_mix"]["weights"].items()
+            }
+        for name, weights in mixes.items():
+            single = sum(w * singles[s] for s, w in weights.items())
+            total = sum(w * totals[s] for s, w in weights.items())
+            se = np.sqrt(sum((w * errors[s]) ** 2 for s, w in weights.items()))
+            default = sum(w * defaults[s] for s, w in weights.items())
+            garstang = single * garstang_factor(quoted, km)
+            for d in np.unique(km):
+                sel = km == d
+                rows.append(
+                    {
+                        "atmosphere": label,
+                        "emission": name,
+                        "distance_km": float(d),
+                        "default_error_max": float(np.max(np.abs(default[sel] / total[sel] - 1))),
+                        "garstang_factor_error_max": float(
+                            np.max(np.abs(garstang[sel] / total[sel] - 1))
+                        ),
+                        "single_error_max": float(np.max(np.abs(single[sel] / total[sel] - 1))),
+                        "reference_relative_se_max": float(np.max(se[sel] / total[sel])),
+                    }
+                )
+    return rows
+
+
+def photon_chart(tables: dict[str, object], photon_counts: tuple[int, ...]) -> list[dict]:
+    """Build-time tables (T = 2, Lambertian) at fewer photons against the shipped one."""
+    atmosphere = ATMOSPHERES["T = 2"]
+    key = f"lambertian|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(atmosphere)}"
+    entry = tables[key]
+    assert isinstance(entry, dict)
+    ref = multiple._smooth(
+        np.asarray(entry["factor"], dtype=float), np.asarray(entry["standard_error"], dtype=float)
+    )
+    near = np.asarray(multiple.FACTOR_DISTANCES) <= 150e3
+    rows = []
+    for n in photon_counts:
+        (raw, err), seconds = harness.timed(
+            lambda n=n: multiple._measure(atmosphere, "lambertian", n, UPLIGHT_EXPONENT)
+        )
+        rel = np.abs(multiple._smooth(raw, err) / ref - 1.0)[..., near]
+        rows.append(
+            {
+                "photons": n,
+                "seconds": seconds,
+                "median_error": float(np.median(rel)),
+                "p90_error": float(np.quantile(rel, 0.9)),
+            }
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def plot(result: dict) -> object:
+    plt = harness.pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8))
+    rows = result["against_reference"]
+    styles = {
+        "default_error_max": ("-", "o", "single x table (default)"),
+        "garstang_factor_error_max": ("--", "s", "single x Garstang's factor"),
+        "single_error_max": (":", "", "single scattering"),
+    }
+    colours = {"lambertian": "C0", "garstang_lobe": "C1", "garstang_mix": "C2"}
+    for ax, label in zip(axes[:2], ("T = 2", "K = 1"), strict=True):
+        for emission, colour in colours.items():
+            sel = [r for r in rows if r["atmosphere"] == label and r["emission"] == emission]
+            if not sel:
+                continue
+            d = [r["distance_km"] for r in sel]
+            for key, (ls, marker, name) in styles.items():
+                ax.plot(
+                    d,
+                    [max(r[key], 1e-4) for r in sel],
+                    ls=ls,
+                    marker=marker,
+                    ms=3,
+                    color=colour,
+                    label=f"{name}, {emission}",
+                )
+        ax.axhline(0.10, color="k", lw=0.8, ls="-.")
+        ax.set(
+            xscale="log",
+            yscale="log",
+            xlabel="distance [km]",
+            ylabel="worst relative error, zenith and 45 deg both ways",
+            title=f"{label}: models vs all-orders Monte Carlo",
+        )
+    axes[0].legend(fontsize=6)
+    chart = result["photon_chart"]
+    ax = axes[2]
+    ax.plot([r["seconds"] for r in chart], [r["median_error"] for r in chart], "o-", label="median")
+    ax.plot([r["seconds"] for r in chart], [r["p90_error"] for r in chart], "s--", label="90th pct")
+    for r in chart:
+        ax.annotate(f"{r['photons']:,}", (r["seconds"], r["median_error"]), fontsize=7)
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="time to measure one table [s] (shared 2 cores)",
+        ylabel="relative error vs shipped table, 0.1-150 km",
+        title="build-time table: error against cost (T = 2, Lambertian)",
+    )
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def main() -> None:
+    parser = harness.argument_parser(__doc__, quick="20,000-photon tables, not shipped")
+    parser.add_argument("--no-tables", action="store_true", help="reuse the shipped tables")
+    args = harness.parse_args(parser)
+    if args.no_tables:
+        tables = json.loads(PACKAGE_TABLES.read_text())
+        runs = (harness.previous_results("sky_multiple_scattering_tables", args.out) or {}).get(
+            "runs", []
+        )
+    else:
+        photons = 20_000 if args.quick else multiple.SHIPPED_PHOTONS
+        tables, runs = measure_tables(photons)
+        if not args.quick:
+            PACKAGE_TABLES.parent.mkdir(parents=True, exist_ok=True)
+            PACKAGE_TABLES.write_text(json.dumps(tables) + "\n")
+            print(f"wrote {PACKAGE_TABLES}", flush=True)
+    payload = {
+        "grid": {
+            "elevation_deg": list(multiple.FACTOR_ELEVATIONS),
+            "azimuth_deg": list(multiple.FACTOR_AZIMUTHS),
+            "distance_m": list(multiple.FACTOR_DISTANCES),
+        },
+        "runs": runs,
+        "against_reference": against_reference(tables),
+        "photon_chart": photon_chart(tables, CHART_PHOTONS[:3] if args.quick else CHART_PHOTONS),
+    }
+    harness.write_results(
+        args.out, "sky_multiple_scattering_tables", payload, quick=args.quick, plot=plot
+    )
+
+
+if __name__ == "__main__":
+    main()

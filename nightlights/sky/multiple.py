@@ -1,0 +1,392 @@
+"""Multiple scattering in the kernel: a factor f(elevation, azimuth, distance) from Monte Carlo.
+
+The kernel integrates light scattered once (:mod:`nightlights.sky.kernel`). Light scattered
+two or more times multiplies it by 1.2 (1 km) to 2-3 (50 km) and more far away
+(:mod:`nightlights.sky.montecarlo`, docs/physics/multiple_scattering.md). Because skyglow is
+linear in the source, the correction is a factor per kernel image:
+
+.. math:: b(\\varepsilon, \\alpha, r) = f(\\varepsilon, \\alpha, r)\\, b_1(\\varepsilon, \\alpha, r),
+   \\quad f = \\frac{\\sum_{k \\ge 1} b_k}{b_1}
+
+with b_1 the single-scattering luminance and b_k the luminance of light scattered exactly k
+times, for one emission shape and one atmosphere. The kernel build multiplies each table by f
+before its PCA compression, so the run time of a panorama does not change.
+
+Modelling choices:
+
+- f is measured by the Monte Carlo of :func:`~nightlights.sky.montecarlo.monte_carlo_luminance`
+  (all orders, next-event estimation) on a coarse grid: 4 elevations (90, 45, 20, 8 deg) x 3
+  relative azimuths (0 = towards the source, 90, 180) x 12 distances (100 m to 300 km, even in
+  ln r), one photon run serving every ray. It is interpolated linearly in (elevation,
+  azimuth, ln r) on ln f and held constant outside the grid (below 8 deg elevation, nearer than
+  100 m, farther than 300 km). The grid is coarse because f is smooth: the benchmark's
+  directions differ by 20-60 % at 10-300 km, not by orders of magnitude.
+- f is computed for a source and an observer at sea level and applied at every source and
+  observer altitude of the kernel (the altitudes of a city, up to a few hundred metres, are
+  small against the scale heights that set f).
+- Noise: the Monte Carlo's standard error of each grid value is kept
+  (:attr:`MultipleScatteringTable.standard_error`). Before interpolation each direction's
+  ln f(ln r) is smoothed by a weighted three-point average where a value's relative standard
+  error exceeds :data:`SMOOTHING_THRESHOLD`, which damps the heavy-tailed single events the
+  estimator can produce far from the source without moving well-measured values.
+- The tables for the default atmospheres (turbidity 2 and Garstang's K = 1 at 550 nm, ground
+  levels, each emission shape) are shipped, measured with :data:`SHIPPED_PHOTONS` photons by
+  ``benchmarks/bench_sky_multiple_scattering_tables.py``; any other atmosphere is measured
+  when its first kernel is built (:data:`BUILD_PHOTONS` photons, cached for the process).
+- A tabulated (user) emission function cannot be sampled by the Monte Carlo; its table gets the
+  factor of the kernel shape nearest to it in the share of flux below 30 deg elevation
+  (:func:`nearest_shape`), and the kernel's attributes say so.
+
+References
+----------
+.. [1] Garstang, R. H. 1986, PASP 98, 364 (double scattering raises the glow by a factor of
+   about 1.6-2.5 at 10-150 km for K = 1).
+.. [2] Marchuk, G. I. et al. 1980, The Monte Carlo Methods in Atmospheric Optics (Springer).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nightlights._typing import FloatArray
+from nightlights.errors import InputError
+from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
+from nightlights.sky.kernel import EMISSION_MODELS, TABULATED_PREFIX, UPLIGHT_EXPONENT
+
+__all__ = [
+    "BUILD_PHOTONS",
+    "FACTOR_AZIMUTHS",
+    "FACTOR_DISTANCES",
+    "FACTOR_ELEVATIONS",
+    "MULTIPLE_SCATTERING_MODELS",
+    "MultipleScatteringTable",
+    "multiple_scattering_factor",
+    "multiple_scattering_table",
+    "nearest_shape",
+]
+
+#: Choices of :attr:`nightlights.sky.spec.KernelSpec.multiple_scattering`: ``monte-carlo``
+#: (single scattering times the Monte Carlo factor of this module) or ``single``.
+MULTIPLE_SCATTERING_MODELS = ("monte-carlo", "single")
+#: Elevations of the factor grid [deg].
+FACTOR_ELEVATIONS = (8.0, 20.0, 45.0, 90.0)
+#: Relative azimuths of the factor grid (0 = towards the source) [deg].
+FACTOR_AZIMUTHS = (0.0, 90.0, 180.0)
+#: Distances of the factor grid, 100 m to 300 km even in ln r [m].
+FACTOR_DISTANCES = tuple(float(r) for r in np.geomspace(100.0, 300e3, 12))
+#: Photons of the shipped tables [1].
+SHIPPED_PHOTONS = 40_000
+#: Photons of a table measured at kernel build time [1].
+BUILD_PHOTONS = 5_000
+#: Relative standard error above which a grid value is smoothed with its neighbours in ln r [1].
+SMOOTHING_THRESHOLD = 0.03
+#: Scattering orders followed (the benchmark finds no flux left in flight at 50) [1].
+MAX_ORDER = 50
+#: Seed of the factor tables' photon streams.
+SEED = 20_231_219
+#: Elevation below which a shape's share of flux decides :func:`nearest_shape` [deg].
+LOW_ANGLE = 30.0
+
+_SHIPPED = "multiple_scattering.json"
+
+
+@dataclass(frozen=True)
+class MultipleScatteringTable:
+    """The factor f = (all orders) / (single scattering) on the coarse grid.
+
+    Attributes
+    ----------
+    emission
+        Emission shape (one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`).
+    factor
+        Shape ``(4, 3, 12)`` over :data:`FACTOR_ELEVATIONS`, :data:`FACTOR_AZIMUTHS`,
+        :data:`FACTOR_DISTANCES`, smoothed [1].
+    standard_error
+        Same shape: the Monte Carlo's standard error of the raw factor [1].
+    photons
+        Photon histories [1].
+    source
+        ``shipped`` or ``measured``.
+    """
+
+    emission: str
+    factor: FloatArray
+    standard_error: FloatArray
+    photons: int
+    source: str
+
+    def __call__(self, elevation: ArrayLike, azimuth: ArrayLike, distance: ArrayLike) -> FloatArray:
+        """The interpolated factor (see :func:`multiple_scattering_factor`)."""
+        return _interpolate(self.factor, elevation, azimuth, distance)
+
+
+def _atmosphere_key(atmosphere: Atmosphere) -> str:
+    """The atmosphere's parameters as canonical JSON (numbers as floats, 6 significant digits)."""
+    params = {
+        k: float(f"{v:.6g}") if isinstance(v, int | float) else v
+        for k, v in atmosphere.parameters().items()
+    }
+    return json.dumps(params, sort_keys=True)
+
+
+def _smooth(factor: FloatArray, error: FloatArray) -> FloatArray:
+    """Weighted three-point average in ln r of ln f where the relative error is large."""
+    log_f = np.log(np.maximum(factor, 1.0))
+    rel = np.where(factor > 0, error / np.maximum(factor, 1e-300), 0.0)
+    weight = 1.0 / np.maximum(rel, 1e-3) ** 2
+    out = log_f.copy()
+    noisy = rel > SMOOTHING_THRESHOLD
+    for idx in zip(*np.nonzero(noisy), strict=True):
+        e, a, k = (int(i) for i in idx)
+        lo, hi = max(k - 1, 0), min(k + 2, factor.shape[2])
+        w = weight[e, a, lo:hi]
+        out[e, a, k] = float(np.sum(w * log_f[e, a, lo:hi]) / np.sum(w))
+    return np.asarray(np.exp(out))
+
+
+def _measure(
+    atmosphere: Atmosphere, emission: str, photons: int, uplight_exponent: float
+) -> tuple[FloatArray, FloatArray]:
+    from nightlights.sky.montecarlo import monte_carlo_luminance
+
+    el, az, r = np.meshgrid(FACTOR_ELEVATIONS, FACTOR_AZIMUTHS, FACTOR_DISTANCES, indexing="ij")
+    mc = monte_carlo_luminance(
+        el,
+        az,
+        r,
+        atmosphere=atmosphere,
+        emission=emission,
+        photons=photons,
+        max_order=MAX_ORDER,
+        seed=SEED,
+        uplight_exponent=uplight_exponent,
+    )
+    shape = el.shape
+    return mc.ratio.reshape(shape), mc.ratio_standard_error.reshape(shape)
+
+
+@functools.cache
+def _shipped() -> dict[str, Any]:
+    path = resources.files("nightlights.sky") / "data" / _SHIPPED
+    if not path.is_file():
+        return {}
+    data: dict[str, Any] = json.loads(path.read_text())
+    return data
+
+
+@functools.cache
+def _table(
+    atmosphere: Atmosphere, emission: str, photons: int, uplight_exponent: float
+) -> tuple[FloatArray, FloatArray]:
+    """Cached measurement (one per atmosphere, shape and photon count in a process)."""
+    return _measure(atmosphere, emission, photons, uplight_exponent)
+
+
+def multiple_scattering_table(
+    atmosphere: Atmosphere,
+    emission: str = "lambertian",
+    *,
+    photons: int | None = None,
+    uplight_exponent: float = UPLIGHT_EXPONENT,
+) -> MultipleScatteringTable:
+    """The multiple-scattering factor of an atmosphere and emission shape on the coarse grid.
+
+    Parameters
+    ----------
+    atmosphere
+        Atmosphere model; ``extinction`` must be on.
+    emission
+        Emission shape, one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`.
+    photons
+        Photon histories; None: the shipped table when there is one for this atmosphere and
+        shape, else :data:`BUILD_PHOTONS` [1].
+    uplight_exponent
+        Exponent of the uplight lobe [1].
+
+    Returns
+    -------
+    MultipleScatteringTable
+        The factor and its standard error.
+
+    Raises
+    ------
+    InputError
+        Unknown shape, or an atmosphere without extinction.
+
+    Examples
+    --------
+    >>> from nightlights.sky.atmosphere import Atmosphere
+    >>> t = multiple_scattering_table(Atmosphere(turbidity=2.0))  # shipped
+    >>> t.source, round(float(t(90.0, 0.0, 10e3)), 1)
+    ('shipped', 1.6)
+    """
+    if emission not in EMISSION_MODELS:
+        raise InputError(f"emission shape {emission!r}; expected one of {EMISSION_MODELS}")
+    if not atmosphere.extinction:
+        raise InputError("multiple scattering needs extinction on (Atmosphere(extinction=True))")
+    key = _atmosphere_key(atmosphere)
+    exponent = float(uplight_exponent)
+    shipped = _shipped().get(f"{emission}|{exponent:g}|{key}")
+    if photons is None and shipped is not None:
+        raw = np.asarray(shipped["factor"], dtype=float)
+        error = np.asarray(shipped["standard_error"], dtype=float)
+        return MultipleScatteringTable(
+            emission, _smooth(raw, error), error, int(shipped["photons"]), "shipped"
+        )
+    n = BUILD_PHOTONS if photons is None else int(photons)
+    raw, error = _table(atmosphere, emission, n, exponent)
+    return MultipleScatteringTable(emission, _smooth(raw, error), error, n, "measured")
+
+
+def _interpolate(
+    factor: FloatArray, elevation: ArrayLike, azimuth: ArrayLike, distance: ArrayLike
+) -> FloatArray:
+    el, az, r = np.broadcast_arrays(
+        np.asarray(elevation, dtype=float),
+        np.asarray(azimuth, dtype=float),
+        np.asarray(distance, dtype=float),
+    )
+    az = np.abs((az + 180.0) % 360.0 - 180.0)  # relative azimuth folded to 0-180
+    grid = (
+        np.asarray(FACTOR_ELEVATIONS),
+        np.asarray(FACTOR_AZIMUTHS),
+        np.log(np.asarray(FACTOR_DISTANCES)),
+    )
+    points = (el, az, np.log(np.maximum(r, 1e-9)))
+    log_f = np.log(factor)
+    # trilinear on ln f, clamped to the grid
+    index = []
+    frac = []
+    for axis, p in zip(grid, points, strict=True):
+        p = np.clip(p, axis[0], axis[-1])
+        i = np.clip(np.searchsorted(axis, p, side="right") - 1, 0, axis.size - 2)
+        index.append(i)
+        frac.append((p - axis[i]) / (axis[i + 1] - axis[i]))
+    out = np.zeros(el.shape)
+    for de in (0, 1):
+        we = frac[0] if de else 1.0 - frac[0]
+        for da in (0, 1):
+            wa = frac[1] if da else 1.0 - frac[1]
+            for dr in (0, 1):
+                wr = frac[2] if dr else 1.0 - frac[2]
+                out += we * wa * wr * log_f[index[0] + de, index[1] + da, index[2] + dr]
+    return np.asarray(np.exp(out))
+
+
+def multiple_scattering_factor(
+    atmosphere: Atmosphere,
+    emission: str,
+    elevation: ArrayLike,
+    azimuth: ArrayLike,
+    distance: ArrayLike,
+) -> FloatArray:
+    """Multiple-scattering factor f: all orders over single scattering.
+
+    Parameters
+    ----------
+    atmosphere
+        Atmosphere model.
+    emission
+        Emission shape, one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`.
+    elevation
+        Elevation of the view [deg].
+    azimuth
+        Azimuth of the view relative to the source [deg].
+    distance
+        Ground distance of the source [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        f >= 1, the broadcast shape of the inputs [1].
+
+    Examples
+    --------
+    >>> from nightlights.sky.atmosphere import Atmosphere
+    >>> f = multiple_scattering_factor(Atmosphere(), "lambertian", 90.0, 0.0, [1e3, 50e3])
+    >>> bool(1.0 < f[0] < f[1])
+    True
+    """
+    return multiple_scattering_table(atmosphere, emission)(elevation, azimuth, distance)
+
+
+def nearest_shape(tabulated: str) -> str:
+    """The kernel shape whose share of flux below :data:`LOW_ANGLE` elevation is nearest to a
+    tabulated emission function's (its multiple-scattering factor stands in for the function's).
+
+    Parameters
+    ----------
+    tabulated
+        The function's text (``tabulated:{...}``).
+
+    Returns
+    -------
+    str
+        ``lambertian``, ``uplight`` or ``garstang_lobe``.
+    """
+    from nightlights.sky.emission_shapes import emission_intensity
+
+    if not tabulated.startswith(TABULATED_PREFIX):
+        raise InputError(f"{tabulated[:40]!r} is not a tabulated emission function")
+    mu = np.linspace(0.0, 1.0, 2001)  # cosine of the zenith angle
+    low = mu <= np.sin(np.radians(LOW_ANGLE))
+
+    def share(shape: str) -> float:
+        flux = np.asarray(emission_intensity(mu, shape), dtype=float) * mu
+        return float(np.trapezoid(flux[low], mu[low]) / np.trapezoid(flux, mu))
+
+    target = share(tabulated)
+    shapes = ("lambertian", "uplight", "garstang_lobe")
+    return min(shapes, key=lambda s: abs(share(s) - target))
+
+
+def garstang_clear_night() -> Atmosphere:
+    """Garstang's clear night, K = 1 at 550 nm: the second shipped atmosphere."""
+    return garstang_atmosphere(1.0)
+
+
+def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, str]:
+    """Multiply a kernel's single-scattering tables by the factor, in place.
+
+    Parameters
+    ----------
+    tables
+        Emission shape (or tabulated function text) -> array of shape ``(n_observer,
+        n_source, n_distance, n_elevation, n_azimuth)`` [cd m-2 lm-1].
+    spec
+        The kernel's :class:`~nightlights.sky.spec.KernelSpec`.
+
+    Returns
+    -------
+    dict
+        Attributes to record: ``multiple_scattering_tables`` (per shape: the table used,
+        ``shipped`` or ``measured``, its photons, and for a tabulated function the shape
+        whose factor stands in) ; empty when ``spec.multiple_scattering`` is ``single``.
+    """
+    if spec.multiple_scattering == "single":
+        return {}
+    if not spec.atmosphere.extinction:  # nothing is scattered out of the beam: no factor
+        return {"multiple_scattering_tables": "none: extinction is off (single scattering)"}
+    el = np.asarray(spec.elevations, dtype=float)[:, None]
+    az = np.asarray(spec.azimuths, dtype=float)[None, :]
+    notes = []
+    for emission, table in tables.items():
+        shape = emission
+        if emission.startswith(TABULATED_PREFIX):
+            shape = nearest_shape(emission)
+        factors = multiple_scattering_table(
+            spec.atmosphere, shape, uplight_exponent=spec.uplight_exponent
+        )
+        for k, r in enumerate(np.asarray(spec.distances, dtype=float)):
+            table[:, :, k] *= factors(el, az, r).astype(table.dtype)
+        name = "tabulated" if shape != emission else emission
+        stand_in = f" (factor of {shape})" if shape != emission else ""
+        notes.append(f"{name}: {factors.source}, {factors.photons} photons{stand_in}")
+    return {"multiple_scattering_tables": "; ".join(notes)}
