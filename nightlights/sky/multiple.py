@@ -5,8 +5,8 @@ two or more times multiplies it by 1.2 (1 km) to 2-3 (50 km) and more far away
 (:mod:`nightlights.sky.montecarlo`, docs/physics/multiple_scattering.md). Because skyglow is
 linear in the source, the correction is a factor per kernel image:
 
-.. math:: b(\\varepsilon, \\alpha, r) = f(\\varepsilon, \\alpha, r)\\, b_1(\\varepsilon, \\alpha, r),
-   \\quad f = \\frac{\\sum_{k \\ge 1} b_k}{b_1}
+.. math:: b(\\varepsilon, \\alpha, r) = f(\\varepsilon, \\alpha, r)\\,
+   b_1(\\varepsilon, \\alpha, r), \\quad f = \\frac{\\sum_{k \\ge 1} b_k}{b_1}
 
 with b_1 the single-scattering luminance and b_k the luminance of light scattered exactly k
 times, for one emission shape and one atmosphere. The kernel build multiplies each table by f
