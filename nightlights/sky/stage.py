@@ -1,8 +1,14 @@
-"""File stages of the sky: ``build_kernel`` (kernel NetCDF) and ``skyglow`` (panorama NetCDF).
+"""File stages of the sky: ``build_kernel`` (kernel NetCDF) and ``skyglow`` (panorama NetCDF
+or GeoTIFF).
 
 Each stage computes in memory (:func:`nightlights.sky.build.compute_kernel`,
 :func:`nightlights.sky.scene.skyglow_panorama`), writes its product only when given an output
 path, and returns a frozen result holding the product.
+
+A panorama or polar map written to a ``.tif`` is a GeoTIFF that QGIS opens with its style:
+the panorama on a grid of azimuth (x, clockwise from north) and elevation (y) in degrees, in
+an engineering CRS of the observer's sky (:data:`SKY_CRS`, not tied to the Earth); the polar
+map rasterised in the emission raster's CRS around the observer (:func:`polar_raster`).
 """
 
 from __future__ import annotations
@@ -12,9 +18,12 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from affine import Affine
+from pyproj import CRS
 
 from nightlights._typing import PathLike
-from nightlights.io import atomic_output
+from nightlights.errors import InputError
+from nightlights.io import Raster, atomic_output
 from nightlights.io.outputs import OutputSet
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
@@ -25,7 +34,28 @@ from nightlights.sky.setup import EmissionInput, RasterInput
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.store import KernelResult, write_kernel
 
-__all__ = ["SkyglowResult", "build_kernel", "skyglow", "write_polar"]
+__all__ = [
+    "SkyglowResult",
+    "build_kernel",
+    "panorama_raster",
+    "polar_raster",
+    "skyglow",
+    "write_polar",
+]
+
+#: Suffixes that make a panorama or polar map output a GeoTIFF (otherwise NetCDF).
+GEOTIFF_SUFFIXES = (".tif", ".tiff")
+#: The CRS of a panorama GeoTIFF: an engineering CRS of the observer's sky, x the azimuth
+#: clockwise from north and y the elevation above the horizon, both in degrees (ISO 19111
+#: engineering CRS; GeoTIFF stores it as a local CS with the degree as its unit).
+SKY_CRS = (
+    'ENGCRS["sky of an observer: azimuth (x), elevation (y)",EDATUM["observer"],'
+    'CS[Cartesian,2],AXIS["azimuth (A)",east,ORDER[1],ANGLEUNIT["degree",0.0174532925199433]],'
+    'AXIS["elevation (h)",north,ORDER[2],ANGLEUNIT["degree",0.0174532925199433]]]'
+)
+#: Cells across the radius of a polar map GeoTIFF [1]: the grid spans twice the outer
+#: distance edge in 2 x 256 cells (a display resolution; each cell shows its polar bin).
+POLAR_GRID_HALF_CELLS = 256
 
 
 @dataclass(frozen=True)
@@ -146,7 +176,10 @@ def skyglow(
         ``emission_function`` tag (untagged: one band Garstang's F = G = 0.15, two bands
         Lambertian + direct uplight).
     output
-        Panorama NetCDF; None writes nothing. It, ``png`` and ``polar_output`` are all
+        Panorama file: NetCDF, or a GeoTIFF when it ends in ``.tif`` (bands ``luminance``
+        [cd m-2] and ``sky_brightness`` [mag arcsec-2] and, for ``RGB``, ``X``, ``Y``, ``Z``
+        [cd m-2], on the azimuth/elevation grid of :func:`panorama_raster`, with its QGIS
+        style beside it); None writes nothing. It, ``png`` and ``polar_output`` are all
         checked before the computation and appear together at the end, or none of them.
     observer
         Observer position (x, y) in ``observer_crs`` [m or deg].
@@ -168,7 +201,8 @@ def skyglow(
     projection
         ``equirectangular`` or ``fisheye`` for the picture.
     polar_output
-        Optional NetCDF of the observer's polar flux map, written when given.
+        Optional file of the observer's polar flux map: NetCDF, or a GeoTIFF in the
+        emission's CRS when it ends in ``.tif`` (:func:`polar_raster`).
     dem
         Terrain heights above sea level [m] in the emission's CRS (Raster, DataArray or path);
         see :func:`~nightlights.sky.scene.skyglow_panorama`.
@@ -231,9 +265,16 @@ def skyglow(
     zenith_mag = float(dataset.attrs["zenith_sky_brightness"])
     dataset.attrs.update(_with_natural_sky(zenith))
     with outputs:
-        if target is not None:
+        if target is not None and _is_geotiff(target):
+            panorama_raster(dataset).write(outputs.temporary(target))
+        elif target is not None:
             dataset.to_netcdf(outputs.temporary(target), engine="h5netcdf")
-        if polar_output is not None:
+        if polar_output is not None and _is_geotiff(polar_output):
+            observer_xy = (float(dataset.attrs["observer_x"]), float(dataset.attrs["observer_y"]))
+            polar_raster(scene.polar, observer_xy, dataset.attrs["crs"]).write(
+                outputs.temporary(polar_output)
+            )
+        elif polar_output is not None:
             _polar_dataset(scene.polar).to_netcdf(
                 outputs.temporary(polar_output), engine="h5netcdf"
             )
@@ -246,6 +287,148 @@ def skyglow(
         int(dataset.attrs["bortle_class_zenith"]),
         scene.seconds,
         target,
+    )
+
+
+def _is_geotiff(path: PathLike) -> bool:
+    return Path(path).suffix.lower() in GEOTIFF_SUFFIXES
+
+
+def panorama_raster(panorama: xr.Dataset) -> Raster:
+    """A skyglow panorama as a raster on its azimuth/elevation grid (:data:`SKY_CRS`).
+
+    Parameters
+    ----------
+    panorama
+        A ``skyglow`` panorama: ``luminance`` [cd m-2] and ``sky_brightness``
+        [mag arcsec-2] (and ``X``, ``Y``, ``Z`` [cd m-2] when present) over ``elevation``
+        (equal rows from the zenith down) and ``azimuth`` (equal columns from north) [deg].
+
+    Returns
+    -------
+    Raster
+        x: azimuth 0-360 deg clockwise from north, y: elevation 0-90 deg; the panorama's
+        attributes (observer, kernel, zenith figures) as tags; nodata (NaN) where the terrain
+        hides the sky.
+
+    Raises
+    ------
+    InputError
+        The panorama's rows or columns are not equally spaced.
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> luminance = np.full((2, 4), 1e-3)
+    >>> panorama = xr.Dataset(
+    ...     {"luminance": (("elevation", "azimuth"), luminance),
+    ...      "sky_brightness": (("elevation", "azimuth"), np.full((2, 4), 18.98))},
+    ...     coords={"elevation": [67.5, 22.5], "azimuth": [45.0, 135.0, 225.0, 315.0]},
+    ... )
+    >>> raster = panorama_raster(panorama)
+    >>> raster.bounds, raster.descriptions
+    ((0.0, 0.0, 360.0, 90.0), ('luminance', 'sky_brightness'))
+    """
+    elevation = np.asarray(panorama["elevation"].values, dtype=float)
+    azimuth = np.asarray(panorama["azimuth"].values, dtype=float)
+    row, column = 90.0 / elevation.size, 360.0 / azimuth.size
+    expected_el = 90.0 - (np.arange(elevation.size) + 0.5) * row
+    expected_az = (np.arange(azimuth.size) + 0.5) * column
+    if not (np.allclose(elevation, expected_el) and np.allclose(azimuth, expected_az)):
+        raise InputError(
+            "panorama rows or columns are not equally spaced from the zenith and from north; "
+            "it cannot be written as a GeoTIFF grid"
+        )
+    names = [
+        name
+        for name in ("luminance", "sky_brightness", *TRISTIMULUS_WAVELENGTHS)
+        if name in panorama
+    ]
+    units = {"sky_brightness": "mag arcsec-2"}
+    tags = {key: str(value) for key, value in panorama.attrs.items() if key not in ("crs",)}
+    tags["observer_crs"] = str(panorama.attrs.get("crs", ""))
+    tags["grid"] = "x: azimuth [deg] clockwise from north; y: elevation [deg] above the horizon"
+    return Raster(
+        np.stack([np.asarray(panorama[name].values, dtype=float) for name in names]),
+        Affine(column, 0.0, 0.0, 0.0, -row, 90.0),
+        CRS.from_wkt(SKY_CRS),
+        tuple(names),
+        tuple(units.get(name, "cd m-2") for name in names),
+        tags,
+        tuple({"long_name": str(panorama[name].attrs.get("long_name", name))} for name in names),
+    )
+
+
+def polar_raster(
+    polar: PolarMap, observer: tuple[float, float], crs: CRS | str, *, half_cells: int = 0
+) -> Raster:
+    """The observer's polar flux map rasterised around the observer in the emission's CRS.
+
+    Each cell holds the mean upward flux density of the polar bin (distance, azimuth) its
+    centre falls in: the bin's flux over its area (Dobashi et al. 2023, Sec. 3.3);
+    cells nearer than the first or beyond the last distance edge are nodata.
+
+    .. math:: E_{ij} = \\frac{\\Phi_{ij}}{\\pi (r_{i+1}^2 - r_i^2) / n_{az}}
+
+    Parameters
+    ----------
+    polar
+        The polar map [lm per bin].
+    observer
+        Observer position (x, y) in ``crs`` [m].
+    crs
+        The emission raster's projected CRS.
+    half_cells
+        Cells from the observer to the grid's edge [1]; default :data:`POLAR_GRID_HALF_CELLS`.
+
+    Returns
+    -------
+    Raster
+        One band per emission band, ``flux_density_<k>`` [lm m-2].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from nightlights.sky.polar import PolarMap
+    >>> flux = np.ones((1, 2, 4))  # 1 lm in each bin
+    >>> polar = PolarMap(flux, np.array([0.0, 10.0, 20.0]), 4, np.zeros(1), np.full(1, 8.0))
+    >>> raster = polar_raster(polar, (500.0, 500.0), "EPSG:32635", half_cells=4)
+    >>> raster.bounds
+    (480.0, 480.0, 520.0, 520.0)
+    >>> round(float(raster.data[0, 1, 2]), 5)  # outer ring: 1 lm over pi (20^2 - 10^2) / 4 m2
+    0.00424
+    """
+    half = half_cells or POLAR_GRID_HALF_CELLS
+    edges = np.asarray(polar.distance_edges, dtype=float)
+    cell = edges[-1] / half
+    centres = (np.arange(2 * half) + 0.5) * cell - edges[-1]
+    dx, dy = np.meshgrid(centres, -centres)
+    distance = np.hypot(dx, dy)
+    azimuth = np.degrees(np.arctan2(dx, dy)) % 360.0
+    ring = np.asarray(np.searchsorted(edges, distance, side="right"), dtype=np.int64) - 1
+    inside = (ring >= 0) & (ring < edges.size - 1)
+    sector = np.minimum((azimuth * polar.n_az / 360.0).astype(np.int64), polar.n_az - 1)
+    area = np.pi * (edges[1:] ** 2 - edges[:-1] ** 2) / polar.n_az  # [m2] per bin
+    density = polar.flux / area[None, :, None]
+    data = np.full((polar.flux.shape[0], *distance.shape), np.nan)
+    data[:, inside] = density[:, ring[inside], sector[inside]]
+    count = data.shape[0]
+    x0, y0 = observer
+    return Raster(
+        data,
+        Affine(cell, 0.0, x0 - edges[-1], 0.0, -cell, y0 + edges[-1]),
+        CRS.from_user_input(crs),
+        tuple(f"flux_density_{k + 1}" for k in range(count)),
+        ("lm m-2",) * count,
+        {
+            "observer_x": f"{x0!r}",
+            "observer_y": f"{y0!r}",
+            "azimuth_bins": str(polar.n_az),
+            "distance_edges_m": " ".join(f"{edge:g}" for edge in edges),
+            "meaning": "mean upward flux density of the polar bin (distance, azimuth) "
+            "around the observer that each cell centre falls in",
+            "reference": "Dobashi et al. 2023, Sec. 3.3 (the polar map)",
+        },
     )
 
 

@@ -25,6 +25,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError
 from nightlights.io import as_vector, ensure_projected, write_gpkg
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import streets_style
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices
 from nightlights.streets._mapping import (
@@ -34,7 +35,7 @@ from nightlights.streets._mapping import (
     parse_packed_tags,
     parse_value,
 )
-from nightlights.streets.schema import STREET_FIELDS, VALUE_RANGES, observed_field
+from nightlights.streets.schema import ARRANGEMENTS, STREET_FIELDS, VALUE_RANGES, observed_field
 
 #: Field types of the layer :func:`normalize` writes.
 OUTPUT_SCHEMA: dict[str, FieldType] = {
@@ -315,7 +316,13 @@ def normalize(
         path = None
         if output is not None:
             temporary = outputs.temporary(output)
-            write_gpkg(normalized, temporary, layer="streets", schema=OUTPUT_SCHEMA)
+            write_gpkg(
+                normalized,
+                temporary,
+                layer="streets",
+                schema=OUTPUT_SCHEMA,
+                style=streets_style(ARRANGEMENTS),
+            )
             path = Path(output)
     return NormalizeResult(normalized, report, path)
 

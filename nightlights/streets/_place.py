@@ -25,6 +25,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
 from nightlights.io import as_vector, ensure_projected, write_gpkg
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import poles_style
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import check_street_values, finite_vertices, rng_from_seed
 from nightlights.streets.schema import ARRANGEMENTS, STREET_CLASSES
@@ -342,7 +343,13 @@ def place(
         _check_system_ids(lights, catalog, source=source)
         path = None
         if output is not None:
-            write_gpkg(lights, outputs.temporary(output), layer="lights", schema=LIGHT_FIELDS)
+            write_gpkg(
+                lights,
+                outputs.temporary(output),
+                layer="lights",
+                schema=LIGHT_FIELDS,
+                style=poles_style(lights["system_id"].dropna().astype(str).unique()),
+            )
             path = Path(output)
     return PlaceResult(lights, path)
 

@@ -29,6 +29,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import streets_style
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import check_network_values, rng_from_seed
 from nightlights.streets._location import (
@@ -37,7 +38,13 @@ from nightlights.streets._location import (
     layer_location,
     network_for_location,
 )
-from nightlights.streets.schema import LIGHTING_FIELDS, STREET_FIELDS, VALUE_RANGES, observed_field
+from nightlights.streets.schema import (
+    ARRANGEMENTS,
+    LIGHTING_FIELDS,
+    STREET_FIELDS,
+    VALUE_RANGES,
+    observed_field,
+)
 
 __all__ = [
     "DEFAULT_CANDIDATES",
@@ -406,7 +413,13 @@ def sample(
             schema = {name: kind for name, kind in OUTPUT_SCHEMA.items() if name in filled}
             if "source_id" in filled:
                 schema["source_id"] = "str"
-            write_gpkg(filled, outputs.temporary(output), layer="streets", schema=schema)
+            write_gpkg(
+                filled,
+                outputs.temporary(output),
+                layer="streets",
+                schema=schema,
+                style=streets_style(ARRANGEMENTS),
+            )
             path = Path(output)
     return SampleResult(filled, path, net.name, location)
 
