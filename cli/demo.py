@@ -43,8 +43,10 @@ def demo(
     """Run every stage on the bundled Helsinki extract (OpenStreetMap, ODbL); write the
     products to the folder OUTPUT (default: nightlights-demo).
 
-    A folder that is not empty is refused unless --overwrite is given; then the demo's
-    files in it are replaced and other files are left alone.
+    The demo is the bundled project file helsinki.toml run as nightlights run runs it. A
+    folder that is not empty is refused unless --overwrite is given; then the demo's files
+    in it are replaced (stages already up to date there are skipped) and other files are
+    left alone.
     """
     output = one_of(ctx, **{"-o/--output": output, "--out": old_out})
     if output is None and not files:
@@ -56,22 +58,23 @@ def demo(
 
     from rich.console import Console
 
+    from cli.run import print_outputs
     from nightlights.demo import run_demo
 
     console = Console(stderr=True)
-    with console.status("running the Helsinki demo ..."):
+    with console.status("running the Helsinki demo (the bundled project helsinki.toml) ..."):
         result = run_demo(out_dir, seed=seed)
     console.print("[bold]Helsinki demo[/] (data (c) OpenStreetMap contributors, ODbL)")
-    for stage, path in result.outputs.items():
-        console.print(f"  {stage:>22}: {path}")
-    for name, (magnitude, bortle) in result.zenith.items():
+    print_outputs(console, result)
+    ran, cached = getattr(result, "ran", None), getattr(result, "cached", None)
+    if ran is not None and cached is not None:
+        from nightlights.demo import DEMO_PROJECT, example_path
+
         console.print(
-            f"  zenith sky at {name}: {magnitude:.2f} mag arcsec-2 from the extract's "
-            f"streetlights alone (Bortle {bortle})",
+            f"ran {len(ran)} stages, {len(cached)} up to date, in {result.seconds:.1f} s "
+            f"(the project file: {example_path(DEMO_PROJECT)})",
             soft_wrap=True,
         )
-    for line in result.findings:
-        console.print(f"  {line}", soft_wrap=True)
 
 
 commands = [demo]

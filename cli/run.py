@@ -1,0 +1,98 @@
+"""``nightlights run``: every stage of a project file, skipping those already up to date."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+STAGE_NAMES = (
+    "normalize",
+    "sample",
+    "place",
+    "irradiance",
+    "emission",
+    "emission-viirs",
+    "skyglow",
+    "observers",
+    "inverse-q",
+    "inverse-s",
+    "inverse-reduce",
+    "darkness",
+)
+
+
+@click.command("run")
+@click.argument("project", type=click.Path(dir_okay=False), metavar="PROJECT.toml")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Output folder (default: the project's [project] output, relative to the file).",
+)
+@click.option(
+    "--force",
+    multiple=True,
+    metavar="STAGE",
+    help=f"Rerun STAGE and every stage downstream of it even if up to date (repeat). "
+    f"Stages: {', '.join(STAGE_NAMES)}.",
+)
+@click.option(
+    "--check",
+    "check_only",
+    is_flag=True,
+    help="Check the project file and list which stages would run; run nothing.",
+)
+def run_command(project: str, output: str | None, force: tuple[str, ...], check_only: bool) -> None:
+    """Run the stages of PROJECT.toml (nightlights init writes a commented template).
+
+    The whole file is checked before any stage runs. A stage whose outputs exist and whose
+    inputs and options are unchanged since it last ran (content hashes recorded beside the
+    outputs) is skipped; an interrupted run leaves no output that looks complete.
+    """
+    from rich.console import Console
+
+    from nightlights.project import check, run
+
+    console = Console(stderr=True)
+    if check_only:
+        plan = check(project, output, force=force)
+        for name, up_to_date in plan:
+            console.print(f"  {'up to date' if up_to_date else 'runs':>10}  {name}")
+        runs = sum(not up for _, up in plan)
+        console.print(f"{project}: valid; {runs} of {len(plan)} stages would run")
+        return
+
+    def on_task(name: str, event: str, seconds: float) -> None:
+        if event == "start":
+            console.print(f"  [bold]{name}[/] ...")
+        elif event == "ran":
+            console.print(f"  {name}: {seconds:.1f} s")
+        else:
+            console.print(f"  {name}: up to date")
+
+    result = run(project, output, force=force, on_task=on_task)
+    print_outputs(console, result)
+    console.print(
+        f"ran {len(result.ran)}, up to date {len(result.cached)} in {result.seconds:.1f} s; "
+        f"outputs in {result.folder}"
+    )
+
+
+def print_outputs(console: Any, result: Any) -> None:
+    """The outputs, zenith figures and findings of a project run, one line each."""
+    width = max((len(name) for name in result.outputs), default=0)
+    for name, path in result.outputs.items():
+        console.print(f"  {name:>{width}}: {path}", soft_wrap=True)
+    for name, (magnitude, bortle) in result.zenith.items():
+        console.print(
+            f"  zenith sky at {name}: {magnitude:.2f} mag arcsec-2 from the artificial light "
+            f"alone (Bortle {bortle})",
+            soft_wrap=True,
+        )
+    for line in result.findings:
+        console.print(f"  {line}", soft_wrap=True)
+
+
+commands = [run_command]
