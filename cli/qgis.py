@@ -1,0 +1,56 @@
+"""``nightlights qgis-plugin``: the QGIS plugin that puts the stages in the Processing Toolbox."""
+
+from __future__ import annotations
+
+import click
+
+from cli.options import files_argument, output_option, overwrite_option, resolve_inout
+
+#: nightlights.qgis.PLUGIN_FOLDER + ".zip" (mirrored: ``--help`` must not import the library)
+DEFAULT_PLUGIN_ZIP = "nightlights_processing.zip"
+
+
+@click.group("qgis-plugin")
+def qgis_plugin() -> None:
+    """The QGIS Processing provider, as a plugin zip for QGIS's Plugins > Install from ZIP."""
+
+
+@qgis_plugin.command("build")
+@files_argument("[OUTPUT]")
+@output_option
+@overwrite_option
+@click.option(
+    "--command",
+    "command",
+    default=None,
+    type=click.Path(exists=True, dir_okay=False),
+    help="The nightlights executable the plugin runs (default: this environment's).",
+)
+def build_command(
+    files: tuple[str, ...], output: str | None, overwrite: bool, command: str | None
+) -> None:
+    """Write the plugin zip OUTPUT (default: nightlights_processing.zip).
+
+    The plugin runs this environment's nightlights command in a subprocess (its path is
+    recorded in the zip), so QGIS's Python needs none of the toolkit's libraries. In QGIS:
+    Plugins > Manage and Install Plugins > Install from ZIP; the algorithms appear under
+    nightlights in the Processing Toolbox.
+    """
+    from rich.console import Console
+
+    from nightlights.qgis import build_plugin, toolkit_command
+
+    if output is None and not files:
+        output = DEFAULT_PLUGIN_ZIP
+    _, out = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=overwrite)
+    path = build_plugin(out, command=command, overwrite=overwrite)
+    runs = command or toolkit_command()
+    Console(stderr=True).print(
+        f"QGIS plugin -> {path} (runs {runs}); install it in QGIS with Plugins > Manage and "
+        "Install Plugins > Install from ZIP",
+        soft_wrap=True,
+        highlight=False,
+    )
+
+
+commands = [qgis_plugin]

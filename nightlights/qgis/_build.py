@@ -1,0 +1,125 @@
+"""Build the QGIS plugin zip: the plugin's sources plus the path of this toolkit's command."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sysconfig
+import zipfile
+from importlib import resources
+from pathlib import Path
+
+from nightlights.errors import InputError
+from nightlights.io.atomic import atomic_output
+from nightlights.qgis.plugin.runner import TOOLKIT_FILE
+
+#: Folder (and Python package) name of the plugin inside the zip and in QGIS's plugin folder.
+PLUGIN_FOLDER = "nightlights_processing"
+#: The plugin's files, from the ``nightlights.qgis.plugin`` package (nothing else is zipped).
+PLUGIN_FILES = (
+    "__init__.py",
+    "plugin.py",
+    "provider.py",
+    "base.py",
+    "algorithms.py",
+    "runner.py",
+    "choices.py",
+    "metadata.txt",
+)
+
+
+def toolkit_command() -> Path:
+    """The ``nightlights`` executable of this Python environment.
+
+    The console script in the environment's scripts folder (a virtual environment's ``bin``),
+    else the first on ``PATH``.
+
+    Raises
+    ------
+    InputError
+        No ``nightlights`` command is installed (the toolkit was not installed with pip).
+    """
+    name = "nightlights.exe" if os.name == "nt" else "nightlights"
+    script = Path(sysconfig.get_path("scripts")) / name
+    if script.is_file():
+        return script
+    found = shutil.which("nightlights")
+    if found:
+        return Path(found)
+    raise InputError(
+        f"no nightlights command in {script.parent} or on PATH; install the toolkit with pip "
+        "(pip install .) so that the plugin has a command to run, or give command="
+    )
+
+
+def plugin_metadata(version: str) -> str:
+    """The plugin's ``metadata.txt`` with its ``version`` line set to ``version``.
+
+    Parameters
+    ----------
+    version
+        The toolkit's version (the plugin is built for it).
+    """
+    source = resources.files("nightlights.qgis.plugin") / "metadata.txt"
+    lines = source.read_text(encoding="utf-8").splitlines()
+    return "\n".join(
+        f"version={version}" if line.startswith("version=") else line for line in lines
+    )
+
+
+def build_plugin(
+    output: str | os.PathLike[str],
+    *,
+    command: str | os.PathLike[str] | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Write the QGIS plugin zip (QGIS: Plugins > Install from ZIP).
+
+    The zip holds one folder, :data:`PLUGIN_FOLDER`, with the plugin's sources and
+    ``toolkit.json``, which records ``command``: the plugin's algorithms run it in a
+    subprocess (QGIS's Python does not import the toolkit). A ``nightlights`` command set in
+    QGIS (Processing > Options > Providers > nightlights) or in ``$NIGHTLIGHTS_COMMAND``
+    takes precedence over the recorded one.
+
+    Parameters
+    ----------
+    output
+        Path of the zip.
+    command
+        The ``nightlights`` executable to record (default: :func:`toolkit_command`).
+    overwrite
+        Replace an existing zip.
+
+    Returns
+    -------
+    pathlib.Path
+        ``output``.
+
+    Raises
+    ------
+    InputError
+        ``command`` is not an existing file, or no command is installed.
+    OutputError
+        ``output`` exists and ``overwrite`` is False, or cannot be written.
+    """
+    from nightlights import __version__
+
+    executable = toolkit_command() if command is None else Path(command)
+    if not executable.is_file():
+        raise InputError(
+            f"command {str(executable)!r} is not a file; expected the nightlights executable"
+        )
+    record = {"command": str(executable.absolute()), "version": __version__}
+    package = resources.files("nightlights.qgis.plugin")
+    with atomic_output(output, overwrite=overwrite) as temporary:
+        with zipfile.ZipFile(temporary, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+            for name in PLUGIN_FILES:
+                text = (
+                    plugin_metadata(__version__)
+                    if name == "metadata.txt"
+                    else (package / name).read_text(encoding="utf-8")
+                )
+                archive.writestr(f"{PLUGIN_FOLDER}/{name}", text)
+            archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", json.dumps(record, indent=2) + "\n")
+    return Path(output)

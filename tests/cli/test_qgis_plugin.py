@@ -1,0 +1,65 @@
+"""``nightlights qgis-plugin build``: the plugin zip, its default name, --overwrite, --command."""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner, Result
+
+from cli import qgis
+from nightlights.qgis import PLUGIN_FOLDER, toolkit_command
+
+
+def _build(*args: str) -> Result:
+    return CliRunner().invoke(qgis.qgis_plugin, ["build", *args])
+
+
+def test_build_writes_the_default_zip(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = _build()
+    assert result.exit_code == 0, result.output
+    path = tmp_path / qgis.DEFAULT_PLUGIN_ZIP
+    assert path.name == f"{PLUGIN_FOLDER}.zip"
+    with zipfile.ZipFile(path) as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == str(toolkit_command().absolute())
+    assert f"-> {qgis.DEFAULT_PLUGIN_ZIP}" in result.output
+    assert "Install from ZIP" in result.output
+
+
+def test_build_refuses_an_existing_zip_without_overwrite(tmp_path: Path) -> None:
+    path = tmp_path / "plugin.zip"
+    path.write_bytes(b"previous")
+    result = _build("-o", str(path))
+    assert result.exit_code == 1
+    assert "exists; give --overwrite" in result.output
+    assert path.read_bytes() == b"previous"
+    result = _build(str(path), "--overwrite")
+    assert result.exit_code == 0, result.output
+    assert zipfile.is_zipfile(path)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="a shell script as the command")
+def test_build_records_a_given_command(tmp_path: Path) -> None:
+    command = tmp_path / "nightlights"
+    command.write_text("#!/bin/sh\n")
+    result = _build(str(tmp_path / "p.zip"), "--command", str(command))
+    assert result.exit_code == 0, result.output
+    with zipfile.ZipFile(tmp_path / "p.zip") as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == str(command)
+    assert f"runs {command}" in result.output
+
+
+def test_a_missing_command_is_a_usage_error(tmp_path: Path) -> None:
+    result = _build(str(tmp_path / "p.zip"), "--command", str(tmp_path / "missing"))
+    assert result.exit_code == 2
+    assert not (tmp_path / "p.zip").exists()
+
+
+def test_the_module_exposes_its_group() -> None:
+    assert [command.name for command in qgis.commands] == ["qgis-plugin"]

@@ -1,0 +1,107 @@
+"""The plugin zip: its files, metadata and recorded command; what the plugin may import; the
+choices it mirrors from the library."""
+
+from __future__ import annotations
+
+import ast
+import json
+import sys
+import zipfile
+from importlib import resources
+from pathlib import Path
+
+import pytest
+
+import bayesnets
+import ies.spectra
+from nightlights import __version__
+from nightlights.errors import InputError, OutputError
+from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
+from nightlights.qgis import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
+from nightlights.qgis.plugin import choices
+from nightlights.sky.render import PROJECTIONS
+from nightlights.streets import builtin_mappings
+
+PLUGIN_SOURCE = Path(str(resources.files("nightlights.qgis.plugin")))
+#: What the plugin's modules may import in QGIS's Python: the standard library, QGIS, its
+#: Processing plugin and GDAL's bindings (QGIS's own), and the plugin's own modules.
+ALLOWED_ROOTS = {"qgis", "processing", "osgeo"}
+
+
+def test_the_zip_holds_the_plugin_folder(tmp_path: Path) -> None:
+    path = build_plugin(tmp_path / "plugin.zip")
+    with zipfile.ZipFile(path) as archive:
+        names = set(archive.namelist())
+        metadata = archive.read(f"{PLUGIN_FOLDER}/metadata.txt").decode()
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+        sources = {name: archive.read(f"{PLUGIN_FOLDER}/{name}").decode() for name in PLUGIN_FILES}
+    assert names == {f"{PLUGIN_FOLDER}/{name}" for name in (*PLUGIN_FILES, "toolkit.json")}
+    assert f"version={__version__}" in metadata.splitlines()
+    assert "hasProcessingProvider=yes" in metadata.splitlines()
+    assert "def classFactory(iface" in sources["__init__.py"]
+    assert record == {"command": str(toolkit_command().absolute()), "version": __version__}
+    for name in PLUGIN_FILES:
+        if name != "metadata.txt":
+            assert sources[name] == (PLUGIN_SOURCE / name).read_text(encoding="utf-8")
+
+
+def test_every_plugin_module_is_zipped() -> None:
+    modules = {path.name for path in PLUGIN_SOURCE.glob("*.py")}
+    assert modules <= set(PLUGIN_FILES)
+
+
+def test_the_recorded_command_is_this_environments(tmp_path: Path) -> None:
+    command = toolkit_command()
+    assert command.is_file()
+    assert command.name.startswith("nightlights")
+    assert command.parent == Path(sys.executable).parent or command.parent.name in {
+        "bin",
+        "Scripts",
+    }
+
+
+def test_a_given_command_is_recorded(tmp_path: Path) -> None:
+    executable = tmp_path / "nightlights"
+    executable.write_text("#!/bin/sh\n")
+    with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", command=executable)) as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == str(executable)
+
+
+def test_a_missing_command_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="is not a file"):
+        build_plugin(tmp_path / "p.zip", command=tmp_path / "missing")
+    assert not (tmp_path / "p.zip").exists()
+
+
+def test_an_existing_zip_is_kept_without_overwrite(tmp_path: Path) -> None:
+    path = tmp_path / "p.zip"
+    path.write_bytes(b"previous")
+    with pytest.raises(OutputError, match="exists"):
+        build_plugin(path)
+    assert path.read_bytes() == b"previous"
+    build_plugin(path, overwrite=True)
+    assert zipfile.is_zipfile(path)
+
+
+@pytest.mark.parametrize("name", [name for name in PLUGIN_FILES if name.endswith(".py")])
+def test_the_plugin_imports_no_toolkit_library(name: str) -> None:
+    """QGIS's Python must not load the toolkit or its wheels (another GDAL): the plugin's
+    modules import only the standard library, QGIS and each other."""
+    tree = ast.parse((PLUGIN_SOURCE / name).read_text(encoding="utf-8"))
+    roots = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            roots |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            roots.add((node.module or "").split(".")[0])
+    foreign = roots - ALLOWED_ROOTS - set(sys.stdlib_module_names) - {"__future__"}
+    assert foreign == set()
+
+
+def test_choices_mirror_the_library() -> None:
+    assert list(choices.MAPPINGS) == builtin_mappings()
+    assert list(choices.NETWORKS) == bayesnets.catalog_names()
+    assert choices.SENSORS == ies.spectra.SENSORS
+    assert choices.PROJECTIONS == PROJECTIONS
+    assert choices.DEFAULT_VIIRS_SPECTRUM == DEFAULT_VIIRS_SPECTRUM

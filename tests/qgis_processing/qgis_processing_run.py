@@ -1,0 +1,164 @@
+"""Run the plugin's algorithms in QGIS and report what came out: run by the system Python that
+has PyQGIS, never by the toolkit's.
+
+Usage: ``QT_QPA_PLATFORM=offscreen /usr/bin/python3 qgis_processing_run.py PLUGINS STREETS
+WORK``: PLUGINS is a QGIS plugin folder holding the unzipped plugin, STREETS a street line
+layer (``FILE|layername=NAME``), WORK a folder for the outputs. It loads the plugin as QGIS
+does (metadata, ``classFactory``, ``initProcessing``), then with ``processing.run``:
+
+1. ``nightlights:streetstolights`` on STREETS;
+2. ``nightlights:irradiance`` on the lights of 1, two sensors at 5 m;
+3. ``nightlights:irradiance`` again, cancelled as soon as its command starts.
+
+Prints one JSON object: for each run its outputs as QGIS opens them (validity, CRS, extent,
+features or bands and statistics), the progress values reported and the log, or the error.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any
+
+PLUGIN = "nightlights_processing"
+#: Processing's own Python plugin on Debian/Ubuntu.
+PROCESSING_PLUGINS = "/usr/share/qgis/python/plugins"
+
+
+def _feedback(cancel_on_start: bool = False) -> Any:
+    from qgis.core import QgsProcessingFeedback
+
+    class Recorder(QgsProcessingFeedback):
+        """Keeps the progress values and messages; optionally cancels when a command starts."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.progress: list[float] = []
+            self.log: list[str] = []
+            self.progressChanged.connect(self.progress.append)
+
+        def pushInfo(self, info: str) -> None:
+            self.log.append(info)
+
+        def pushCommandInfo(self, info: str) -> None:
+            self.log.append(info)
+            if cancel_on_start:
+                self.cancel()
+
+    return Recorder()
+
+
+def _vector(path: str) -> dict[str, Any]:
+    from qgis.core import QgsVectorLayer, QgsWkbTypes
+
+    layer = QgsVectorLayer(path, "lights", "ogr")
+    if not layer.isValid():
+        return {"valid": False}
+    extent = layer.extent()
+    return {
+        "valid": True,
+        "crs": layer.crs().authid(),
+        "features": layer.featureCount(),
+        "geometry": QgsWkbTypes.geometryDisplayString(layer.geometryType()),
+        "fields": layer.fields().names(),
+        "extent": [extent.xMinimum(), extent.yMinimum(), extent.xMaximum(), extent.yMaximum()],
+    }
+
+
+def _raster(path: str) -> dict[str, Any]:
+    from qgis.core import QgsRasterBandStats, QgsRasterLayer
+
+    layer = QgsRasterLayer(path, "irradiance", "gdal")
+    if not layer.isValid():
+        return {"valid": False, "error": layer.error().summary()}
+    extent = layer.extent()
+    provider = layer.dataProvider()
+    bands = []
+    for band in range(1, layer.bandCount() + 1):
+        stats = provider.bandStatistics(band, QgsRasterBandStats.All)
+        bands.append(
+            {
+                "description": provider.generateBandName(band),
+                "min": stats.minimumValue,
+                "max": stats.maximumValue,
+                "mean": stats.mean,
+            }
+        )
+    return {
+        "valid": True,
+        "crs": layer.crs().authid(),
+        "extent": [extent.xMinimum(), extent.yMinimum(), extent.xMaximum(), extent.yMaximum()],
+        "pixel": [layer.rasterUnitsPerPixelX(), layer.rasterUnitsPerPixelY()],
+        "bands": bands,
+    }
+
+
+def _run(algorithm: str, parameters: dict[str, Any], feedback: Any) -> dict[str, Any]:
+    import time
+
+    import processing
+    from qgis.core import QgsProcessingException
+
+    start = time.monotonic()
+    try:
+        result = {"outputs": processing.run(algorithm, parameters, feedback=feedback)}
+    except QgsProcessingException as exc:
+        result = {"error": str(exc)}
+    seconds = time.monotonic() - start
+    return {**result, "progress": feedback.progress, "log": feedback.log, "seconds": seconds}
+
+
+def main(plugins: str, streets: str, work: str) -> dict[str, Any]:
+    sys.path[:0] = [plugins, PROCESSING_PLUGINS]
+    from qgis.core import QgsApplication
+
+    application = QgsApplication([], False)
+    application.initQgis()
+    from processing.core.Processing import Processing
+
+    Processing.initialize()
+    import qgis.utils
+
+    qgis.utils.plugin_paths = [plugins]
+    qgis.utils.updateAvailablePlugins()
+    report: dict[str, Any] = {
+        "available": PLUGIN in qgis.utils.available_plugins,
+        "metadata": {
+            key: qgis.utils.pluginMetadata(PLUGIN, key)
+            for key in ("name", "version", "qgisMinimumVersion", "hasProcessingProvider")
+        },
+        # as QGIS does at start-up: import the package, then classFactory and initProcessing
+        "started": bool(qgis.utils.loadPlugin(PLUGIN) and qgis.utils.startProcessingPlugin(PLUGIN)),
+    }
+    registry = QgsApplication.processingRegistry()
+    provider = registry.providerById("nightlights")
+    report["algorithms"] = sorted(a.id() for a in provider.algorithms()) if provider else []
+
+    lights = f"{work}/lights.gpkg"
+    run = _run(
+        "nightlights:streetstolights",
+        {"INPUT": streets, "MAPPING": 1, "NETWORK": 0, "SEED": 2011, "OUTPUT": lights},
+        _feedback(),
+    )
+    report["streetstolights"] = {**run, "layer": _vector(lights) if "outputs" in run else None}
+    irradiance = f"{work}/irradiance.tif"
+    run = _run(
+        "nightlights:irradiance",
+        {"LIGHTS": lights, "RESOLUTION": 5.0, "SENSORS": [0, 1], "OUTPUT": irradiance},
+        _feedback(),
+    )
+    report["irradiance"] = {**run, "layer": _raster(irradiance) if "outputs" in run else None}
+    cancelled = f"{work}/cancelled.tif"
+    report["cancelled"] = _run(
+        "nightlights:irradiance",
+        {"LIGHTS": lights, "RESOLUTION": 5.0, "OUTPUT": cancelled},
+        _feedback(cancel_on_start=True),
+    )
+    return report
+
+
+if __name__ == "__main__":
+    import os
+
+    print(json.dumps(main(*sys.argv[1:4])), flush=True)
+    os._exit(0)  # skip QGIS's teardown, which can crash a headless application at exit
