@@ -39,7 +39,7 @@ from typing import Any
 from nightlights._resources import format_bytes
 from nightlights.errors import OutputError
 
-__all__ = ["OutputSet", "Terminated"]
+__all__ = ["SIDECAR_SUFFIXES", "OutputSet", "Terminated", "sidecar_paths"]
 
 PathLike = str | os.PathLike[str]
 
@@ -48,8 +48,18 @@ PathLike = str | os.PathLike[str]
 SIDECAR_SUFFIXES = (".qml",)
 
 
-def _sidecars(path: Path) -> list[Path]:
-    """The sidecar paths of ``path`` (none for a path that is itself a sidecar)."""
+def sidecar_paths(path: PathLike) -> list[Path]:
+    """Where the sidecars of an output go (:data:`SIDECAR_SUFFIXES`), whether or not they exist.
+
+    Code that moves a finished output elsewhere moves the existing ones with it, onto the
+    sidecar paths of the destination.
+
+    Examples
+    --------
+    >>> [p.name for p in sidecar_paths("out/emission.tif")]
+    ['emission.qml']
+    """
+    path = Path(path)
     if path.suffix in SIDECAR_SUFFIXES:
         return []
     return [path.with_suffix(suffix) for suffix in SIDECAR_SUFFIXES]
@@ -315,7 +325,7 @@ class OutputSet:
         pairs += [
             (side, final)
             for temporary, path in list(pairs)
-            for side, final in zip(_sidecars(temporary), _sidecars(path), strict=True)
+            for side, final in zip(sidecar_paths(temporary), sidecar_paths(path), strict=True)
             if side.exists()
         ]
         backups: dict[Path, Path] = {}
@@ -360,6 +370,6 @@ class OutputSet:
     def _clean(self) -> None:
         for temporary in self._temporaries.values():
             _remove_with_side_files(temporary)
-            for side in _sidecars(temporary):
+            for side in sidecar_paths(temporary):
                 with contextlib.suppress(FileNotFoundError, IsADirectoryError):
                     os.unlink(side)
