@@ -75,6 +75,8 @@ __all__ = [
     "streets_style",
 ]
 
+#: The GeoPackage table of QGIS layer styles (QGIS User Guide, "Storing styles in a database").
+STYLES_TABLE = "layer_styles"
 #: QGIS version the documents are written for (Debian 12's QGIS; later versions read it).
 QGIS_VERSION = "3.22.16-Białowieża"
 
@@ -396,8 +398,8 @@ def influence_qml(values: ArrayLike, *, band: int = 1, unit: str = "cd m-2") -> 
     items = []
     for index, edge in enumerate(edges):
         position = index / max(edges.size - 1, 1)
-        share = 100.0 * (1.0 - index / edges.size)
-        label = f"<= {_label(float(edge), unit)} (top {share:.0f} % of lit cells)"
+        low, high = 100.0 * index / edges.size, 100.0 * (index + 1) / edges.size
+        label = f"<= {_label(float(edge), unit)} ({low:.0f}-{high:.0f} % of lit cells)"
         items.append((float(edge), _ramp_colour("magma", position), label))
     return _raster_document(
         band=band,
@@ -680,7 +682,7 @@ def poles_style(systems: Sequence[str], *, heading_field: str = "heading") -> La
     Returns
     -------
     LayerStyle
-        Categorized by ``system_id``; the arrow (QGIS's ``arrowhead`` marker, pointing up at
+        Categorized by ``system_id``; the arrow (QGIS's ``filled_arrowhead`` marker, pointing up at
         angle 0) turned by the heading.
     """
     listed = list(dict.fromkeys(str(s) for s in systems))[: len(CATEGORY_COLOURS)]
@@ -688,7 +690,11 @@ def poles_style(systems: Sequence[str], *, heading_field: str = "heading") -> La
     colours = [*CATEGORY_COLOURS[: len(listed)], OTHER_COLOUR]
     symbols = [
         _marker_symbol(
-            str(index), colour, shape="arrowhead", size=POLE_SIZE_MM, rotation_field=heading_field
+            str(index),
+            colour,
+            shape="filled_arrowhead",
+            size=POLE_SIZE_MM,
+            rotation_field=heading_field,
         )
         for index, colour in enumerate(colours)
     ]
@@ -831,6 +837,6 @@ def add_layer_style(
         }
     )
     try:
-        pyogrio.write_dataframe(row, path, layer="layer_styles", driver="GPKG", append=True)
+        pyogrio.write_dataframe(row, path, layer=STYLES_TABLE, driver="GPKG", append=True)
     except pyogrio.errors.DataSourceError as exc:
         raise OutputError(f"{path}: cannot store the style of layer {layer!r}: {exc}") from exc

@@ -19,7 +19,7 @@ import pyogrio
 
 from nightlights.errors import InputError, OutputError
 from nightlights.io.atomic import atomic_output
-from nightlights.io.styles import LayerStyle, add_layer_style
+from nightlights.io.styles import STYLES_TABLE, LayerStyle, add_layer_style
 
 FieldType = Literal["int", "float", "bool", "str"]
 
@@ -37,7 +37,8 @@ def read_vector(
 
     GeoPackage, Shapefile, GeoJSON, FlatGeobuf and OpenStreetMap (.pbf, .osm, .osm.gz) are
     all read the same way. For OSM files the default layer is ``lines`` (GDAL's OSM driver
-    puts highway ways there, with unlisted tags packed in ``other_tags``).
+    puts highway ways there, with unlisted tags packed in ``other_tags``); for a GeoPackage
+    it is the first layer other than the ``layer_styles`` table of its QGIS styles.
 
     Parameters
     ----------
@@ -61,6 +62,8 @@ def read_vector(
         read_path = str(source)
     if layer is None and name.endswith(_OSM_SUFFIXES):
         layer = "lines"
+    elif layer is None and name.endswith(".gpkg"):
+        layer = _first_data_layer(source)
     try:
         frame = pyogrio.read_dataframe(read_path, layer=layer)
     except (pyogrio.errors.DataSourceError, pyogrio.errors.DataLayerError) as exc:
@@ -68,6 +71,17 @@ def read_vector(
     if "geometry" not in frame or not isinstance(frame, gpd.GeoDataFrame):
         raise InputError(f"{source}: layer {layer!r} has no geometry column")
     return frame
+
+
+def _first_data_layer(source: Path) -> str | None:
+    """The first layer of a GeoPackage that is not its ``layer_styles`` table (None: let GDAL
+    choose, as for a file with one layer or one that GDAL cannot list)."""
+    try:
+        names = [str(row[0]) for row in pyogrio.list_layers(source)]
+    except pyogrio.errors.DataSourceError:
+        return None
+    data = [layer for layer in names if layer != STYLES_TABLE]
+    return data[0] if data and len(names) > 1 else None
 
 
 def as_vector(
