@@ -79,8 +79,8 @@ from nightlights.sky.setup import (
     kernel_tables,
     prepare_scene,
 )
-from nightlights.sky.spec import scene_kernel_spec, source_levels
-from nightlights.sky.store import KernelResult, get_or_build_kernel
+from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
+from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
 __all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
 
@@ -274,12 +274,13 @@ def _brightest(luminance: FloatArray, elevation: FloatArray) -> dict[str, float]
     index = int(np.argmax(filled))
     value = float(filled.flat[index])
     if not value > 0:
-        return {"azimuth": math.nan, "elevation": math.nan, "luminance": 0.0}
+        return {"brightest_azimuth": math.nan, "brightest_elevation": math.nan,
+                "brightest_luminance": 0.0}  # fmt: skip
     row, col = divmod(index, luminance.shape[1])
     return {
-        "azimuth": (col + 0.5) * 360.0 / luminance.shape[1],
-        "elevation": float(elevation[row]),
-        "luminance": value,
+        "brightest_azimuth": (col + 0.5) * 360.0 / luminance.shape[1],
+        "brightest_elevation": float(elevation[row]),
+        "brightest_luminance": value,
     }
 
 
@@ -416,6 +417,10 @@ def observers(
         if path is not None and not overwrite and Path(path).exists():
             raise OutputExistsError(f"{path}: exists; give overwrite to replace it")
     outputs = OutputSet(output, *files.values())  # locations checked before any work
+    if kernel is not None:
+        kernel = load_kernel(kernel)
+    # every observer within reach of a lit cell, named, before a kernel is built
+    _check_reaches(cells, xy, labels, label, kernel)
     far = _farthest(cells.lit_bounds(), xy)
     relief = None
     eyes = np.full(len(xy), float(observer_height))
@@ -438,12 +443,7 @@ def observers(
         cache_dir=cache_dir,
         progress=progress,
     )
-    reach = float(setup.slices[0].distance_edges[-1])
-    for name, point in zip(labels, xy, strict=True):
-        try:
-            _check_reach(setup.emission, (point[0], point[1]), reach, label, point, None)
-        except InputError as exc:
-            raise InputError(f"observer {name!r}: {exc}") from None
+    _check_reaches(setup.emission, xy, labels, label, setup.table)
     engine = _engine(setup, relief is not None, top_cells, folder is not None)
     if folder is not None:
         first = setup.slices[0]
@@ -582,6 +582,20 @@ def _file_name(name: str) -> str:
     """An observer's name as a file name: characters other than letters, digits, ``.``,
     ``_`` and ``-`` become ``_``."""
     return _SAFE_NAME.sub("_", name.strip()).strip(".") or "_"
+
+
+def _check_reaches(
+    cells: Any, xy: FloatArray, names: list[str], label: str, table: xr.Dataset | None
+) -> None:
+    """Refuse an observer farther from every lit cell than the kernel (or any kernel)
+    reaches, naming it."""
+    reach = MAX_KERNEL_RANGE if table is None else float(table["distance_edges"][-1])
+    whose = "any kernel's" if table is None else "the kernel's"
+    for name, point in zip(names, xy, strict=True):
+        try:
+            _check_reach(cells, (point[0], point[1]), reach, label, point, None, whose)
+        except InputError as exc:
+            raise InputError(f"observer {name!r}: {exc}") from None
 
 
 def _farthest(bounds: tuple[float, float, float, float] | None, xy: FloatArray) -> int:
@@ -747,9 +761,10 @@ def _summary(
         "zenith_total": total,
         "zenith_mag": magnitude,
         "bortle": bortle_class(magnitude).astype(np.int64),
-        "brightest_azimuth": [s["azimuth"] for s in skies],
-        "brightest_elevation": [s["elevation"] for s in skies],
-        "brightest_luminance": [s["luminance"] for s in skies],
+        **{
+            field: [s[field] for s in skies]
+            for field in ("brightest_azimuth", "brightest_elevation", "brightest_luminance")
+        },
     }
     if engine.top_cells:
         top = np.stack([s["top"] for s in skies])  # (n, top_cells, 3)
