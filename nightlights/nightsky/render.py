@@ -377,6 +377,7 @@ def splat_points(
     sigma: float = PSF_SIGMA,
     radius: float = PSF_RADIUS,
     normalise: bool = True,
+    out: FloatArray | None = None,
 ) -> FloatArray:
     """Luminance image of point sources spread by a pixel-integrated Gaussian.
 
@@ -400,11 +401,15 @@ def splat_points(
     normalise
         Divide the weights by their sum (exact flux); False keeps the Gaussian's own integral
         over the stencil (for the benchmark of the truncation error).
+    out
+        C-contiguous ``(rows, cols, c)`` float64 image to add the sources to in place (the sky
+        they are drawn on) [cd m-2]; None starts from a black image.
 
     Returns
     -------
     numpy.ndarray
-        ``(rows, cols, c)`` luminance [cd m-2]; sources outside the view are dropped.
+        ``(rows, cols, c)`` luminance [cd m-2] (``out`` when given); sources outside the view
+        are dropped.
     """
     from scipy.special import erf
 
@@ -413,10 +418,18 @@ def splat_points(
     values = np.asarray(flux, dtype=float)
     values = values[:, None] if values.ndim == 1 else values
     rows, cols = pixels.view.shape
-    image = np.zeros((rows * cols, values.shape[1]))
+    channels = values.shape[1]
+    if out is None:
+        image = np.zeros((rows, cols, channels))
+    else:
+        if out.shape != (rows, cols, channels) or not out.flags.c_contiguous:
+            raise InputError(
+                f"splat output {out.shape}: expected a C-contiguous {(rows, cols, channels)} image"
+            )
+        image = out
     row, col, keep = pixels.locate(elevation, azimuth)
     if not np.any(keep):
-        return image.reshape(rows, cols, -1)
+        return image
     row, col, values = row[keep], col[keep], values[keep]
     half = max(1, math.ceil(radius * sigma))
     offsets = np.arange(-half, half + 1)
@@ -440,20 +453,20 @@ def splat_points(
         rr_in = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
     rr, cc = np.broadcast_arrays(rr, cc)
     inside = np.broadcast_to(rr_in, weight.shape)
-    flat = np.where(inside, np.clip(rr, 0, rows - 1) * cols + np.clip(cc, 0, cols - 1), 0)
-    weight = np.where(inside & pixels.sky.ravel()[flat], weight, 0.0)
+    rr = np.where(inside, np.clip(rr, 0, rows - 1), 0)
+    cc = np.where(inside, np.clip(cc, 0, cols - 1), 0)
+    weight = np.where(inside & pixels.sky[rr, cc], weight, 0.0)
     if normalise:
         total = weight.sum(axis=(1, 2))
         weight = np.divide(
             weight, total[:, None, None], out=np.zeros_like(weight), where=total[:, None, None] > 0
         )
-    solid = pixels.solid_angle.ravel()
-    lum_weight = (weight / solid[flat]).reshape(weight.shape[0], -1)
-    flat = flat.reshape(weight.shape[0], -1)
-    for channel in range(values.shape[1]):
-        contrib = lum_weight * values[:, channel : channel + 1]
-        image[:, channel] = np.bincount(flat.ravel(), contrib.ravel(), minlength=rows * cols)
-    return image.reshape(rows, cols, -1)
+    lum_weight = (weight / pixels.solid_angle[rr, cc]).reshape(weight.shape[0], -1)
+    flat = (rr * cols + cc).reshape(weight.shape[0], -1)
+    # one scatter-add over all channels: index pixel x channels + channel of the flat image
+    target = (flat[:, :, None] * channels + np.arange(channels)).ravel()
+    np.add.at(image.reshape(-1), target, (lum_weight[:, :, None] * values[:, None, :]).ravel())
+    return image
 
 
 def splat_disc(
@@ -465,6 +478,7 @@ def splat_disc(
     *,
     sun: tuple[float, float] | None = None,
     phase_angle: float = 0.0,
+    out: FloatArray | None = None,
 ) -> FloatArray:
     """Luminance image of a uniform disc (the Moon), optionally in phase, carrying a flux.
 
@@ -489,22 +503,47 @@ def splat_disc(
         (azimuth, elevation) of the Sun [deg]; None draws the full disc.
     phase_angle
         Sun-Moon-observer angle [deg]: 0 full, 90 quarter, 180 new.
+    out
+        C-contiguous ``(rows, cols, c)`` image to add the disc to in place [cd m-2]; None
+        starts from a black image.
 
     Returns
     -------
     numpy.ndarray
-        ``(rows, cols, c)`` luminance [cd m-2].
+        ``(rows, cols, c)`` luminance [cd m-2] (``out`` when given).
     """
     values = np.atleast_1d(np.asarray(flux, dtype=float))
+    shape = (*pixels.view.shape, values.size)
+    if out is None:
+        out = np.zeros(shape)
+    elif out.shape != shape:
+        raise InputError(f"disc output {out.shape}: expected {shape}")
     if angular_radius < pixels.pixel_size:
         return splat_points(
-            pixels, np.array([elevation]), np.array([azimuth]), values[None, :], sigma=PSF_SIGMA
+            pixels,
+            np.array([elevation]),
+            np.array([azimuth]),
+            values[None, :],
+            sigma=PSF_SIGMA,
+            out=out,
         )
-    size = np.degrees(np.sqrt(pixels.solid_angle))
-    # only pixels within the disc's elevation band (plus two pixels) can be covered
-    near = pixels.sky & (np.abs(pixels.elevation - elevation) <= angular_radius + 2.0 * size)
+    # only pixels within the disc's elevation band (plus two pixels) can be covered; an
+    # equirectangular image's rows share their elevation: the band is a block of rows
+    block = slice(None)
+    if pixels.view.projection == "equirectangular":
+        row_size = np.degrees(np.sqrt(pixels.solid_angle[:, 0]))
+        band = np.flatnonzero(
+            np.abs(pixels.elevation[:, 0] - elevation) <= angular_radius + 2.0 * row_size
+        )
+        if band.size == 0:
+            return out
+        block = slice(int(band[0]), int(band[-1]) + 1)
+    sky, pixel_el = pixels.sky[block], pixels.elevation[block]
+    solid = pixels.solid_angle[block]
+    size = np.degrees(np.sqrt(solid))
+    near = sky & (np.abs(pixel_el - elevation) <= angular_radius + 2.0 * size)
     centre = _direction(np.array(elevation), np.array(azimuth))
-    points = _direction(pixels.elevation[near], pixels.azimuth[near])
+    points = _direction(pixel_el[near], pixels.azimuth[block][near])
     separation = np.degrees(np.arccos(np.clip(points @ centre, -1.0, 1.0)))
     ramp = size[near] / angular_radius  # one pixel in disc radii
     cover = np.clip((angular_radius - separation) / size[near] + 0.5, 0.0, 1.0)
@@ -520,13 +559,14 @@ def splat_disc(
             y = points @ across / scale
             edge = -math.cos(math.radians(phase_angle)) * np.sqrt(np.clip(1.0 - y * y, 0.0, 1.0))
             cover = cover * np.clip((x - edge) / ramp + 0.5, 0.0, 1.0)
-    image = np.zeros(pixels.view.shape)
-    image[near] = cover
-    total = (image * pixels.solid_angle).sum()
+    total = (cover * solid[near]).sum()
     if total <= 0:
-        return np.zeros((*pixels.view.shape, values.size))
-    luminance = image / total  # flux x weight / solid angle, weight / solid angle = cover
-    return luminance[..., None] * values[None, None, :]
+        return out
+    # flux x weight / solid angle, weight / solid angle = cover / total
+    luminance = np.zeros(near.shape)
+    luminance[near] = cover / total
+    out[block] += luminance[..., None] * values[None, None, :]
+    return out
 
 
 def _direction(elevation: FloatArray, azimuth: FloatArray) -> FloatArray:
@@ -658,14 +698,23 @@ def _bilinear(grid: FloatArray, rows: ArrayLike, cols: ArrayLike) -> FloatArray:
     return np.stack(channels, axis=-1).reshape(*r.shape, grid.shape[-1])
 
 
-def _bilinear_separable(grid: FloatArray, rows: FloatArray, cols: FloatArray) -> FloatArray:
-    """:func:`_bilinear` on the product of fractional ``rows`` and ``cols``: (rows, cols, c)."""
+def _bilinear_separable(
+    grid: FloatArray, rows: FloatArray, cols: FloatArray, *, compiled: bool = True
+) -> FloatArray:
+    """:func:`_bilinear` on the product of fractional ``rows`` and ``cols``: (rows, cols, c).
+
+    ``compiled`` runs one parallel loop (:mod:`._render_numba`); False the numpy reference.
+    """
     r = np.clip(rows, 0.0, grid.shape[0] - 1.0)
     r0 = np.minimum(r.astype(np.intp), grid.shape[0] - 2)
-    fr = (r - r0)[:, None, None]
-    along = grid[r0] * (1.0 - fr) + grid[r0 + 1] * fr
     c = np.mod(cols, grid.shape[1] - 1.0)
     c0 = np.minimum(c.astype(np.intp), grid.shape[1] - 2)
+    if compiled:
+        from nightlights.nightsky._render_numba import bilinear_separable
+
+        return bilinear_separable(np.ascontiguousarray(grid), r0, r - r0, c0, c - c0)
+    fr = (r - r0)[:, None, None]
+    along = grid[r0] * (1.0 - fr) + grid[r0 + 1] * fr
     fc = (c - c0)[None, :, None]
     return along[:, c0] * (1.0 - fc) + along[:, c0 + 1] * fc
 
@@ -738,6 +787,23 @@ def render_sky(
     SkyImage
         The image and the figures of its legend.
     """
+    return _render_sky(time, lon, lat, view, panorama, options, catalog, compiled=True)
+
+
+def _render_sky(
+    time: Any,
+    lon: float,
+    lat: float,
+    view: View | None,
+    panorama: Any,
+    options: SkyOptions | None,
+    catalog: Any,
+    *,
+    compiled: bool,
+) -> SkyImage:
+    """:func:`render_sky`; ``compiled`` interpolates the diffuse sky of an equirectangular view
+    in one compiled loop and draws the Moon and stars into it in place, False is the numpy
+    reference (full-size temporaries, each source drawn on its own image and added)."""
     from nightlights.nightsky.astro import airmass, star_positions
     from nightlights.nightsky.catalog import load_catalog
     from nightlights.nightsky.moon import moon_sky_brightness, moon_state, sun_position
@@ -796,14 +862,14 @@ def render_sky(
     step = (grid_el[1] - grid_el[0], grid_az[1] - grid_az[0])
     if view.projection == "equirectangular":  # separable: rows share elevation, columns azimuth
         xyz = _bilinear_separable(
-            grid, pixels.elevation[:, 0] / step[0], pixels.azimuth[0] / step[1]
+            grid, pixels.elevation[:, 0] / step[0], pixels.azimuth[0] / step[1], compiled=compiled
         )
     else:
         xyz = _bilinear(grid, pixels.elevation / step[0], pixels.azimuth / step[1])
     if moon is not None and moon.elevation >= 0.0:
         m_moon = moon_v_magnitude(moon.phase_angle) + k * float(airmass(moon.elevation))
         moon_flux = ZERO_MAGNITUDE_ILLUMINANCE * 10.0 ** (-0.4 * m_moon)
-        xyz += splat_disc(
+        moon_image = splat_disc(
             pixels,
             moon.elevation,
             moon.azimuth,
@@ -811,7 +877,10 @@ def render_sky(
             moon_flux * blackbody_white(SUN_TEMPERATURE),
             sun=(sun_az, sun_el),
             phase_angle=moon.phase_angle,
+            out=xyz if compiled else None,
         )
+        if not compiled:
+            xyz += moon_image
     drawn = 0
     if options.natural and options.stars:
         up = star_el >= 0.0
@@ -823,7 +892,16 @@ def render_sky(
             limit = schaefer_limiting_magnitude(local, snellen_ratio=options.snellen_ratio)
             visible &= vmag <= limit
         flux = star_xyz(vmag[visible], stars.bv[up][visible])
-        xyz += splat_points(pixels, s_el[visible], s_az[visible], flux, sigma=options.psf_sigma)
+        stars_image = splat_points(
+            pixels,
+            s_el[visible],
+            s_az[visible],
+            flux,
+            sigma=options.psf_sigma,
+            out=xyz if compiled else None,
+        )
+        if not compiled:
+            xyz += stars_image
         drawn = int(visible.sum())
     if not pixels.sky.all():
         xyz[~pixels.sky] = np.nan

@@ -8,6 +8,7 @@ twilight, Moon, stars and the artificial skyglow of a panorama written by
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -285,7 +286,9 @@ def sky_render(
     text = legend_text(time, (lon, lat), image.summary)
     with outputs:
         if target is not None and kind == "png":
-            rgb = tone_map(image.xyz, tone_mapping, pixel_size=image.pixels.pixel_size)
+            rgb = tone_map(
+                image.xyz, tone_mapping, pixel_size=image.pixels.pixel_size, dtype=np.uint8
+            )
             write_png(rgb, outputs.temporary(target), text if legend else "", view.projection)
         elif target is not None:
             sky_dataset(image, time, (lon, lat)).to_netcdf(
@@ -337,17 +340,27 @@ def sky_dataset(image: SkyImage, time: Any, lonlat: tuple[float, float]) -> xr.D
     )
 
 
+#: Height of the legend strip below the picture [pixel].
+LEGEND_STRIP = 40
+#: Size of the legend's and the compass marks' text [pixel] (8 and 10 pt at 100 dpi).
+LEGEND_FONT_SIZE, MARK_FONT_SIZE = 11, 14
+#: zlib level of the PNG: 1 writes a 2048 x 1024 night sky several times faster than the
+#: default 6 for a file about 1.5 times larger (benchmarks/bench_sky_render.py).
+PNG_COMPRESS_LEVEL = 1
+
+
 def write_png(rgb: np.ndarray, path: PathLike, legend: str, projection: str) -> Path:
     """Write an sRGB image pixel for pixel, with an optional legend strip below it.
 
     Parameters
     ----------
     rgb
-        ``(rows, cols, 3)`` sRGB in [0, 1].
+        ``(rows, cols, 3)`` sRGB in [0, 1], or its 8-bit code values (``uint8``, as
+        :func:`~nightlights.nightsky.tonemap.tone_map` gives with ``dtype=numpy.uint8``).
     path
         Output PNG, written atomically.
     legend
-        Legend text ("" for none).
+        Legend text ("" for none), white monospace on black.
     projection
         A fisheye gets N, E, S, W marks at its rim (east on the left: the sky seen from below).
 
@@ -356,40 +369,46 @@ def write_png(rgb: np.ndarray, path: PathLike, legend: str, projection: str) -> 
     pathlib.Path
         The written path.
     """
-    import matplotlib
+    from PIL import Image, ImageDraw
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    if rgb.dtype != np.uint8:
+        rgb = np.floor(255.0 * np.clip(rgb, 0.0, 1.0) + 0.5).astype(np.uint8)
     rows, cols = rgb.shape[:2]
-    dpi = 100
-    strip = 40 if legend else 0
-    fig = plt.figure(figsize=(cols / dpi, (rows + strip) / dpi), dpi=dpi, facecolor="black")
-    fig.figimage(np.clip(rgb, 0.0, 1.0), xo=0, yo=strip, origin="upper")
-    total = rows + strip
-    if legend:
-        fig.text(
-            0.005,
-            (strip / 2) / total,
-            legend,
-            color="white",
-            fontsize=8,
-            va="center",
-            family="monospace",
-        )
-    if projection == "fisheye":
-        marks = {"N": (0.5, 0.985), "S": (0.5, 0.015), "E": (0.015, 0.5), "W": (0.985, 0.5)}
-        for label, (x, y) in marks.items():
-            fig.text(
-                x,
-                (strip + y * rows) / total,
-                label,
-                color="0.8",
-                fontsize=10,
-                ha="center",
-                va="center",
+    strip = LEGEND_STRIP if legend else 0
+    canvas = np.zeros((rows + strip, cols, 3), dtype=np.uint8)
+    canvas[:rows] = rgb
+    picture = Image.fromarray(canvas)
+    if legend or projection == "fisheye":
+        draw = ImageDraw.Draw(picture)
+        if legend:
+            draw.multiline_text(
+                (round(0.005 * cols), rows + strip / 2),
+                legend,
+                fill=(255, 255, 255),
+                font=_font(LEGEND_FONT_SIZE),
+                anchor="lm",
+                spacing=2,
             )
+        if projection == "fisheye":
+            marks = {"N": (0.5, 0.015), "S": (0.5, 0.985), "E": (0.015, 0.5), "W": (0.985, 0.5)}
+            for label, (x, y) in marks.items():
+                draw.text(
+                    (x * cols, y * rows),
+                    label,
+                    fill=(204, 204, 204),
+                    font=_font(MARK_FONT_SIZE),
+                    anchor="mm",
+                )
     with atomic_output(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", facecolor="black")
-    plt.close(fig)
+        picture.save(tmp, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
     return Path(path)
+
+
+@functools.cache
+def _font(size: int) -> Any:
+    """DejaVu Sans Mono (shipped with matplotlib) at ``size`` pixels."""
+    import matplotlib
+    from PIL import ImageFont
+
+    path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSansMono.ttf"
+    return ImageFont.truetype(str(path), size)

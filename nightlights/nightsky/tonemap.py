@@ -13,6 +13,10 @@ Linear CIE XYZ luminance [cd m-2] goes in, display sRGB in [0, 1] comes out. Two
 
 Every step is a pure function on arrays; :class:`ToneMapping` holds the parameters.
 
+Length: 600+ lines because each step's numpy form (the published model and the reference) sits
+beside the driver of the compiled passes (:mod:`._tonemap_numba`) that must equal it, and the
+8-bit code table both share.
+
 References
 ----------
 1. Jensen, H. W., Durand, F., Stark, M. M., Premoze, S., Dorsey, J. & Shirley, P. (2001).
@@ -29,10 +33,12 @@ References
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from nightlights.errors import InputError
 
@@ -449,7 +455,8 @@ def tone_map(
     options: ToneMapping | None = None,
     *,
     pixel_size: float | None = None,
-) -> FloatArray:
+    dtype: DTypeLike = np.float64,
+) -> NDArray[Any]:
     """Tone-map a linear XYZ image to sRGB.
 
     Parameters
@@ -460,22 +467,55 @@ def tone_map(
         Parameters (default ``ToneMapping()``: the dark-adapted eye).
     pixel_size
         Angular size of a pixel [deg], for the acuity blur; None skips the blur.
+    dtype
+        ``numpy.float64``: sRGB values in [0, 1]; ``numpy.uint8``: the 8-bit code values
+        floor(255 v + 0.5) of an image file, made without the float image.
 
     Returns
     -------
     numpy.ndarray
-        ``(rows, cols, 3)`` sRGB in [0, 1].
+        ``(rows, cols, 3)`` sRGB in [0, 1], or its 8-bit code values [0-255].
+
+    Examples
+    --------
+    >>> xyz = np.full((2, 4, 3), 1e-3) * blackbody_white(6504.0)  # a dark grey sky
+    >>> tone_map(xyz, ToneMapping(mode="photo", exposure=100.0), dtype=np.uint8)[0, 0]
+    array([91, 88, 91], dtype=uint8)
     """
-    return _tone_map(xyz, options, pixel_size, compiled=True)
+    return _tone_map(xyz, options, pixel_size, compiled=True, dtype=dtype)
+
+
+#: Added to the luminance inside the logarithm of the log-average [cd m-2]
+#: (:func:`log_average_luminance`'s default).
+LOG_AVERAGE_FLOOR = 1e-9
+#: Gaussian blurs narrower than this are skipped [pixel]: the kernel truncated at 4 sigma
+#: (scipy.ndimage's default) is then three taps whose outer weights are below 0.5 %.
+MIN_BLUR_SIGMA = 0.3
+#: Half-width of the blur kernel [sigma] (scipy.ndimage's default truncation).
+BLUR_TRUNCATE = 4.0
 
 
 def _tone_map(
-    xyz: ArrayLike, options: ToneMapping | None, pixel_size: float | None, *, compiled: bool
-) -> FloatArray:
-    """:func:`tone_map` with its per-pixel steps compiled (:mod:`._tone_map_numba`) or in
-    numpy (the reference)."""
+    xyz: ArrayLike,
+    options: ToneMapping | None,
+    pixel_size: float | None,
+    *,
+    compiled: bool,
+    dtype: DTypeLike = np.float64,
+) -> NDArray[Any]:
+    """:func:`tone_map` compiled (:mod:`._tonemap_numba`) or in numpy (the reference)."""
     options = options if options is not None else ToneMapping()
+    kind = np.dtype(dtype)
+    if kind not in (np.dtype(np.float64), np.dtype(np.uint8)):
+        raise InputError(f"tone map dtype {kind}: expected float64 or uint8")
+    codes = kind == np.dtype(np.uint8)
+    if options.mode == "eye":
+        low, high = options.mesopic_log_range
+        if not high > low:
+            raise InputError(f"log_range {(low, high)}: expected low < high [log10 cd m-2]")
     values = np.asarray(xyz, dtype=float)
+    if compiled:
+        return _tone_map_compiled(values, options, pixel_size, codes=codes)
     valid = np.all(np.isfinite(values), axis=-1)
     values = np.where(valid[..., None], np.maximum(values, 0.0), 0.0)
     adaptation = (
@@ -487,60 +527,132 @@ def _tone_map(
         if options.white_temperature is not None:
             values = white_balance(values, options.white_temperature)
         scale = options.exposure if options.exposure is not None else 1.0 / (20.0 * adaptation)
+        display = scale * values
     else:
-        if compiled:
-            from nightlights.nightsky._tonemap_numba import blue_shift_pixels
-
-            low, high = options.mesopic_log_range
-            if not high > low:
-                raise InputError(f"log_range {(low, high)}: expected low < high [log10 cd m-2]")
-            flat = np.ascontiguousarray(values.reshape(-1, 3))
-            values = blue_shift_pixels(
-                flat, *options.blue_point, options.scotopic_scale, low, high
-            ).reshape(values.shape)
-        else:
-            values = blue_shift(
-                values,
-                blue_point=options.blue_point,
-                scotopic_scale=options.scotopic_scale,
-                log_range=options.mesopic_log_range,
-            )
+        values = blue_shift(
+            values,
+            blue_point=options.blue_point,
+            scotopic_scale=options.scotopic_scale,
+            log_range=options.mesopic_log_range,
+        )
         if options.acuity_blur and pixel_size is not None and pixel_size > 0:
             values = _blur(values, valid, acuity_blur_sigma(adaptation) / pixel_size)
         scale = options.exposure if options.exposure is not None else options.key / adaptation
-    if compiled:
-        from nightlights.nightsky._tonemap_numba import display_pixels
-
-        rgb = display_pixels(
-            np.ascontiguousarray(values.reshape(-1, 3)),
-            valid.reshape(-1),
-            float(scale),
-            options.mode != "photo",
-            _srgb_matrix(),
-        )
-        return rgb.reshape(values.shape)
-    if options.mode == "photo":
-        display = scale * values
-    else:
         lum = values[..., 1]
         compressed = reinhard_global(lum, scale)
         ratio = np.divide(compressed, lum, out=np.zeros_like(lum), where=lum > 0)
         display = values * ratio[..., None]
-    rgb = xyz_to_srgb(display)
-    return np.where(valid[..., None], rgb, 0.0)
+    rgb = np.where(valid[..., None], xyz_to_srgb(display), 0.0)
+    if codes:
+        return np.floor(255.0 * rgb + 0.5).astype(np.uint8)
+    return rgb
+
+
+def _tone_map_compiled(
+    values: FloatArray, options: ToneMapping, pixel_size: float | None, *, codes: bool
+) -> NDArray[Any]:
+    """The compiled tone mapping: two parallel passes, no full-size temporaries."""
+    from nightlights.nightsky import _tonemap_numba as compiled
+
+    shape = values.shape
+    eye = options.mode == "eye"
+    low, high = options.mesopic_log_range
+    flat, valid, log_sum, count = compiled.perceived_pixels(
+        np.ascontiguousarray(values.reshape(-1, 3)),
+        LOG_AVERAGE_FLOOR,
+        eye and options.white_temperature is None,
+        *options.blue_point,
+        options.scotopic_scale,
+        low,
+        high,
+    )
+    if options.adaptation_luminance is not None:
+        adaptation = options.adaptation_luminance
+    else:
+        adaptation = math.exp(log_sum / count) if count else LOG_AVERAGE_FLOOR
+    weights = np.ones(1)
+    if not eye:
+        if options.white_temperature is not None:
+            flat = white_balance(flat, options.white_temperature)
+        scale = options.exposure if options.exposure is not None else 1.0 / (20.0 * adaptation)
+    else:
+        if options.acuity_blur and pixel_size is not None and pixel_size > 0:
+            sigma = acuity_blur_sigma(adaptation) / pixel_size
+            if sigma >= MIN_BLUR_SIGMA:
+                weights = _gaussian_weights(sigma)
+        scale = options.exposure if options.exposure is not None else options.key / adaptation
+    image = flat.reshape(-1, shape[-2] if len(shape) > 2 else 1, 3)
+    mask = valid.reshape(image.shape[:2])
+    renormalise = weights.size > 1 and not valid.all()
+    arguments = (image, mask, weights, renormalise, float(scale), eye, _srgb_matrix())
+    if codes:
+        out = compiled.display_codes(*arguments, *_srgb8_table())
+    else:
+        out = compiled.display_pixels(*arguments)
+    return out.reshape(shape)
+
+
+def _gaussian_weights(sigma: float) -> FloatArray:
+    """The 1-D Gaussian kernel of scipy.ndimage.gaussian_filter: taps to 4 sigma, sum 1."""
+    radius = int(BLUR_TRUNCATE * sigma + 0.5)
+    x = np.arange(-radius, radius + 1)
+    weights = np.exp(-0.5 / (sigma * sigma) * x**2)
+    return weights / weights.sum()
+
+
+#: Entries of the table that starts the search for an 8-bit code [1]: 4096 bins over [0, 1]
+#: hold at most two code steps each (the steepest part of the sRGB curve, its linear segment,
+#: steps every 1 / (255 x 12.92) = 3.0e-4).
+CODE_TABLE_SIZE = 4096
+
+
+@functools.cache
+def _srgb8_table() -> tuple[NDArray[np.uint8], FloatArray]:
+    """The code table and the 255 linear values where the 8-bit sRGB code steps up.
+
+    The code is floor(255 encode(v) + 0.5). Code k starts where the encoded value reaches
+    (k - 0.5) / 255; the inverse transfer function gives the linear value, then steps of one
+    unit in the last place put it on the first double whose code, as the numpy transfer
+    function computes it, is k. The table holds the code at each of ``CODE_TABLE_SIZE`` evenly
+    spaced linear values.
+    """
+
+    def code(linear: FloatArray) -> FloatArray:
+        encoded = np.where(
+            linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1.0 / 2.4) - 0.055
+        )
+        return np.floor(255.0 * encoded + 0.5)
+
+    k = np.arange(1, 256, dtype=float)
+    level = (k - 0.5) / 255.0
+    start = np.where(level <= 0.04045, level / 12.92, ((level + 0.055) / 1.055) ** 2.4)
+    for _ in range(64):
+        reached = code(start) >= k
+        below = np.nextafter(start, 0.0)
+        down = reached & (code(below) >= k)  # the double below is already code k
+        if not (down.any() or not reached.all()):
+            break
+        start = np.where(down, below, np.where(reached, start, np.nextafter(start, 1.0)))
+    grid = np.linspace(0.0, 1.0, CODE_TABLE_SIZE)
+    table = np.searchsorted(start, grid, side="right").astype(np.uint8)
+    return table, start
 
 
 def _blur(values: FloatArray, valid: NDArray[np.bool_], sigma_pixels: float) -> FloatArray:
     """Gaussian blur of the sky pixels only (normalised so the edge of the sky is not darkened)."""
     from scipy.ndimage import gaussian_filter
 
-    if sigma_pixels < 0.3:
+    if sigma_pixels < MIN_BLUR_SIGMA:
         return values
     # one pass over the three channels, none across them
-    blurred = gaussian_filter(values, (sigma_pixels, sigma_pixels, 0.0), mode="nearest")
+    blurred = gaussian_filter(
+        values, (sigma_pixels, sigma_pixels, 0.0), mode="nearest", truncate=BLUR_TRUNCATE
+    )
     if valid.all():  # nothing to renormalise: the weight is 1 everywhere
         return blurred
-    weight = gaussian_filter(valid.astype(float), sigma_pixels, mode="nearest")
+    weight = gaussian_filter(
+        valid.astype(float), sigma_pixels, mode="nearest", truncate=BLUR_TRUNCATE
+    )
     return np.divide(
         blurred, weight[..., None], out=np.zeros_like(blurred), where=weight[..., None] > 0
     )

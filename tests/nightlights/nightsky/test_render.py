@@ -261,3 +261,45 @@ def test_a_file_that_is_not_a_panorama_is_one_line_error(tmp_path) -> None:
     fake.write_bytes(b"not a NetCDF file")
     with pytest.raises(InputError, match="not a NetCDF panorama"):
         sky_render(None, time="2026-01-25T20:00:00Z", panorama=fake)
+
+
+def glow_panorama() -> xr.Dataset:
+    """A city glow brightest toward the south-west near the horizon, 16 x 64 pixels."""
+    elevation = 90.0 - (np.arange(16) + 0.5) * 90.0 / 16
+    azimuth = (np.arange(64) + 0.5) * 360.0 / 64
+    el, az = np.meshgrid(elevation, azimuth, indexing="ij")
+    glow = 2e-4 + 3e-3 * np.exp(-el / 15.0) * (1.0 + np.cos(np.radians(az - 225.0))) / 2.0
+    return xr.Dataset(
+        {"luminance": (("elevation", "azimuth"), glow)},
+        coords={"elevation": elevation, "azimuth": azimuth},
+    )
+
+
+@pytest.mark.parametrize("view", views(320, 160), ids=PROJECTIONS)
+def test_compiled_render_equals_the_numpy_reference(view: View) -> None:
+    from nightlights.nightsky.render import _render_sky
+
+    # a moonlit night (Moon 51 deg up, 68 % lit) with a city glow and every star
+    time, lon, lat = "2026-01-27T19:00:00Z", 24.95, 60.17
+    args = (time, lon, lat, view, glow_panorama(), SkyOptions(limiting_magnitude=False), None)
+    compiled = _render_sky(*args, compiled=True)
+    reference = _render_sky(*args, compiled=False)
+    assert compiled.summary == reference.summary
+    assert "moon_elevation_deg" in compiled.summary and compiled.summary["stars_drawn"] > 1000
+    np.testing.assert_array_equal(np.isnan(compiled.xyz), np.isnan(reference.xyz))
+    np.testing.assert_allclose(compiled.xyz, reference.xyz, rtol=1e-12, atol=0.0)
+
+
+def test_sources_drawn_in_place_equal_sources_drawn_alone() -> None:
+    for view in views(256, 128):
+        pixels = view_pixels(view)
+        elevation, azimuth, flux = random_stars(300, 11)
+        sky = np.full((*view.shape, 3), 1e-4)
+        alone = splat_points(pixels, elevation, azimuth, flux)
+        drawn = splat_points(pixels, elevation, azimuth, flux, out=sky.copy())
+        np.testing.assert_allclose(drawn, sky + alone, rtol=1e-13)
+        disc = splat_disc(pixels, 35.0, 200.0, 4.0, np.array([1.0, 2.0, 3.0]))
+        on_sky = splat_disc(pixels, 35.0, 200.0, 4.0, np.array([1.0, 2.0, 3.0]), out=sky.copy())
+        np.testing.assert_allclose(on_sky, sky + disc, rtol=1e-13)
+    with pytest.raises(InputError, match="splat output"):
+        splat_points(pixels, elevation, azimuth, flux, out=np.zeros((3, 3, 3)))

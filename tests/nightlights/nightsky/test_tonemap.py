@@ -122,27 +122,106 @@ def test_bad_parameters_are_refused() -> None:
         mesopic_weight(1.0, log_range=(1.0, -1.0))
 
 
-@pytest.mark.parametrize(
-    "options",
-    [
-        ToneMapping(),
-        ToneMapping(acuity_blur=False, exposure=3e4),
-        ToneMapping(mode="photo"),
-        ToneMapping(mode="photo", white_temperature=4000.0, exposure=2e3),
-    ],
-)
-def test_compiled_tone_map_equals_the_numpy_reference(options: ToneMapping) -> None:
-    from nightlights.nightsky.tonemap import _tone_map
-
-    # a sky from far below the mesopic range to above it, every light colour, some pixels
-    # with no sky (NaN), some black, and luminances above the display white
+def night_sky_sample() -> np.ndarray:
+    """A sky from far below the mesopic range to above it, every light colour, some pixels
+    with no sky (NaN), some black, and luminances above the display white."""
     rng = np.random.default_rng(5)
     luminance = 10.0 ** rng.uniform(-7.0, 3.0, (40, 60))
     lights = np.array(LIGHTS)[rng.integers(0, len(LIGHTS), (40, 60))]
     xyz = lights / lights[..., 1:2] * luminance[..., None]
     xyz[:3] = np.nan
     xyz[5, :10] = 0.0
-    compiled = _tone_map(xyz, options, 0.05, compiled=True)
-    reference = _tone_map(xyz, options, 0.05, compiled=False)
+    return xyz
+
+
+TONE_MAPPINGS = [
+    ToneMapping(),
+    ToneMapping(acuity_blur=False, exposure=3e4),
+    ToneMapping(mode="photo"),
+    ToneMapping(mode="photo", white_temperature=4000.0, exposure=2e3),
+]
+
+
+@pytest.mark.parametrize("options", TONE_MAPPINGS)
+@pytest.mark.parametrize("pixel_size", [0.05, 1.0])
+def test_compiled_tone_map_equals_the_numpy_reference(
+    options: ToneMapping, pixel_size: float
+) -> None:
+    from nightlights.nightsky.tonemap import _tone_map
+
+    xyz = night_sky_sample()
+    compiled = _tone_map(xyz, options, pixel_size, compiled=True)
+    reference = _tone_map(xyz, options, pixel_size, compiled=False)
     np.testing.assert_allclose(compiled, reference, rtol=0, atol=1e-12)
     assert np.all(compiled[:3] == 0.0)
+
+
+def test_compiled_blur_equals_scipy_with_and_without_sky_edges() -> None:
+    from nightlights.nightsky.tonemap import _tone_map, acuity_blur_sigma
+
+    # a dark sky (adaptation 1e-5 cd m-2) blurs by several pixels at 0.05 deg per pixel
+    rng = np.random.default_rng(9)
+    xyz = 1e-5 * 10.0 ** rng.uniform(-1.0, 1.0, (30, 50))[..., None] * blackbody_white(4000.0)
+    assert acuity_blur_sigma(1e-5) / 0.05 > 3.0
+    for edge in (False, True):
+        if edge:
+            xyz[:, :4] = np.nan  # sky edge: the blur is renormalised by the sky's share
+        compiled = _tone_map(xyz, ToneMapping(), 0.05, compiled=True)
+        reference = _tone_map(xyz, ToneMapping(), 0.05, compiled=False)
+        np.testing.assert_allclose(compiled, reference, rtol=0, atol=1e-12)
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1, written out here independently of the module."""
+    return np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+
+
+@pytest.mark.parametrize("options", TONE_MAPPINGS)
+def test_eight_bit_codes_are_the_rounded_reference(options: ToneMapping) -> None:
+    from nightlights.nightsky.tonemap import _tone_map
+
+    xyz = night_sky_sample()
+    codes = tone_map(xyz, options, pixel_size=0.05, dtype=np.uint8)
+    reference = _tone_map(xyz, options, 0.05, compiled=False)
+    assert codes.dtype == np.uint8 and codes.shape == xyz.shape
+    expected = np.floor(255.0 * reference + 0.5)
+    # the compiled and numpy paths differ by rounding (1e-14): a value that close to a code
+    # boundary may round either way; every other value gets exactly the rounded code
+    near_boundary = np.abs(255.0 * reference + 0.5 - np.round(255.0 * reference + 0.5)) < 1e-9
+    assert np.all((codes == expected) | near_boundary)
+    assert np.all(np.abs(codes - expected) <= 1)
+    assert np.all(codes[:3] == 0)
+
+
+def test_eight_bit_code_steps_sit_on_the_srgb_boundaries() -> None:
+    from nightlights.nightsky._tonemap_numba import display_codes
+    from nightlights.nightsky.tonemap import _srgb8_table
+
+    table, steps = _srgb8_table()
+    assert steps.size == 255 and np.all(np.diff(steps) > 0)
+    codes = np.floor(255.0 * srgb_encode(steps) + 0.5)
+    below = np.floor(255.0 * srgb_encode(np.nextafter(steps, 0.0)) + 0.5)
+    np.testing.assert_array_equal(codes, np.arange(1, 256))
+    np.testing.assert_array_equal(below, np.arange(0, 255))
+    # grey pixels (X, Y, Z of D65 white) at every boundary, a hair below and at it: through
+    # the compiled lookup each gets the code of its linear value
+    d65 = np.array([0.95047, 1.0, 1.08883])
+    linear = np.concatenate([np.nextafter(steps, 0.0), steps, np.linspace(0.0, 1.0, 1001)])
+    # identity display (photo mode, exposure 1): XYZ -> sRGB of a grey returns its Y
+    xyz = linear[:, None] * d65 / d65[1]
+    matrix = np.linalg.inv(
+        np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
+    )
+    out = display_codes(
+        xyz[None],
+        np.ones((1, linear.size), bool),
+        np.ones(1),
+        False,
+        1.0,
+        False,
+        matrix,
+        table,
+        steps,
+    )[0]
+    grey = np.clip(xyz @ matrix.T, 0.0, 1.0)
+    np.testing.assert_array_equal(out, np.searchsorted(steps, grey, side="right"))
