@@ -52,31 +52,33 @@ def run_command(project: str, output: str | None, force: tuple[str, ...], check_
     outputs) is skipped; an interrupted run leaves no output that looks complete.
     """
     from rich.console import Console
+    from rich.markup import escape
 
     from nightlights.project import check, run
 
-    console = Console(stderr=True)
+    console = Console(stderr=True, emoji=False, highlight=False)
     if check_only:
         plan = check(project, output, force=force)
         for name, up_to_date in plan:
-            console.print(f"  {'up to date' if up_to_date else 'runs':>10}  {name}")
+            console.print(f"  {'up to date' if up_to_date else 'runs':>10}  {name}", markup=False)
         runs = sum(not up for _, up in plan)
-        console.print(f"{project}: valid; {runs} of {len(plan)} stages would run")
+        console.print(f"{project}: valid; {runs} of {len(plan)} stages would run", markup=False)
         return
 
     def on_task(name: str, event: str, seconds: float) -> None:
         if event == "start":
-            console.print(f"  [bold]{name}[/] ...")
+            console.print(f"  [bold]{escape(name)}[/] ...")
         elif event == "ran":
-            console.print(f"  {name}: {seconds:.1f} s")
+            console.print(f"  {name}: {seconds:.1f} s", markup=False)
         else:
-            console.print(f"  {name}: up to date")
+            console.print(f"  {name}: up to date", markup=False)
 
     result = run(project, output, force=force, on_task=on_task)
     print_outputs(console, result)
     console.print(
         f"ran {len(result.ran)}, up to date {len(result.cached)} in {result.seconds:.1f} s; "
-        f"outputs in {result.folder}"
+        f"outputs in {result.folder}",
+        markup=False,
     )
 
 
@@ -84,15 +86,16 @@ def print_outputs(console: Any, result: Any) -> None:
     """The outputs, zenith figures and findings of a project run, one line each."""
     width = max((len(name) for name in result.outputs), default=0)
     for name, path in result.outputs.items():
-        console.print(f"  {name:>{width}}: {path}", soft_wrap=True)
+        console.print(f"  {name:>{width}}: {path}", soft_wrap=True, markup=False)
     for name, (magnitude, bortle) in result.zenith.items():
         console.print(
             f"  zenith sky at {name}: {magnitude:.2f} mag arcsec-2 from the artificial light "
             f"alone (Bortle {bortle})",
             soft_wrap=True,
+            markup=False,
         )
     for line in result.findings:
-        console.print(f"  {line}", soft_wrap=True)
+        console.print(f"  {line}", soft_wrap=True, markup=False)
 
 
 commands = [run_command]

@@ -7,8 +7,9 @@ outputs of the stages upstream). When a stage finishes, a record is written in
 modification time. A stage is skipped when its record's key equals the new key and every
 output is still there with the recorded content (size and modification time unchanged, else
 hashed again). A stage that reruns first loses its record and its old outputs; its new outputs
-are written into a staging folder and moved into place only when it has finished, and its
-record comes last, so an interrupted run (Ctrl-C) leaves no output that looks complete.
+are written into a staging folder and moved into place (with their style sidecars) only when
+it has finished, and its record comes last, so an interrupted run (Ctrl-C) leaves no output
+that looks complete.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from nightlights.io.outputs import sidecar_paths
 
 #: Folder of the records and the staging folders, inside the output folder.
 RECORD_FOLDER = ".nightlights"
@@ -126,9 +129,10 @@ class StageCache:
             path = self.folder / name
             if path.is_dir():
                 shutil.rmtree(path)
-            else:
+                continue
+            for file in (path, *sidecar_paths(path)):
                 with contextlib.suppress(FileNotFoundError):
-                    path.unlink()
+                    file.unlink()
 
     @contextlib.contextmanager
     def staging(self, task: str) -> Iterator[Path]:
@@ -177,6 +181,11 @@ class StageCache:
             target = self.folder / path.name
             if target.is_dir():
                 shutil.rmtree(target)
+            for sidecar, destination in zip(
+                sidecar_paths(path), sidecar_paths(target), strict=True
+            ):
+                if sidecar.exists():
+                    os.replace(sidecar, destination)
             os.replace(path, target)
             final[name] = target
         states = {name: _state(path) for name, path in final.items()}

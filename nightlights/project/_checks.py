@@ -24,6 +24,8 @@ from nightlights.project._schema import (
     Observer,
     ProjectError,
     ProjectFile,
+    builtin_mappings,
+    network_names,
     reach,
 )
 
@@ -80,8 +82,6 @@ def _check_inputs(parsed: ProjectFile) -> None:
             raise ProjectError(f"inputs.{name}: {path} does not exist")
     if inputs.catalog is not None and not inputs.catalog.is_dir():
         raise ProjectError(f"inputs.catalog: {inputs.catalog} is not a folder")
-    from bayesnets import catalog_names
-    from nightlights.streets import builtin_mappings
 
     if inputs.mapping not in builtin_mappings() and not Path(inputs.mapping).is_file():
         raise ProjectError(
@@ -90,12 +90,12 @@ def _check_inputs(parsed: ProjectFile) -> None:
         )
     if (
         inputs.network is not None
-        and inputs.network not in catalog_names()
+        and inputs.network not in network_names()
         and not Path(inputs.network).is_dir()
     ):
         raise ProjectError(
             f"inputs.network = {inputs.network!r}: neither a catalogue network "
-            f"({', '.join(catalog_names())}) nor a network folder"
+            f"({', '.join(network_names())}) nor a network folder"
         )
     observers = parsed.observers
     if observers is not None and observers.file is not None and not observers.file.is_file():

@@ -11,7 +11,14 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from nightlights.project._checks import check_project
-from nightlights.project._schema import PathOrMapping, Project, ProjectError, ProjectFile
+from nightlights.project._schema import (
+    PathOrMapping,
+    Project,
+    ProjectError,
+    ProjectFile,
+    builtin_mappings,
+    network_names,
+)
 
 
 def load_project(
@@ -77,9 +84,6 @@ def _absolute(parsed: ProjectFile, folder: Path) -> ProjectFile:
     def fix(path: Path | None) -> Path | None:
         return None if path is None else (folder / path.expanduser()).resolve()
 
-    from bayesnets import catalog_names
-    from nightlights.streets import builtin_mappings
-
     update: dict[str, Any] = {
         name: fix(getattr(parsed.inputs, name))
         for name in ("streets", "emission", "viirs", "dem", "catalog")
@@ -87,7 +91,7 @@ def _absolute(parsed: ProjectFile, folder: Path) -> ProjectFile:
     if parsed.inputs.mapping not in builtin_mappings():
         update["mapping"] = str(fix(Path(parsed.inputs.mapping)))
     network = parsed.inputs.network
-    if network is not None and network not in catalog_names():
+    if network is not None and network not in network_names():
         update["network"] = str(fix(Path(network)))
     inputs = parsed.inputs.model_copy(update=update)
     stages = parsed.stages

@@ -351,6 +351,22 @@ class Project:
 PathOrMapping = str | os.PathLike[str] | Mapping[str, Any]
 
 
+def builtin_mappings() -> list[str]:
+    """The built-in street mappings (``nightlights.streets.builtin_mappings``), listed without
+    importing the streets package."""
+    import nightlights
+
+    folder = Path(nightlights.__file__).parent / "streets" / "mappings"
+    return sorted(p.name[:-5] for p in folder.glob("*.toml"))
+
+
+def network_names() -> list[str]:
+    """The catalogue networks (``bayesnets.catalog_names``)."""
+    from bayesnets import catalog_names
+
+    return list(catalog_names())
+
+
 def reach(project_file: ProjectFile) -> float:
     """How far from the data an observer may stand [m]: the kernel's range."""
     kernel = project_file.kernel
