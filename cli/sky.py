@@ -162,3 +162,8 @@ def render(
 
 
 commands = [sky]
+
+
+from cli.observers import observers as _observers  # noqa: E402 (a command of this group)
+
+sky.add_command(_observers)

@@ -306,6 +306,7 @@ def observers(
     *,
     observers: Any,
     observer_crs: str | None = None,
+    observers_layer: str | None = None,
     names: Sequence[str] | None = None,
     kernel: KernelResult | xr.Dataset | PathLike | None = None,
     dem: RasterInput | None = None,
@@ -335,6 +336,8 @@ def observers(
         ``name`` column names them.
     observer_crs
         CRS of an array of observers, or of a layer without one (default: the emission's).
+    observers_layer
+        Layer of an observers file (default: its first).
     names
         One unique name per observer (default: the layer's ``name`` column, else
         ``observer_1``, ``observer_2``, ...).
@@ -407,7 +410,7 @@ def observers(
     cells = as_lit_cells(emission)
     if cells.crs is None or not cells.crs.is_projected:
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
-    xy, given_names = _observer_points(observers, observer_crs, cells.crs)
+    xy, given_names = _observer_points(observers, observer_crs, observers_layer, cells.crs)
     labels = _names(names if names is not None else given_names, len(xy))
     folder = Path(panoramas) if panoramas is not None else None
     files = {name: folder / f"{_file_name(name)}.nc" for name in labels} if folder else {}
@@ -486,12 +489,12 @@ def _check_scheduler(scheduler: Any) -> None:
 
 
 def _observer_points(
-    source: Any, observer_crs: str | None, crs: CRS
+    source: Any, observer_crs: str | None, layer: str | None, crs: CRS
 ) -> tuple[FloatArray, list[str] | None]:
     """The observers as ``(n, 2)`` coordinates in the emission's CRS and the layer's names."""
     names: list[str] | None = None
     if isinstance(source, gpd.GeoDataFrame | str | os.PathLike):
-        frame, where = as_vector(source, name="observers")
+        frame, where = as_vector(source, layer=layer, name="observers")
         if frame.crs is not None and observer_crs is not None:
             if not CRS.from_user_input(observer_crs).equals(frame.crs):
                 raise InputError(
@@ -512,6 +515,8 @@ def _observer_points(
         if "name" in frame:
             names = [str(v) for v in frame["name"]]
     else:
+        if layer is not None:
+            raise InputError(f"observers_layer={layer!r} names a layer of a file of observers")
         points = np.asarray(source, dtype=float)
         if points.ndim != 2 or points.shape[1] != 2:
             raise InputError(
