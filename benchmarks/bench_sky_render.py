@@ -1,12 +1,22 @@
-"""Night-sky rendering: time against resolution, and the star point-spread knob.
+"""Night-sky rendering: the whole picture, time against resolution, the star point-spread knob.
+
+Part 0, the picture: a 2048 x 1024 equirectangular panorama with every catalogue star above
+the horizon (no limiting magnitude), the natural background, the Moon (up) and a 64 x 256
+artificial skyglow panorama, tone-mapped for the dark-adapted eye and written as a PNG with its
+legend, as ``nightlights sky render`` does it (:func:`nightlights.nightsky.stage.sky_render`,
+in this process: without the interpreter's start and imports). Against the reference path of
+the same steps in the same run, calls alternating: the numpy render (full-size temporaries,
+Moon and stars drawn on their own images and added), the numpy tone mapping to floats, and the
+previous writer (a matplotlib figure, reproduced here). Target: 1 s. Time: wall time, best
+of 5, and the CPU time of the process (all threads) of the best call; the load average of the
+machine is recorded beside them.
 
 Part 1, resolution: :func:`nightlights.nightsky.render.render_sky` of an equirectangular
-panorama (azimuth 0-360 across, elevation 0-90 down) from 256 x 64 to 2048 x 1024 pixels, with
-every catalogue star above the horizon drawn (no limiting magnitude), the natural background,
-the Moon (up) and a 64 x 256 artificial skyglow panorama; then the night-vision tone
-mapping of the same image. Also fisheye and perspective views of about 2 million pixels.
-Time: wall time, best of 3, and the CPU time of one call (the process's own time, less
-disturbed than the wall time by other jobs on the shared machine).
+panorama (azimuth 0-360 across, elevation 0-90 down) from 256 x 64 to 2048 x 1024 pixels, the
+same scene; then the night-vision tone mapping of the same image to 8-bit sRGB (as the PNG
+holds it). Also fisheye and perspective views of about 2 million pixels. Time: wall time, best
+of 3, and the CPU time of one call (the process's own time, less disturbed than the wall time
+by other jobs on the shared machine).
 
 Part 2, the point-spread knob: ``sigma`` [pixel] of
 :func:`~nightlights.nightsky.render.splat_points` for 960 stars at random sub-pixel positions
@@ -24,7 +34,10 @@ and sigmas). Writes ``sky_render.json`` and ``.png`` (see ``_harness.py`` for wh
 
 from __future__ import annotations
 
+import os
+import tempfile
 import time
+from pathlib import Path
 
 import _harness as harness
 import numpy as np
@@ -37,11 +50,13 @@ from nightlights.nightsky.render import (
     PSF_SIGMA,
     SkyOptions,
     View,
+    _render_sky,
     render_sky,
     splat_points,
     view_pixels,
 )
-from nightlights.nightsky.tonemap import tone_map
+from nightlights.nightsky.stage import legend_text, sky_render
+from nightlights.nightsky.tonemap import _tone_map, tone_map
 
 #: Helsinki, a winter evening with the waxing gibbous Moon up.
 TIME, LON, LAT = "2026-01-27T19:00:00Z", 24.95, 60.17
@@ -65,6 +80,114 @@ def panorama() -> xr.Dataset:
     )
 
 
+PICTURE = View("equirectangular", 2048, 1024)
+#: Calls of each path in the picture comparison.
+PICTURE_REPEATS = 5
+
+
+def figure_png(rgb: np.ndarray, path: Path, legend: str) -> None:
+    """The previous PNG writer: a matplotlib figure pixel for pixel, the legend strip below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows, cols = rgb.shape[:2]
+    dpi, strip = 100, 40
+    fig = plt.figure(figsize=(cols / dpi, (rows + strip) / dpi), dpi=dpi, facecolor="black")
+    fig.figimage(np.clip(rgb, 0.0, 1.0), xo=0, yo=strip, origin="upper")
+    fig.text(
+        0.005,
+        (strip / 2) / (rows + strip),
+        legend,
+        color="white",
+        fontsize=8,
+        va="center",
+        family="monospace",
+    )
+    fig.savefig(path, dpi=dpi, format="png", facecolor="black")
+    plt.close(fig)
+
+
+def reference_picture(pano: xr.Dataset, path: Path) -> dict:
+    """The picture by the reference path, step by step [s]."""
+    options = SkyOptions(limiting_magnitude=False)
+    steps = {}
+    start = time.perf_counter()
+    image = _render_sky(TIME, LON, LAT, PICTURE, pano, options, None, compiled=False)
+    steps["render"] = time.perf_counter() - start
+    rgb = _tone_map(image.xyz, None, image.pixels.pixel_size, compiled=False)
+    steps["tone_map"] = time.perf_counter() - start - steps["render"]
+    figure_png(rgb, path, legend_text(TIME, (LON, LAT), image.summary))
+    steps["png"] = time.perf_counter() - start - steps["render"] - steps["tone_map"]
+    return steps
+
+
+def compiled_picture(pano: xr.Dataset, path: Path) -> dict:
+    """The picture by the stage [s]."""
+    start = time.perf_counter()
+    sky_render(
+        path,
+        time=TIME,
+        lonlat=(LON, LAT),
+        panorama=pano,
+        width=PICTURE.width,
+        height=PICTURE.height,
+        limiting_magnitude=False,
+    )
+    return {"stage": time.perf_counter() - start}
+
+
+def picture_rows(pano: xr.Dataset) -> dict:
+    folder = Path(tempfile.mkdtemp())
+    runs: dict[str, list] = {"compiled": [], "reference": []}
+    for _ in range(PICTURE_REPEATS):  # alternate, so that both see the same load
+        for name, draw in (("compiled", compiled_picture), ("reference", reference_picture)):
+            cpu = time.process_time()
+            start = time.perf_counter()
+            steps = draw(pano, folder / f"{name}.png")
+            wall = time.perf_counter() - start
+            runs[name].append(
+                {"seconds": wall, "cpu_seconds": time.process_time() - cpu, "steps": steps}
+            )
+    # the stage's steps, timed alone: render, 8-bit tone map, PNG with the legend
+    from nightlights.nightsky.stage import write_png
+
+    options = SkyOptions(limiting_magnitude=False)
+    render = harness.repeat(
+        lambda: render_sky(TIME, LON, LAT, view=PICTURE, panorama=pano, options=options),
+        PICTURE_REPEATS,
+    )
+    image = render.value
+    tone = harness.repeat(
+        lambda: tone_map(image.xyz, pixel_size=image.pixels.pixel_size, dtype=np.uint8),
+        PICTURE_REPEATS,
+    )
+    text = legend_text(TIME, (LON, LAT), image.summary)
+    png = harness.repeat(
+        lambda: write_png(tone.value, folder / "steps.png", text, "equirectangular"),
+        PICTURE_REPEATS,
+    )
+    best = {name: min(rows, key=lambda row: row["seconds"]) for name, rows in runs.items()}
+    result = {
+        "width": PICTURE.width,
+        "height": PICTURE.height,
+        "seconds": best["compiled"]["seconds"],
+        "cpu_seconds": best["compiled"]["cpu_seconds"],
+        "reference_seconds": best["reference"]["seconds"],
+        "reference_cpu_seconds": best["reference"]["cpu_seconds"],
+        "reference_steps_seconds": best["reference"]["steps"],
+        "speedup": best["reference"]["seconds"] / best["compiled"]["seconds"],
+        "steps_seconds": {"render": render.best, "tone_map_8bit": tone.best, "png": png.best},
+        "png_bytes": (folder / "compiled.png").stat().st_size,
+        "reference_png_bytes": (folder / "reference.png").stat().st_size,
+        "all_seconds": {name: [row["seconds"] for row in rows] for name, rows in runs.items()},
+        "load_average_1min": os.getloadavg()[0],
+    }
+    print(result, flush=True)
+    return result
+
+
 def resolution_rows(sizes: tuple, pano: xr.Dataset) -> list[dict]:
     options = SkyOptions(limiting_magnitude=False)
     views = [View("equirectangular", w, h) for w, h in sizes] + list(OTHER_VIEWS)
@@ -79,7 +202,10 @@ def resolution_rows(sizes: tuple, pano: xr.Dataset) -> list[dict]:
         render_sky(TIME, LON, LAT, view=view, panorama=pano, options=options)
         cpu = time.process_time() - cpu_start
         tone = harness.repeat(
-            lambda image=image: tone_map(image.xyz, pixel_size=image.pixels.pixel_size), 3
+            lambda image=image: tone_map(
+                image.xyz, pixel_size=image.pixels.pixel_size, dtype=np.uint8
+            ),
+            3,
         )
         rows.append(
             {
@@ -168,9 +294,14 @@ def main() -> None:
         ),
         "target_seconds_2048x1024": 1.0,
         "default_sigma_pixels": PSF_SIGMA,
+        "load_average_1min_start": os.getloadavg()[0],
+        "picture": picture_rows(panorama()),
         "resolution": resolution_rows(sizes, panorama()),
         "psf": psf_rows(sigmas),
-        "note": "Timings from a shared 2-core machine, noisy; best of 3.",
+        "note": (
+            "Timings from a 2-core machine shared with other jobs (load average recorded), "
+            "noisy; best of 3 (picture: best of 5, paths alternating)."
+        ),
     }
     harness.write_results(args.out, "sky_render", result, quick=args.quick, plot=plot, dpi=110)
 
@@ -183,7 +314,11 @@ def plot(result: dict):
     px = [r["pixels"] for r in equi]
     ax1.loglog(px, [r["render_seconds"] for r in equi], "o-", label="render (linear XYZ)")
     ax1.loglog(px, [r["render_cpu_seconds"] for r in equi], "o:", label="render, CPU time")
-    ax1.loglog(px, [r["tone_map_seconds"] for r in equi], "s--", label="tone map (eye)")
+    ax1.loglog(px, [r["tone_map_seconds"] for r in equi], "s--", label="tone map (eye, 8-bit)")
+    pic = result["picture"]
+    pixels = pic["width"] * pic["height"]
+    ax1.loglog(pixels, pic["seconds"], "*", ms=12, label="picture: render + tone map + PNG")
+    ax1.loglog(pixels, pic["reference_seconds"], "X", ms=9, label="picture, reference path")
     for r in other:
         ax1.loglog(r["pixels"], r["render_seconds"], "^", label=f"render, {r['projection']}")
     for r in equi:
@@ -191,7 +326,10 @@ def plot(result: dict):
     ax1.axhline(result["target_seconds_2048x1024"], color="grey", lw=0.8, ls=":")
     ax1.set_xlabel("pixels")
     ax1.set_ylabel("time [s], best of 3")
-    ax1.set_title("render time, all catalogue stars", fontsize=10)
+    ax1.set_title(
+        f"render time, all catalogue stars (load average {pic['load_average_1min']:.0f})",
+        fontsize=10,
+    )
     ax1.legend(fontsize=7)
     psf = result["psf"]
     sigma = [r["sigma_pixels"] for r in psf]
