@@ -1,14 +1,21 @@
 """Run the plugin's algorithms in QGIS and report what came out: run by the system Python that
 has PyQGIS, never by the toolkit's.
 
-Usage: ``QT_QPA_PLATFORM=offscreen /usr/bin/python3 qgis_processing_run.py PLUGINS STREETS
-WORK``: PLUGINS is a QGIS plugin folder holding the unzipped plugin, STREETS a street line
-layer (``FILE|layername=NAME``), WORK a folder for the outputs. It loads the plugin as QGIS
-does (metadata, ``classFactory``, ``initProcessing``), then with ``processing.run``:
+Usage: ``QT_QPA_PLATFORM=offscreen /usr/bin/python3 qgis_processing_run.py MODE PLUGINS
+INPUT WORK``: PLUGINS is a QGIS plugin folder holding the unzipped plugin, WORK a folder for
+the outputs. It loads the plugin as QGIS does (metadata, ``classFactory``,
+``initProcessing``), then with ``processing.run``, for MODE ``light`` (INPUT: a street line
+layer, ``FILE|layername=NAME``):
 
-1. ``nightlights:streetstolights`` on STREETS;
+1. ``nightlights:streetstolights`` on INPUT;
 2. ``nightlights:irradiance`` on the lights of 1, two sensors at 5 m;
-3. ``nightlights:irradiance`` again, cancelled as soon as its command starts.
+3. ``nightlights:irradiance`` again, cancelled as soon as its command starts;
+
+for MODE ``sky`` (INPUT: a folder with the ``lights.gpkg`` and ``irradiance.tif`` of ``light``):
+
+1. ``nightlights:emission`` of those at 50 m;
+2. ``nightlights:skyglow`` over it for an observer given in longitude and latitude;
+3. ``nightlights:darkness`` over it.
 
 Prints one JSON object: for each run its outputs as QGIS opens them (validity, CRS, extent,
 features or bands and statistics), the progress values reported and the log, or the error.
@@ -23,6 +30,8 @@ from typing import Any
 PLUGIN = "nightlights_processing"
 #: Processing's own Python plugin on Debian/Ubuntu.
 PROCESSING_PLUGINS = "/usr/share/qgis/python/plugins"
+#: The sky run's observer: Esplanadi park in central Helsinki (longitude, latitude) [deg].
+OBSERVER = (24.9480, 60.1675)
 
 
 def _feedback(cancel_on_start: bool = False) -> Any:
@@ -65,10 +74,18 @@ def _vector(path: str) -> dict[str, Any]:
     }
 
 
-def _raster(path: str) -> dict[str, Any]:
-    from qgis.core import QgsRasterBandStats, QgsRasterLayer
+def _raster(path: str, sample: tuple[float, float] | None = None) -> dict[str, Any]:
+    """A raster as QGIS opens it; ``sample``: a longitude and latitude [deg] to read."""
+    from qgis.core import (
+        QgsCoordinateReferenceSystem,
+        QgsCoordinateTransform,
+        QgsPointXY,
+        QgsProject,
+        QgsRasterBandStats,
+        QgsRasterLayer,
+    )
 
-    layer = QgsRasterLayer(path, "irradiance", "gdal")
+    layer = QgsRasterLayer(path, "raster", "gdal")
     if not layer.isValid():
         return {"valid": False, "error": layer.error().summary()}
     extent = layer.extent()
@@ -84,12 +101,20 @@ def _raster(path: str) -> dict[str, Any]:
                 "mean": stats.mean,
             }
         )
+    values = []
+    if sample is not None:
+        transform = QgsCoordinateTransform(
+            QgsCoordinateReferenceSystem("EPSG:4326"), layer.crs(), QgsProject.instance()
+        )
+        point = transform.transform(QgsPointXY(*sample))
+        values = [provider.sample(point, band)[0] for band in range(1, layer.bandCount() + 1)]
     return {
         "valid": True,
         "crs": layer.crs().authid(),
         "extent": [extent.xMinimum(), extent.yMinimum(), extent.xMaximum(), extent.yMaximum()],
         "pixel": [layer.rasterUnitsPerPixelX(), layer.rasterUnitsPerPixelY()],
         "bands": bands,
+        "sample": values,
     }
 
 
@@ -108,7 +133,7 @@ def _run(algorithm: str, parameters: dict[str, Any], feedback: Any) -> dict[str,
     return {**result, "progress": feedback.progress, "log": feedback.log, "seconds": seconds}
 
 
-def main(plugins: str, streets: str, work: str) -> dict[str, Any]:
+def main(mode: str, plugins: str, source: str, work: str) -> dict[str, Any]:
     sys.path[:0] = [plugins, PROCESSING_PLUGINS]
     from qgis.core import QgsApplication
 
@@ -133,21 +158,27 @@ def main(plugins: str, streets: str, work: str) -> dict[str, Any]:
     registry = QgsApplication.processingRegistry()
     provider = registry.providerById("nightlights")
     report["algorithms"] = sorted(a.id() for a in provider.algorithms()) if provider else []
+    report.update(light(source, work) if mode == "light" else sky(source, work))
+    return report
 
+
+def light(streets: str, work: str) -> dict[str, Any]:
+    """Streets to lights, their irradiance, and a cancelled irradiance run."""
+    report: dict[str, Any] = {}
     lights = f"{work}/lights.gpkg"
     run = _run(
         "nightlights:streetstolights",
         {"INPUT": streets, "MAPPING": 1, "NETWORK": 0, "SEED": 2011, "OUTPUT": lights},
         _feedback(),
     )
-    report["streetstolights"] = {**run, "layer": _vector(lights) if "outputs" in run else None}
+    report["streetstolights"] = {**run, "layer": _vector(lights) if "error" not in run else None}
     irradiance = f"{work}/irradiance.tif"
     run = _run(
         "nightlights:irradiance",
         {"LIGHTS": lights, "RESOLUTION": 5.0, "SENSORS": [0, 1], "OUTPUT": irradiance},
         _feedback(),
     )
-    report["irradiance"] = {**run, "layer": _raster(irradiance) if "outputs" in run else None}
+    report["irradiance"] = {**run, "layer": _raster(irradiance) if "error" not in run else None}
     cancelled = f"{work}/cancelled.tif"
     report["cancelled"] = _run(
         "nightlights:irradiance",
@@ -157,8 +188,45 @@ def main(plugins: str, streets: str, work: str) -> dict[str, Any]:
     return report
 
 
+def sky(folder: str, work: str) -> dict[str, Any]:
+    """Emission of the light run's outputs, then skyglow at :data:`OBSERVER` and darkness."""
+    report: dict[str, Any] = {}
+    emission = f"{work}/emission.tif"
+    run = _run(
+        "nightlights:emission",
+        {
+            "IRRADIANCE": f"{folder}/irradiance.tif",
+            "LIGHTS": f"{folder}/lights.gpkg",
+            "RESOLUTION": 50.0,
+            "ALBEDO": 0.15,
+            "OUTPUT": emission,
+        },
+        _feedback(),
+    )
+    report["emission"] = {**run, "layer": _raster(emission) if "error" not in run else None}
+    longitude, latitude = OBSERVER
+    run = _run(
+        "nightlights:skyglow",
+        {
+            "EMISSION": emission,
+            "OBSERVER": f"{longitude},{latitude} [EPSG:4326]",
+            "OUTPUT": f"{work}/skyglow.nc",
+            "PNG": f"{work}/skyglow.png",
+        },
+        _feedback(),
+    )
+    report["skyglow"] = run
+    darkness = f"{work}/darkness.tif"
+    run = _run("nightlights:darkness", {"EMISSION": emission, "OUTPUT": darkness}, _feedback())
+    report["darkness"] = {
+        **run,
+        "layer": _raster(darkness, sample=OBSERVER) if "error" not in run else None,
+    }
+    return report
+
+
 if __name__ == "__main__":
     import os
 
-    print(json.dumps(main(*sys.argv[1:4])), flush=True)
+    print(json.dumps(main(*sys.argv[1:5])), flush=True)
     os._exit(0)  # skip QGIS's teardown, which can crash a headless application at exit

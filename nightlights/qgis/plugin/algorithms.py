@@ -374,7 +374,8 @@ class Skyglow(NightlightsAlgorithm):
     GROUP = "Sky"
     HELP = (
         "The artificial sky glow an observer sees over an emission raster (Dobashi et al. "
-        "2023): a panorama of luminance and mag arcsec-2 (NetCDF), an optional picture, and "
+        "2023): a panorama of luminance and mag arcsec-2 (NetCDF, or a GeoTIFF on an azimuth "
+        "and elevation grid for a .tif), an optional picture, and "
         "the zenith brightness and Bortle class as outputs. nightlights skyglow."
     )
 
@@ -388,7 +389,9 @@ class Skyglow(NightlightsAlgorithm):
             )
         )
         self.addParameter(
-            QgsProcessingParameterFileDestination("OUTPUT", "Panorama", "NetCDF (*.nc)")
+            QgsProcessingParameterFileDestination(
+                "OUTPUT", "Panorama", "NetCDF (*.nc);;GeoTIFF (*.tif)"
+            )
         )
         self.addParameter(
             QgsProcessingParameterFileDestination(

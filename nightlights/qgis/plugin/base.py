@@ -86,7 +86,7 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
                 result = run_command(
                     line,
                     on_progress=progress,
-                    on_message=feedback.pushInfo,
+                    on_message=lambda line: _log(feedback, line),
                     is_canceled=feedback.isCanceled,
                 )
             except CommandCanceled as exc:
@@ -104,11 +104,12 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
     def vector_path(
         self, parameters: dict[str, Any], name: str, context: Any, feedback: Any
     ) -> str:
-        """The file of a vector input the toolkit reads as its only (or first) layer."""
+        """The file of a vector input whose layer is the one the toolkit reads by default (the
+        file's first; a GeoPackage's ``layer_styles`` table comes after its data)."""
         path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(
             parameters, name, context, VECTOR_FORMATS, "gpkg", feedback
         )
-        if layer and _layer_count(path) > 1:  # one layer of several: export that one
+        if layer and _first_layer(path) != layer:  # another layer of the file: export it
             path = self.parameterAsCompatibleSourceLayerPath(
                 parameters, name, context, ["gpkg"], "gpkg", feedback
             )
@@ -144,12 +145,22 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
         return str(QgsProcessingUtils.generateTempFilename(name))
 
 
-def _layer_count(path: str) -> int:
-    """Layers of a vector file (QGIS's own GDAL)."""
+def _first_layer(path: str) -> str | None:
+    """The name of the first layer of a vector file (read with QGIS's own GDAL)."""
     from osgeo import ogr
 
     source = ogr.Open(path)
-    return 0 if source is None else int(source.GetLayerCount())
+    if source is None or source.GetLayerCount() == 0:
+        return None
+    return str(source.GetLayer(0).GetName())
+
+
+def _log(feedback: Any, line: str) -> None:
+    """A line of the command in QGIS's log: its warnings (``WARNING ...``) as warnings."""
+    if line.startswith("WARNING "):
+        feedback.pushWarning(line)
+    else:
+        feedback.pushInfo(line)
 
 
 def _command_setting() -> str | None:
