@@ -57,6 +57,7 @@ from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.io import OutputSet, as_vector, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
+from nightlights.io.styles import observers_style
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.build import EMISSION_TABLES
@@ -466,7 +467,7 @@ def observers(
                                 eyes[labels.index(name)], observer_height, engine)  # fmt: skip
             dataset.to_netcdf(outputs.temporary(path), engine="h5netcdf")
         if output is not None:
-            _write_summary(summary, outputs.temporary(output), top_cells)
+            _write_summary(summary, outputs.temporary(output))
     return ObserversResult(summary, files, seconds, Path(output) if output is not None else None)
 
 
@@ -782,25 +783,15 @@ def _summary(
     return gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=crs)
 
 
-def _write_summary(summary: gpd.GeoDataFrame, path: Path, top_cells: int) -> None:
+def _write_summary(summary: gpd.GeoDataFrame, path: Path) -> None:
+    """The summary layer with its QGIS style in ``layer_styles``: each point in the Bortle
+    colour of its total zenith sky brightness, labelled with its name."""
     schema: dict[str, Any] = {name: "float" for name in summary.columns if name != "geometry"}
     schema.update({"name": "str", "bortle": "int"})
     if "panorama" in summary:
         schema["panorama"] = "str"
-    write_gpkg(summary, path, layer=SUMMARY_LAYER, schema=schema)
-    _style(path, top_cells)
-
-
-def _style(path: Path, top_cells: int) -> None:
-    """The layer's style in the GeoPackage's ``layer_styles``, when the styles module is
-    there: points coloured by zenith sky brightness."""
-    try:
-        from nightlights.io import styles
-    except ImportError:
-        return
-    write = getattr(styles, "write_observers_style", None)
-    if write is not None:
-        write(path, layer=SUMMARY_LAYER)
+    style = observers_style(field="zenith_mag", label_field="name")
+    write_gpkg(summary, path, layer=SUMMARY_LAYER, schema=schema, style=style)
 
 
 def _panorama(

@@ -269,7 +269,10 @@ def test_summary_geopackage_and_panoramas(tmp_path: Path, small_kernel: xr.Datas
     names = ["Esplanadi park", "b", "c", "d"]
     result = run(src, small_kernel, output=out, panoramas=folder, names=names, top_cells=2)
     assert result.path == out
-    assert pyogrio.list_layers(out)[:, 0].tolist()[0] == SUMMARY_LAYER
+    assert SUMMARY_LAYER in pyogrio.list_layers(out)[:, 0].tolist()
+    styles = pyogrio.read_dataframe(out, layer="layer_styles")
+    assert styles["f_table_name"].tolist() == [SUMMARY_LAYER]
+    assert 'attr="zenith_mag"' in styles["styleQML"].iloc[0]
     info = pyogrio.read_info(out, layer=SUMMARY_LAYER)
     types = dict(zip(info["fields"], info["dtypes"], strict=True))
     assert types["bortle"] == "int64" and types["name"] == "object"
