@@ -267,3 +267,39 @@ def test_geopackages_open_without_a_version_warning(outputs: dict[str, Path]) ->
     )
     version, messages = done.stdout.splitlines()[:2]
     assert version and messages == "", messages
+
+
+@pytest.mark.slow
+def test_every_output_of_the_demo_opens_styled_in_qgis(tmp_path: Path) -> None:
+    """The bundled demo project (about 2 minutes), then every raster and layer it wrote, and
+    its panoramas as GeoTIFF, opened in QGIS."""
+    from nightlights.demo import run_demo
+
+    folder = tmp_path / "demo"
+    run_demo(folder)
+    for panorama in sorted(folder.glob("skyglow_*.nc")):
+        with xr.open_dataset(panorama, engine="h5netcdf") as dataset:
+            panorama_raster(dataset.load()).write(panorama.with_suffix(".tif"))
+    rasters = sorted(folder.glob("*.tif"))
+    layers = [
+        f"{path}|layername={name}"
+        for path in sorted(folder.glob("*.gpkg"))
+        for name in _layer_names(path)
+    ]
+    assert len(rasters) >= 8 and len(layers) >= 3
+    reports = open_in_qgis(*rasters, *layers)
+    for raster in rasters:
+        report = reports[str(raster)]
+        assert raster.with_suffix(".qml").exists(), f"{raster.name}: no style beside it"
+        crs = None if raster.name.startswith("skyglow_") else CRS
+        _check_layer(report, crs=crs, renderer="singlebandpseudocolor")
+    for layer in layers:
+        report = reports[layer]
+        _check_layer(report, crs=CRS, renderer=report["renderer"])
+        assert report["renderer"] in ("categorizedSymbol", "graduatedSymbol"), layer
+
+
+def _layer_names(path: Path) -> list[str]:
+    import pyogrio
+
+    return [str(name) for name, _ in pyogrio.list_layers(path) if name != "layer_styles"]
