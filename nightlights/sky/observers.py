@@ -19,6 +19,12 @@ direction of the artificial skyglow, and the lit cells that give most of the art
 luminance, in numbered columns (``top1_x``, ``top1_y``, ``top1_share``, ...: plain numeric
 fields that QGIS filters, labels and styles directly).
 
+Length: about 830 lines, a third of them numpydoc, because the stage accepts observers in
+every form a user has them (an array in any CRS, a point layer in memory or in a file, with
+or without names) and checks each one by name before any work, and because the engine a
+Dask task receives, the scheduling and the two outputs (summary layer, panoramas) share one
+set of private types that no other module needs.
+
 References
 ----------
 1. Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution
