@@ -61,7 +61,7 @@ def demo(
     from cli.run import print_outputs
     from nightlights.demo import run_demo
 
-    console = Console(stderr=True, emoji=False, highlight=False)
+    console = Console(stderr=True, emoji=False, highlight=False, soft_wrap=True)
     with console.status("running the Helsinki demo (the bundled project helsinki.toml) ..."):
         result = run_demo(out_dir, seed=seed)
     console.print("[bold]Helsinki demo[/] (data (c) OpenStreetMap contributors, ODbL)")

@@ -56,7 +56,7 @@ def run_command(project: str, output: str | None, force: tuple[str, ...], check_
 
     from nightlights.project import check, run
 
-    console = Console(stderr=True, emoji=False, highlight=False)
+    console = Console(stderr=True, emoji=False, highlight=False, soft_wrap=True)
     if check_only:
         plan = check(project, output, force=force)
         for name, up_to_date in plan:

@@ -86,6 +86,22 @@ def test_demo_inverse_maps_and_dimming(demo_out: Path) -> None:
     assert (demo_out / "dimming_suomenlinna.png").stat().st_size > 10_000
 
 
+def test_demo_observers_summary(demo_out: Path) -> None:
+    summary = gpd.read_file(demo_out / "observers.gpkg", layer="observers")
+    assert sorted(summary["name"]) == ["esplanadi", "suomenlinna"]
+    zenith = dict(zip(summary["name"], summary["zenith_artificial"], strict=True))
+    assert zenith["esplanadi"] > 10 * zenith["suomenlinna"]
+
+
+def test_demo_is_a_project_run_again_in_its_folder_skips_every_stage(demo_out: Path) -> None:
+    again = CliRunner().invoke(cli, ["demo", str(demo_out), "--seed", "7", "--overwrite"])
+    assert again.exit_code == 0, again.output
+    assert "ran 0 stages, 11 up to date" in again.stderr
+    assert "zenith sky at esplanadi:" in again.stderr
+    records = sorted(p.name for p in (demo_out / ".nightlights").glob("*.json"))
+    assert "skyglow@suomenlinna.json" in records and len(records) == 11
+
+
 @pytest.fixture
 def fake_demo(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, int]]:
     calls: list[tuple[str, int]] = []
