@@ -253,6 +253,29 @@ def test_observers_are_coloured_by_bortle_class_and_labelled(
     assert len(report["classes"]) == 9
 
 
+def validate_cogs(*rasters: Path) -> dict[str, list[str]]:
+    """GDAL's Cloud-Optimised GeoTIFF validator (``validate_cloud_optimized_geotiff``, full
+    check) in the system Python: errors and warnings per file."""
+    code = (
+        "import json, sys\n"
+        "from osgeo_utils.samples.validate_cloud_optimized_geotiff import validate\n"
+        "out = {}\n"
+        "for path in sys.argv[1:]:\n"
+        "    warnings, errors, _ = validate(path, full_check=True)\n"
+        "    out[path] = errors + warnings\n"
+        "print(json.dumps(out))"
+    )
+    done = subprocess.run(
+        [SYSTEM_PYTHON, "-c", code, *map(str, rasters)], capture_output=True, text=True, check=True
+    )
+    return dict(json.loads(done.stdout))
+
+
+def test_rasters_are_valid_cloud_optimised_geotiffs(outputs: dict[str, Path]) -> None:
+    rasters = [path for path in outputs.values() if path.suffix == ".tif"]
+    assert validate_cogs(*rasters) == {str(path): [] for path in rasters}
+
+
 def test_geopackages_open_without_a_version_warning(outputs: dict[str, Path]) -> None:
     """GDAL 3.6 (QGIS's, in the system Python) opens the GeoPackages without a warning."""
     code = (
@@ -287,6 +310,7 @@ def test_every_output_of_the_demo_opens_styled_in_qgis(tmp_path: Path) -> None:
         for name in _layer_names(path)
     ]
     assert len(rasters) >= 8 and len(layers) >= 3
+    assert validate_cogs(*rasters) == {str(path): [] for path in rasters}
     reports = open_in_qgis(*rasters, *layers)
     for raster in rasters:
         report = reports[str(raster)]

@@ -161,6 +161,21 @@ def test_a_raster_is_written_with_its_style_beside_it(tmp_path: Path) -> None:
     assert items[-1].get("label") == "100 lx"
 
 
+def test_a_raster_is_a_cog_with_crs_nodata_band_names_and_units(tmp_path: Path) -> None:
+    import rasterio
+
+    path = Raster(
+        np.ones((2, 600, 600)), TRANSFORM, "EPSG:32635", ("photopic", "scotopic"), ("lx", "W m-2")
+    ).write(tmp_path / "irradiance.tif")
+    with rasterio.open(path) as dataset:
+        assert dataset.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
+        assert dataset.overviews(1)  # larger than one block: overviews
+        assert dataset.crs.to_epsg() == 32635 and np.isnan(dataset.nodata)
+        assert dataset.descriptions == ("photopic", "scotopic")
+        assert dataset.units == ("lx", "W m-2")
+    assert sidecar_path(path).exists()
+
+
 def test_the_style_can_be_given_or_left_out(tmp_path: Path) -> None:
     band = RasterBand(np.ones((4, 4)), "a", "lx")
     given = dimming_qml()
