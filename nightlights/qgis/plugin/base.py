@@ -12,6 +12,7 @@ replace an existing file (QGIS has asked).
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 from qgis.core import (
@@ -78,6 +79,9 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
                 break
             line = [*command, *arguments]
             feedback.pushCommandInfo(" ".join(_quoted(part) for part in line))
+            if len(steps) > 1:
+                words = " ".join(_command_words(arguments))
+                feedback.setProgressText(f"nightlights {words} ({index + 1} of {len(steps)})")
 
             def progress(fraction: float, index: int = index) -> None:
                 feedback.setProgress(100.0 * (index + fraction) / len(steps))
@@ -89,9 +93,7 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
                     on_message=lambda line: _log(feedback, line),
                     is_canceled=feedback.isCanceled,
                 )
-            except CommandCanceled as exc:
-                raise QgsProcessingException(f"{self.TITLE}: {exc}") from exc
-            except CommandError as exc:
+            except (CommandCanceled, CommandError) as exc:
                 raise QgsProcessingException(f"{self.TITLE}: {exc}") from exc
             messages.extend(result.messages)
             progress(1.0)
@@ -153,6 +155,16 @@ def _first_layer(path: str) -> str | None:
     if source is None or source.GetLayerCount() == 0:
         return None
     return str(source.GetLayer(0).GetName())
+
+
+def _command_words(arguments: list[str]) -> list[str]:
+    """The (sub)command names that start a command line, e.g. ``streets sample``."""
+    words = []
+    for argument in arguments:
+        if not re.fullmatch(r"[a-z][a-z-]*", argument):
+            break
+        words.append(argument)
+    return words
 
 
 def _log(feedback: Any, line: str) -> None:
