@@ -49,6 +49,15 @@ def load_project(
     ------
     ProjectError
         One line naming the first bad key (and the allowed values) or contradiction.
+
+    Examples
+    --------
+    >>> from nightlights.demo import example_path
+    >>> project = load_project(example_path("helsinki.toml"))
+    >>> project.stages[:4]
+    ['normalize', 'sample', 'place', 'irradiance']
+    >>> [(o.name, o.crs) for o in project.observers]
+    [('esplanadi', 'EPSG:4326'), ('suomenlinna', 'EPSG:4326')]
     """
     if isinstance(source, Project):
         return source

@@ -115,10 +115,11 @@ def run(
     folder = Path(output).resolve() if output is not None else checked.output
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"{folder}: is not a folder; expected the project's output folder")
+    files = _Files(checked)
+    _refuse_replacing_inputs(tasks, folder, files, checked)
     folder.mkdir(parents=True, exist_ok=True)
     cache = StageCache(folder)
     context = Context(checked, progress)
-    files = _Files(checked)
     result = ProjectResult(folder=folder)
     notify = on_task or (lambda name, event, seconds: None)
     for task in tasks:
@@ -188,6 +189,10 @@ class _Files:
             self._paths["emission"] = inputs.emission
         self._hashes: dict[str, str] = {}
 
+    def inputs(self) -> dict[str, Path]:
+        """The project's input files, by key (``inputs.streets``...)."""
+        return {name: path for name, path in self._paths.items() if "." in name}
+
     def add(self, name: str, path: Path, digest: str) -> None:
         self._paths[name] = path
         self._hashes[name] = digest
@@ -199,6 +204,21 @@ class _Files:
         if name not in self._hashes:
             self._hashes[name] = file_hash(self._paths[name])
         return self._hashes[name]
+
+
+def _refuse_replacing_inputs(
+    tasks: list[Task], folder: Path, files: _Files, project: Project
+) -> None:
+    """Refuse an output folder where a stage's output would replace one of the inputs."""
+    inputs = {path.resolve(): name for name, path in files.inputs().items()}
+    for task in tasks:
+        for file in task.outputs.values():
+            name = inputs.get((folder / file).resolve())
+            if name is not None:
+                raise ProjectError(
+                    f"{project.source}: project.output: stage {task.name} would write "
+                    f"{folder / file}, which is {name}; choose another output folder"
+                )
 
 
 def _key(task: Task, files: _Files) -> str:
@@ -263,6 +283,7 @@ def check(
     forced = _forced(tasks, checked, force)
     folder = Path(output).resolve() if output is not None else checked.output
     files = _Files(checked)
+    _refuse_replacing_inputs(tasks, folder, files, checked)
     cache = StageCache(folder) if folder.is_dir() else None
     made: set[str] = set()
     answer = []

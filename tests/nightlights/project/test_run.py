@@ -111,3 +111,18 @@ def test_the_output_folder_can_be_given(small_project: Path, tmp_path: Path) -> 
     assert result.folder == tmp_path / "elsewhere"
     assert (tmp_path / "elsewhere" / "skyglow_a.nc").is_file()
     assert not (small_project.parent / "out").exists()
+
+
+def test_an_output_folder_where_a_stage_would_replace_an_input_is_refused(
+    small_project: Path,
+) -> None:
+    import shutil
+
+    shutil.copy(small_project.parent / "emission.tif", small_project.parent / "darkness.tif")
+    _edit(small_project, 'emission = "emission.tif"', 'emission = "darkness.tif"')
+    _edit(small_project, "[stages.skyglow]", "[stages.darkness]\n\n[stages.skyglow]")
+    with pytest.raises(
+        ProjectError, match=r"stage darkness would write .*darkness\.tif, which is inputs.emission"
+    ):
+        run(small_project, small_project.parent, progress=False)
+    assert not (small_project.parent / ".nightlights").exists()
