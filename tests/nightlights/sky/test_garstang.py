@@ -342,9 +342,9 @@ def test_point_source_luminance_matches_garstang(clarity: float, elevation: floa
     zenith and 45 deg up towards it: within 10 % (measured 0.90-0.995 reconstruction / kernel).
     The remaining difference is the aerosol phase function (a Henyey-Greenstein function of the
     same mean cosine in the kernel, 3-30 % above Garstang's from 10 to 125 deg) and Garstang's
-    approximate extinction; looking away from the source, where the scattering angles reach
-    130-150 deg and the Henyey-Greenstein function is lower than his, the reconstruction is up
-    to 26 % brighter at 1 km (K = 1)."""
+    approximate extinction; looking away from the source, where the light is scattered
+    backwards and the Henyey-Greenstein function is lower than his, the reconstruction is up to
+    26 % brighter at 1 km (K = 1)."""
     distance = np.geomspace(1e3, 3e5, 12)
     ratio = _garstang(elevation, 0.0, distance, clarity) / _kernel_mix(
         elevation, 0.0, distance, clarity
