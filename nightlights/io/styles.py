@@ -206,12 +206,14 @@ def _raster_document(
     ramp_type: str,
     classification_mode: int,
     description: str,
+    transparent_zero: bool = False,
 ) -> str:
     """A QML document with a single-band pseudocolour renderer.
 
     ``items`` are (value, colour, label) in increasing value; ``ramp_type`` is ``INTERPOLATED``
     (linear between items) or ``DISCRETE`` (a value takes the first item at or above it);
-    ``classification_mode`` is QGIS's (1 continuous, 2 equal interval, 3 quantile).
+    ``classification_mode`` is QGIS's (1 continuous, 2 equal interval, 3 quantile);
+    ``transparent_zero`` leaves cells of exactly 0 (no light) transparent.
     """
     low, high = items[0][0], items[-1][0]
     entries = "\n".join(
@@ -223,7 +225,7 @@ def _raster_document(
   <!-- {_escape_comment(description)} -->
   <pipe>
     <rasterrenderer type="singlebandpseudocolor" band="{band}" opacity="1" alphaBand="-1" classificationMin="{low!r}" classificationMax="{high!r}" nodataColor="">
-      <rasterTransparency/>
+      {_transparency(transparent_zero)}
       <minMaxOrigin>
         <limits>None</limits>
         <extent>WholeRaster</extent>
@@ -245,6 +247,16 @@ def _raster_document(
   <blendMode>0</blendMode>
 </qgis>
 """  # noqa: E501
+
+
+def _transparency(zero: bool) -> str:
+    if not zero:
+        return "<rasterTransparency/>"
+    return (
+        "<rasterTransparency><singleValuePixelList>"
+        '<pixelListEntry min="0" max="0" percentTransparent="100"/>'
+        "</singleValuePixelList></rasterTransparency>"
+    )
 
 
 def _escape_comment(text: str) -> str:
@@ -273,6 +285,7 @@ def _log_ramp_qml(
         ramp_type="INTERPOLATED",
         classification_mode=1,
         description=f"{what}: log ramp {low:g}-{high:g} {unit} ({palette}), nightlights",
+        transparent_zero=True,
     )
 
 
@@ -291,7 +304,8 @@ def illuminance_qml(values: ArrayLike, *, band: int = 1, unit: str = "lx") -> st
     Returns
     -------
     str
-        The QML document (inferno, zero and darker cells in its first colour).
+        The QML document (inferno; cells darker than the ramp in its first colour, cells of
+        zero transparent).
     """
     return _log_ramp_qml(
         values, band=band, unit=unit, palette="inferno", default=(0.1, 100.0), what="illuminance"

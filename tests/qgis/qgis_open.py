@@ -76,6 +76,15 @@ def _open(source: str) -> dict[str, object]:
             report["ramp"] = [[item.value, item.color.name(), item.label] for item in items]
             report["ramp_type"] = int(function.colorRampType())
         report["bands"] = [layer.bandName(i) for i in range(1, layer.bandCount() + 1)]
+        transparency = renderer.rasterTransparency()
+        report["transparent_values"] = (
+            [
+                [p.min, p.max, p.percentTransparent]
+                for p in transparency.transparentSingleValuePixelList()
+            ]
+            if transparency is not None
+            else []
+        )
     else:
         renderer = layer.renderer()
         report["renderer"] = renderer.type()

@@ -208,6 +208,8 @@ def test_rasters_open_with_their_style(
     assert report["extent"] == pytest.approx([385_000.0, 6_671_600.0, 385_300.0, 6_672_000.0])
     assert report["band"] == [band]
     assert first_label in report["ramp"][0][2]
+    zero_transparent = [[0.0, 0.0, 100.0]] if name in ("irradiance", "emission") else []
+    assert report["transparent_values"] == zero_transparent
 
 
 def test_a_panorama_opens_on_its_azimuth_elevation_grid(seen: dict[str, dict[str, Any]]) -> None:

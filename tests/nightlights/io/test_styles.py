@@ -77,6 +77,9 @@ def test_illuminance_is_a_log_ramp_with_four_stops_per_decade() -> None:
     np.testing.assert_allclose(np.diff(np.log10(stops)), 0.25)
     assert items[0].get("label") == "0.1 lx" and items[-1].get("label") == "100 lx"
     assert items[0].get("color") == "#000004" and items[-1].get("color") == "#fcffa4"
+    zero = renderer.find("rasterTransparency/singleValuePixelList/pixelListEntry")
+    assert zero is not None  # cells without light are transparent
+    assert (zero.get("min"), zero.get("max"), zero.get("percentTransparent")) == ("0", "0", "100")
 
 
 def test_emission_log_ramp_is_labelled_in_its_unit() -> None:
