@@ -349,7 +349,7 @@ def main() -> None:
     )
     ratios = []
     for label in order[:-1]:
-        row = {"piece": label}
+        row: dict = {"piece": label}
         row.update({k: float(v) for k, v in zip(keys, luminance[label] / single, strict=True)})
         ratios.append(row)
     result = {
