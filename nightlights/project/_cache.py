@@ -89,6 +89,12 @@ class StageCache:
     def _ensure(self) -> None:
         self.records.mkdir(parents=True, exist_ok=True)
 
+    def clean(self) -> None:
+        """Remove staging folders that a killed run left behind (a run cleans its own)."""
+        if self.records.is_dir():
+            for folder in self.records.glob("*.partial"):
+                shutil.rmtree(folder, ignore_errors=True)
+
     def _record_path(self, task: str) -> Path:
         return self.records / f"{task.replace(':', '@')}.json"
 

@@ -119,6 +119,7 @@ def run(
     _refuse_replacing_inputs(tasks, folder, files, checked)
     folder.mkdir(parents=True, exist_ok=True)
     cache = StageCache(folder)
+    cache.clean()
     context = Context(checked, progress)
     result = ProjectResult(folder=folder)
     notify = on_task or (lambda name, event, seconds: None)

@@ -104,3 +104,10 @@ def test_a_missing_project_file(tmp_path: Path) -> None:
     result = CliRunner().invoke(cli, ["run", str(tmp_path / "none.toml")])
     assert result.exit_code == 1
     assert result.stderr == f"Error: ProjectError: {tmp_path / 'none.toml'}: no such project file\n"
+
+
+def test_the_help_lists_the_library_stages() -> None:
+    from cli.run import STAGE_NAMES
+    from nightlights.project import STAGES
+
+    assert STAGE_NAMES == STAGES

@@ -126,3 +126,11 @@ def test_an_output_folder_where_a_stage_would_replace_an_input_is_refused(
     ):
         run(small_project, small_project.parent, progress=False)
     assert not (small_project.parent / ".nightlights").exists()
+
+
+def test_a_staging_folder_left_by_a_killed_run_is_removed(ran_once: Path) -> None:
+    left = ran_once.parent / "out" / RECORD_FOLDER / "skyglow@a.x1.partial"
+    left.mkdir()
+    (left / "skyglow_a.nc").write_bytes(b"half")
+    assert run(ran_once, progress=False).ran == []
+    assert not left.exists()
