@@ -123,6 +123,10 @@ def test_streets_to_lights_in_qgis(report: dict[str, Any]) -> None:
     assert progress[-1] == pytest.approx(100.0)
     assert any(33.0 <= value <= 34.0 for value in progress)
     assert any(66.0 <= value <= 67.0 for value in progress)
+    # the OSM file is read in place, its layer named to the command (not exported first)
+    commands = [line for line in run["log"] if " streets " in line]
+    assert len(commands) == 3
+    assert str(example_path()) in commands[0] and "--layer lines" in commands[0]
     # the commands' own messages reach QGIS's log
     assert any("street parts from" in line for line in run["log"])
     assert any("luminaires on" in line for line in run["log"])
@@ -144,6 +148,10 @@ def test_irradiance_in_qgis(report: dict[str, Any]) -> None:
     assert photopic["min"] >= 0.0 and 5.0 < photopic["max"] < 1000.0
     assert photopic["mean"] > 0.0 and scotopic["max"] > 0.0
     assert run["progress"][-1] == pytest.approx(100.0)
+    # the lights' GeoPackage (its data layer first, then its layer_styles table) is passed as
+    # it is, not copied to a temporary file
+    command = next(line for line in run["log"] if " irradiance " in line)
+    assert str(Path(report["work"]) / "lights.gpkg") in command
 
 
 def test_cancel_stops_the_command_and_leaves_no_output(report: dict[str, Any]) -> None:
