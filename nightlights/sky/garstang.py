@@ -35,7 +35,8 @@ observer's and the source's legs. It is integrated by Gauss-Legendre panels whos
 the heights of the atmosphere and the closest approach of the line of sight to the source
 (:func:`garstang_sky_luminance`); the kernel uses a different substitution.
 
-What is reconstructed from restatements rather than re-read from the papers: the geometry and
+What is reconstructed from restatements (Cinzano et al. 2000 [4], whose model the world atlas of
+Cinzano et al. 2001 [5] uses) rather than re-read from the papers: the geometry and
 extinction formulas (Cinzano et al. 2000 [4], Appendix A, Eqs. A1-A2, with the correction of the
 distance s that Garstang 1989 [2], Eq. 7 gives: the angle in it is theta, not chi), the
 constants of the atmosphere (Cinzano et al. 2000, Eqs. 10-14; the V-band Rayleigh cross-section
@@ -43,6 +44,10 @@ constants of the atmosphere (Cinzano et al. 2000, Eqs. 10-14; the V-band Rayleig
 aerosol function (Cinzano et al. 2000, Eq. 14) and the factor 16 / (9 pi) of the curvature
 correction, which Garstang (1989) [2] writes for nearly horizontal paths as
 u - (8 / 27 pi) c u^3 / E (reproduced here in that limit, see :func:`garstang_path_length`).
+
+Against the kernel in Garstang's atmosphere and emission (``test_garstang.py``): point-source
+luminance within 10 % at the zenith and 45 deg up towards the source, 1-300 km; the exponent of
+a uniform lit plane's zenith glow within 0.015 for K = 0.5 and 1.
 
 What is left out: his approximation for double scattering (a factor applied to the singly
 scattered light; its published form is not restated here with enough certainty to be
@@ -145,7 +150,7 @@ def garstang_emission_function(
 
     References
     ----------
-    Garstang 1986 [1]; Cinzano et al. 2000, Eq. 16 [4].
+    Garstang 1986 [1]; restated by Cinzano et al. 2000 [4].
 
     Examples
     --------
@@ -155,7 +160,7 @@ def garstang_emission_function(
     f, g = _fractions(upward_fraction, reflectance)
     mu = np.asarray(cos_zenith, dtype=float)
     psi = np.arccos(np.clip(mu, 0.0, 1.0))
-    # Garstang 1986 (Cinzano 2000, Eq. 16)
+    # Garstang 1986, the emission function of a city
     value = (2.0 * g * (1.0 - f) * mu + GARSTANG_LOBE_COEFFICIENT * f * psi**4) / (2.0 * math.pi)
     return np.asarray(np.where(mu > 0.0, value, 0.0))
 
