@@ -71,7 +71,8 @@ def parse_pair(text: str) -> tuple[float, float]:
     "--polar-output",
     default=None,
     type=click.Path(dir_okay=False),
-    help="Write the observer's polar flux map (NetCDF).",
+    help="Write the observer's polar flux map (NetCDF, or a GeoTIFF in the emission's CRS "
+    "when it ends in .tif).",
 )
 @deprecated_option(
     "--polar-out", "old_polar_out", type=click.Path(dir_okay=False), replacement="--polar-output"
@@ -141,7 +142,8 @@ def skyglow(
     n_distance: int | None,
 ) -> None:
     """Skyglow panorama (luminance, mag arcsec-2) of EMISSION [lm m-2] for an observer;
-    write OUTPUT (NetCDF)."""
+    write OUTPUT: a NetCDF, or a styled GeoTIFF (azimuth/elevation grid in degrees) when it
+    ends in .tif."""
     import nightlights as nl
 
     observer_xy = parse_pair(observer)
