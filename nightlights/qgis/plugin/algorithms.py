@@ -36,8 +36,14 @@ _ZENITH = re.compile(
 )
 
 
+def _given(parameters: dict, name: str) -> bool:
+    """Whether an optional parameter has a value (the dialog sends None or "" for none)."""
+    value = parameters.get(name)
+    return value is not None and not (isinstance(value, str) and not value)
+
+
 def _seed(algorithm: NightlightsAlgorithm, parameters: dict, context: Any) -> list[str]:
-    if parameters.get("SEED") is None:
+    if not _given(parameters, "SEED"):
         return []
     return ["--seed", str(algorithm.parameterAsInt(parameters, "SEED", context))]
 
@@ -286,7 +292,7 @@ class Emission(NightlightsAlgorithm):
         irradiance = self.raster_path(parameters, "IRRADIANCE", context)
         assert irradiance is not None  # a required parameter
         inputs = [irradiance]
-        if parameters.get("LIGHTS") is not None:
+        if _given(parameters, "LIGHTS"):
             inputs.append(self.vector_path(parameters, "LIGHTS", context, feedback))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context)
         albedo = self.parameterAsDouble(parameters, "ALBEDO", context)
@@ -360,7 +366,7 @@ def _sky_parameters(algorithm: NightlightsAlgorithm) -> None:
 def _sky_options(algorithm: NightlightsAlgorithm, parameters: dict, context: Any) -> list[str]:
     height = algorithm.parameterAsDouble(parameters, "OBSERVER_HEIGHT", context)
     options = ["--observer-height", repr(height)]
-    if parameters.get("TURBIDITY") is not None:
+    if _given(parameters, "TURBIDITY"):
         turbidity = algorithm.parameterAsDouble(parameters, "TURBIDITY", context)
         options += ["--turbidity", repr(turbidity)]
     kernel = algorithm.parameterAsFile(parameters, "KERNEL", context)
