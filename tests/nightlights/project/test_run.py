@@ -134,3 +134,25 @@ def test_a_staging_folder_left_by_a_killed_run_is_removed(ran_once: Path) -> Non
     (left / "skyglow_a.nc").write_bytes(b"half")
     assert run(ran_once, progress=False).ran == []
     assert not left.exists()
+
+
+def test_the_observers_stage_writes_the_summary_layer_and_a_panorama_folder(
+    small_project: Path,
+) -> None:
+    import geopandas as gpd
+
+    _edit(
+        small_project,
+        "[stages.skyglow]",
+        "[stages.observers]\npanoramas = true\n\n[stages.skyglow]",
+    )
+    result = run(small_project, progress=False)
+    assert "observers" in result.ran
+    out = small_project.parent / "out"
+    summary = gpd.read_file(out / "observers.gpkg", layer="observers")
+    assert list(summary["name"]) == ["a", "b"]
+    assert sorted(p.name for p in (out / "observers_panoramas").iterdir()) == ["a.nc", "b.nc"]
+    # a panorama removed from the folder: the stage runs again
+    (out / "observers_panoramas" / "b.nc").unlink()
+    assert run(small_project, progress=False).ran == ["observers"]
+    assert (out / "observers_panoramas" / "b.nc").is_file()
