@@ -16,6 +16,10 @@ from cli.options import (
     skip_unknown_option,
 )
 
+#: ``--backend`` choices (``nightlights.ground.illuminance.BACKENDS``, repeated so that the
+#: command's help does not import the kernel).
+IRRADIANCE_BACKENDS = ("numba", "numpy")
+
 
 def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
     """``xmin,ymin,xmax,ymax`` -> four floats (None stays None)."""
@@ -105,6 +109,13 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
 @skip_unknown_option
 @crs_option
 @click.option("--tile-size", type=int, default=1024, show_default=True, help="Tile edge [px].")
+@click.option(
+    "--backend",
+    type=click.Choice(IRRADIANCE_BACKENDS),
+    default="numba",
+    show_default=True,
+    help="Illuminance kernel: numba (compiled) or numpy (reference).",
+)
 @scheduler_option
 def irradiance_command(
     files: tuple[str, ...],
@@ -126,6 +137,7 @@ def irradiance_command(
     skip_unknown: bool,
     crs: str | None,
     tile_size: int,
+    backend: str,
     scheduler: str | None,
 ) -> None:
     """Ground illuminance of the lights in LIGHTS, one band per sensor, as a COG OUTPUT."""
@@ -154,6 +166,7 @@ def irradiance_command(
         crs=crs,
         scheduler=scheduler,
         tile_size=tile_size,
+        backend=backend,
     )
     from rich.console import Console
 

@@ -209,6 +209,7 @@ def irradiance_memory(
     pairs: float = math.inf,
     dem: bool = False,
     local: bool = True,
+    backend: str = "numba",
 ) -> float:
     """Peak memory of ``irradiance`` on a grid [B].
 
@@ -228,16 +229,26 @@ def irradiance_memory(
         Whether a DEM is resampled to the grid.
     local
         Whether the tiles run in this process (not on a ``dask.distributed`` cluster).
+    backend
+        Illuminance kernel: the numpy reference holds one batch of light-pixel pairs per
+        tile in flight, the compiled kernel none.
 
     Returns
     -------
     float
-        Output raster, DEM grids, tiles in flight (tile pixels x bands x working arrays plus
-        one batch of light-pixel pairs each) and the task graph [B].
+        Output raster, DEM grids, tiles in flight (tile pixels x bands x working arrays, plus
+        one batch of light-pixel pairs each for the numpy kernel) and the task graph [B].
 
     Examples
     --------
     >>> round(irradiance_memory(1000, 1000, 1, tile_size=256, workers=4, pairs=1e6) / 2**20)
+    35
+    >>> round(
+    ...     irradiance_memory(
+    ...         1000, 1000, 1, tile_size=256, workers=4, pairs=1e6, backend="numpy"
+    ...     )
+    ...     / 2**20
+    ... )
     951
     """
     from nightlights.ground.illuminance import PAIRS_PER_BATCH
@@ -254,7 +265,8 @@ def irradiance_memory(
         tile_pixels = float(tile_rows) * float(tile_cols)
         batch = min(PAIRS_PER_BATCH + tile_cols, pairs)
         total += in_flight * (tile_pixels * (bands + 1) * TILE_BYTES_PER_PIXEL)
-        total += in_flight * batch * BYTES_PER_PAIR
+        if backend == "numpy":
+            total += in_flight * batch * BYTES_PER_PAIR
     return total
 
 

@@ -1,29 +1,42 @@
-"""Ground illuminance of point luminaires on a raster window: the pure kernel.
+"""Ground illuminance of point luminaires on a raster window: the kernel and its reference.
 
 Each luminaire adds
 
 .. math:: E = I(V, H)\\, \\max(0, \\cos\\beta) / d^2
 
-at every pixel centre of the window, where (V, H) are the photometric angles of the
-direction from the light point to the pixel in the luminaire's frame
-(:func:`nightlights.ground.frames.direction_to_photometric`, evaluated inline here for
+at every pixel centre of the window inside its region of influence, where (V, H) are the
+photometric angles of the direction from the light point to the pixel in the luminaire's
+frame (:func:`nightlights.ground.frames.direction_to_photometric`, evaluated inline here for
 speed), :math:`\\beta` the angle of incidence on the ground (flat, or the surface normal of a
-DEM) and :math:`d` the distance (Chuang 2011, Eq. 11). Light-pixel pairs are formed from
-row runs inside each luminaire's region of influence and evaluated in numpy batches.
+DEM) and :math:`d` the distance (Chuang 2011, Eq. 11).
+
+Two backends compute it. ``"numba"`` (the default) is the compiled kernel of
+:mod:`nightlights.ground._illuminance_numba`: one pass per luminaire over the pixel rows of
+its disc, no array per light-pixel pair. ``"numpy"`` is the vectorised reference the tests
+compare it to: light-pixel pairs formed from row runs inside each disc and evaluated in numpy
+batches. Both light the same pixels, by one test on the pixel's index in the whole grid.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
+from nightlights.errors import InputError
 from nightlights.ground.frames import IntensityTable
 
-__all__ = ["ground_illuminance", "surface_normals"]
+if TYPE_CHECKING:
+    from nightlights.ground._illuminance_numba import PackedTables
+
+__all__ = ["BACKENDS", "ground_illuminance", "surface_normals"]
+
+#: Irradiance kernels: compiled (the default) and the numpy reference.
+BACKENDS = ("numba", "numpy")
 
 #: Closest distance between a light point and a lit point, guarding 1/d^2 when a pixel
 #: centre coincides with a light on the ground [m].
@@ -47,8 +60,9 @@ def ground_illuminance(
     radius: FloatArray | None = None,
     ground_z: FloatArray | None = None,
     normals: FloatArray | None = None,
+    backend: str = "numba",
 ) -> FloatArray:
-    """Weighted illuminance of point luminaires on a raster window (pure numpy).
+    r"""Weighted illuminance of point luminaires on a raster window.
 
     Parameters
     ----------
@@ -80,17 +94,32 @@ def ground_illuminance(
         [m].
     normals
         Unit surface normals (rows, cols, 3); ``None`` for (0, 0, 1) [1].
+    backend
+        ``"numba"``: the compiled kernel
+        (:mod:`~nightlights.ground._illuminance_numba`); ``"numpy"``: the vectorised
+        reference it is tested against (equal to 1e-6 relative on every pixel).
 
     Returns
     -------
     numpy.ndarray
         Array (bands, rows, cols) [band units].
 
+    Raises
+    ------
+    InputError
+        Unknown ``backend``.
+
+    Notes
+    -----
+    A light lights the pixel centres within ``radius`` of its light point (horizontal
+    distance, evaluated as :math:`dx^2 + dy^2 \le r^2`); the backends share that test, so
+    that they light the same pixels.
+
     References
     ----------
     Chuang 2011, Sec. 5.1, Eq. 11 (with luminous intensity in place of radiant energy).
     """
-    values, _ = _illuminance_and_pairs(
+    values, _ = window_and_pairs(
         shape,
         origin,
         resolution,
@@ -103,8 +132,83 @@ def ground_illuminance(
         radius=radius,
         ground_z=ground_z,
         normals=normals,
+        backend=backend,
     )
     return values
+
+
+def check_backend(backend: str) -> str:
+    """``backend`` if it names an irradiance kernel (:data:`BACKENDS`), else an InputError."""
+    if backend not in BACKENDS:
+        raise InputError(f"backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+    return backend
+
+
+def window_and_pairs(
+    shape: tuple[int, int],
+    origin: tuple[float, float],
+    resolution: float,
+    light_point: FloatArray,
+    rotation: FloatArray,
+    street_azimuth: FloatArray,
+    table_index: NDArray[np.intp],
+    tables: Sequence[IntensityTable] | PackedTables,
+    weights: FloatArray,
+    *,
+    radius: FloatArray | None = None,
+    ground_z: FloatArray | None = None,
+    normals: FloatArray | None = None,
+    offset: tuple[int, int] = (0, 0),
+    backend: str = "numba",
+) -> tuple[FloatArray, int]:
+    """Illuminance of the window at ``offset`` of a grid and the light-pixel pairs evaluated.
+
+    ``origin`` is the centre of the grid's pixel (0, 0); the window's pixel (r, c) is the
+    grid's pixel (offset[0] + r, offset[1] + c). ``tables`` may come packed
+    (:func:`~nightlights.ground._illuminance_numba.pack_tables`) for the compiled backend.
+    """
+    check_backend(backend)
+    if backend == "numpy":
+        if not isinstance(tables, Sequence):
+            raise InputError("the numpy backend needs the candela tables, not packed ones")
+        return _illuminance_and_pairs(
+            shape,
+            origin,
+            resolution,
+            light_point,
+            rotation,
+            street_azimuth,
+            table_index,
+            tables,
+            weights,
+            radius=radius,
+            ground_z=ground_z,
+            normals=normals,
+            offset=offset,
+        )
+    from nightlights.ground import _illuminance_numba as compiled
+
+    packed_tables = compiled.pack_tables(tables) if isinstance(tables, Sequence) else tables
+    out = np.zeros((weights.shape[1], *shape))
+    n = len(light_point)
+    if n == 0 or shape[0] == 0 or shape[1] == 0:
+        return out, 0
+    pairs = compiled.window_illuminance(
+        out,
+        offset,
+        origin,
+        resolution,
+        light_point,
+        rotation,
+        street_azimuth,
+        table_index,
+        weights,
+        np.full(n, np.inf) if radius is None else radius,
+        packed_tables,
+        ground_z,
+        normals,
+    )
+    return out, pairs
 
 
 def _illuminance_and_pairs(
@@ -121,14 +225,16 @@ def _illuminance_and_pairs(
     radius: FloatArray | None = None,
     ground_z: FloatArray | None = None,
     normals: FloatArray | None = None,
+    offset: tuple[int, int] = (0, 0),
 ) -> tuple[FloatArray, int]:
+    """The numpy kernel on the window at ``offset`` of the grid centred at ``origin``."""
     rows, cols = shape
     n_bands = weights.shape[1]
     out = np.zeros((n_bands, rows * cols))
     n = len(light_point)
     if n == 0 or rows == 0 or cols == 0:
         return out.reshape(n_bands, rows, cols), 0
-    segments = _disc_segments(shape, origin, resolution, light_point, radius)
+    segments = _disc_segments(shape, offset, origin, resolution, light_point, radius)
     pairs = 0
     for table_id in np.unique(table_index):
         chosen = table_index[segments.light] == table_id
@@ -141,7 +247,8 @@ def _illuminance_and_pairs(
                     segments.col0[batch],
                     segments.length[batch],
                 ),
-                cols,
+                shape,
+                offset,
                 (origin[0], origin[1], resolution),
                 light_point,
                 rotation,
@@ -156,7 +263,8 @@ def _illuminance_and_pairs(
 
 @dataclass(frozen=True)
 class _Segments:
-    """Runs of pixels in one row lit by one light: light index, row, first column, length."""
+    """Runs of pixels in one row lit by one light: light index, grid row, first grid column,
+    length."""
 
     light: NDArray[np.intp]
     row: NDArray[np.int64]
@@ -166,32 +274,60 @@ class _Segments:
 
 def _disc_segments(
     shape: tuple[int, int],
+    offset: tuple[int, int],
     origin: tuple[float, float],
     resolution: float,
     light_point: FloatArray,
     radius: FloatArray | None,
 ) -> _Segments:
-    """Pixel-centre runs inside each light's region-of-influence disc, clipped to the window."""
+    """Pixel runs inside each light's region-of-influence disc, clipped to the window.
+
+    Pixel (R, C) of the grid, centred at (x0 + C res, y0 - R res), is inside when
+    dx^2 + dy^2 <= radius^2 for its offsets from the light point. Candidate runs one pixel
+    wider than the disc are trimmed by that exact test, so that the runs depend on the grid
+    index alone, never on the window (and equal the compiled kernel's).
+    """
     rows, cols = shape
+    row0, col0 = offset
     x0, y0 = origin
     n = len(light_point)
     r = np.full(n, np.inf) if radius is None else np.asarray(radius, dtype=float)
     lx, ly = light_point[:, 0], light_point[:, 1]
     with np.errstate(invalid="ignore"):
-        r0 = np.clip(np.ceil((y0 - (ly + r)) / resolution), 0, rows).astype(np.int64)
-        r1 = np.clip(np.floor((y0 - (ly - r)) / resolution) + 1, 0, rows).astype(np.int64)
-    n_rows = np.maximum(r1 - r0, 0)
+        low = np.floor((y0 - (ly + r)) / resolution) - 1.0
+        high = np.ceil((y0 - (ly - r)) / resolution) + 1.0
+    first_row = np.clip(low, row0, row0 + rows).astype(np.int64)
+    last_row = np.clip(high, row0 - 1, row0 + rows - 1).astype(np.int64)
+    n_rows = np.maximum(last_row - first_row + 1, 0)
     light = np.repeat(np.arange(n), n_rows)
-    row = r0[light] + (np.arange(n_rows.sum()) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows))
+    row = first_row[light] + (
+        np.arange(n_rows.sum()) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
+    )
+    px, r2 = lx[light], r[light] * r[light]
     dy = (y0 - row * resolution) - ly[light]
+    dy2 = dy * dy
+    keep = dy2 <= r2
+    light, row, px, r2, dy2 = light[keep], row[keep], px[keep], r2[keep], dy2[keep]
+    half = np.sqrt(r2 - dy2)
     with np.errstate(invalid="ignore"):
-        half = np.sqrt(np.maximum(r[light] ** 2 - dy * dy, 0.0))
-        half = np.where(np.isinf(r[light]), np.inf, half)
-        col0 = np.clip(np.ceil((lx[light] - half - x0) / resolution), 0, cols).astype(np.int64)
-        col1 = np.clip(np.floor((lx[light] + half - x0) / resolution) + 1, 0, cols)
-    length = np.maximum(col1.astype(np.int64) - col0, 0)
+        low = np.floor((px - half - x0) / resolution) - 1.0
+        high = np.ceil((px + half - x0) / resolution) + 1.0
+    first = np.clip(low, col0, col0 + cols).astype(np.int64)
+    last = np.clip(high, col0 - 1, col0 + cols - 1).astype(np.int64)
+
+    def outside(col: NDArray[np.int64], index: NDArray[np.intp]) -> NDArray[np.bool_]:
+        dx = (x0 + col * resolution) - px[index]
+        return ~(dx * dx + dy2[index] <= r2[index])
+
+    for end, step in ((first, 1), (last, -1)):
+        index = np.arange(len(light))
+        while len(index):
+            index = index[first[index] <= last[index]]
+            index = index[outside(end[index], index)]
+            end[index] += step
+    length = last - first + 1
     keep = length > 0
-    return _Segments(light[keep], row[keep], col0[keep], length[keep])
+    return _Segments(light[keep], row[keep], first[keep], length[keep])
 
 
 def _batches(members: NDArray[np.intp], counts: NDArray[np.int64]) -> list[NDArray[np.intp]]:
@@ -205,7 +341,8 @@ def _batches(members: NDArray[np.intp], counts: NDArray[np.int64]) -> list[NDArr
 def _accumulate(
     out: FloatArray,
     segments: _Segments,
-    cols: int,
+    shape: tuple[int, int],
+    offset: tuple[int, int],
     grid: tuple[float, float, float],
     point: FloatArray,
     rotation: FloatArray,
@@ -223,10 +360,10 @@ def _accumulate(
     )
     row = segments.row[segment]
     pair = segments.light[segment]
-    pixel = row * cols + col
-    # Offsets per light (small numbers), then per pixel.
-    dx = (x0 - point[:, 0])[pair] + col * resolution
-    dy = (y0 - point[:, 1])[pair] - row * resolution
+    pixel = (row - offset[0]) * shape[1] + (col - offset[1])
+    # Offsets of the pixel centres (x0 + C res, y0 - R res) from the light points.
+    dx = (x0 + col * resolution) - point[pair, 0]
+    dy = (y0 - row * resolution) - point[pair, 1]
     dz = -point[pair, 2] if ground_z is None else ground_z.ravel()[pixel] - point[pair, 2]
     # Body coordinates b = R^T d (right, forward, up); Chuang 2011, Eq. 5.
     planar = np.abs(rotation[:, 2, 2] - 1.0) <= 1e-15

@@ -33,7 +33,7 @@ from nightlights.ground.checks import (
     irradiance_memory,
     parse_crs,
 )
-from nightlights.ground.illuminance import surface_normals
+from nightlights.ground.illuminance import check_backend, surface_normals
 from nightlights.ground.influence import InfluenceThreshold
 from nightlights.ground.luminaires import (
     DatabaseLike,
@@ -106,6 +106,7 @@ def irradiance(
     scheduler: str | Any | None = None,
     tile_size: int = 1024,
     progress: bool = True,
+    backend: str = "numba",
 ) -> IrradianceResult:
     """Ground illuminance of a light layer, one band per sensor.
 
@@ -152,6 +153,9 @@ def irradiance(
         Tile edge [pixels].
     progress
         Show a progress bar.
+    backend
+        Illuminance kernel: ``"numba"`` (compiled, the default) or ``"numpy"`` (the
+        reference; equal to 1e-6 relative on every pixel, several times slower).
 
     Returns
     -------
@@ -210,6 +214,7 @@ def irradiance(
     12.0
     """
     threshold = threshold or InfluenceThreshold()
+    check_backend(backend)
     resolution = check_resolution(resolution)
     if margin is not None:
         margin = check_number(margin, "margin", "m", minimum=0.0)
@@ -268,7 +273,9 @@ def irradiance(
             max(bounds[3], bounds[1] + resolution),
         )
     grid = grid_from_bounds(bounds, resolution)
-    _check_memory(grid, len(sensors), radius, tile_size, dem is not None, scheduler is None)
+    _check_memory(
+        grid, len(sensors), radius, tile_size, dem is not None, scheduler is None, backend
+    )
     coarse = _coarse_pixels(radius, resolution)
     ground_z = normals = None
     if dem is not None:
@@ -283,6 +290,7 @@ def irradiance(
         scheduler=scheduler,
         tile_size=tile_size,
         progress=progress,
+        backend=backend,
     )
     if not computed.bands.any():
         reason = _zero_reason(luminaires, radius, threshold, coarse, computed.n_lights)
@@ -300,6 +308,7 @@ def irradiance(
         "max_radius_m": threshold.max_radius,
         "lights": len(luminaires),
         "light_pixel_evaluations": computed.n_pairs,
+        "kernel": backend,
         "reference": "Chuang 2011, Sec. 5.1, Eq. 11",
     }
     n_lights, n_pairs = computed.n_lights, computed.n_pairs
@@ -334,6 +343,7 @@ def _check_memory(
     tile_size: int,
     dem: bool,
     local: bool,
+    backend: str,
 ) -> None:
     """Refuse a grid whose estimated peak memory is over the limit (before allocating)."""
     pixels = float(grid.rows) * float(grid.cols)
@@ -349,6 +359,7 @@ def _check_memory(
         pairs=pairs,
         dem=dem,
         local=local,
+        backend=backend,
     )
     # The grid's own arrays; the rest is tiles in flight and the task graph.
     grid_part = pixels * (bands * IRRADIANCE_BYTES_PER_PIXEL + (DEM_BYTES_PER_PIXEL if dem else 0))

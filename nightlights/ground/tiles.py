@@ -29,7 +29,6 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.ground import illuminance
-from nightlights.ground.frames import IntensityTable
 from nightlights.ground.luminaires import Luminaires, describe_ids
 
 __all__ = [
@@ -327,6 +326,7 @@ def compute_irradiance(
     tile_size: int = 1024,
     num_workers: int | None = None,
     progress: bool = True,
+    backend: str = "numba",
 ) -> ComputedIrradiance:
     """Tile ``grid``, bin lights to tiles, run the illuminance kernel per tile with Dask.
 
@@ -351,7 +351,18 @@ def compute_irradiance(
         Local threads (default one per core).
     progress
         Show a progress bar.
+    backend
+        Illuminance kernel, one of :data:`~nightlights.ground.illuminance.BACKENDS`:
+        ``"numba"`` (compiled, the default) or ``"numpy"`` (the reference).
+
+    Notes
+    -----
+    A pixel's value depends on its index in the grid alone, never on the tile that holds
+    it: every backend lights the pixels whose centres lie within a light's radius, by the
+    same test, and the compiled backend adds the lights to a pixel in the order of
+    ``luminaires``; its output is bit-identical for any ``tile_size`` and scheduler.
     """
+    illuminance.check_backend(backend)
     x, y = luminaires.light_point[:, 0], luminaires.light_point[:, 1]
     finite_radius = np.where(
         np.isfinite(radius), radius, 2.0 * (grid.rows + grid.cols) * grid.resolution
@@ -368,6 +379,11 @@ def compute_irradiance(
             DataQualityWarning,
             stacklevel=3,
         )
+    tables: Any = luminaires.tables
+    if backend == "numba":
+        from nightlights.ground._illuminance_numba import pack_tables
+
+        tables = pack_tables(luminaires.tables)
     per_tile = []
     for tile, index in zip(tiles, members, strict=True):
         rows, cols = tile.slices
@@ -384,7 +400,7 @@ def compute_irradiance(
                 None if normals is None else normals[rows, cols],
             )
         )
-    shared = (grid, luminaires.tables)
+    shared = (grid, tables, backend)
     results = compute_tiles(
         _irradiance_tile,
         per_tile,
@@ -413,13 +429,14 @@ def _irradiance_tile(
     radius: FloatArray,
     ground_z: FloatArray | None,
     normals: FloatArray | None,
-    shared: tuple[RasterGrid, tuple[IntensityTable, ...]],
+    shared: tuple[RasterGrid, Any, str],
 ) -> tuple[NDArray[np.float32], int]:
-    grid, tables = shared
-    x, y = grid.centres(tile)
-    values, pairs = illuminance._illuminance_and_pairs(
+    grid, tables, backend = shared
+    # the centre of the grid's pixel (0, 0): pixel centres follow from their grid index
+    origin = (grid.x_min + 0.5 * grid.resolution, grid.y_max - 0.5 * grid.resolution)
+    values, pairs = illuminance.window_and_pairs(
         (tile.rows, tile.cols),
-        (float(x[0]), float(y[0])),
+        origin,
         grid.resolution,
         light_point,
         rotation,
@@ -430,5 +447,7 @@ def _irradiance_tile(
         radius=radius,
         ground_z=ground_z,
         normals=normals,
+        offset=(tile.row0, tile.col0),
+        backend=backend,
     )
     return values.astype(np.float32), pairs

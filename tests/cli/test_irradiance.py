@@ -47,6 +47,27 @@ def test_irradiance_bands_per_sensor(lights: Path, tmp_path: Path) -> None:
     assert np.all((ratio > 0) & (ratio < 2.5 / 683))
 
 
+def test_numpy_backend_is_the_reference(lights: Path, tmp_path: Path) -> None:
+    bands = {}
+    for backend in ("numba", "numpy"):
+        out = tmp_path / f"{backend}.tif"
+        args = ["irradiance", str(lights), str(out), "--resolution", "2", "--backend", backend]
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 0, result.output
+        with rasterio.open(out) as dataset:
+            bands[backend] = dataset.read(1).astype(float)
+            assert dataset.tags()["kernel"] == backend
+    lit = bands["numpy"] > 0
+    assert lit.any() and np.array_equal(bands["numba"] > 0, lit)
+    np.testing.assert_allclose(bands["numba"][lit], bands["numpy"][lit], rtol=1e-6)
+    result = CliRunner().invoke(
+        cli,
+        ["irradiance", str(lights), str(tmp_path / "x.tif"), "--resolution", "2"]
+        + ["--backend", "cuda"],
+    )
+    assert result.exit_code == 2 and "'cuda' is not one of 'numba', 'numpy'" in result.output
+
+
 def test_irradiance_with_area_sources(lights: Path, tmp_path: Path) -> None:
     areas = tmp_path / "areas.gpkg"
     gpd.GeoDataFrame(
@@ -116,6 +137,7 @@ def test_options_reach_the_stage(fake_stage, lights: Path, tmp_path: Path) -> No
     assert kwargs["bounds"] == (0.0, 1.0, 2.0, 3.0)
     assert kwargs["area_options"].height == 5.0
     assert kwargs["sensors"] == ("photopic",)
+    assert kwargs["backend"] == "numba"
     assert "3 lights, 4 x 5 pixels" in result.output
 
 

@@ -445,14 +445,14 @@ def test_a_failing_tile_leaves_the_old_output(
     lights = write_lights(tmp_path / "l.gpkg", [light(1, 50.0, 50.0), light(2, 150.0, 50.0)])
     out = tmp_path / "e.tif"
     out.write_bytes(b"previous result")
-    original = module._illuminance_and_pairs
+    original = module.window_and_pairs
 
-    def flaky(shape, origin, *args, **kwargs):
-        if origin[0] > 100:
+    def flaky(*args, **kwargs):
+        if kwargs["offset"][1] >= 100:
             raise MemoryError("tile east of x=100 failed")
-        return original(shape, origin, *args, **kwargs)
+        return original(*args, **kwargs)
 
-    monkeypatch.setattr(module, "_illuminance_and_pairs", flaky)
+    monkeypatch.setattr(module, "window_and_pairs", flaky)
     with pytest.raises(MemoryError):
         irradiance(
             lights,
