@@ -11,7 +11,6 @@ there is a choice, the allowed values.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -37,21 +36,6 @@ STAGES = (
     "inverse-reduce",
     "darkness",
 )
-#: The command of each stage (its options carry the same names).
-STAGE_COMMANDS = {
-    "normalize": "streets normalize",
-    "sample": "streets sample",
-    "place": "streets place",
-    "irradiance": "irradiance",
-    "emission": "emission",
-    "emission-viirs": "emission viirs",
-    "skyglow": "skyglow",
-    "observers": "sky observers",
-    "inverse-q": "inverse q",
-    "inverse-s": "inverse s",
-    "inverse-reduce": "inverse reduce",
-    "darkness": "darkness",
-}
 #: Stages that read the streets input, and the product each stage needs from upstream.
 STREET_STAGES = ("normalize", "sample", "place", "irradiance", "emission")
 UPSTREAM = {
@@ -147,23 +131,31 @@ class KernelTable(_Table):
 
 
 class NormalizeStage(_Table):
+    """``[stages.normalize]``: the options of ``streets normalize``."""
+
     layer: str | None = None
     crs: str | None = None
     target_crs: str | None = None
 
 
 class SampleStage(_Table):
+    """``[stages.sample]``: the options of ``streets sample`` (its seed: ``project.seed``)."""
+
     candidates: Count = 128
     on_conflict: Literal["error", "relax"] = "error"
 
 
 class PlaceStage(_Table):
+    """``[stages.place]``: the options of ``streets place``."""
+
     along_jitter: Fraction | None = None
     across_jitter: Annotated[float, Field(ge=0, allow_inf_nan=False)] | None = None
     merge_fraction: Fraction | None = None
 
 
 class IrradianceStage(_Table):
+    """``[stages.irradiance]``: the options of ``irradiance``, and its map."""
+
     resolution: PositiveFloat
     sensor: list[str] = ["photopic"]
     bounds: Bounds | None = None
@@ -178,12 +170,16 @@ class IrradianceStage(_Table):
 
 
 class EmissionStage(_Table):
+    """``[stages.emission]``: the options of ``emission`` (ground light and uplight)."""
+
     resolution: PositiveFloat
     albedo: Fraction | str
     skip_unknown: bool = False
 
 
 class EmissionViirsStage(_Table):
+    """``[stages.emission-viirs]``: the options of ``emission viirs``."""
+
     spectrum: str = "LED_4000K"
     resolution: PositiveFloat | None = None
     target_crs: str | None = None
@@ -191,12 +187,16 @@ class EmissionViirsStage(_Table):
 
 
 class _SceneGrid(_Table):
+    """The grid of a scene kernel (only without a ``[kernel]`` table)."""
+
     n_azimuth: Annotated[int, Field(ge=2, multiple_of=2)] | None = None
     n_elevation: Count | None = None
     n_distance: Count | None = None
 
 
 class SkyglowStage(_SceneGrid):
+    """``[stages.skyglow]``: the options of ``skyglow``, per observer."""
+
     observer: str | list[str] | None = None
     mode: Literal["pca", "exact", "naive"] = "pca"
     components: Count | None = None
@@ -208,18 +208,24 @@ class SkyglowStage(_SceneGrid):
 
 
 class ObserversStage(_Table):
+    """``[stages.observers]``: the options of ``sky observers``."""
+
     panoramas: bool = False
     top_cells: Annotated[int, Field(ge=0)] = 5
     scheduler: Literal["threads", "processes", "synchronous"] = "threads"
 
 
 class InverseQStage(_SceneGrid):
+    """``[stages.inverse-q]``: the options of ``inverse q``, per observer, and its map."""
+
     observer: str | list[str] | None = None
     metric: Literal["pca-norm", "zenith", "hemisphere"] = "pca-norm"
     map: bool = True
 
 
 class InverseSStage(_SceneGrid):
+    """``[stages.inverse-s]``: the options of ``inverse s``, per observer, and its map."""
+
     observer: str | list[str] | None = None
     region: str
     weight: Literal["solid-angle", "pixel"] = "solid-angle"
@@ -229,6 +235,8 @@ class InverseSStage(_SceneGrid):
 
 
 class InverseReduceStage(_Table):
+    """``[stages.inverse-reduce]``: ``inverse reduce --by`` the map of a stage."""
+
     by: Literal["inverse-q", "inverse-s"]
     observer: str | None = None
     qa: Threshold
@@ -238,6 +246,8 @@ class InverseReduceStage(_Table):
 
 
 class DarknessStage(_SceneGrid):
+    """``[stages.darkness]``: the options of ``darkness``."""
+
     chunk_size: Count | None = None
 
 
@@ -371,7 +381,3 @@ def reach(project_file: ProjectFile) -> float:
     """How far from the data an observer may stand [m]: the kernel's range."""
     kernel = project_file.kernel
     return MAX_REACH if kernel is None else min(kernel.r_max, MAX_REACH)
-
-
-def finite_pair(values: tuple[float, float]) -> bool:
-    return all(math.isfinite(v) for v in values)

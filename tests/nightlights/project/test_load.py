@@ -194,3 +194,10 @@ def test_a_seed_override_is_checked_like_the_file(small_project: Path) -> None:
     assert project.file.project.seed == 5
     with pytest.raises(ProjectError, match=r"project\.seed = -1: input should be greater"):
         load_project(small_project, overrides={"project": {"seed": -1}})
+
+
+def test_the_reach_without_a_kernel_is_the_longest_any_kernel_tabulates() -> None:
+    from nightlights.project._schema import MAX_REACH
+    from nightlights.sky.spec import MAX_KERNEL_RANGE
+
+    assert MAX_REACH == MAX_KERNEL_RANGE
