@@ -24,6 +24,7 @@ PLUGIN_FILES = (
     "base.py",
     "algorithms.py",
     "runner.py",
+    "messages.py",
     "choices.py",
     "metadata.txt",
 )

@@ -1,17 +1,23 @@
-"""``nightlights qgis-plugin build``: the plugin zip, its default name, --overwrite, --command."""
+"""``nightlights qgis-plugin build``: the plugin zip, its default name, --overwrite, --command;
+and the plugin reading what a command prints."""
 
 from __future__ import annotations
 
 import json
 import os
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
 
 import pytest
 from click.testing import CliRunner, Result
 
 from cli import qgis
+from cli.main import cli
 from nightlights.qgis import PLUGIN_FOLDER, toolkit_command
+from nightlights.qgis.plugin.messages import parse_zenith
 
 
 def _build(*args: str) -> Result:
@@ -63,3 +69,23 @@ def test_a_missing_command_is_a_usage_error(tmp_path: Path) -> None:
 
 def test_the_module_exposes_its_group() -> None:
     assert [command.name for command in qgis.commands] == ["qgis-plugin"]
+
+
+def test_the_plugin_reads_the_zenith_line_skyglow_prints(
+    fake_stage: Callable[[str, Any], Any], tmp_path: Path
+) -> None:
+    """The skyglow algorithm's outputs come from the command's own line, as printed."""
+    result = SimpleNamespace(
+        zenith_luminance=3.97e-3, zenith_magnitude=18.59, bortle=7, seconds=0.0094
+    )
+    fake_stage("skyglow", result)
+    emission = tmp_path / "emission.tif"
+    emission.touch()
+    args = ["skyglow", str(emission), str(tmp_path / "sky.nc"), "--observer", "385900,6671800"]
+    printed = CliRunner().invoke(cli, args)
+    assert printed.exit_code == 0, printed.output
+    assert parse_zenith(printed.output.splitlines()) == {
+        "ZENITH_LUMINANCE": 3.97e-3,
+        "ZENITH_MAGNITUDE": 18.59,
+        "BORTLE": 7,
+    }

@@ -6,7 +6,6 @@ them, progress, cancel and outputs are the base class's (:mod:`.base`).
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 from qgis.core import (
@@ -26,14 +25,10 @@ from qgis.core import (
 
 from .base import VECTOR_FORMATS, NightlightsAlgorithm
 from .choices import DEFAULT_VIIRS_SPECTRUM, MAPPINGS, NETWORKS, PROJECTIONS, SENSORS
+from .messages import parse_zenith
 
 #: Network choice meaning "chosen by where the streets lie" (the command's default).
 BY_LOCATION = "by location"
-
-_ZENITH = re.compile(
-    r"zenith: (?P<luminance>\S+) cd m-2 = (?P<magnitude>\S+) mag arcsec-2.*?"
-    r"Bortle class (?P<bortle>\d+)"
-)
 
 
 def _given(parameters: dict, name: str) -> bool:
@@ -427,14 +422,7 @@ class Skyglow(NightlightsAlgorithm):
         return [[*line, "--overwrite"]]
 
     def results(self, messages: list[str]) -> dict[str, Any]:
-        outputs = super().results(messages)
-        for line in messages:
-            found = _ZENITH.search(line)
-            if found:
-                outputs["ZENITH_LUMINANCE"] = float(found["luminance"])
-                outputs["ZENITH_MAGNITUDE"] = float(found["magnitude"])
-                outputs["BORTLE"] = int(found["bortle"])
-        return outputs
+        return {**super().results(messages), **(parse_zenith(messages) or {})}
 
 
 class Darkness(NightlightsAlgorithm):
