@@ -156,3 +156,33 @@ def test_the_observers_stage_writes_the_summary_layer_and_a_panorama_folder(
     (out / "observers_panoramas" / "b.nc").unlink()
     assert run(small_project, progress=False).ran == ["observers"]
     assert (out / "observers_panoramas" / "b.nc").is_file()
+
+
+def test_a_dem_reaches_the_sky_stages_and_its_content_is_in_their_key(small_project: Path) -> None:
+    import numpy as np
+    import rasterio
+    from rasterio.transform import from_origin
+
+    dem = small_project.parent / "dem.tif"
+
+    def write_dem(height: float) -> None:
+        with rasterio.open(
+            dem,
+            "w",
+            driver="GTiff",
+            width=40,
+            height=40,
+            count=1,
+            dtype="float32",
+            crs="EPSG:3067",
+            transform=from_origin(384500.0, 6672500.0, 50.0, 50.0),
+        ) as dst:
+            dst.write(np.full((40, 40), height, dtype="float32"), 1)
+
+    write_dem(0.0)
+    _edit(small_project, 'emission = "emission.tif"', 'emission = "emission.tif"\ndem = "dem.tif"')
+    first = run(small_project, progress=False)
+    assert first.ran == ALL
+    assert run(small_project, progress=False).ran == []
+    write_dem(3.0)
+    assert run(small_project, progress=False).ran == ALL
