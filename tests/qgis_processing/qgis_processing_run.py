@@ -9,7 +9,8 @@ layer, ``FILE|layername=NAME``):
 
 1. ``nightlights:streetstolights`` on INPUT;
 2. ``nightlights:irradiance`` on the lights of 1, two sensors at 5 m;
-3. ``nightlights:irradiance`` again, cancelled as soon as its command starts;
+3. ``nightlights:irradiance`` again, as the Processing dialog runs it (a task on a worker
+   thread), cancelled as soon as its command starts;
 
 for MODE ``sky`` (INPUT: a folder with the ``lights.gpkg`` and ``irradiance.tif`` of ``light``):
 
@@ -48,6 +49,9 @@ def _feedback(cancel_on_start: bool = False) -> Any:
 
         def pushInfo(self, info: str) -> None:
             self.log.append(info)
+
+        def reportError(self, error: str, fatalError: bool = False) -> None:
+            self.log.append(error)
 
         def pushCommandInfo(self, info: str) -> None:
             self.log.append(info)
@@ -133,6 +137,31 @@ def _run(algorithm: str, parameters: dict[str, Any], feedback: Any) -> dict[str,
     return {**result, "progress": feedback.progress, "log": feedback.log, "seconds": seconds}
 
 
+def _run_task(algorithm: str, parameters: dict[str, Any], feedback: Any) -> dict[str, Any]:
+    """Run ``algorithm`` as the Processing dialog does: a task on a worker thread."""
+    import time
+
+    from qgis.core import QgsApplication, QgsProcessingAlgRunnerTask, QgsProcessingContext
+    from qgis.PyQt.QtCore import QEventLoop
+
+    instance = QgsApplication.processingRegistry().createAlgorithmById(algorithm)
+    context = QgsProcessingContext()
+    task = QgsProcessingAlgRunnerTask(instance, parameters, context, feedback)
+    loop = QEventLoop()
+    result: dict[str, Any] = {}
+
+    def executed(ok: bool, outputs: dict[str, Any]) -> None:
+        result.update({"outputs": outputs} if ok else {"error": " ".join(feedback.log[-1:])})
+        loop.quit()
+
+    task.executed.connect(executed)
+    start = time.monotonic()
+    QgsApplication.taskManager().addTask(task)
+    loop.exec_()
+    seconds = time.monotonic() - start
+    return {**result, "progress": feedback.progress, "log": feedback.log, "seconds": seconds}
+
+
 def main(mode: str, plugins: str, source: str, work: str) -> dict[str, Any]:
     sys.path[:0] = [plugins, PROCESSING_PLUGINS]
     from qgis.core import QgsApplication
@@ -163,7 +192,7 @@ def main(mode: str, plugins: str, source: str, work: str) -> dict[str, Any]:
 
 
 def light(streets: str, work: str) -> dict[str, Any]:
-    """Streets to lights, their irradiance, and a cancelled irradiance run."""
+    """Streets to lights, their irradiance, and a cancelled irradiance task."""
     report: dict[str, Any] = {}
     lights = f"{work}/lights.gpkg"
     run = _run(
@@ -180,7 +209,7 @@ def light(streets: str, work: str) -> dict[str, Any]:
     )
     report["irradiance"] = {**run, "layer": _raster(irradiance) if "error" not in run else None}
     cancelled = f"{work}/cancelled.tif"
-    report["cancelled"] = _run(
+    report["cancelled"] = _run_task(
         "nightlights:irradiance",
         {"LIGHTS": lights, "RESOLUTION": 5.0, "OUTPUT": cancelled},
         _feedback(cancel_on_start=True),

@@ -1,5 +1,6 @@
 """The plugin in real QGIS: installed from the built zip, two algorithms run with
-``processing.run`` on the bundled example, their outputs opened by QGIS, and a cancel.
+``processing.run`` on the bundled example, their outputs opened by QGIS, and a cancel of a
+run on a worker thread, as the Processing dialog runs it.
 
 QGIS runs in its own interpreter (``/usr/bin/python3`` with Debian's ``python3-qgis``), as it
 would for a user: the plugin there runs this environment's ``nightlights`` command, which
@@ -155,6 +156,8 @@ def test_irradiance_in_qgis(report: dict[str, Any]) -> None:
 
 
 def test_cancel_stops_the_command_and_leaves_no_output(report: dict[str, Any]) -> None:
+    """Cancelled on the dialog's worker thread: the task fails with the cancel, the command is
+    stopped and neither the output nor a temporary of it is left."""
     run = report["cancelled"]
     assert "cancelled" in run.get("error", ""), run
     assert not (Path(report["work"]) / "cancelled.tif").exists()
