@@ -349,6 +349,13 @@ def _check_observer_names(parsed: ProjectFile, observers: tuple[Observer, ...]) 
                 raise ProjectError(
                     f"stages.{stage}.observer = {name!r}: no such observer; allowed: {allowed}"
                 )
+    skyglow = stages.skyglow
+    if skyglow is not None and isinstance(skyglow.projection, dict):
+        for name in skyglow.projection:
+            if name not in names:
+                raise ProjectError(
+                    f"stages.skyglow.projection.{name}: no such observer; allowed: {allowed}"
+                )
     reduce = stages.inverse_reduce
     if reduce is not None:
         by = stages.options(reduce.by)

@@ -73,6 +73,7 @@ PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 Count = Annotated[int, Field(ge=1)]
 Bounds = tuple[float, float, float, float]
+Projection = Literal["equirectangular", "fisheye"]
 #: A Q/S threshold: a value in the unit of the ``by`` raster, or a percentile of its lit cells.
 Threshold = (
     Annotated[float, Field(allow_inf_nan=False)] | Annotated[str, Field(pattern=r"^\d+(\.\d+)?%$")]
@@ -201,7 +202,8 @@ class SkyglowStage(_SceneGrid):
     mode: Literal["pca", "exact", "naive"] = "pca"
     components: Count | None = None
     png: bool = True
-    projection: Literal["equirectangular", "fisheye"] = "equirectangular"
+    #: The PNG's projection: one for all, or per observer name (others: equirectangular).
+    projection: Projection | dict[str, Projection] = "equirectangular"
     polar_output: bool = False
     bands: Literal["V", "RGB"] = "V"
     spectrum: str = "LED_4000K"

@@ -92,7 +92,11 @@ def _skyglow(project: Project, options: dict[str, Any]) -> list[Task]:
             mode=o.mode,
             components=o.components,
             png=out.get(f"{key}_png"),
-            projection=o.projection,
+            projection=(
+                o.projection
+                if isinstance(o.projection, str)
+                else o.projection.get(observer.name, "equirectangular")
+            ),
             polar_output=out.get(f"{key}_polar"),
             dem=src.get("inputs.dem"),
             bands=o.bands,

@@ -86,7 +86,8 @@ albedo = 0.15                     # ground albedo [1], or an albedo raster
 
 [stages.skyglow]                  # a panorama per observer
 png = true
-projection = "fisheye"            # equirectangular or fisheye
+projection = "fisheye"            # equirectangular or fisheye, or per observer:
+                                  # { site = "fisheye" } (others equirectangular)
 # observer = ["site"]             # only these observers (default: all)
 # mode = "pca"                    # pca, exact or naive
 # bands = "V"                     # V or RGB

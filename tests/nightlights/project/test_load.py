@@ -32,7 +32,7 @@ BAD = [
         "png = false",
         "png = false\nresolutin = 1.0",
         "stages.skyglow.resolutin: unknown key in [stages.skyglow]; allowed: n-azimuth, "
-        "n-elevation, n-distance, observer, mode, components, png, projection",
+        "n-elevation, n-distance, observer, mode, components, png, projection, polar-output",
         id="unknown key",
     ),
     pytest.param(
@@ -201,3 +201,9 @@ def test_the_reach_without_a_kernel_is_the_longest_any_kernel_tabulates() -> Non
     from nightlights.sky.spec import MAX_KERNEL_RANGE
 
     assert MAX_REACH == MAX_KERNEL_RANGE
+
+
+def test_a_projection_per_observer_names_observers_that_exist(small_project: Path) -> None:
+    _edited(small_project, "png = false", 'projection = { a = "fisheye", c = "fisheye" }')
+    with pytest.raises(ProjectError, match=r"stages\.skyglow\.projection\.c: no such observer"):
+        load_project(small_project)
