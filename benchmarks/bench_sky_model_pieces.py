@@ -4,9 +4,11 @@ Base: the toolkit's default single-scattering kernel (spherical Earth, extinctio
 turbidity 2, Lambertian emission). Each variant changes one piece: Earth curvature (flat
 Earth), extinction (off), aerosols (turbidity 1 = pure air, Garstang's K = 1), emission
 function (direct-uplight sin^4 lobe, Garstang's 1986 function for F = G = 0.15), and all of
-Garstang's choices together (K = 1 with his emission function). Measured: the ratio variant /
-base of the luminance at the zenith and 45 deg up towards the source, per lumen of a ground
-point source; the distance slopes of every configuration (10-50 km at 45 deg: Walker's law;
+Garstang's choices together (K = 1 with his emission function), multiple scattering (all orders:
+the single-scattering luminance times the Monte Carlo factor of :mod:`nightlights.sky.multiple`),
+and everything together (K = 1, Garstang's emission, multiple scattering). Measured: the ratio
+variant / base of the luminance at the zenith and 45 deg up towards the source, per lumen of a
+ground point source; the distance slopes of every configuration (10-50 km at 45 deg: Walker's law;
 zenith 10-50 and 50-150 km); and the table of atmosphere descriptions
 (:func:`nightlights.sky.atmosphere.atmosphere_conversion_table`).
 
@@ -24,6 +26,7 @@ import numpy as np
 
 from nightlights.sky.atmosphere import Atmosphere, atmosphere_conversion_table, garstang_atmosphere
 from nightlights.sky.kernel import garstang_weights, sky_luminance
+from nightlights.sky.multiple import multiple_scattering_factor
 
 #: Garstang's (1986) emission function, F = G = 0.15, as weights of unit-flux shapes.
 GARSTANG_MIX = garstang_weights(0.15, 0.15)
@@ -37,6 +40,8 @@ CONFIGURATIONS: tuple[tuple[str, Atmosphere, str], ...] = (
     ("uplight sin^4 lobe", Atmosphere(), "uplight"),
     ("Garstang emission F = G = 0.15", Atmosphere(), "garstang"),
     ("Garstang K = 1 and emission", garstang_atmosphere(1.0), "garstang"),
+    ("multiple scattering (Monte Carlo factor)", Atmosphere(), "lambertian+multiple"),
+    ("all: K = 1, Garstang emission, multiple", garstang_atmosphere(1.0), "garstang+multiple"),
 )
 DIRECTIONS = (("zenith", 90.0), ("45 deg towards the source", 45.0))
 #: Distances at which the docs table reads the ratios [km].
@@ -46,14 +51,23 @@ TABLE_KM = (1, 10, 50, 100, 300)
 def luminance_function(atmosphere: Atmosphere, emission: str) -> Callable[..., np.ndarray]:
     """Luminance per lumen [cd m-2 lm-1] at (elevation [deg], distances [m])."""
 
+    shapes, _, multiple = emission.partition("+")
+
+    def one(shape: str, elevation: float, distance: np.ndarray) -> np.ndarray:
+        value = sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=shape)
+        if multiple:
+            value = value * multiple_scattering_factor(atmosphere, shape, elevation, 0.0, distance)
+        return np.asarray(value)
+
     def luminance(elevation: float, distance: np.ndarray) -> np.ndarray:
-        if emission == "garstang":
-            return sum(
-                weight
-                * sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=shape)
-                for shape, weight in GARSTANG_MIX.items()
+        if shapes == "garstang":
+            return np.asarray(
+                sum(
+                    weight * one(shape, elevation, distance)
+                    for shape, weight in GARSTANG_MIX.items()
+                )
             )
-        return sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=emission)
+        return one(shapes, elevation, distance)
 
     return luminance
 
@@ -120,7 +134,9 @@ def main() -> None:
         "conversion_table": atmosphere_conversion_table(),
         "seconds": watch.seconds,
         "note": (
-            "Single scattering only. Garstang emission: Lambertian x "
+            "Single scattering unless the label says multiple (single x the shipped Monte "
+            "Carlo factor of nightlights.sky.multiple, all orders). Garstang emission: "
+            "Lambertian x "
             f"{GARSTANG_MIX['lambertian']:.3f} + garstang_lobe x "
             f"{GARSTANG_MIX['garstang_lobe']:.3f}. K = 1: Garstang's atmosphere with his "
             "aerosol phase function replaced by Henyey-Greenstein g = 0.687."
@@ -133,7 +149,7 @@ def plot(result: dict):
     plt = harness.pyplot()
     distance_km = np.asarray(result["distance_m"]) / 1e3
     fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.4), sharey=True)
-    styles = ["-", "-", "-", "--", "--", ":", ":", "-."]
+    styles = ["-", "-", "-", "--", "--", ":", ":", "-.", "-", "-."]
     for ax, direction in zip(axes, result["directions"], strict=True):
         for (label, ratio), style in zip(
             list(result["ratio_to_base"].items())[1:], styles[1:], strict=True

@@ -1,4 +1,7 @@
-"""Distance slopes of the single-scattering kernel: Walker's law and the far-field steepening.
+"""Distance slopes of the kernel: Walker's law and the far-field steepening.
+
+Single scattering (``sky_luminance``) and the default model, single scattering times the Monte
+Carlo multiple-scattering factor (:mod:`nightlights.sky.multiple`).
 
 Walker's law (Walker 1977, PASP 89, 405; reproduced by Garstang 1986, PASP 98, 364): the
 artificial sky brightness at 45 deg elevation looking towards a city falls as D^-2.5 with the
@@ -14,6 +17,7 @@ import pytest
 
 from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
 from nightlights.sky.kernel import garstang_weights, sky_luminance
+from nightlights.sky.multiple import multiple_scattering_factor
 
 NEAR = np.geomspace(10e3, 50e3, 5)
 FAR = np.geomspace(50e3, 150e3, 5)
@@ -23,19 +27,60 @@ GARSTANG_MIX = garstang_weights(0.15, 0.15)
 
 
 def _luminance(
-    elevation: float, distance: np.ndarray, atmosphere: Atmosphere, emission: str
+    elevation: float,
+    distance: np.ndarray,
+    atmosphere: Atmosphere,
+    emission: str,
+    multiple: bool = False,
 ) -> np.ndarray:
-    if emission == "garstang":
-        return sum(
-            weight * sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=shape)
-            for shape, weight in GARSTANG_MIX.items()
-        )
-    return sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=emission)
+    shapes = GARSTANG_MIX.items() if emission == "garstang" else [(emission, 1.0)]
+    total = np.zeros(distance.shape)
+    for shape, weight in shapes:
+        value = sky_luminance(elevation, 0.0, distance, atmosphere=atmosphere, emission=shape)
+        if multiple:
+            value = value * multiple_scattering_factor(atmosphere, shape, elevation, 0.0, distance)
+        total += weight * value
+    return total
 
 
-def _slope(elevation: float, distance: np.ndarray, atmosphere: Atmosphere, emission: str) -> float:
-    luminance = _luminance(elevation, distance, atmosphere, emission)
+def _slope(
+    elevation: float,
+    distance: np.ndarray,
+    atmosphere: Atmosphere,
+    emission: str,
+    multiple: bool = False,
+) -> float:
+    luminance = _luminance(elevation, distance, atmosphere, emission, multiple)
     return float(np.polyfit(np.log(distance), np.log(luminance), 1)[0])
+
+
+@pytest.mark.parametrize("atmosphere", sorted(ATMOSPHERES))
+@pytest.mark.parametrize(
+    ("emission", "low", "high"),
+    [("uplight", -2.9, -2.1), ("garstang", -2.9, -2.1), ("lambertian", -3.0, -2.5)],
+)
+def test_walkers_law_with_the_default_multiple_scattering(
+    atmosphere: str, emission: str, low: float, high: float
+) -> None:
+    """Validation (3) for the default model (single x the Monte Carlo factor), turbidity 2
+    and Garstang's K = 1: every emission function within Walker's band, K = 1 included
+    (measured: T = 2 uplight -2.41, Garstang's mix -2.44, Lambertian -2.60; K = 1 -2.58,
+    -2.63, -2.59). Multiple scattering grows with distance and flattens the single-scattering
+    slopes by 0.25-0.35."""
+    slope = _slope(45.0, NEAR, ATMOSPHERES[atmosphere], emission, multiple=True)
+    assert low <= slope <= high
+
+
+@pytest.mark.parametrize("atmosphere", sorted(ATMOSPHERES))
+@pytest.mark.parametrize("emission", ["uplight", "garstang", "lambertian"])
+def test_far_field_steepening_with_the_default_multiple_scattering(
+    atmosphere: str, emission: str
+) -> None:
+    """Validation (4) for the default model: slope(50-150 km) - slope(10-50 km) at the
+    zenith in [-1.3, -0.5] (measured -0.59 to -0.99)."""
+    near = _slope(90.0, NEAR, ATMOSPHERES[atmosphere], emission, multiple=True)
+    far = _slope(90.0, FAR, ATMOSPHERES[atmosphere], emission, multiple=True)
+    assert -1.3 <= far - near <= -0.5
 
 
 @pytest.mark.parametrize(
@@ -59,7 +104,8 @@ def test_walker_slopes_for_garstangs_clear_night_recorded(emission: str, measure
     Lambertian (-2.84) is within Walker's band for it ([-3.0, -2.5]); the low-angle shapes,
     uplight (-2.92) and Garstang's mix (-2.98), are just steeper than its [-2.9, -2.1]: the
     denser, lower aerosol layer dims their nearly horizontal paths. Single scattering only:
-    Garstang's double-scattering factor, which grows with distance, would flatten these.
+    with the default multiple-scattering factor, which grows with distance, they are within
+    the band (``test_walkers_law_with_the_default_multiple_scattering``).
     """
     assert _slope(45.0, NEAR, ATMOSPHERES["K = 1"], emission) == pytest.approx(measured, abs=0.02)
 
