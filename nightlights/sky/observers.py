@@ -64,15 +64,13 @@ from nightlights.inverse._influence import cell_values, region_table, zenith_wei
 from nightlights.io import OutputSet, as_vector, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
-from nightlights.sky._polar_numba import polar_flux_levels
+from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.build import EMISSION_TABLES
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import (
-    PolarCells,
     PolarMap,
-    level_maps,
     lit_polar_cells,
     source_level_weights,
 )
@@ -174,34 +172,18 @@ class _Engine:
     def sky(self, xy: tuple[float, float], eye: float, levels: _Levels) -> dict[str, Any]:
         """One observer's figures (and panorama when kept) at eye altitude ``eye`` [m]."""
         slices = list(self.slices) if self.slices is not None else levels.at(eye - self.offset)
-        top = None
-        if self.top_cells:
-            # the sub-points of the lit cells serve both the polar maps and each cell's part
-            # of the zenith (the compiled scatter gives the same maps, without the cells)
-            cells = lit_polar_cells(
-                self.rows,
-                self.cols,
-                self.values,
-                self.transform,
-                xy,
-                distance_edges=self.edges,
-                n_az=self.n_az,
-            )
-            polars = level_maps(cells, self.level_weights)
-            top = self._top_cells(cells, levels.zenith_tables(slices))
-        else:
-            maps, _ = polar_flux_levels(
-                self.rows,
-                self.cols,
-                self.flux,
-                self.level_weights,
-                self.transform,
-                xy,
-                distance_edges=self.edges,
-                n_az=self.n_az,
-            )
-            empty = np.zeros(1)
-            polars = [PolarMap(m, self.edges, self.n_az, empty, empty) for m in maps]
+        maps, _ = polar_flux_levels(
+            self.rows,
+            self.cols,
+            self.flux,
+            self.level_weights,
+            self.transform,
+            xy,
+            distance_edges=self.edges,
+            n_az=self.n_az,
+        )
+        empty = np.zeros(1)
+        polars = [PolarMap(m, self.edges, self.n_az, empty, empty) for m in maps]
         # Eqs. 7-9; PCA truncation can ring slightly below zero
         luminance = np.maximum(panorama_pca(polars, slices), 0.0)
         below = None
@@ -215,27 +197,49 @@ class _Engine:
         row = luminance[0]
         zenith = float(np.nanmean(row)) if np.isfinite(row).any() else 0.0
         out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
-        if top is not None:
-            out["top"] = top
+        if self.top_cells:
+            out["top"] = self._top_cells(xy, maps, levels.zenith(slices))
         if self.keep_panoramas:
             out["luminance"] = luminance
             out["below"] = below
         return out
 
-    def _top_cells(self, cells: PolarCells, tables: list[FloatArray]) -> FloatArray:
+    def _top_cells(self, xy: tuple[float, float], maps: FloatArray, zenith: _Zenith) -> FloatArray:
         """``(top_cells, 3)``: x, y [m] and share of the artificial zenith [1] of the lit
         cells that give most of it (NaN rows when fewer cells give any).
 
         A cell's part is :func:`~nightlights.inverse.inverse_q`'s with ``metric="zenith"``
-        (Dobashi et al. 2023, Eqs. 13-14 with the zenith row's weights); the parts of all
-        cells add up to the panorama's artificial zenith luminance.
+        (Dobashi et al. 2023, Eqs. 13-14 with the zenith row's weights): its flux on each
+        source level times the zenith luminance per lumen of the polar bins its sub-points
+        fall in, summed. The parts of all cells add up to the binned flux times the same
+        table, the panorama's artificial zenith (Eqs. 13-14 are linear), the shares'
+        denominator. Every sub-point of a cell lies within half a cell diagonal of its centre,
+        so the cell's part lies between its flux times the least and the greatest value of
+        the table over the distance bins of that span; only the cells whose upper bound
+        reaches the ``top_cells``-th largest lower bound are split into sub-points
+        (:func:`~nightlights.sky.polar.lit_polar_cells`) and summed exactly, as
+        :func:`~nightlights.inverse.inverse_q` does for all of them.
         """
-        values = cell_values(cells, self.level_weights, tables)
+        total = float(sum(np.sum(m * t) for m, t in zip(maps, zenith.tables, strict=True)))
+        lower, upper = zenith.bounds(self, xy)
+        count = min(self.top_cells, lower.size)
+        threshold = np.partition(lower, lower.size - count)[lower.size - count]
+        chosen = np.nonzero(upper >= threshold)[0]
+        cells = lit_polar_cells(
+            self.rows[chosen],
+            self.cols[chosen],
+            self.values[:, chosen],
+            self.transform,
+            xy,
+            distance_edges=self.edges,
+            n_az=self.n_az,
+        )
+        exact = cell_values(cells, self.level_weights[:, chosen], zenith.tables)
+        values = np.zeros(lower.size)
+        values[chosen] = exact
         out = np.full((self.top_cells, 3), np.nan)
-        total = float(values.sum())
         if not total > 0:
             return out
-        count = min(self.top_cells, values.size)
         order = np.argsort(-values, kind="stable")[:count]
         order = order[values[order] > 0]
         t = self.transform
@@ -253,7 +257,7 @@ class _Levels:
         self._levels: KernelLevels | None = None
         self._slices: dict[float, list[KernelSlice]] = {}
         # keyed by the slices' identity; the slices are kept with their tables
-        self._zenith: dict[int, tuple[list[KernelSlice], list[FloatArray]]] = {}
+        self._zenith: dict[int, tuple[list[KernelSlice], _Zenith]] = {}
 
     def at(self, altitude: float) -> list[KernelSlice]:
         """The band slices at an eye altitude in the kernel's frame [m]."""
@@ -265,14 +269,62 @@ class _Levels:
             self._slices[altitude] = [band_slice(s, functions) for s in self._levels.at(altitude)]
         return self._slices[altitude]
 
-    def zenith_tables(self, slices: list[KernelSlice]) -> list[FloatArray]:
-        """Per source level: the artificial zenith luminance per lumen in each polar bin
-        (:func:`~nightlights.inverse._influence.region_table` of the zenith row) [cd m-2 lm-1]."""
+    def zenith(self, slices: list[KernelSlice]) -> _Zenith:
+        """The zenith tables of the slices (computed once per eye altitude)."""
         key = id(slices[0])
         if key not in self._zenith:
-            weights = zenith_weights(slices[0].elevation.size, slices[0].n_az)
-            self._zenith[key] = (slices, [region_table(t, weights) for t in slices])
+            self._zenith[key] = (slices, _Zenith.of(slices))
         return self._zenith[key][1]
+
+
+@dataclass(frozen=True)
+class _Zenith:
+    """Per source level, the artificial zenith luminance per lumen in each polar bin and its
+    least and greatest value over every range of distance bins [cd m-2 lm-1]."""
+
+    tables: list[FloatArray]  # (bands, n_r, n_az) per level
+    least: FloatArray  # (levels, bands, n_r, n_r): [.., first, last] over bins first..last
+    greatest: FloatArray
+
+    @classmethod
+    def of(cls, slices: list[KernelSlice]) -> _Zenith:
+        weights = zenith_weights(slices[0].elevation.size, slices[0].n_az)
+        # region_table of the zenith row (Dobashi et al. 2023, Eqs. 13-14)
+        tables = [region_table(t, weights) for t in slices]
+        low = np.stack([t.min(axis=-1) for t in tables])  # (levels, bands, n_r)
+        high = np.stack([t.max(axis=-1) for t in tables])
+        n_r = low.shape[-1]
+        least = np.full((*low.shape, n_r), np.inf)
+        greatest = np.full((*high.shape, n_r), -np.inf)
+        for first in range(n_r):
+            least[..., first, first:] = np.minimum.accumulate(low[..., first:], axis=-1)
+            greatest[..., first, first:] = np.maximum.accumulate(high[..., first:], axis=-1)
+        return cls(tables, least, greatest)
+
+    def bounds(self, engine: _Engine, xy: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
+        """Lower and upper bounds of every lit cell's part of the zenith [cd m-2]."""
+        t = engine.transform
+        cell = abs(t.a)
+        x = t.c + t.a * (engine.cols + 0.5)
+        y = t.f + t.e * (engine.rows + 0.5)
+        distance = np.hypot(x - xy[0], y - xy[1])
+        half = cell / math.sqrt(2.0)  # sub-points lie within half a diagonal of the centre
+        n_r = engine.edges.size - 1
+        # the bins of lit_polar_cells: searchsorted(edges, r, "right") - 1, 0 below the first
+        first = np.searchsorted(engine.edges, np.maximum(distance - half, 0.0), "right") - 1
+        last = np.searchsorted(engine.edges, distance + half, "right") - 1
+        outside = last >= n_r  # some sub-points may lie beyond the kernel: they count 0
+        first = np.clip(first, 0, n_r - 1)
+        last = np.clip(last, 0, n_r - 1)
+        least = self.least[:, :, first, last]  # (levels, bands, n)
+        greatest = self.greatest[:, :, first, last]
+        least = np.where(outside, np.minimum(least, 0.0), least)
+        greatest = np.where(outside, np.maximum(greatest, 0.0), greatest)
+        beyond = distance - half >= engine.edges[-1]  # every sub-point beyond the kernel
+        least = np.where(beyond, 0.0, least)
+        greatest = np.where(beyond, 0.0, greatest)
+        weight = engine.level_weights[:, None, :] * engine.flux[None, :, :]  # [lm]
+        return np.sum(weight * least, axis=(0, 1)), np.sum(weight * greatest, axis=(0, 1))
 
 
 def _brightest(luminance: FloatArray, elevation: FloatArray) -> dict[str, float]:
@@ -298,8 +350,10 @@ def _observe_chunk(
     import numba
 
     previous = numba.get_num_threads()
-    if single_thread:
-        numba.set_num_threads(1)  # the scheduler runs the tasks in parallel
+    # The scheduler runs the tasks in parallel; and the compiled scatter uses one thread per
+    # _CELLS_PER_CHUNK lit cells at most, so a smaller scene gains nothing from launching more.
+    if single_thread or engine.rows.size < 2 * _CELLS_PER_CHUNK:
+        numba.set_num_threads(1)
     try:
         levels = _Levels(engine)
         return [engine.sky((float(x), float(y)), float(eye), levels) for x, y, eye in points]

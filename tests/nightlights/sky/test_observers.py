@@ -16,11 +16,14 @@ from shapely.geometry import LineString, Point
 
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputExistsError
 from nightlights.inverse import inverse_q
+from nightlights.inverse._influence import cell_values
 from nightlights.io import Raster, RasterBand, write_cog
 from nightlights.nightsky.render import zenith_summary
 from nightlights.sky import KernelSpec, build_kernel, skyglow
 from nightlights.sky import observers as module
 from nightlights.sky.observers import SUMMARY_FIELDS, SUMMARY_LAYER, observers
+from nightlights.sky.polar import lit_polar_cells
+from nightlights.sky.setup import prepare_scene
 
 CRS = "EPSG:3067"
 CELL = 100.0
@@ -93,14 +96,28 @@ def test_top_cells_are_the_largest_zenith_parts_of_inverse_q(small_kernel: xr.Da
 
 
 def test_top_cells_do_not_change_the_sky(small_kernel: xr.Dataset) -> None:
-    """With top cells the polar maps come from the numpy sub-points, without them from the
-    compiled scatter: the same skies."""
     raster = town()
     with_cells = run(raster, small_kernel, top_cells=3).summary
     without = run(raster, small_kernel, top_cells=0).summary
     for field in ("zenith_artificial", "brightest_luminance"):
-        np.testing.assert_allclose(with_cells[field], without[field], rtol=1e-12)
+        np.testing.assert_array_equal(with_cells[field], without[field])
     assert "top1_x" not in without
+
+
+@pytest.mark.parametrize("xy", [tuple(p) for p in POINTS] + [(10_050.0, 19_950.0)])
+def test_every_cells_zenith_part_lies_within_its_bounds(small_kernel, xy) -> None:
+    """Only cells whose upper bound reaches the n-th largest lower bound are summed exactly:
+    the bounds must hold for every cell, near the observer (many sub-points) and far."""
+    setup = prepare_scene(town(), xy, small_kernel, observer_height=0.0, progress=False)
+    engine = module._engine(setup, False, 3, False)
+    zenith = module._Levels(engine).zenith(list(engine.slices))
+    cells = lit_polar_cells(engine.rows, engine.cols, engine.values, engine.transform, xy,
+                            distance_edges=engine.edges, n_az=engine.n_az)  # fmt: skip
+    exact = cell_values(cells, engine.level_weights, zenith.tables)
+    lower, upper = zenith.bounds(engine, xy)
+    tolerance = 1e-12 * exact.max()
+    assert np.all(lower <= exact + tolerance) and np.all(exact <= upper + tolerance)
+    assert np.mean(upper - lower <= 1e-9 * exact.max()) > 0.2  # single-bin cells are tight
 
 
 def test_fewer_lit_cells_than_asked_leave_nan(small_kernel: xr.Dataset) -> None:
