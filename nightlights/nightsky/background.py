@@ -197,15 +197,18 @@ def starlight_density(
     grid_el = np.linspace(0.0, 90.0, int(np.ceil(90.0 / grid_step)) + 1)
     grid_az = np.linspace(0.0, 360.0, int(np.ceil(360.0 / grid_step)) + 1)
     gel, gaz = np.meshgrid(np.radians(grid_el), np.radians(grid_az), indexing="ij")
-    nodes = _unit_vectors(gel.ravel(), gaz.ravel()).astype(np.float32)
     # Stars more than 5 sigma below the horizon add less than e^-12.5 to any node.
     near = star_el > -5.0 * np.radians(smoothing)
-    stars = _unit_vectors(star_el[near], star_az[near]).astype(np.float32)
     # kappa / (4 pi sinh kappa) e^(kappa cos)
-    #   = kappa / (2 pi (1 - e^(-2 kappa))) e^(kappa (cos - 1))
+    #   = kappa / (2 pi (1 - e^(-2 kappa))) e^(kappa (cos - 1)),
+    # the exponent kappa (u . s - 1) as one product: (kappa u, -kappa) . (s, 1)
+    nodes = np.hstack(
+        [kappa * _unit_vectors(gel.ravel(), gaz.ravel()), np.full((gel.size, 1), -kappa)]
+    ).astype(np.float32)
+    stars = np.hstack(
+        [_unit_vectors(star_el[near], star_az[near]), np.ones((int(near.sum()), 1))]
+    ).astype(np.float32)
     exponent = nodes @ stars.T
-    exponent -= np.float32(1.0)
-    exponent *= np.float32(kappa)
     kernel = np.exp(exponent, out=exponent).sum(axis=1, dtype=np.float64)
     density = kernel * kappa / (2.0 * np.pi * (1.0 - np.exp(-2.0 * kappa)))
     relative = (density / (star_el.size / (4.0 * np.pi))).reshape(gel.shape)

@@ -465,7 +465,9 @@ def splat_points(
     flat = (rr * cols + cc).reshape(weight.shape[0], -1)
     # one scatter-add over all channels: index pixel x channels + channel of the flat image
     target = (flat[:, :, None] * channels + np.arange(channels)).ravel()
-    np.add.at(image.reshape(-1), target, (lum_weight[:, :, None] * values[:, None, :]).ravel())
+    from nightlights.nightsky._render_numba import scatter_add
+
+    scatter_add(image.reshape(-1), target, (lum_weight[:, :, None] * values[:, None, :]).ravel())
     return image
 
 

@@ -303,3 +303,16 @@ def test_sources_drawn_in_place_equal_sources_drawn_alone() -> None:
         np.testing.assert_allclose(on_sky, sky + disc, rtol=1e-13)
     with pytest.raises(InputError, match="splat output"):
         splat_points(pixels, elevation, azimuth, flux, out=np.zeros((3, 3, 3)))
+
+
+def test_compiled_scatter_add_equals_numpy_add_at() -> None:
+    from nightlights.nightsky._render_numba import scatter_add
+
+    rng = np.random.default_rng(4)
+    index = rng.integers(0, 50, 2000)  # many repeats
+    values = rng.uniform(-1.0, 1.0, 2000)
+    expected = np.zeros(50)
+    np.add.at(expected, index, values)
+    target = np.zeros(50)
+    scatter_add(target, index, values)
+    np.testing.assert_allclose(target, expected, rtol=1e-13, atol=1e-13)
