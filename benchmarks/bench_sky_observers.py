@@ -17,6 +17,9 @@ drawn uniformly over the raster's extent (seed 0).
    file), on the first 10 observers, timed per observer; the ratio of that to the per-observer
    time of (1) is the speed-up of the many-observers stage. Both compute the same zenith
    luminance (checked here to 1e-9 relative).
+3. The top-cell search: how many lit cells per observer the bounds leave to be split into
+   sub-points and summed exactly (5 top cells; mean and most over the largest set of
+   observers).
 
 Run: ``python benchmarks/bench_sky_observers.py [--quick] [--out DIR] [--emission TIF]``
 (``--quick``: 10 and 100 observers; ``--emission``: an existing demo emission raster instead
@@ -42,7 +45,7 @@ from nightlights.demo import DEMO_PROJECT, example_path
 from nightlights.io import as_raster
 from nightlights.sky import KernelSpec, skyglow
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.observers import SCHEDULERS, observers
+from nightlights.sky.observers import SCHEDULERS, _engine, _Levels, observers
 from nightlights.sky.store import get_or_build_kernel
 
 COUNTS = (10, 100, 1000)
@@ -144,6 +147,24 @@ def reference(emission: Path, kernel: Any, xy: np.ndarray, summary: Any) -> dict
     return row
 
 
+def candidates(emission: Path, kernel: Any, xy: np.ndarray, top_cells: int) -> dict[str, Any]:
+    """How many lit cells the bounds of the top-cell search leave to be summed exactly."""
+    from nightlights.sky.setup import prepare_scene
+
+    setup = prepare_scene(emission, tuple(xy[0]), kernel, progress=False)
+    engine = _engine(setup, False, top_cells, False)
+    zenith = _Levels(engine).zenith(list(engine.slices))
+    counts = []
+    for x, y in xy:
+        lower, upper = zenith.bounds(engine, (float(x), float(y)))
+        threshold = np.sort(lower)[-min(top_cells, lower.size)]
+        counts.append(int(np.count_nonzero(upper >= threshold)))
+    row = {"observers": len(xy), "top_cells": top_cells, "lit_cells": int(lower.size),
+           "mean": float(np.mean(counts)), "max": int(np.max(counts))}  # fmt: skip
+    print("candidates", row, flush=True)
+    return row
+
+
 def plot(result: dict[str, Any]) -> Any:
     plt = harness.pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
@@ -192,6 +213,7 @@ def main() -> None:
             runs.append(run(emission, kernel, xy, folder, scheduler="threads", top_cells=0)["row"])
         xy = points(emission, REFERENCE_OBSERVERS)
         ref = reference(emission, kernel, xy, summaries[counts[0]])
+        searched = candidates(emission, kernel, points(emission, counts[-1]), 5)
     for row in runs:
         row["speedup_vs_reference"] = ref["per_observer_ms"] / row["per_observer_ms"]
     result = {
@@ -202,6 +224,7 @@ def main() -> None:
         },
         "runs": runs,
         "reference": ref,
+        "top_cell_candidates": searched,
         "cores": os.cpu_count(),
     }
     harness.write_results(args.out, "sky_observers", result, quick=args.quick, plot=plot)
