@@ -16,7 +16,8 @@ for MODE ``sky`` (INPUT: a folder with the ``lights.gpkg`` and ``irradiance.tif`
 
 1. ``nightlights:emission`` of those at 50 m;
 2. ``nightlights:skyglow`` over it for an observer given in longitude and latitude;
-3. ``nightlights:darkness`` over it.
+3. ``nightlights:inverseq`` for that observer: each cell's part of the zenith luminance;
+4. ``nightlights:darkness`` over it.
 
 Prints one JSON object: for each run its outputs as QGIS opens them (validity, CRS, extent,
 features or bands and statistics), the progress values reported and the log, or the error.
@@ -103,6 +104,7 @@ def _raster(path: str, sample: tuple[float, float] | None = None) -> dict[str, A
                 "min": stats.minimumValue,
                 "max": stats.maximumValue,
                 "mean": stats.mean,
+                "sum": stats.sum,
             }
         )
     values = []
@@ -218,7 +220,8 @@ def light(streets: str, work: str) -> dict[str, Any]:
 
 
 def sky(folder: str, work: str) -> dict[str, Any]:
-    """Emission of the light run's outputs, then skyglow at :data:`OBSERVER` and darkness."""
+    """Emission of the light run's outputs, then skyglow and inverse q at :data:`OBSERVER`, and
+    darkness."""
     report: dict[str, Any] = {}
     emission = f"{work}/emission.tif"
     run = _run(
@@ -245,6 +248,18 @@ def sky(folder: str, work: str) -> dict[str, Any]:
         _feedback(),
     )
     report["skyglow"] = run
+    q = f"{work}/q_zenith.tif"
+    run = _run(
+        "nightlights:inverseq",
+        {
+            "EMISSION": emission,
+            "OBSERVER": f"{longitude},{latitude} [EPSG:4326]",
+            "METRIC": 1,
+            "OUTPUT": q,
+        },
+        _feedback(),
+    )
+    report["inverseq"] = {**run, "layer": _raster(q) if "error" not in run else None}
     darkness = f"{work}/darkness.tif"
     run = _run("nightlights:darkness", {"EMISSION": emission, "OUTPUT": darkness}, _feedback())
     report["darkness"] = {

@@ -81,7 +81,7 @@ def report(plugins: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str,
 def sky_report(
     plugins: Path, report: dict[str, Any], tmp_path_factory: pytest.TempPathFactory
 ) -> dict[str, Any]:
-    """Emission, skyglow and darkness in QGIS, from the light run's outputs."""
+    """Emission, skyglow, inverse q and darkness in QGIS, from the light run's outputs."""
     work = tmp_path_factory.mktemp("sky")
     return _run_in_qgis("sky", plugins, report["work"], work)
 
@@ -101,6 +101,7 @@ def test_the_zip_installs_as_a_processing_plugin(report: dict[str, Any]) -> None
         "emission",
         "emissionviirs",
         "skyglow",
+        "inverseq",
         "darkness",
     }
     assert set(report["algorithms"]) == {f"nightlights:{name}" for name in expected}
@@ -165,7 +166,7 @@ def test_cancel_stops_the_command_and_leaves_no_output(report: dict[str, Any]) -
 
 
 @pytest.mark.slow
-def test_emission_skyglow_and_darkness_in_qgis(sky_report: dict[str, Any]) -> None:
+def test_emission_skyglow_inverse_q_and_darkness_in_qgis(sky_report: dict[str, Any]) -> None:
     """The sky stages in QGIS (slow: the first skyglow and darkness build scene kernels)."""
     emission = sky_report["emission"]
     assert "error" not in emission, emission
@@ -184,6 +185,17 @@ def test_emission_skyglow_and_darkness_in_qgis(sky_report: dict[str, Any]) -> No
     assert 14.0 < outputs["ZENITH_MAGNITUDE"] < 21.0
     assert outputs["ZENITH_LUMINANCE"] > 0.0
     assert 1 <= outputs["BORTLE"] <= 9
+
+    q = sky_report["inverseq"]
+    assert "error" not in q, q
+    raster = q["layer"]
+    assert raster["valid"] and raster["crs"] == "EPSG:32635"
+    assert raster["extent"] == pytest.approx(sky_report["emission"]["layer"]["extent"])
+    (zenith_part,) = raster["bands"]
+    # each lit cell's part of the zenith luminance [cd m-2]: skyglow is linear in the
+    # emission, so the parts add up to the skyglow run's zenith (printed to 3 digits)
+    assert zenith_part["min"] >= 0.0
+    assert zenith_part["sum"] == pytest.approx(outputs["ZENITH_LUMINANCE"], rel=5e-3)
 
     darkness = sky_report["darkness"]
     assert "error" not in darkness, darkness

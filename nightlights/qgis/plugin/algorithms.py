@@ -24,7 +24,14 @@ from qgis.core import (
 )
 
 from .base import VECTOR_FORMATS, NightlightsAlgorithm
-from .choices import DEFAULT_VIIRS_SPECTRUM, MAPPINGS, NETWORKS, PROJECTIONS, SENSORS
+from .choices import (
+    DEFAULT_VIIRS_SPECTRUM,
+    MAPPINGS,
+    NETWORKS,
+    PROJECTIONS,
+    Q_METRICS,
+    SENSORS,
+)
 from .messages import parse_zenith
 
 #: Network choice meaning "chosen by where the streets lie" (the command's default).
@@ -408,12 +415,8 @@ class Skyglow(NightlightsAlgorithm):
     def steps(self, parameters: dict, context: Any, feedback: Any) -> list[list[str]]:
         emission = self.raster_path(parameters, "EMISSION", context)
         assert emission is not None  # a required parameter
-        point = self.parameterAsPoint(parameters, "OBSERVER", context)
-        crs = self.parameterAsPointCrs(parameters, "OBSERVER", context)
         line = ["skyglow", emission, self.output_path(parameters, "OUTPUT", context, layer=False)]
-        line += ["--observer", f"{point.x()!r},{point.y()!r}"]
-        if crs.isValid():
-            line += ["--observer-crs", crs.authid() or crs.toWkt()]
+        line += [*_observer_options(self, parameters, context)]
         line += _sky_options(self, parameters, context)
         png = self.output_path(parameters, "PNG", context, layer=False)
         if png:
@@ -423,6 +426,43 @@ class Skyglow(NightlightsAlgorithm):
 
     def results(self, messages: list[str]) -> dict[str, Any]:
         return {**super().results(messages), **(parse_zenith(messages) or {})}
+
+
+def _observer_options(algorithm: NightlightsAlgorithm, parameters: dict, context: Any) -> list[str]:
+    """``--observer X,Y`` and ``--observer-crs`` of a point parameter (in its own CRS)."""
+    point = algorithm.parameterAsPoint(parameters, "OBSERVER", context)
+    crs = algorithm.parameterAsPointCrs(parameters, "OBSERVER", context)
+    options = ["--observer", f"{point.x()!r},{point.y()!r}"]
+    return options + (["--observer-crs", crs.authid() or crs.toWkt()] if crs.isValid() else [])
+
+
+class LightPollutionByCell(NightlightsAlgorithm):
+    NAME = "inverseq"
+    TITLE = "Light pollution by cell"
+    GROUP = "Sky"
+    HELP = (
+        "Which lit cells cause an observer's skyglow: each cell's light-pollution level "
+        "(pca-norm: Q_i, Dobashi et al. 2023 Eq. 11), or its part of the zenith luminance or of "
+        "the mean luminance of the visible sky [cd m-2], on the emission raster's grid (NaN "
+        "where unlit). nightlights inverse q."
+    )
+
+    def initAlgorithm(self, config: Any = None) -> None:
+        self.addParameter(QgsProcessingParameterRasterLayer("EMISSION", "Emission [lm m-2]"))
+        self.addParameter(QgsProcessingParameterPoint("OBSERVER", "Observer"))
+        self.addParameter(
+            QgsProcessingParameterEnum("METRIC", "Measure", list(Q_METRICS), defaultValue=0)
+        )
+        _sky_parameters(self)
+        self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", "Light pollution"))
+
+    def steps(self, parameters: dict, context: Any, feedback: Any) -> list[list[str]]:
+        emission = self.raster_path(parameters, "EMISSION", context)
+        assert emission is not None  # a required parameter
+        metric = Q_METRICS[self.parameterAsEnum(parameters, "METRIC", context)]
+        line = ["inverse", "q", emission, self.output_path(parameters, "OUTPUT", context)]
+        line += [*_observer_options(self, parameters, context), "--metric", metric]
+        return [[*line, *_sky_options(self, parameters, context), "--overwrite"]]
 
 
 class Darkness(NightlightsAlgorithm):
@@ -457,5 +497,6 @@ ALGORITHMS = (
     Emission,
     EmissionFromViirs,
     Skyglow,
+    LightPollutionByCell,
     Darkness,
 )

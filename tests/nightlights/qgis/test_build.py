@@ -17,6 +17,7 @@ import ies.spectra
 from nightlights import __version__
 from nightlights.errors import InputError, OutputError
 from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
+from nightlights.inverse._influence import METRICS
 from nightlights.qgis import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
 from nightlights.qgis.plugin import choices
 from nightlights.sky.render import PROJECTIONS
@@ -105,3 +106,4 @@ def test_choices_mirror_the_library() -> None:
     assert choices.SENSORS == ies.spectra.SENSORS
     assert choices.PROJECTIONS == PROJECTIONS
     assert choices.DEFAULT_VIIRS_SPECTRUM == DEFAULT_VIIRS_SPECTRUM
+    assert choices.Q_METRICS == METRICS
