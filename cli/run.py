@@ -66,7 +66,9 @@ def run_command(project: str, output: str | None, force: tuple[str, ...], check_
         return
 
     def on_task(name: str, event: str, seconds: float) -> None:
-        if event == "start":
+        if name == "kernel" and event == "start":
+            console.print("  [bold]kernel[/] ... (built once, then read from the cache)")
+        elif event == "start":
             console.print(f"  [bold]{escape(name)}[/] ...")
         elif event == "ran":
             console.print(f"  {name}: {seconds:.1f} s", markup=False)

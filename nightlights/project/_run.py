@@ -87,7 +87,8 @@ def run(
     progress
         Show the stages' progress bars.
     on_task
-        Called at the start and end of each task (name, event, seconds).
+        Called at the start and end of each task (name, event, seconds), and around the build
+        of the project's kernel when it is not cached yet (name ``kernel``).
 
     Returns
     -------
@@ -120,9 +121,9 @@ def run(
     folder.mkdir(parents=True, exist_ok=True)
     cache = StageCache(folder)
     cache.clean()
-    context = Context(checked, progress)
     result = ProjectResult(folder=folder)
     notify = on_task or (lambda name, event, seconds: None)
+    context = Context(checked, progress, notify)
     for task in tasks:
         key = _key(task, files)
         record = None if task.name in forced else cache.valid(task.name, key)

@@ -10,6 +10,7 @@ so that a cached stage reports them too.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +25,8 @@ class Context:
 
     project: Project
     progress: bool
+    #: Told when the project's kernel is built: ``("kernel", "start" | "ran", seconds)``.
+    notify: Callable[[str, Any, float], None] = lambda name, event, seconds: None
     _kernel: Any = None
     _kernel_loaded: bool = False
 
@@ -33,9 +36,15 @@ class Context:
         if not self._kernel_loaded:
             spec = kernel_spec(self.project)
             if spec is not None:
-                from nightlights.sky.store import get_or_build_kernel
+                from nightlights.sky.store import get_or_build_kernel, kernel_cache_path
 
+                building = not kernel_cache_path(spec).is_file()
+                if building:
+                    self.notify("kernel", "start", 0.0)
+                started = time.perf_counter()
                 self._kernel = get_or_build_kernel(spec, progress=self.progress)
+                if building:
+                    self.notify("kernel", "ran", time.perf_counter() - started)
             self._kernel_loaded = True
         return self._kernel
 

@@ -186,3 +186,25 @@ def test_a_dem_reaches_the_sky_stages_and_its_content_is_in_their_key(small_proj
     assert run(small_project, progress=False).ran == []
     write_dem(3.0)
     assert run(small_project, progress=False).ran == ALL
+
+
+def test_the_kernel_build_is_reported_when_it_is_not_cached(
+    small_project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("NIGHTLIGHTS_CACHE", str(tmp_path / "empty-cache"))
+    events: list[tuple[str, str]] = []
+    run(small_project, progress=False, on_task=lambda name, event, s: events.append((name, event)))
+    assert events[:4] == [
+        ("skyglow:a", "start"),
+        ("kernel", "start"),
+        ("kernel", "ran"),
+        ("skyglow:a", "ran"),
+    ]
+    events.clear()
+    run(
+        small_project,
+        tmp_path / "again",
+        progress=False,
+        on_task=lambda name, event, s: events.append((name, event)),
+    )
+    assert ("kernel", "start") not in events
