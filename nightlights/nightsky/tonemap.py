@@ -317,12 +317,12 @@ def _blackbody_table() -> tuple[FloatArray, FloatArray]:
     temperatures = np.geomspace(*BLACKBODY_TABLE_RANGE, 241)
     shape = colour.SpectralShape(360, 830, 5)
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
-    rows = []
-    for temperature in temperatures:
-        sd = colour.sd_blackbody(float(temperature), shape)
-        xyz = np.asarray(colour.sd_to_XYZ(sd, cmfs, method="Integration"), dtype=float)
-        rows.append(xyz / xyz[1])
-    return np.log10(temperatures), np.array(rows)
+    wavelengths = np.asarray(cmfs.wavelengths, dtype=float) * 1e-9  # [m]
+    # Planck's law at every temperature, integrated against the CMFs in one product (the
+    # sums of colour.sd_to_XYZ's "Integration", whose constant factor Y = 1 removes)
+    radiance = np.stack([colour.colorimetry.planck_law(wavelengths, t) for t in temperatures])
+    xyz = radiance @ np.asarray(cmfs.values, dtype=float)
+    return np.log10(temperatures), xyz / xyz[:, 1:2]
 
 
 def blackbody_white(temperature: ArrayLike) -> FloatArray:

@@ -225,3 +225,15 @@ def test_eight_bit_code_steps_sit_on_the_srgb_boundaries() -> None:
     )[0]
     grey = np.clip(xyz @ matrix.T, 0.0, 1.0)
     np.testing.assert_array_equal(out, np.searchsorted(steps, grey, side="right"))
+
+
+def test_blackbody_table_equals_colour_science_integration() -> None:
+    from nightlights.nightsky.tonemap import _blackbody_table
+
+    log_t, table = _blackbody_table()
+    shape = colour.SpectralShape(360, 830, 5)
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
+    for index in (0, 60, 120, 240):
+        sd = colour.sd_blackbody(float(10.0 ** log_t[index]), shape)
+        xyz = np.asarray(colour.sd_to_XYZ(sd, cmfs, method="Integration"), dtype=float)
+        np.testing.assert_allclose(table[index], xyz / xyz[1], rtol=1e-12)
