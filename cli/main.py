@@ -40,8 +40,11 @@ COMMAND_MODULES = (
     "cli.darkness",
     "cli.photometry",
     "cli.demo",
+    "cli.run",
+    "cli.init",
     "cli.explore",
     "cli.sky",
+    "cli.qgis",
 )
 
 

@@ -78,6 +78,10 @@ _LAZY: dict[str, str] = {
     # the whole night sky: stars, Moon, natural background, the eye
     "sky_render": "nightlights.nightsky",
     "SkyRenderResult": "nightlights.nightsky",
+    # projects: one TOML file, every stage, cached
+    "run": "nightlights.project",
+    "load_project": "nightlights.project",
+    "ProjectResult": "nightlights.project",
     # data types
     "Raster": "nightlights.io",
 }
@@ -104,6 +108,7 @@ if TYPE_CHECKING:
     )
     from nightlights.io import Raster
     from nightlights.nightsky import SkyRenderResult, sky_render
+    from nightlights.project import ProjectResult, load_project, run
     from nightlights.sky import (
         KernelResult,
         KernelSpec,
@@ -157,6 +162,7 @@ __all__ = [
     "NormalizeResult",
     "OutputError",
     "PlaceResult",
+    "ProjectResult",
     "Raster",
     "ReduceResult",
     "SampleResult",
@@ -175,8 +181,10 @@ __all__ = [
     "irradiance",
     "learn",
     "least_dimming",
+    "load_project",
     "normalize",
     "place",
+    "run",
     "sample",
     "sky_render",
     "skyglow",

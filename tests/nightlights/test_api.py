@@ -76,6 +76,8 @@ def test_every_public_name_resolves() -> None:
         "darkness",
         "learn",
         "sky_render",
+        "run",
+        "load_project",
     ],
 )
 def test_stage_documented(name: str) -> None:
