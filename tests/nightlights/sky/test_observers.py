@@ -213,6 +213,30 @@ def test_the_scene_kernel_reaches_the_farthest_observer_at_every_eye(
     assert spec.r_max == pytest.approx(1.01 * far)
 
 
+def test_the_flat_scene_kernel_reaches_from_the_farthest_observer(
+    monkeypatch: pytest.MonkeyPatch, small_kernel: xr.Dataset
+) -> None:
+    import nightlights.sky.setup as setup_module
+
+    specs = []
+
+    def fake(spec, **_):
+        specs.append(spec)
+        return module.KernelResult(small_kernel, spec, None)
+
+    monkeypatch.setattr(setup_module, "get_or_build_kernel", fake)
+    raster = town()
+    run(raster, None, observer_height=0.0)
+    (spec,) = specs
+    left, bottom, right, top = raster.lit_cells().lit_bounds()
+    far = max(
+        np.hypot(x - px, y - py) for px, py in POINTS for x in (left, right) for y in (bottom, top)
+    )
+    assert spec.r_max == pytest.approx(1.01 * far)
+    assert spec.observer_altitudes == (0.0,)
+    assert (spec.n_elevation, spec.n_azimuth, spec.n_distance) == (64, 256, 64)
+
+
 def test_an_observer_off_the_dem_is_named(two_eyes: xr.Dataset) -> None:
     flux = np.zeros((1, 20, 20))
     flux[0, 8:14, 6:12] = 1.0
