@@ -84,6 +84,35 @@ def kernel() -> None:
     "--components", "old_components", type=int, default=None, replacement="--n-components"
 )
 @click.option(
+    "--error",
+    "pca_error",
+    type=float,
+    default=None,
+    help="PCA error target: the fewest bases whose reconstruction's mean relative error over "
+    "pixels above 1 % of their image's maximum is at most this (overrides --energy).",
+)
+@click.option(
+    "--shared-bases/--per-level-bases",
+    default=False,
+    show_default=True,
+    help="One PCA basis for every observer altitude (a smaller file) or one per altitude.",
+)
+@click.option(
+    "--precision",
+    type=click.Choice(["float64", "float32"]),
+    default="float64",
+    show_default=True,
+    help="Storage precision of the PCA bases and coefficients.",
+)
+@click.option(
+    "--altitude-step",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Compute every n-th altitude pair along each line of equal h_c - h_o and "
+    "interpolate the others (log-linear in the observer altitude); 1 computes all.",
+)
+@click.option(
     "--sub-distances", type=int, default=1, show_default=True, help="Distances averaged per bin."
 )
 @click.option(
@@ -105,9 +134,10 @@ def kernel() -> None:
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
 @click.option(
     "--tables/--no-tables",
-    default=True,
+    default=False,
     show_default=True,
-    help="Keep the raw images next to the PCA bases (needed only by skyglow --mode exact).",
+    help="Keep the raw images next to the PCA bases (needed only by skyglow --mode exact; "
+    "most of the file).",
 )
 @click.option(
     "--backend",
@@ -136,6 +166,10 @@ def build(
     energy: float,
     n_components: int | None,
     old_components: int | None,
+    pca_error: float | None,
+    shared_bases: bool,
+    precision: str,
+    altitude_step: int,
     sub_distances: int,
     uplight: bool,
     garstang_lobe: bool,
@@ -172,6 +206,10 @@ def build(
         garstang_lobe=garstang_lobe,
         tabulated_emission=tabulated_emission,
         store_tables=tables,
+        pca_error=pca_error,
+        shared_bases=shared_bases,
+        precision=precision,
+        altitude_step=altitude_step,
     )
     start = time.perf_counter()
     result = nl.build_kernel(spec, out, backend=backend, progress=True)
@@ -181,7 +219,13 @@ def build(
     Console(stderr=True).print(
         f"kernel {ds.sizes['distance']} r x {ds.sizes['elevation']} el x "
         f"{ds.sizes['azimuth']} az, {ds.sizes['component']} bases "
-        f"(energy {float(ds.explained_energy.min()):.6f}) in {time.perf_counter() - start:.1f} s "
+        f"(energy {float(ds.explained_energy.min()):.6f}"
+        + (
+            f", mean error {float(ds.attrs['pca_mean_error']):.4f}"
+            if "pca_mean_error" in ds.attrs
+            else ""
+        )
+        + f") in {time.perf_counter() - start:.1f} s "
         f"-> {out} [{ds.attrs['content_hash'][:12]}]"
     )
 

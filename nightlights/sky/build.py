@@ -9,6 +9,13 @@ x ``supersample`` directions and at least 4 distances. Relative azimuths are sym
 0-180 deg are computed and mirrored. The tables are then compressed
 (:func:`nightlights.sky.pca.compress_kernel`).
 
+With ``altitude_step`` > 1 only some (observer, source) altitude pairs are integrated: pairs
+of equal height difference h_c - h_o share the geometry, and along each such line the images
+change with the observer's altitude through the air's density and transmission only, smoothly
+and nearly exponentially; the skipped pairs are interpolated log-linearly
+(:func:`altitude_pairs`, :func:`interpolate_pairs`; errors in
+``benchmarks/bench_sky_kernel_altitudes.py``).
+
 Dataset layout (read by :mod:`nightlights.sky.panorama`): coordinates ``observer_altitude``,
 ``source_altitude``, ``distance`` (bin centres; edges in ``distance_edges``), ``elevation``
 (pixel centres 90 - (i + 0.5) 90 / n_elevation), ``azimuth`` (relative to the source,
@@ -18,7 +25,13 @@ k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kern
 attributes from :meth:`KernelSpec.to_attrs`. Every emission shape's images go into one PCA per
 observer altitude, so all shapes share the bases and differ only in their coefficients; a band
 whose emission function mixes shapes reads the same mix of coefficient tables (skyglow is
-linear in the emission function).
+linear in the emission function). With ``shared_bases`` one basis serves every observer
+altitude (the same array for each level); with ``pca_error`` the attribute ``pca_mean_error``
+holds the reconstruction's measured error.
+
+Length: about 610 lines, because the bin integration, the choice of the altitude pairs it
+integrates (and the interpolation of the others) and the assembly of the dataset are the one
+build path of a kernel.
 
 References
 ----------
@@ -28,12 +41,15 @@ the Night Sky", ACM TOG 42(6) 219, Sec. 3.3-3.4.1.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import NDArray
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._resources import check_memory
@@ -42,11 +58,21 @@ from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance_grid
-from nightlights.sky.pca import compress_kernel
+from nightlights.sky.pca import LevelDecomposition, compress_kernel
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
-__all__ = ["EMISSION_TABLES", "SUPERSAMPLE_DISTANCES", "compute_kernel", "table_names"]
+__all__ = [
+    "EMISSION_TABLES",
+    "SUPERSAMPLE_DISTANCES",
+    "InterpolatedPair",
+    "altitude_pairs",
+    "compute_kernel",
+    "interpolate_pairs",
+    "kernel_dataset",
+    "kernel_tables",
+    "table_names",
+]
 
 log = logging.getLogger(__name__)
 
@@ -206,6 +232,93 @@ def _supersample_source_pixels(
         )
 
 
+@dataclass(frozen=True)
+class InterpolatedPair:
+    """An (observer, source) altitude pair interpolated between two computed pairs of the
+    same height difference h_c - h_o: ``exp((1 - weight) ln b_lower + weight ln b_upper)``."""
+
+    observer: int
+    source: int
+    lower: tuple[int, int]
+    upper: tuple[int, int]
+    weight: float
+
+
+def altitude_pairs(
+    observer_altitudes: FloatArray, source_altitudes: FloatArray, step: int
+) -> tuple[NDArray[np.bool_], list[InterpolatedPair]]:
+    """Which (observer, source) altitude pairs to compute and how to fill the others.
+
+    Pairs of equal height difference d = h_c - h_o see the same geometry (the source d above
+    the observer); their images differ through the air's density and transmission at the
+    observer's altitude, which change smoothly (about exponentially) over the scale heights.
+    Along each line of equal d, sorted by h_o, every ``step``-th pair and the last are
+    computed; a pair between two computed ones is interpolated log-linearly in h_o
+    (:func:`interpolate_pairs`; exact for a density that is exponential in altitude).
+
+    Parameters
+    ----------
+    observer_altitudes, source_altitudes
+        The kernel's levels [m].
+    step
+        Spacing of the computed pairs along each line, in pairs; 1 computes every pair [1].
+
+    Returns
+    -------
+    computed : numpy.ndarray
+        Shape ``(n_o, n_c)``, True where the pair is computed.
+    interpolated : list of InterpolatedPair
+        The other pairs.
+
+    Examples
+    --------
+    >>> levels = np.arange(5) * 62.5
+    >>> computed, interpolated = altitude_pairs(levels, levels, 2)
+    >>> int(computed.sum()), len(interpolated)
+    (19, 6)
+    >>> computed.diagonal().tolist()  # h_c = h_o: levels 0, 2 and 4 computed
+    [True, False, True, False, True]
+    """
+    h_o = np.asarray(observer_altitudes, dtype=float)
+    h_c = np.asarray(source_altitudes, dtype=float)
+    computed = np.ones((h_o.size, h_c.size), dtype=bool)
+    interpolated: list[InterpolatedPair] = []
+    if step <= 1:
+        return computed, interpolated
+    lines: dict[float, list[tuple[int, int]]] = {}
+    for o in range(h_o.size):
+        for c in range(h_c.size):
+            lines.setdefault(round(float(h_c[c] - h_o[o]), 6), []).append((o, c))
+    for pairs in lines.values():
+        pairs.sort(key=lambda pair: h_o[pair[0]])
+        nodes = sorted({*range(0, len(pairs), step), len(pairs) - 1})
+        for lower, upper in itertools.pairwise(nodes):
+            (o0, c0), (o1, c1) = pairs[lower], pairs[upper]
+            for o, c in pairs[lower + 1 : upper]:
+                computed[o, c] = False
+                weight = (h_o[o] - h_o[o0]) / (h_o[o1] - h_o[o0])
+                interpolated.append(InterpolatedPair(o, c, (o0, c0), (o1, c1), float(weight)))
+    return computed, interpolated
+
+
+def interpolate_pairs(
+    tables: dict[str, NDArray[np.float32]], interpolated: list[InterpolatedPair]
+) -> None:
+    """Fill, in place, the interpolated altitude pairs of every table (:func:`altitude_pairs`):
+    log-linear where both computed images are positive, linear elsewhere."""
+    for table in tables.values():
+        for pair in interpolated:
+            lower = table[pair.lower].astype(float)
+            upper = table[pair.upper].astype(float)
+            w = pair.weight
+            value = (1.0 - w) * lower + w * upper
+            positive = (lower > 0) & (upper > 0)
+            value[positive] = np.exp(
+                (1.0 - w) * np.log(lower[positive]) + w * np.log(upper[positive])
+            )
+            table[pair.observer, pair.source] = value
+
+
 def kernel_memory(spec: KernelSpec) -> float:
     """Estimated peak memory of :func:`compute_kernel` [B].
 
@@ -281,6 +394,90 @@ def compute_kernel(
         "pixels",
         option="lower --n-distance, --n-elevation or --n-azimuth (or give fewer altitude levels)",
     )
+    tables = kernel_tables(spec, backend=backend, progress=progress)
+    _check_tables(tables, spec)
+    ds = kernel_dataset(tables, spec)
+    ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
+    return ds
+
+
+def kernel_dataset(
+    tables: dict[str, NDArray[np.float32]],
+    spec: KernelSpec,
+    *,
+    decompositions: list[LevelDecomposition] | None = None,
+) -> xr.Dataset:
+    """The kernel dataset of a specification's tables: PCA and FFT, coordinates, attributes.
+
+    Parameters
+    ----------
+    tables
+        Emission shape -> images, shape ``(n_o, n_c, n_r, n_el, n_az)`` [cd m-2 lm-1]
+        (:func:`kernel_tables`).
+    spec
+        The specification they were computed from (its compression options apply).
+    decompositions
+        The observer levels' decompositions of these tables
+        (:func:`~nightlights.sky.pca.decompose_levels` of the stacked shapes), to reuse
+        between compressions of the same tables; computed when None.
+
+    Returns
+    -------
+    xarray.Dataset
+        Kernel dataset (layout in the module docstring) [cd m-2 lm-1].
+    """
+    h_c = np.asarray(spec.source_altitudes, dtype=float)
+    h_o = np.asarray(spec.observer_altitudes, dtype=float)
+    elevations, azimuths, edges = spec.elevations, spec.azimuths, spec.edges
+    ds = _compress(tables, spec, decompositions)
+    ds = ds.assign_coords(
+        observer_altitude=("observer_altitude", h_o, {"units": "m"}),
+        source_altitude=("source_altitude", h_c, {"units": "m"}),
+        distance=(
+            "distance",
+            spec.distances,
+            {"units": "m", "long_name": "bin centre (geometric)"},
+        ),
+        elevation=("elevation", elevations, {"units": "deg"}),
+        azimuth=("azimuth", azimuths, {"units": "deg", "long_name": "relative to the source"}),
+    )
+    ds["distance_edges"] = ("distance_edge", edges, {"units": "m"})
+    ds.attrs.update(spec.to_attrs())
+    ds.attrs["pca_centered"] = 0
+    ds.attrs["pca_row_normalised"] = 1
+    ds.attrs["units"] = "cd m-2 lm-1"
+    ds.attrs["emission"] = (
+        "lambertian (kernel); sin^n lobe (kernel_uplight)"
+        + ("; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else "")
+        + ("; tabulated_emission (kernel_tabulated)" if spec.tabulated_emission else "")
+    )
+    ds.attrs["description"] = (
+        "Single-scattering sky luminance per lumen of upward flux of a ground source "
+        "(nightlights.sky, Dobashi et al. 2023 Sec. 3)"
+    )
+    return ds
+
+
+def kernel_tables(
+    spec: KernelSpec, *, backend: str = "auto", progress: bool = True
+) -> dict[str, NDArray[np.float32]]:
+    """The bin images of every emission shape of a kernel, before compression.
+
+    Parameters
+    ----------
+    spec
+        What to tabulate.
+    backend
+        Line-of-sight integrator (:func:`compute_kernel`).
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    dict
+        Emission shape -> float32 images, shape ``(n_o, n_c, n_r, n_el, n_az)``
+        [cd m-2 lm-1] (single scattering).
+    """
     atm = spec.atmosphere
     n_el, n_az = spec.n_elevation, spec.n_azimuth
     edges = spec.edges
@@ -299,10 +496,10 @@ def compute_kernel(
         r_chunk = min(max(1, int(2_000 // max(1, pixels // 64))), n_r_bins)
     else:  # the compiled grid makes no temporaries: all bins at once (one table per row)
         r_chunk = n_r_bins
+    computed, interpolated = altitude_pairs(h_o, h_c, spec.altitude_step)
     steps = [
         (o, c, e, lo)
-        for o in range(h_o.size)
-        for c in range(h_c.size)
+        for o, c in zip(*np.nonzero(computed), strict=True)
         for e in emissions
         for lo in range(0, n_r_bins, r_chunk)
     ]
@@ -339,38 +536,15 @@ def compute_kernel(
             tables[e][o, c, sl] = img[:, :, mirror]
             bar.advance(task)
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
-    _check_tables(tables, spec)
-    ds = _compress(tables, spec)
-    ds = ds.assign_coords(
-        observer_altitude=("observer_altitude", h_o, {"units": "m"}),
-        source_altitude=("source_altitude", h_c, {"units": "m"}),
-        distance=(
-            "distance",
-            spec.distances,
-            {"units": "m", "long_name": "bin centre (geometric)"},
-        ),
-        elevation=("elevation", elevations, {"units": "deg"}),
-        azimuth=("azimuth", azimuths, {"units": "deg", "long_name": "relative to the source"}),
-    )
-    ds["distance_edges"] = ("distance_edge", edges, {"units": "m"})
-    ds.attrs.update(spec.to_attrs())
-    ds.attrs["pca_centered"] = 0
-    ds.attrs["pca_row_normalised"] = 1
-    ds.attrs["units"] = "cd m-2 lm-1"
-    ds.attrs["emission"] = (
-        "lambertian (kernel); sin^n lobe (kernel_uplight)"
-        + ("; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else "")
-        + ("; tabulated_emission (kernel_tabulated)" if spec.tabulated_emission else "")
-    )
-    ds.attrs["description"] = (
-        "Single-scattering sky luminance per lumen of upward flux of a ground source "
-        "(nightlights.sky, Dobashi et al. 2023 Sec. 3)"
-    )
-    ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
-    return ds
+    interpolate_pairs(tables, interpolated)
+    return tables
 
 
-def _compress(tables: dict[str, np.ndarray], spec: KernelSpec) -> xr.Dataset:
+def _compress(
+    tables: dict[str, np.ndarray],
+    spec: KernelSpec,
+    decompositions: list[LevelDecomposition] | None = None,
+) -> xr.Dataset:
     """PCA of all emission shapes' tables together (shared bases), one variable pair each.
 
     The Lambertian and uplight tables go through :func:`compress_kernel` as they always did;
@@ -384,17 +558,15 @@ def _compress(tables: dict[str, np.ndarray], spec: KernelSpec) -> xr.Dataset:
         return compress_kernel(
             tables["lambertian"],
             tables.get("uplight"),
-            pca_energy=spec.pca_energy,
-            n_components=spec.n_components,
-            store_tables=spec.store_tables,
+            **_pca_options(spec),
+            decompositions=decompositions,
         )
     n_c = tables["lambertian"].shape[1]
     stacked = np.concatenate([tables[e] for e in emissions], axis=1)
     ds = compress_kernel(
         stacked,
-        pca_energy=spec.pca_energy,
-        n_components=spec.n_components,
-        store_tables=spec.store_tables,
+        **_pca_options(spec),
+        decompositions=decompositions,
     )
     unit = {"units": "cd m-2 lm-1"}
     coefficient = ds["coefficient"]
@@ -408,6 +580,18 @@ def _compress(tables: dict[str, np.ndarray], spec: KernelSpec) -> xr.Dataset:
         if images is not None:
             ds[image_name] = (images.dims, images[part].values, attrs)
     return ds
+
+
+def _pca_options(spec: KernelSpec) -> dict[str, Any]:
+    """The keyword arguments of :func:`compress_kernel` a specification sets."""
+    return {
+        "pca_energy": spec.pca_energy,
+        "n_components": spec.n_components,
+        "store_tables": spec.store_tables,
+        "pca_error": spec.pca_error,
+        "shared_bases": spec.shared_bases,
+        "precision": spec.precision,
+    }
 
 
 def _check_tables(tables: dict[str, np.ndarray], spec: KernelSpec) -> None:

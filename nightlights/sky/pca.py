@@ -8,6 +8,19 @@ orthonormal and coefficients are projections of the raw images, so kernel ~= sum
 coefficient_k basis_k (no mean is subtracted: ``pca_centered = 0``). Basis images are
 Fourier-transformed over azimuth (rfft) for the runtime.
 
+Storage levers (all optional; the defaults are the original layout):
+
+- the number of components chosen by an error target (``error``): the smallest number whose
+  reconstruction has at most that mean relative error over the pixels brighter than 1 % of
+  their image's maximum (:func:`bright_relative_error`, the accuracy measure of the kernel
+  benchmarks), instead of an energy fraction that says little about faint pixels;
+- one basis shared by every observer altitude (``shared``): the per-level bases are merged
+  (the stacked, singular-value-scaled per-level bases have the same Gram matrix, to the
+  truncation, as all the normalised images) and the shared basis is chosen by the error target
+  on every level's images;
+- coefficients and bases rounded to float32 (``precision``), so that a file stores them
+  exactly in half the bytes.
+
 References
 ----------
 Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
@@ -16,6 +29,7 @@ the Night Sky", ACM TOG 42(6) 219, Eq. 4 (PCA) and Eq. 9 (FFT of the bases).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -24,11 +38,235 @@ from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
 
-__all__ = ["compress_kernel", "pca_compress"]
+__all__ = [
+    "BRIGHT_FRACTION",
+    "PRECISIONS",
+    "LevelDecomposition",
+    "bright_relative_error",
+    "compress_kernel",
+    "decompose_levels",
+    "pca_compress",
+    "shared_basis",
+]
+
+#: Pixels count in the accuracy measure when brighter than this fraction of their image's
+#: maximum [1] (the kernel benchmarks' measure; fainter pixels hardly reach a panorama).
+BRIGHT_FRACTION = 0.01
+
+#: Storage precisions of bases and coefficients.
+PRECISIONS = ("float64", "float32")
+
+#: Rows of the error-target search: every n-th image when there are more than this many
+#: (the chosen number is then checked on all of them) [1].
+_SEARCH_ROWS = 4096
+
+#: Principal directions formed first by the error-target search (doubled while too few) [1].
+_FIRST_CANDIDATES = 64
+
+
+def bright_relative_error(
+    approx: FloatArray, exact: FloatArray, *, fraction: float = BRIGHT_FRACTION
+) -> float:
+    """Mean relative error over the pixels brighter than a fraction of their image's maximum.
+
+    Parameters
+    ----------
+    approx
+        Approximations, shape ``(..., p)``: images of p pixels [any unit].
+    exact
+        The exact images, same shape [same unit].
+    fraction
+        A pixel counts when brighter than this fraction of its image's maximum [1].
+
+    Returns
+    -------
+    float
+        mean(|approx - exact| / exact) over the counted pixels of all images; 0 when none
+        counts [1].
+
+    Examples
+    --------
+    >>> exact = np.array([[1.0, 0.5, 0.001]])
+    >>> round(bright_relative_error(np.array([[1.02, 0.5, 0.5]]), exact), 12)  # last: faint
+    0.01
+    """
+    total, count = _error_sums(np.asarray(approx), np.asarray(exact), fraction)
+    return total / count if count else 0.0
+
+
+def _error_sums(approx: FloatArray, exact: FloatArray, fraction: float) -> tuple[float, int]:
+    """Sum of the relative errors over the bright pixels and their count."""
+    peak = exact.max(axis=-1, keepdims=True)
+    bright = (exact > fraction * peak) & (peak > 0)
+    values = exact[bright].astype(float)
+    return float(np.sum(np.abs(approx[bright] - values) / values)), int(values.size)
+
+
+def _reconstruction_sums(
+    x: FloatArray, basis: FloatArray, *, dtype: type = np.float64, rows: int = 512
+) -> tuple[float, int]:
+    """Sum and count of :func:`bright_relative_error` of the rows of ``x`` projected on the
+    orthonormal rows of ``basis`` (rows at a time, so that no copy of ``x`` is made); with
+    ``dtype`` float32 the basis and coefficients are rounded as a float32 file stores them."""
+    b = basis.astype(dtype).astype(float)
+    total, count = 0.0, 0
+    for lo in range(0, x.shape[0], rows):
+        chunk = np.asarray(x[lo : lo + rows], dtype=float)
+        coefficient = (chunk @ b.T).astype(dtype).astype(float)
+        part = _error_sums(coefficient @ b, chunk, BRIGHT_FRACTION)
+        total, count = total + part[0], count + part[1]
+    return total, count
+
+
+def _reconstruction_error(x: FloatArray, basis: FloatArray, *, dtype: type = np.float64) -> float:
+    """:func:`bright_relative_error` of ``x`` reconstructed from ``basis``
+    (:func:`_reconstruction_sums`)."""
+    total, count = _reconstruction_sums(x, basis, dtype=dtype)
+    return total / count if count else 0.0
+
+
+def _project(images: FloatArray, basis: FloatArray, rows: int = 4096) -> FloatArray:
+    """Coefficients ``images @ basis.T`` in float64, converting float32 images a block of
+    rows at a time [same unit as the images]."""
+    out = np.empty((images.shape[0], basis.shape[0]))
+    for lo in range(0, images.shape[0], rows):
+        out[lo : lo + rows] = np.asarray(images[lo : lo + rows], dtype=float) @ basis.T
+    return out
+
+
+def _components_for_error(
+    x: list[FloatArray],
+    basis: Callable[[int], FloatArray],
+    rank: int,
+    error: float,
+    *,
+    dtype: type = np.float64,
+) -> tuple[int, float]:
+    """Fewest leading principal directions whose reconstruction of the stacks ``x`` (rows =
+    images) meets ``error``.
+
+    ``basis(k)`` gives the k leading directions (orthonormal rows). Candidates double from
+    :data:`_FIRST_CANDIDATES` until they meet the target on every n-th row of ``x`` (at most
+    :data:`_SEARCH_ROWS` rows), then bisection among them; the number is then checked on all
+    rows and raised by 10 % steps until it meets the target there (or reaches ``rank``).
+    Returns the number and its error on all rows [1].
+    """
+    step = max(1, -(-sum(part.shape[0] for part in x) // _SEARCH_ROWS))
+    sample = np.concatenate([part[::step] for part in x])
+    count = min(_FIRST_CANDIDATES, rank)
+    candidates = basis(count)
+    while count < rank and _reconstruction_error(sample, candidates, dtype=dtype) > error:
+        count = min(2 * count, rank)
+        candidates = basis(count)
+    lo, hi = 1, count
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if _reconstruction_error(sample, candidates[:mid], dtype=dtype) <= error:
+            hi = mid
+        else:
+            lo = mid + 1
+    k = lo
+    achieved = _stacks_error(x, candidates[:k], dtype=dtype)
+    while achieved > error and k < rank:
+        k = min(rank, max(k + 1, int(k * 1.1)))
+        if k > candidates.shape[0]:
+            candidates = basis(k)
+        achieved = _stacks_error(x, candidates[:k], dtype=dtype)
+    return k, achieved
+
+
+def _stacks_error(stacks: list[FloatArray], basis: FloatArray, *, dtype: type) -> float:
+    """:func:`bright_relative_error` of all the stacks' images reconstructed from ``basis``."""
+    sums = [_reconstruction_sums(stack, basis, dtype=dtype) for stack in stacks]
+    return sum(t for t, _ in sums) / max(1, sum(n for _, n in sums))
+
+
+class LevelDecomposition:
+    """Eigen-decomposition of a stack of unit-normalised images (rows), bases on request.
+
+    With m images of p pixels, the eigenvectors of the smaller Gram matrix (m x m, or p x p)
+    give the principal directions; :meth:`basis` forms the leading ones (orthonormal rows).
+
+    Parameters
+    ----------
+    images
+        Shape ``(m, p)``, kept as given (float32 tables are converted where used)
+        [cd m-2 lm-1].
+    """
+
+    def __init__(self, images: FloatArray) -> None:
+        self.images = images  # as given (float32 tables are converted where used)
+        self._for_error: dict[tuple[float, str], tuple[int, float]] = {}
+        x = np.asarray(images, dtype=float)
+        norms = np.sqrt(np.einsum("ij,ij->i", x, x))
+        keep = norms > 0
+        self.empty = not np.any(keep)
+        self.keep = keep
+        if self.empty:
+            self.eigenvalues = np.zeros(1)
+            self.explained = np.ones(1)
+            self.rank = 1
+            return
+        self.scale = 1.0 / norms[keep]
+        rows = x[keep] if np.sum(keep) < x.shape[0] else x
+        self.by_rows = rows.shape[0] <= x.shape[1]
+        if self.by_rows:
+            # Gram matrix of the normalised rows without forming them: D (X X^T) D, D = 1/|row|
+            gram = rows @ rows.T
+            gram *= self.scale[:, None]
+            gram *= self.scale[None, :]
+        else:
+            xn = rows * self.scale[:, None]
+            gram = xn.T @ xn
+        del x, rows
+        lam, vec = np.linalg.eigh(gram)
+        order = np.argsort(lam)[::-1]
+        self.eigenvalues = np.clip(lam[order], 0.0, None)
+        self.vectors = vec[:, order]
+        self.explained = np.cumsum(self.eigenvalues) / self.eigenvalues.sum()
+        self.rank = int(np.sum(self.eigenvalues > self.eigenvalues[0] * 1e-13))
+
+    def components_for_energy(self, energy: float) -> int:
+        """Fewest components explaining ``energy`` of the normalised images (at most the
+        rank) [1]."""
+        k = int(np.searchsorted(self.explained, energy - 1e-12) + 1)
+        return max(1, min(k, self.rank))
+
+    def components_for_error(self, error: float, *, dtype: type = np.float64) -> tuple[int, float]:
+        """Fewest components whose reconstruction of the images meets ``error``
+        (:func:`bright_relative_error`), and the error they reach [1]."""
+        key = (error, np.dtype(dtype).name)
+        if key not in self._for_error:
+            self._for_error[key] = _components_for_error(
+                [self.images], self.basis, self.rank, error, dtype=dtype
+            )
+        return self._for_error[key]
+
+    def basis(self, k: int) -> FloatArray:
+        """The ``k`` leading principal directions (at most the rank), orthonormal rows, shape
+        ``(k, p)`` [1]."""
+        p = self.images.shape[1]
+        if self.empty:
+            return np.zeros((k, p))
+        k = max(1, min(int(k), self.rank))
+        if self.by_rows:
+            vectors = self.vectors[:, :k] * self.scale[:, None]
+            rows = np.asarray(self.images, dtype=float)
+            rows = rows[self.keep] if not np.all(self.keep) else rows
+            basis = ((rows.T @ vectors) / np.sqrt(self.eigenvalues[:k])[None, :]).T
+        else:
+            basis = self.vectors[:, :k].T
+        # re-orthonormalise (Gram eigenvectors lose a little orthogonality)
+        q, _ = np.linalg.qr(basis.T)
+        return (q * np.sign(np.sum(q * basis.T, axis=0))).T
 
 
 def pca_compress(
-    images: FloatArray, *, energy: float = 0.999999, n_components: int | None = None
+    images: FloatArray,
+    *,
+    energy: float = 0.999999,
+    n_components: int | None = None,
+    error: float | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Truncated SVD of a stack of images with unit-normalised rows.
 
@@ -37,9 +275,13 @@ def pca_compress(
     images
         Shape ``(m, p)``: m images of p pixels [cd m-2 lm-1].
     energy
-        Explained-energy target of the normalised images, used when ``n_components`` is None [1].
+        Explained-energy target of the normalised images, used when ``n_components`` and
+        ``error`` are None [1].
     n_components
         Number of components to keep [1].
+    error
+        Error target: the fewest components whose reconstruction meets it
+        (:func:`bright_relative_error`), used when ``n_components`` is None [1].
 
     Returns
     -------
@@ -55,42 +297,130 @@ def pca_compress(
     Dobashi et al. 2023, Eq. 4 and Sec. 3.4.1 (PCA of the precomputed images).
     """
     x = np.asarray(images, dtype=float)
-    norms = np.sqrt(np.einsum("ij,ij->i", x, x))
-    keep = norms > 0
-    scale = 1.0 / norms[keep]
-    m, p = int(keep.sum()), x.shape[1]
-    if m == 0:
+    decomposition = LevelDecomposition(x)
+    if decomposition.empty:
         k = n_components or 1
         return np.zeros((k, x.shape[1])), np.zeros((x.shape[0], k)), np.ones(1)
-    xk = x[keep] if m < x.shape[0] else x
-    if m <= p:
-        # Gram matrix of the normalised rows without forming them: D (X X^T) D, D = 1 / |row|
-        gram = xk @ xk.T
-        gram *= scale[:, None]
-        gram *= scale[None, :]
-        lam, vec = np.linalg.eigh(gram)
-    else:
-        xn = xk * scale[:, None]
-        lam, vec = np.linalg.eigh(xn.T @ xn)
-    order = np.argsort(lam)[::-1]
-    lam = np.clip(lam[order], 0.0, None)
-    vec = vec[:, order]
-    explained = np.cumsum(lam) / lam.sum()
-    rank = int(np.sum(lam > lam[0] * 1e-13))
-    if n_components is None:
-        k = int(np.searchsorted(explained, energy - 1e-12) + 1)
-    else:
+    if n_components is not None:
         k = int(n_components)
-    k = max(1, min(k, rank))
-    if m <= p:
-        basis = (xk.T @ (vec[:, :k] * scale[:, None])) / np.sqrt(lam[:k])[None, :]
-        basis = basis.T
+    elif error is not None:
+        k, _ = decomposition.components_for_error(error)
     else:
-        basis = vec[:, :k].T
-    # re-orthonormalise (Gram eigenvectors lose a little orthogonality)
-    q, _ = np.linalg.qr(basis.T)
-    basis = (q * np.sign(np.sum(q * basis.T, axis=0))).T
-    return basis, x @ basis.T, explained
+        k = decomposition.components_for_energy(energy)
+    basis = decomposition.basis(k)
+    return basis, x @ basis.T, decomposition.explained
+
+
+def shared_basis(
+    stacks: list[FloatArray] | list[LevelDecomposition],
+    *,
+    energy: float = 0.999999,
+    n_components: int | None = None,
+    error: float | None = None,
+    dtype: type = np.float64,
+) -> tuple[FloatArray, float, float]:
+    """One orthonormal basis for several stacks of images (one stack per observer altitude).
+
+    Each stack's normalised images X_o = U_o S_o V_o^T are summarised by S_o V_o^T (the same
+    Gram matrix X_o^T X_o); the stacked summaries of all levels are decomposed again, which
+    gives the principal directions of all normalised images together. Each level keeps the
+    components that meet a quarter of the error target on its own images (without a target:
+    that explain ``1 - (1 - energy) / 100`` of them), so that the merge, not the levels'
+    truncation, sets the accuracy.
+
+    Parameters
+    ----------
+    stacks
+        Per level, shape ``(m_o, p)`` [cd m-2 lm-1], or their decompositions
+        (:func:`decompose_levels`).
+    energy
+        Explained-energy target of all normalised images together, used when
+        ``n_components`` and ``error`` are None [1].
+    n_components
+        Number of components [1].
+    error
+        Error target over the images of every level (:func:`bright_relative_error`) [1].
+    dtype
+        Storage precision the error is measured in (bases and coefficients rounded to it).
+
+    Returns
+    -------
+    basis : numpy.ndarray
+        Shape ``(k, p)``, orthonormal rows [1].
+    explained : float
+        Energy of all normalised images the basis explains [1].
+    achieved : float
+        Its :func:`bright_relative_error` over all images (NaN unless ``error`` is given) [1].
+    """
+    levels = [s if isinstance(s, LevelDecomposition) else LevelDecomposition(s) for s in stacks]
+    images = [level.images for level in levels]
+    summaries = []
+    keep_energy = 1.0 - (1.0 - energy) / 100.0
+    for level in levels:
+        if level.empty:
+            continue
+        if error is not None and n_components is None:
+            k = level.components_for_error(error / 4.0, dtype=dtype)[0]
+        else:
+            k = level.components_for_energy(keep_energy)
+        summaries.append(np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k))
+    if not summaries:
+        k = n_components or 1
+        return np.zeros((k, images[0].shape[1])), 1.0, float("nan")
+    # rows of the merged summaries are unit-weight images of the Gram matrix sum_o V S^2 V^T:
+    # decompose them without renormalising (their norms are the singular values)
+    merged = np.concatenate(summaries)
+    gram = merged @ merged.T
+    lam, vec = np.linalg.eigh(gram)
+    order = np.argsort(lam)[::-1]
+    lam, vec = np.clip(lam[order], 0.0, None), vec[:, order]
+    total = sum(float(np.sum(level.keep)) for level in levels if not level.empty)
+    explained = np.cumsum(lam) / total
+    rank = max(1, int(np.sum(lam > lam[0] * 1e-13)))
+
+    def basis(k: int) -> FloatArray:
+        k = max(1, min(k, rank))
+        b = ((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T
+        q, _ = np.linalg.qr(b.T)
+        return (q * np.sign(np.sum(q * b.T, axis=0))).T
+
+    achieved = float("nan")
+    if n_components is not None:
+        k = int(n_components)
+    elif error is not None:
+        k, achieved = _components_for_error(images, basis, rank, error, dtype=dtype)
+    else:
+        k = int(np.searchsorted(explained, energy - 1e-12) + 1)
+    k = max(1, min(k, rank))
+    return basis(k), float(explained[k - 1]), achieved
+
+
+def decompose_levels(
+    kernel: NDArray[np.floating[Any]], kernel_uplight: NDArray[np.floating[Any]] | None = None
+) -> list[LevelDecomposition]:
+    """The decomposition of each observer level's images (rows: every source altitude and
+    distance, then the same of ``kernel_uplight``).
+
+    Parameters
+    ----------
+    kernel
+        Shape ``(o, c, r, el, az)`` [cd m-2 lm-1].
+    kernel_uplight
+        Same shape, optional [cd m-2 lm-1].
+
+    Returns
+    -------
+    list of LevelDecomposition
+        One per observer level.
+    """
+    n_o, n_c, n_r, n_el, n_az = kernel.shape
+    levels = []
+    for o in range(n_o):
+        rows = kernel[o].reshape(n_c * n_r, n_el * n_az)  # a view of the tables
+        if kernel_uplight is not None:
+            rows = np.concatenate([rows, kernel_uplight[o].reshape(n_c * n_r, n_el * n_az)])
+        levels.append(LevelDecomposition(rows))
+    return levels
 
 
 def compress_kernel(
@@ -100,8 +430,12 @@ def compress_kernel(
     pca_energy: float = 0.999999,
     n_components: int | None = None,
     store_tables: bool = True,
+    pca_error: float | None = None,
+    shared_bases: bool = False,
+    precision: str = "float64",
+    decompositions: list[LevelDecomposition] | None = None,
 ) -> xr.Dataset:
-    """PCA per observer altitude and rfft of the basis over azimuth.
+    """PCA per observer altitude (or one shared by all) and rfft of the basis over azimuth.
 
     Parameters
     ----------
@@ -112,43 +446,79 @@ def compress_kernel(
     pca_energy
         Explained-energy target [1].
     n_components
-        Number of components (overrides ``pca_energy``) [1].
+        Number of components (overrides ``pca_energy`` and ``pca_error``) [1].
     store_tables
         Include the raw images ``kernel`` (and ``kernel_uplight``) [1].
+    pca_error
+        Error target choosing the number of components (overrides ``pca_energy``) [1].
+    shared_bases
+        One basis for every observer altitude (held once, broadcast over the levels).
+    precision
+        ``"float64"``, or ``"float32"``: bases and coefficients rounded to float32 (the
+        spectra are the float64 rfft of the rounded bases).
+    decompositions
+        The levels' decompositions of these tables (:func:`decompose_levels`), to reuse
+        between compressions; computed when None.
 
     Returns
     -------
     xarray.Dataset
         Variables ``kernel``, ``basis``, ``coefficient``, ``basis_fft_real``,
-        ``basis_fft_imag`` (and ``*_uplight``) without coordinates [cd m-2 lm-1].
+        ``basis_fft_imag`` (and ``*_uplight``), ``explained_energy``, without coordinates
+        [cd m-2 lm-1]; attributes ``pca_components`` and, with an error target,
+        ``pca_mean_error`` (the reconstruction's mean relative error, largest over levels).
     """
     n_o, n_c, n_r, n_el, n_az = kernel.shape
     n_pix = n_el * n_az
+    dtype = np.float32 if precision == "float32" else np.float64
 
-    def stack(o: int) -> FloatArray:
-        rows = [kernel[o].reshape(n_c * n_r, n_pix)]
-        if kernel_uplight is not None:
-            rows.append(kernel_uplight[o].reshape(n_c * n_r, n_pix))
-        return np.concatenate(rows, axis=0).astype(float)
-
-    results = [
-        pca_compress(stack(o), energy=pca_energy, n_components=n_components) for o in range(n_o)
-    ]
-    k = max(basis.shape[0] for basis, _, _ in results)
-    n_rows = results[0][1].shape[0]
-    bases = np.zeros((n_o, k, n_pix))
-    coefs = np.zeros((n_o, n_rows, k))
     explained_k = np.zeros(n_o)
-    for o in range(n_o):
-        basis, coef, explained = results[o]
-        if basis.shape[0] < k:  # same number of components for every observer altitude
-            basis, coef, explained = pca_compress(stack(o), n_components=k)
-        kk = basis.shape[0]
-        bases[o, :kk] = basis
-        coefs[o, :, :kk] = coef
-        explained_k[o] = explained[min(kk, explained.size) - 1]
+    achieved = float("nan")
+    levels = decompositions or decompose_levels(kernel, kernel_uplight)
+    if shared_bases:
+        basis, explained, achieved = shared_basis(
+            levels, energy=pca_energy, n_components=n_components, error=pca_error, dtype=dtype
+        )
+        basis = basis.astype(dtype).astype(float)
+        k = basis.shape[0]
+        bases = np.broadcast_to(basis, (n_o, k, n_pix))
+        coefs = np.stack([_project(level.images, basis) for level in levels])
+        explained_k[:] = explained
+    else:
+        chosen = []
+        for level in levels:
+            if level.empty:
+                chosen.append(n_components or 1)
+            elif n_components is not None:
+                chosen.append(int(n_components))
+            elif pca_error is not None:
+                chosen.append(level.components_for_error(pca_error, dtype=dtype)[0])
+            else:
+                chosen.append(level.components_for_energy(pca_energy))
+        k = max(min(c, level.rank) for c, level in zip(chosen, levels, strict=True))
+        n_rows = levels[0].images.shape[0]
+        bases = np.zeros((n_o, k, n_pix))
+        coefs = np.zeros((n_o, n_rows, k))
+        for o, level in enumerate(levels):
+            basis = level.basis(k).astype(dtype).astype(float)
+            kk = basis.shape[0]  # same number of components for every level (zeros beyond)
+            bases[o, :kk] = basis
+            coefs[o, :, :kk] = _project(level.images, basis)
+            explained_k[o] = level.explained[min(kk, level.explained.size) - 1]
+        if pca_error is not None:  # over every level's images together
+            sums = [
+                _reconstruction_sums(level.images, bases[o], dtype=dtype)
+                for o, level in enumerate(levels)
+            ]
+            achieved = sum(t for t, _ in sums) / max(1, sum(n for _, n in sums))
+    coefs = coefs.astype(dtype).astype(float)
     basis_img = bases.reshape(n_o, k, n_el, n_az)
-    spectrum = np.fft.rfft(basis_img, axis=-1)
+    if shared_bases:  # one spectrum, broadcast like the basis
+        spectrum = np.broadcast_to(
+            np.fft.rfft(basis_img[0], axis=-1), (n_o, k, n_el, n_az // 2 + 1)
+        )
+    else:
+        spectrum = np.fft.rfft(basis_img, axis=-1)
     dims_k = ("observer_altitude", "source_altitude", "distance", "elevation", "azimuth")
     dims_c = ("observer_altitude", "source_altitude", "distance", "component")
     dims_b = ("observer_altitude", "component", "elevation", "azimuth")
@@ -182,4 +552,7 @@ def compress_kernel(
             unit | {"emission": "uplight"},
         )
     ds = xr.Dataset(data)
+    ds.attrs["pca_components"] = k
+    if pca_error is not None and n_components is None:
+        ds.attrs["pca_mean_error"] = achieved
     return ds.assign_coords(component=np.arange(k), frequency=np.arange(n_az // 2 + 1))

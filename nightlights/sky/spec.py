@@ -12,7 +12,7 @@ Each band of an emission raster carries its angular emission function
 (:class:`EmissionFunction`, the band tag ``emission_function``); it names the mix of the
 kernel's tabulated shapes that band reads.
 
-Length: about 750 lines, because the specification, its axes and the emission functions that
+Length: about 820 lines, because the specification, its axes and the emission functions that
 choose among its tables are one description of what a kernel holds, and the scene-sized
 specification is made from them.
 """
@@ -332,6 +332,22 @@ class KernelSpec:
         Keep the raw images (``kernel``, ``kernel_uplight``) next to the PCA bases; they are
         needed only by ``exact`` mode and are most of the file (2.2 of 2.9 GB for Dobashi's
         configuration).
+    pca_error
+        Error target choosing the number of components (overrides ``pca_energy``; ignored
+        when ``n_components`` is given): the smallest number whose reconstruction has at most
+        this mean relative error over pixels brighter than 1 % of their image's maximum
+        (:func:`~nightlights.sky.pca.bright_relative_error`) [1].
+    shared_bases
+        One PCA basis for every observer altitude instead of one per altitude (the
+        coefficients stay per level); see :mod:`nightlights.sky.pca`.
+    precision
+        Storage precision of the bases and coefficients, ``"float64"`` or ``"float32"``
+        (rounded on building, so that a file written in float32 reads back unchanged).
+    altitude_step
+        Precompute every ``altitude_step``-th (observer, source) altitude pair along each line
+        of equal height difference h_c - h_o (and both ends) and interpolate the others
+        log-linearly in the observer altitude (:mod:`nightlights.sky.build`); 1 computes
+        every pair [1].
 
     Examples
     --------
@@ -366,6 +382,10 @@ class KernelSpec:
     pca_energy: float = 0.999999
     n_components: int | None = None
     store_tables: bool = True
+    pca_error: float | None = None
+    shared_bases: bool = False
+    precision: str = "float64"
+    altitude_step: int = 1
 
     def __post_init__(self) -> None:
         self._check_size()
@@ -416,11 +436,20 @@ class KernelSpec:
             raise InputError(f"pca_energy {self.pca_energy!r}; expected 0 < energy <= 1")
         if self.n_components is not None and self.n_components < 1:
             raise InputError(f"n_components {self.n_components!r}; expected >= 1")
+        if self.pca_error is not None and not 0 < self.pca_error < 1:
+            raise InputError(f"pca_error {self.pca_error!r}; expected 0 < error < 1")
+        if self.precision not in ("float64", "float32"):
+            raise InputError(f"precision {self.precision!r}; expected 'float64' or 'float32'")
+        if not (isinstance(self.altitude_step, (int, np.integer)) and self.altitude_step >= 1):
+            raise InputError(f"altitude_step {self.altitude_step!r}; expected an integer >= 1")
         for name in ("n_elevation", "n_azimuth", "nodes", "sub_distances", "sub_pixels"):
             setattr_(self, name, int(getattr(self, name)))
         setattr_(self, "supersample", int(self.supersample))
-        for name in ("uplight", "garstang_lobe", "store_tables"):
+        for name in ("uplight", "garstang_lobe", "store_tables", "shared_bases"):
             setattr_(self, name, bool(getattr(self, name)))
+        setattr_(self, "altitude_step", int(self.altitude_step))
+        if self.pca_error is not None:
+            setattr_(self, "pca_error", float(self.pca_error))
         for name in ("uplight_exponent", "core_radius", "pca_energy"):
             setattr_(self, name, float(getattr(self, name)))
         for name in ("leg_nodes", "n_components"):
@@ -485,11 +514,20 @@ class KernelSpec:
         -------
         dict
             Every parameter and grid (the key names are those of kernel format 2, so that
-            cached kernels keep their hash; the optional tables add a key only when present).
+            cached kernels keep their hash; the optional tables and the storage and precompute
+            levers add a key only when not at their default).
         """
         optional: dict[str, Any] = {"garstang_lobe": True} if self.garstang_lobe else {}
         if self.tabulated_emission:
             optional["tabulated_emission"] = self.tabulated_emission
+        if self.pca_error is not None:
+            optional["pca_error"] = self.pca_error
+        if self.shared_bases:
+            optional["shared_bases"] = True
+        if self.precision != "float64":
+            optional["precision"] = self.precision
+        if self.altitude_step != 1:
+            optional["altitude_step"] = self.altitude_step
         return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
             "distance_edges": list(self.distance_edges or ()),
@@ -549,6 +587,10 @@ class KernelSpec:
         attrs["tabulated_emission"] = self.tabulated_emission or ""
         attrs["store_tables"] = int(self.store_tables)
         attrs["n_components_requested"] = -1 if self.n_components is None else self.n_components
+        attrs["pca_error"] = -1.0 if self.pca_error is None else self.pca_error
+        attrs["shared_bases"] = int(self.shared_bases)
+        attrs["precision"] = self.precision
+        attrs["altitude_step"] = self.altitude_step
         return attrs
 
     @classmethod
@@ -592,6 +634,8 @@ class KernelSpec:
             value = int(number(key))
             return None if value < 0 else value
 
+        error = float(attrs.get("pca_error", -1.0))
+
         return cls(
             distance_edges=np.atleast_1d(attrs["distance_edges"]).tolist(),
             source_altitudes=np.atleast_1d(attrs["source_altitudes"]).tolist(),
@@ -612,6 +656,10 @@ class KernelSpec:
             pca_energy=float(number("pca_energy")),
             n_components=optional("n_components_requested"),
             store_tables=bool(number("store_tables")),
+            pca_error=None if error < 0 else error,
+            shared_bases=bool(int(attrs.get("shared_bases", 0))),
+            precision=str(attrs.get("precision", "float64")),
+            altitude_step=int(attrs.get("altitude_step", 1)),
         )
 
     @classmethod

@@ -3,6 +3,14 @@
 Kernels are written as NetCDF (h5netcdf) atomically, with every model parameter in the
 attributes (:meth:`~nightlights.sky.spec.KernelSpec.to_attrs`). The cache keeps one file per
 content hash under :func:`default_cache_dir`; a kernel is reused when its hash matches.
+
+The compact layout (the default) stores only what cannot be derived: the bases' spectra
+(``basis_fft_real``, ``basis_fft_imag``) are recomputed on reading (the rfft of the stored
+bases), a basis shared by every observer altitude is stored once (``basis`` without the
+``observer_altitude`` axis), float32 kernels store bases and coefficients as float32, and
+every variable is deflate-compressed in chunks (with byte shuffling). Reading restores the
+layout of :mod:`nightlights.sky.build` in memory, so the runtime sees the same dataset either
+way. ``compact=False`` writes the dataset as it is in memory (the original layout).
 """
 
 from __future__ import annotations
@@ -12,6 +20,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
 from nightlights._typing import PathLike
@@ -32,13 +41,14 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-_REQUIRED_VARIABLES = (
-    "basis",
-    "coefficient",
-    "basis_fft_real",
-    "basis_fft_imag",
-    "distance_edges",
-)
+_REQUIRED_VARIABLES = ("basis", "coefficient", "distance_edges")
+
+#: Deflate level of the compact layout, with byte shuffling [1] (a middle zlib level: the
+#: sizes and load times it gives are in ``benchmarks/bench_sky_kernel_storage.py``).
+COMPRESSION_LEVEL = 4
+
+_SPECTRA = ("basis_fft_real", "basis_fft_imag")
+_PCA_VARIABLES = ("basis", "coefficient")
 
 
 @dataclass(frozen=True)
@@ -60,7 +70,7 @@ class KernelResult:
     path: Path | None = None
 
 
-def write_kernel(ds: xr.Dataset, path: PathLike) -> Path:
+def write_kernel(ds: xr.Dataset, path: PathLike, *, compact: bool = True) -> Path:
     """Write a kernel dataset to NetCDF (h5netcdf) atomically.
 
     Parameters
@@ -69,6 +79,9 @@ def write_kernel(ds: xr.Dataset, path: PathLike) -> Path:
         Kernel dataset.
     path
         Output path.
+    compact
+        Write the compact layout (module docstring); False writes every variable as it is in
+        memory, uncompressed.
 
     Returns
     -------
@@ -76,9 +89,62 @@ def write_kernel(ds: xr.Dataset, path: PathLike) -> Path:
         The written path.
     """
     target = Path(path)
+    disk, encoding = _compact_layout(ds) if compact else (ds, None)
     with atomic_output(target) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf")
+        disk.to_netcdf(tmp, engine="h5netcdf", encoding=encoding)
     return target
+
+
+def _compact_layout(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict[str, object]]]:
+    """The dataset without derived variables, and its encoding (dtype, deflate, chunks)."""
+    disk = ds.drop_vars([name for name in _SPECTRA if name in ds])
+    if int(ds.attrs.get("shared_bases", 0)) and "observer_altitude" in ds["basis"].dims:
+        disk["basis"] = ds["basis"].isel(observer_altitude=0, drop=True)
+    float32 = str(ds.attrs.get("precision", "float64")) == "float32"
+    encoding: dict[str, dict[str, object]] = {}
+    for name, variable in disk.data_vars.items():
+        if variable.ndim == 0 or variable.size < 64:
+            continue
+        entry: dict[str, object] = {"zlib": True, "complevel": COMPRESSION_LEVEL, "shuffle": True}
+        if float32 and str(name).startswith(_PCA_VARIABLES) and variable.dtype == np.float64:
+            entry["dtype"] = "float32"
+        # one chunk per altitude level (all its images, bases or coefficients)
+        entry["chunksizes"] = tuple(
+            1 if dim in ("observer_altitude", "source_altitude") else size
+            for dim, size in variable.sizes.items()
+        )
+        encoding[str(name)] = entry
+    return disk, encoding
+
+
+def _memory_layout(ds: xr.Dataset) -> xr.Dataset:
+    """The in-memory layout of a compact file: float64 PCA tables, a shared basis broadcast
+    over the observer levels, and the bases' spectra."""
+    for name in list(ds.data_vars):
+        if str(name).startswith(_PCA_VARIABLES) and ds[name].dtype == np.float32:
+            ds[name] = ds[name].astype(np.float64)
+    stored_once = "observer_altitude" not in ds["basis"].dims
+    if stored_once:
+        shared = ds["basis"]
+        n_o = ds.sizes["observer_altitude"]
+        ds["basis"] = (
+            ("observer_altitude", *shared.dims),
+            np.broadcast_to(shared.values, (n_o, *shared.shape)),
+            shared.attrs,
+        )
+    if not all(name in ds for name in _SPECTRA):
+        basis = ds["basis"]
+        if stored_once:
+            spectrum = np.fft.rfft(basis.values[0], axis=-1)
+            spectrum = np.broadcast_to(spectrum, (basis.shape[0], *spectrum.shape))
+        else:
+            spectrum = np.fft.rfft(basis.values, axis=-1)
+        dims = ("observer_altitude", "component", "elevation", "frequency")
+        attrs = {"units": "1", "transform": "rfft over azimuth"}
+        ds["basis_fft_real"] = (dims, spectrum.real, attrs)
+        ds["basis_fft_imag"] = (dims, spectrum.imag, attrs)
+        ds = ds.assign_coords(frequency=np.arange(spectrum.shape[-1]))
+    return ds
 
 
 def read_kernel(path: PathLike) -> xr.Dataset:
@@ -111,7 +177,7 @@ def read_kernel(path: PathLike) -> xr.Dataset:
         raise InputError(
             f"{source}: not a skyglow kernel; missing {missing or ['content_hash attribute']}"
         )
-    return ds
+    return _memory_layout(ds)
 
 
 def load_kernel(kernel: KernelResult | xr.Dataset | PathLike) -> xr.Dataset:

@@ -41,6 +41,7 @@ def test_kernel_build_writes_a_kernel(tmp_path: Path) -> None:
             "12",
             "--energy",
             "0.999",
+            "--tables",
         ],
     )
     assert result.exit_code == 0, result.output
@@ -65,7 +66,7 @@ def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
     tables = {}
     for backend in ("numba", "numpy"):
         out = tmp_path / f"kernel_{backend}.nc"
-        args = ["kernel", "build", str(out), *SMALL, "--backend", backend]
+        args = ["kernel", "build", str(out), *SMALL, "--backend", backend, "--tables"]
         result = CliRunner().invoke(cli, args)
         assert result.exit_code == 0, result.output
         ds = read_kernel(out)
@@ -76,10 +77,17 @@ def test_kernel_build_backends_give_the_same_tables(tmp_path: Path) -> None:
 
 def test_kernel_build_without_tables(tmp_path: Path) -> None:
     out = tmp_path / "lean.nc"
-    result = CliRunner().invoke(cli, ["kernel", "build", "-o", str(out), *SMALL, "--no-tables"])
+    result = CliRunner().invoke(cli, ["kernel", "build", "-o", str(out), *SMALL])
     assert result.exit_code == 0, result.output
     ds = read_kernel(out)
     assert "kernel" not in ds and "coefficient" in ds and ds.attrs["store_tables"] == 0
+    shared = tmp_path / "shared.nc"
+    args = [*SMALL, "--error", "0.01", "--shared-bases", "--precision", "float32"]
+    result = CliRunner().invoke(cli, ["kernel", "build", "-o", str(shared), *args])
+    assert result.exit_code == 0, result.output
+    assert "mean error" in result.output
+    ds = read_kernel(shared)
+    assert ds.attrs["shared_bases"] == 1 and ds.attrs["pca_mean_error"] <= 0.01
 
 
 @pytest.fixture
@@ -101,7 +109,22 @@ def test_kernel_build_defaults_are_skyglows_grid(fake_build, tmp_path: Path) -> 
     (spec, out) = fake_build.args
     assert out == str(tmp_path / "k.nc")
     assert (spec.n_elevation, spec.n_azimuth, spec.n_distance) == (64, 256, 64)
-    assert spec == nl.KernelSpec()  # every default of the command is KernelSpec's
+    # every default of the command is KernelSpec's, but the raw tables come only on request
+    assert spec == nl.KernelSpec(store_tables=False)
+
+
+def test_kernel_build_storage_and_precompute_options(fake_build, tmp_path: Path) -> None:
+    args = ["--error", "0.01", "--shared-bases", "--precision", "float32"]
+    args += ["--altitude-step", "15", "--tables"]
+    result = CliRunner().invoke(cli, ["kernel", "build", str(tmp_path / "k.nc"), *args])
+    assert result.exit_code == 0, result.output
+    spec = fake_build.args[0]
+    assert (spec.pca_error, spec.shared_bases, spec.precision) == (0.01, True, "float32")
+    assert (spec.altitude_step, spec.store_tables) == (15, True)
+    bad = ["kernel", "build", str(tmp_path / "b.nc"), "--error", "2"]
+    result = CliRunner().invoke(cli, bad)
+    assert result.exit_code != 0 and "pca_error" in result.output
+    assert "Traceback" not in result.output
     assert fake_build.kwargs == {"backend": "auto", "progress": True}
 
 

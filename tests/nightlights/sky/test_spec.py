@@ -40,6 +40,10 @@ CHANGES = {
     "store_tables": False,
     "garstang_lobe": True,
     "tabulated_emission": 'tabulated:{"angles": [0, 90], "intensities": [1, 2]}',
+    "pca_error": 0.01,
+    "shared_bases": True,
+    "precision": "float32",
+    "altitude_step": 2,
 }
 
 
