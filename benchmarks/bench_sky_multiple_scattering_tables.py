@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import _harness as harness
 import numpy as np
@@ -43,31 +44,56 @@ SHAPES = ("lambertian", "uplight", "garstang_lobe")
 CHART_PHOTONS = (1_250, 2_500, 5_000, 10_000, 20_000)
 
 
-def measure_tables(photons: int) -> tuple[dict[str, object], list[dict[str, object]]]:
-    tables: dict[str, object] = {}
+def merge(
+    entry: dict[str, Any] | None, factor: np.ndarray, error: np.ndarray, photons: int
+) -> tuple:
+    """Photon-weighted mean of independent runs (single scattering is exact, so the ratios
+    average like the totals) and its standard error."""
+    if entry is None:
+        return factor, error, photons
+    n0 = int(entry["photons"])
+    f0 = np.asarray(entry["factor"], dtype=float)
+    e0 = np.asarray(entry["standard_error"], dtype=float)
+    n = n0 + photons
+    return (n0 * f0 + photons * factor) / n, np.hypot(n0 * e0, photons * error) / n, n
+
+
+def measure_tables(
+    photons: int, previous: dict[str, Any], only: str | None
+) -> tuple[dict[str, Any], list[dict[str, object]]]:
+    """Measure every (atmosphere, shape) table, or add a run of another seed to ``only``'s."""
+    tables: dict[str, Any] = dict(previous)
     runs: list[dict[str, object]] = []
     for label, atmosphere in ATMOSPHERES.items():
+        if only is not None and label != only:
+            continue
         for shape in SHAPES:
-            (factor, error), seconds = harness.timed(
-                lambda a=atmosphere, s=shape: multiple._measure(a, s, photons, UPLIGHT_EXPONENT)
-            )
             key = f"{shape}|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(atmosphere)}"
+            entry = tables.get(key) if only is not None else None
+            seed = multiple.SEED + (len(entry["runs"]) if entry else 0)
+            (factor, error), seconds = harness.timed(
+                lambda a=atmosphere, s=shape, seed=seed: multiple._measure(
+                    a, s, photons, UPLIGHT_EXPONENT, seed
+                )
+            )
+            combined, combined_error, total = merge(entry, factor, error, photons)
+            history = list(entry["runs"]) if entry else []
+            history.append({"photons": photons, "seed": seed, "seconds": round(seconds, 1)})
             tables[key] = {
                 "atmosphere": label,
                 "emission": shape,
-                "photons": photons,
-                "seed": multiple.SEED,
-                "seconds": seconds,
-                "factor": np.round(factor, 6).tolist(),
-                "standard_error": np.round(error, 6).tolist(),
+                "photons": total,
+                "runs": history,
+                "factor": np.round(combined, 6).tolist(),
+                "standard_error": np.round(combined_error, 6).tolist(),
             }
-            rel = error / factor
+            rel = combined_error / combined
             runs.append(
                 {
                     "atmosphere": label,
                     "emission": shape,
-                    "photons": photons,
-                    "seconds": round(seconds, 1),
+                    "photons": total,
+                    "seconds": round(sum(float(r["seconds"]) for r in history), 1),
                     "median_relative_error": float(np.median(rel)),
                     "max_relative_error_to_150km": float(
                         np.max(rel[..., np.asarray(multiple.FACTOR_DISTANCES) <= 150e3])
@@ -86,9 +112,7 @@ def _shipped_table(
     assert isinstance(entry, dict)
     raw = np.asarray(entry["factor"], dtype=float)
     err = np.asarray(entry["standard_error"], dtype=float)
-    return multiple.MultipleScatteringTable(
-        shape, multiple._smooth(raw, err), err, int(entry["photons"]), "shipped"
-    )
+    return multiple.MultipleScatteringTable(shape, raw, err, int(entry["photons"]), "shipped")
 
 
 def garstang_factor(quoted: list[list[float]], distance_km: np.ndarray) -> np.ndarray:
@@ -152,16 +176,16 @@ def photon_chart(tables: dict[str, object], photon_counts: tuple[int, ...]) -> l
     key = f"lambertian|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(atmosphere)}"
     entry = tables[key]
     assert isinstance(entry, dict)
-    ref = multiple._smooth(
-        np.asarray(entry["factor"], dtype=float), np.asarray(entry["standard_error"], dtype=float)
-    )
+    ref = np.asarray(entry["factor"], dtype=float)
     near = np.asarray(multiple.FACTOR_DISTANCES) <= 150e3
     rows = []
     for n in photon_counts:
-        (raw, err), seconds = harness.timed(
-            lambda n=n: multiple._measure(atmosphere, "lambertian", n, UPLIGHT_EXPONENT)
+        (raw, _), seconds = harness.timed(  # seeds apart from the shipped runs'
+            lambda n=n: multiple._measure(
+                atmosphere, "lambertian", n, UPLIGHT_EXPONENT, multiple.SEED + 1000
+            )
         )
-        rel = np.abs(multiple._smooth(raw, err) / ref - 1.0)[..., near]
+        rel = np.abs(raw / ref - 1.0)[..., near]
         rows.append(
             {
                 "photons": n,
@@ -227,18 +251,62 @@ def plot(result: dict) -> object:
     return fig
 
 
+def error_table(rows: list[dict[str, Any]]) -> list[dict[str, object]]:
+    """Worst relative error of each model over distance ranges, per atmosphere and emission."""
+    ranges = ((1, 10), (15, 50), (70, 150), (200, 300))
+    models = (
+        ("default_error_max", "single x table (default)"),
+        ("garstang_factor_error_max", "single x Garstang's factor"),
+        ("single_error_max", "single scattering"),
+    )
+    out: list[dict[str, object]] = []
+    for atmosphere, emission in dict.fromkeys((r["atmosphere"], r["emission"]) for r in rows):
+        sel = [r for r in rows if r["atmosphere"] == atmosphere and r["emission"] == emission]
+        for key, name in models:
+            row: dict[str, object] = {"atmosphere": atmosphere, "emission": emission, "model": name}
+            for lo, hi in ranges:
+                inside = [r[key] for r in sel if lo <= r["distance_km"] <= hi]
+                row[f"{lo}_{hi}_km"] = f"{100 * max(inside):.0f} %"
+            out.append(row)
+    return out
+
+
+def summary(tables: dict[str, Any]) -> list[dict[str, object]]:
+    """Photons, time and standard errors of every shipped table."""
+    near = np.asarray(multiple.FACTOR_DISTANCES) <= 150e3
+    rows: list[dict[str, object]] = []
+    for entry in tables.values():
+        rel = np.asarray(entry["standard_error"]) / np.asarray(entry["factor"])
+        rows.append(
+            {
+                "atmosphere": entry["atmosphere"],
+                "emission": entry["emission"],
+                "photons": entry["photons"],
+                "seconds": round(sum(float(r["seconds"]) for r in entry["runs"]), 1),
+                "median_relative_error": float(np.median(rel)),
+                "max_relative_error_to_150km": float(np.max(rel[..., near])),
+            }
+        )
+    return rows
+
+
 def main() -> None:
     parser = harness.argument_parser(__doc__, quick="20,000-photon tables, not shipped")
     parser.add_argument("--no-tables", action="store_true", help="reuse the shipped tables")
+    parser.add_argument(
+        "--add",
+        metavar="ATMOSPHERE",
+        choices=list(ATMOSPHERES),
+        help="add a run of another seed to this atmosphere's shipped tables",
+    )
+    parser.add_argument("--photons", type=int, default=multiple.SHIPPED_PHOTONS)
     args = harness.parse_args(parser)
+    shipped = json.loads(PACKAGE_TABLES.read_text()) if PACKAGE_TABLES.is_file() else {}
     if args.no_tables:
-        tables = json.loads(PACKAGE_TABLES.read_text())
-        runs = (harness.previous_results("sky_multiple_scattering_tables", args.out) or {}).get(
-            "runs", []
-        )
+        tables = shipped
     else:
-        photons = 20_000 if args.quick else multiple.SHIPPED_PHOTONS
-        tables, runs = measure_tables(photons)
+        photons = 20_000 if args.quick else args.photons
+        tables, _ = measure_tables(photons, shipped if args.add else {}, args.add)
         if not args.quick:
             PACKAGE_TABLES.parent.mkdir(parents=True, exist_ok=True)
             PACKAGE_TABLES.write_text(json.dumps(tables) + "\n")
@@ -249,10 +317,16 @@ def main() -> None:
             "azimuth_deg": list(multiple.FACTOR_AZIMUTHS),
             "distance_m": list(multiple.FACTOR_DISTANCES),
         },
-        "runs": runs,
+        "runs": summary(tables),
         "against_reference": against_reference(tables),
-        "photon_chart": photon_chart(tables, CHART_PHOTONS[:3] if args.quick else CHART_PHOTONS),
     }
+    payload["error_table"] = error_table(payload["against_reference"])
+    previous = harness.previous_results("sky_multiple_scattering_tables", args.out)
+    if args.no_tables and previous is not None:
+        payload["photon_chart"] = previous["photon_chart"]
+    else:
+        counts = CHART_PHOTONS[:3] if args.quick else CHART_PHOTONS
+        payload["photon_chart"] = photon_chart(tables, counts)
     harness.write_results(
         args.out, "sky_multiple_scattering_tables", payload, quick=args.quick, plot=plot
     )

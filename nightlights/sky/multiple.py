@@ -25,14 +25,17 @@ Modelling choices:
   observer altitude of the kernel (the altitudes of a city, up to a few hundred metres, are
   small against the scale heights that set f).
 - Noise: the Monte Carlo's standard error of each grid value is kept
-  (:attr:`MultipleScatteringTable.standard_error`). Before interpolation each direction's
-  ln f(ln r) is smoothed by a weighted three-point average where a value's relative standard
-  error exceeds :data:`SMOOTHING_THRESHOLD`, which damps the heavy-tailed single events the
-  estimator can produce far from the source without moving well-measured values.
+  (:attr:`MultipleScatteringTable.standard_error`); the values are used as measured. Smoothing
+  in distance (weighted three-point averages, local linear fits, cubic and quartic fits in
+  ln r, a monotone fit) was tried against the independent 300,000-photon reference of
+  ``bench_sky_multiple_scattering.py`` and none beat the raw values at every distance, so
+  none is applied: the error left is the tables' own noise, which falls as 1 / sqrt(photons).
 - The tables for the default atmospheres (turbidity 2 and Garstang's K = 1 at 550 nm, ground
-  levels, each emission shape) are shipped, measured with :data:`SHIPPED_PHOTONS` photons by
-  ``benchmarks/bench_sky_multiple_scattering_tables.py``; any other atmosphere is measured
-  when its first kernel is built (:data:`BUILD_PHOTONS` photons, cached for the process).
+  levels, each emission shape) are shipped, measured by
+  ``benchmarks/bench_sky_multiple_scattering_tables.py`` (120,000 photons per shape at
+  turbidity 2, 40,000 at K = 1, in runs of :data:`SHIPPED_PHOTONS` and more, seeds from
+  :data:`SEED`); any other atmosphere is measured when its first kernel is built
+  (:data:`BUILD_PHOTONS` photons, cached for the process).
 - A tabulated (user) emission function cannot be sampled by the Monte Carlo; its table gets the
   factor of the kernel shape nearest to it in the share of flux below 30 deg elevation
   (:func:`nearest_shape`), and the kernel's attributes say so.
@@ -85,8 +88,6 @@ FACTOR_DISTANCES = tuple(float(r) for r in np.geomspace(100.0, 300e3, 12))
 SHIPPED_PHOTONS = 40_000
 #: Photons of a table measured at kernel build time [1].
 BUILD_PHOTONS = 5_000
-#: Relative standard error above which a grid value is smoothed with its neighbours in ln r [1].
-SMOOTHING_THRESHOLD = 0.03
 #: Scattering orders followed (the benchmark finds no flux left in flight at 50) [1].
 MAX_ORDER = 50
 #: Seed of the factor tables' photon streams.
@@ -107,7 +108,7 @@ class MultipleScatteringTable:
         Emission shape (one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`).
     factor
         Shape ``(4, 3, 12)`` over :data:`FACTOR_ELEVATIONS`, :data:`FACTOR_AZIMUTHS`,
-        :data:`FACTOR_DISTANCES`, smoothed [1].
+        :data:`FACTOR_DISTANCES` [1].
     standard_error
         Same shape: the Monte Carlo's standard error of the raw factor [1].
     photons
@@ -136,40 +137,38 @@ def _atmosphere_key(atmosphere: Atmosphere) -> str:
     return json.dumps(params, sort_keys=True)
 
 
-def _smooth(factor: FloatArray, error: FloatArray) -> FloatArray:
-    """Weighted three-point average in ln r of ln f where the relative error is large."""
-    log_f = np.log(np.maximum(factor, 1.0))
-    rel = np.where(factor > 0, error / np.maximum(factor, 1e-300), 0.0)
-    weight = 1.0 / np.maximum(rel, 1e-3) ** 2
-    out = log_f.copy()
-    noisy = rel > SMOOTHING_THRESHOLD
-    for idx in zip(*np.nonzero(noisy), strict=True):
-        e, a, k = (int(i) for i in idx)
-        lo, hi = max(k - 1, 0), min(k + 2, factor.shape[2])
-        w = weight[e, a, lo:hi]
-        out[e, a, k] = float(np.sum(w * log_f[e, a, lo:hi]) / np.sum(w))
-    return np.asarray(np.exp(out))
-
-
 def _measure(
-    atmosphere: Atmosphere, emission: str, photons: int, uplight_exponent: float
+    atmosphere: Atmosphere,
+    emission: str,
+    photons: int,
+    uplight_exponent: float,
+    seed: int = SEED,
 ) -> tuple[FloatArray, FloatArray]:
+    """Factor and its standard error on the grid, shape ``(4, 3, 12)`` (the zenith is
+    measured once and shared by the three azimuths)."""
     from nightlights.sky.montecarlo import monte_carlo_luminance
 
-    el, az, r = np.meshgrid(FACTOR_ELEVATIONS, FACTOR_AZIMUTHS, FACTOR_DISTANCES, indexing="ij")
+    low = np.asarray(FACTOR_ELEVATIONS[:-1])
+    el, az, r = np.meshgrid(low, FACTOR_AZIMUTHS, FACTOR_DISTANCES, indexing="ij")
+    zenith = np.asarray(FACTOR_DISTANCES)
     mc = monte_carlo_luminance(
-        el,
-        az,
-        r,
+        np.concatenate([el.ravel(), np.full(zenith.size, 90.0)]),
+        np.concatenate([az.ravel(), np.zeros(zenith.size)]),
+        np.concatenate([r.ravel(), zenith]),
         atmosphere=atmosphere,
         emission=emission,
         photons=photons,
         max_order=MAX_ORDER,
-        seed=SEED,
+        seed=seed,
         uplight_exponent=uplight_exponent,
     )
-    shape = el.shape
-    return mc.ratio.reshape(shape), mc.ratio_standard_error.reshape(shape)
+    shape = (len(FACTOR_ELEVATIONS), len(FACTOR_AZIMUTHS), zenith.size)
+    factor = np.empty(shape)
+    error = np.empty(shape)
+    for out, values in ((factor, mc.ratio), (error, mc.ratio_standard_error)):
+        out[:-1] = values[: el.size].reshape(el.shape)
+        out[-1] = values[el.size :]
+    return factor, error
 
 
 @functools.cache
@@ -237,12 +236,10 @@ def multiple_scattering_table(
     if photons is None and shipped is not None:
         raw = np.asarray(shipped["factor"], dtype=float)
         error = np.asarray(shipped["standard_error"], dtype=float)
-        return MultipleScatteringTable(
-            emission, _smooth(raw, error), error, int(shipped["photons"]), "shipped"
-        )
+        return MultipleScatteringTable(emission, raw, error, int(shipped["photons"]), "shipped")
     n = BUILD_PHOTONS if photons is None else int(photons)
     raw, error = _table(atmosphere, emission, n, exponent)
-    return MultipleScatteringTable(emission, _smooth(raw, error), error, n, "measured")
+    return MultipleScatteringTable(emission, raw, error, n, "measured")
 
 
 def _interpolate(
