@@ -78,6 +78,9 @@ _LAZY: dict[str, str] = {
     # the whole night sky: stars, Moon, natural background, the eye
     "sky_render": "nightlights.nightsky",
     "SkyRenderResult": "nightlights.nightsky",
+    # many observers at once: one styled summary point layer
+    "observers": "nightlights.sky.observers",
+    "ObserversResult": "nightlights.sky.observers",
     # projects: one TOML file, every stage, cached
     "run": "nightlights.project",
     "load_project": "nightlights.project",
@@ -109,6 +112,7 @@ if TYPE_CHECKING:
     from nightlights.io import Raster
     from nightlights.nightsky import SkyRenderResult, sky_render
     from nightlights.project import ProjectResult, load_project, run
+    from nightlights.sky.observers import ObserversResult, observers
     from nightlights.sky import (
         KernelResult,
         KernelSpec,
@@ -160,6 +164,7 @@ __all__ = [
     "NightlightsError",
     "NightlightsWarning",
     "NormalizeResult",
+    "ObserversResult",
     "OutputError",
     "PlaceResult",
     "ProjectResult",
@@ -183,6 +188,7 @@ __all__ = [
     "least_dimming",
     "load_project",
     "normalize",
+    "observers",
     "place",
     "run",
     "sample",

@@ -78,6 +78,7 @@ def test_every_public_name_resolves() -> None:
         "sky_render",
         "run",
         "load_project",
+        "observers",
     ],
 )
 def test_stage_documented(name: str) -> None:
