@@ -11,11 +11,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import colour
-import matplotlib.pyplot as plt
 import numpy as np
 from numpy.typing import NDArray
 
@@ -77,6 +72,12 @@ def render_colour_panorama(
     # Log tone mapping of Y over four decades; chromaticity kept.
     mapped = np.clip(np.log10(np.maximum(y, top * 1e-4) / (top * 1e-4)) / 4.0, 0.0, 1.0)
     scale = np.divide(mapped, y, out=np.zeros_like(y), where=y > 0)
+    import colour  # colour-science and matplotlib load in about a second: only when drawing
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     rgb = np.clip(colour.XYZ_to_sRGB(xyz * scale[..., None]), 0.0, 1.0)
     fig, ax = plt.subplots(figsize=(11, 3.4), layout="constrained")
     ax.imshow(
