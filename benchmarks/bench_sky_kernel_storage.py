@@ -275,12 +275,11 @@ def plot(out: dict):
             label=f"{row['lever']}: {row['bases']} bases, {row['file_megabytes']:.3g} MB, "
             f"load {row['load_seconds']:.2f} s ({row['load_cpu_seconds']:.2f} s CPU)",
         )
-    ax1.axvline(out["targets"]["file_megabytes"], color="grey", ls=":", lw=0.8)
     ax1.axhline(out["targets"]["mean_rel_error"], color="grey", ls=":", lw=0.8)
     ax1.set_xlabel("file size [MB]")
     ax1.set_ylabel("mean relative error (pixels > 1 % of max)")
     ax1.set_title("Storage levers, each added to the previous")
-    ax1.legend(fontsize=6, loc="lower left")
+    ax1.legend(fontsize=6, loc="upper right")
     for name, points in out["error_against_bases"].items():
         style = "-" if name.startswith("shared") else "--"
         marker = "o" if name.endswith("float64") else "x"
