@@ -56,8 +56,16 @@ BYTES_PER_PAIR = 240
 #: Task-graph bytes per tile (Dask task, arguments, result bookkeeping) [B].
 BYTES_PER_TILE = 20_000
 #: Bytes per fine pixel of ``emission`` from an irradiance raster beyond its float64 bands:
-#: the read's temporaries, the albedo grid, the reflected flux and its NaN-free copy [B].
-EMISSION_BYTES_PER_PIXEL = 40
+#: the float32 read converted to float64, the checks' masks (the reflected flux is summed in
+#: strips of ``nightlights.ground.upward.STRIP_PIXELS``); 7.8 B measured (VmHWM) on a
+#: 2000 x 2000 raster at 0.5 m aggregated to 10 m [B].
+EMISSION_BYTES_PER_PIXEL = 8
+#: Bytes per fine pixel of an albedo raster resampled onto the irradiance grid (its float64
+#: grid; 8.0 B measured as above with a 5 m albedo raster) [B].
+ALBEDO_BYTES_PER_PIXEL = 8
+#: Bytes of ``emission``'s strip temporaries (4 Mi pixels x float64 product, NaN-free copy,
+#: row sums) [B].
+EMISSION_STRIP_BYTES = 3 * 8 * (1 << 22)
 #: Bytes per output cell of ``emission_from_viirs``: the float64 target, its float32/float64
 #: round trip and the float32 copies of the writer [B].
 VIIRS_BYTES_PER_CELL = 28
@@ -270,7 +278,9 @@ def irradiance_memory(
     return total
 
 
-def emission_memory(rows: int, cols: int, bands: int, factor: int) -> float:
+def emission_memory(
+    rows: int, cols: int, bands: int, factor: int, *, albedo_raster: bool = False
+) -> float:
     """Peak memory of ``emission`` from an irradiance raster [B].
 
     Parameters
@@ -279,15 +289,22 @@ def emission_memory(rows: int, cols: int, bands: int, factor: int) -> float:
         Irradiance raster shape [pixels], [1].
     factor
         Fine pixels per coarse cell along each axis [1].
+    albedo_raster
+        Whether the albedo is a raster (resampled onto the irradiance grid).
 
     Returns
     -------
     float
-        The float64 raster, the working grids and the coarse output [B].
+        The float64 raster, the read's and checks' temporaries, the albedo grid, the strips
+        in flight and the coarse output [B].
     """
     pixels = float(rows) * float(cols)
+    per_pixel = 8 * bands + EMISSION_BYTES_PER_PIXEL
+    if albedo_raster:
+        per_pixel += ALBEDO_BYTES_PER_PIXEL
     coarse = math.ceil(rows / factor) * math.ceil(cols / factor)
-    return pixels * (8 * bands + EMISSION_BYTES_PER_PIXEL) + coarse * VIIRS_BYTES_PER_CELL
+    strips = min(EMISSION_STRIP_BYTES, 3 * 8 * pixels)
+    return pixels * per_pixel + strips + coarse * VIIRS_BYTES_PER_CELL
 
 
 def viirs_memory(in_rows: int, in_cols: int, in_bands: int, out_rows: int, out_cols: int) -> float:

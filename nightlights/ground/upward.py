@@ -286,6 +286,11 @@ class EmissionResult:
         return self.raster.projected_crs(source="emission")
 
 
+#: Irradiance pixels aggregated at a time by :func:`emission` (its temporaries: ~ 30 B x
+#: this) [1].
+STRIP_PIXELS = 1 << 22
+
+
 def emission(
     irradiance: Raster | xr.DataArray | str | os.PathLike[str],
     output: str | os.PathLike[str] | None = None,
@@ -376,7 +381,11 @@ def emission(
         fine_size = abs(header.transform.a) or 1.0
         check_memory(
             emission_memory(
-                header.rows, header.cols, header.count, max(1, round(resolution / fine_size))
+                header.rows,
+                header.cols,
+                header.count,
+                max(1, round(resolution / fine_size)),
+                albedo_raster=not isinstance(albedo, (int, float)),
             ),
             f"emission from {label} ({header.rows} x {header.cols} pixels x {header.count} bands)",
             option="use a smaller irradiance raster",
@@ -398,8 +407,9 @@ def emission(
         )
     illuminance = raster.data[band]
     check_finite_raster(illuminance, label, "illuminance", "lx")
-    albedo_grid = _albedo(albedo, illuminance.shape, transform, raster_crs)
-    reflected = block_aggregate(albedo_grid * illuminance, factor)
+    reflected = _reflected(
+        illuminance, _albedo(albedo, illuminance.shape, transform, raster_crs), factor
+    )
     grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
     uplight = np.zeros_like(reflected)
     if lights is not None:
@@ -475,17 +485,37 @@ def _photopic_band(raster: Raster, label: str) -> int:
     )
 
 
+def _reflected(illuminance: FloatArray, albedo: float | FloatArray, factor: int) -> FloatArray:
+    """albedo x E summed into cells of ``factor`` x ``factor`` pixels, in strips of rows.
+
+    Strips of whole cells hold the temporaries to :data:`STRIP_PIXELS` pixels; each cell's
+    sum is the one :func:`block_aggregate` of the whole raster makes.
+    """
+    rows, cols = illuminance.shape
+    step = factor * max(1, STRIP_PIXELS // max(1, factor * cols))
+    strips = [
+        block_aggregate(
+            (albedo if isinstance(albedo, float) else albedo[start : start + step])
+            * illuminance[start : start + step],
+            factor,
+        )
+        for start in range(0, rows, step)
+    ]
+    return np.concatenate(strips, axis=0) if strips else np.zeros((0, math.ceil(cols / factor)))
+
+
 def _albedo(
     albedo: float | Raster | xr.DataArray | str | os.PathLike[str],
     shape: tuple[int, int],
     transform: Affine,
     crs: CRS,
-) -> FloatArray:
+) -> float | FloatArray:
+    """A number as a float, a raster on the irradiance grid; both checked to lie in [0, 1]."""
     if isinstance(albedo, (int, float)):
         value = float(albedo)
         if not 0.0 <= value <= 1.0:
             raise InputError(f"albedo={albedo!r}; expected a reflectance in [0, 1]")
-        return np.full(shape, value)
+        return value
     grid = raster_on_grid(
         albedo,
         transform=transform,

@@ -82,6 +82,23 @@ def test_block_aggregate_conserves_flux_with_partial_edges() -> None:
     assert coarse[0, 0] == pytest.approx(fine[:5, :5].mean())
 
 
+@pytest.mark.parametrize("albedo", [0.2, "raster"])
+def test_reflected_flux_in_strips_equals_the_whole_raster(
+    albedo, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import nightlights.ground.upward as upward
+
+    rng = np.random.default_rng(4)
+    ground = rng.gamma(2.0, 3.0, (53, 41))
+    ground[5, 7] = np.nan
+    grid = rng.uniform(0.05, 0.3, ground.shape) if albedo == "raster" else albedo
+    whole = block_aggregate(grid * ground, 4)
+    monkeypatch.setattr(upward, "STRIP_PIXELS", 4 * 41 * 2)  # strips of 8 rows: 7 strips
+    np.testing.assert_array_equal(upward._reflected(ground, grid, 4), whole)
+    monkeypatch.setattr(upward, "STRIP_PIXELS", 1)  # one cell row per strip
+    np.testing.assert_array_equal(upward._reflected(ground, grid, 4), whole)
+
+
 def test_deposit_flux() -> None:
     grid = RasterGrid(0.0, 100.0, 10.0, 10, 10)
     density, inside = deposit_flux([5, 7, 55, -1], [95, 91, 45, 50], [10, 30, 5, 99], grid)
