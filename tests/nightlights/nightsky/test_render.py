@@ -316,3 +316,32 @@ def test_compiled_scatter_add_equals_numpy_add_at() -> None:
     target = np.zeros(50)
     scatter_add(target, index, values)
     np.testing.assert_allclose(target, expected, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (3, 5), (257, 130)])
+def test_png_bytes_read_back_exactly(shape: tuple[int, int]) -> None:
+    import io
+
+    from PIL import Image
+
+    from nightlights.nightsky.stage import png_bytes
+
+    rng = np.random.default_rng(sum(shape))
+    image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    decoded = Image.open(io.BytesIO(png_bytes(image)))
+    decoded.load()  # checks the CRCs and the zlib stream's Adler-32
+    assert decoded.mode == "RGB"
+    np.testing.assert_array_equal(np.asarray(decoded), image)
+
+
+def test_written_picture_holds_the_image_and_a_legend_strip(tmp_path) -> None:
+    from PIL import Image
+
+    from nightlights.nightsky.stage import LEGEND_STRIP, write_png
+
+    rgb = np.linspace(0.0, 1.0, 64 * 128 * 3).reshape(64, 128, 3)
+    path = write_png(rgb, tmp_path / "sky.png", "line one\nline two", "equirectangular")
+    written = np.asarray(Image.open(path))
+    assert written.shape == (64 + LEGEND_STRIP, 128, 3)
+    np.testing.assert_array_equal(written[:64], np.floor(255.0 * rgb + 0.5).astype(np.uint8))
+    assert written[64:].max() == 255  # white text on the black strip
