@@ -346,7 +346,8 @@ LEGEND_STRIP = 40
 #: Size of the legend's and the compass marks' text [pixel] (8 and 10 pt at 100 dpi).
 LEGEND_FONT_SIZE, MARK_FONT_SIZE = 11, 14
 #: zlib level of the PNG: 1 writes a 2048 x 1024 night sky several times faster than the
-#: default 6, for a file about 1.3 times larger (benchmarks/bench_sky_render.py).
+#: previous writer (matplotlib, zlib's default 6), for a file 1.25 times larger
+#: (benchmarks/bench_sky_render.py).
 PNG_COMPRESS_LEVEL = 1
 #: Bands of rows deflated on their own, in parallel threads, and joined into one zlib stream
 #: (a fixed number, so that the file's bytes do not depend on the machine) [1].
