@@ -27,6 +27,7 @@ import json
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import _harness as harness
@@ -96,6 +97,7 @@ def run_stage(kind: str, source: Path, out: Path, backend: str, sensors: str) ->
         raise RuntimeError(f"{kind} failed:\n{done.stderr[-3000:]}")
     figures = json.loads(done.stdout.strip().splitlines()[-1])
     figures["peak_gib"] = figures["peak_bytes"] / 2**30
+    figures["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     print(kind, backend, json.dumps(figures), flush=True)
     return figures
 

@@ -12,9 +12,10 @@ The model underneath, one module per job: luminaire frames and candela tables
 (:mod:`~nightlights.ground.frames`), light layers to luminaire arrays
 (:mod:`~nightlights.ground.luminaires`), regions of influence
 (:mod:`~nightlights.ground.influence`), the illuminance kernel
-(:mod:`~nightlights.ground.illuminance`), grids and Dask tiles
-(:mod:`~nightlights.ground.tiles`), area sources (:mod:`~nightlights.ground.area_lights`)
-and the upward emission models (:mod:`~nightlights.ground.upward`).
+(:mod:`~nightlights.ground.illuminance`: compiled by default, numpy as the reference), grids
+and Dask tiles (:mod:`~nightlights.ground.tiles`), area sources
+(:mod:`~nightlights.ground.area_lights`) and the upward emission models
+(:mod:`~nightlights.ground.upward`).
 """
 
 from nightlights.ground.area_lights import (
