@@ -13,9 +13,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: Each script runs the pipeline from the streets to the sky (a minute or more on a shared
-#: 2-core machine, with the skyglow kernels built once in a shared cache).
-pytestmark = pytest.mark.slow
+# Each script runs the pipeline from the streets to the sky (30-60 s on a shared 2-core machine,
+# with the skyglow kernels built once in a shared cache); the test suite runs all three, as the
+# examples are part of what CI checks.
 
 
 @pytest.fixture(scope="module")
