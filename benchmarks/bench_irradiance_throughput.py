@@ -294,6 +294,7 @@ def plot(payload: dict):
             )
         axis.set_xscale("log")
         axis.set_yscale("log")
+        axis.xaxis.set_minor_formatter(plt.NullFormatter())
         axis.set_ylabel("light-pixel evaluations [M s-1]")
         axis.grid(True, which="both", alpha=0.3)
         axis.legend(fontsize=7)
@@ -326,8 +327,10 @@ def plot(payload: dict):
     axes[2].set_ylabel("end to end [s] (setup + compute + COG write)")
     axes[2].set_title("100,000 luminaires, 10 x 10 km at 1 m", fontsize=9)
     axes[2].legend(fontsize=7)
+    load = payload.get("load_average_1_5_15_min", {}).get("before", [float("nan")])[0]
     fig.suptitle(
-        "Irradiance throughput, compiled (numba) and numpy kernels, shared 2-core machine (noisy)",
+        "Irradiance throughput, compiled (numba) and numpy kernels, shared 2-core machine "
+        f"(load average {load:.1f} at the start; noisy)",
         fontsize=10,
     )
     fig.tight_layout()
