@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -36,6 +37,7 @@ __all__ = [
     "RasterGrid",
     "Tile",
     "assign_to_tiles",
+    "balanced_tile_size",
     "compute_irradiance",
     "compute_tiles",
     "grid_from_bounds",
@@ -295,6 +297,48 @@ def compute_tiles(
         return compute_distributed(tasks, scheduler, lambda: bar.advance(task_id))
 
 
+#: Tiles per worker that :func:`balanced_tile_size` aims for, so that a raster of a few tiles
+#: still keeps every core busy [1].
+TILES_PER_WORKER = 4
+#: Smallest tile edge :func:`balanced_tile_size` goes down to [pixels].
+MIN_BALANCED_TILE = 128
+
+
+def balanced_tile_size(grid: RasterGrid, tile_size: int, workers: int) -> int:
+    """The largest of ``tile_size``, ``tile_size / 2``, ... that gives every worker tiles.
+
+    Parameters
+    ----------
+    grid
+        Output grid.
+    tile_size
+        Largest tile edge [pixels].
+    workers
+        Tiles computed at once [1].
+
+    Returns
+    -------
+    int
+        Tile edge, at least ``min(tile_size, MIN_BALANCED_TILE)``, halved while the grid has
+        fewer than :data:`TILES_PER_WORKER` x ``workers`` tiles [pixels].
+
+    Examples
+    --------
+    >>> balanced_tile_size(RasterGrid(0.0, 0.0, 1.0, 1000, 1000), 1024, 2)
+    256
+    >>> balanced_tile_size(RasterGrid(0.0, 0.0, 1.0, 10_000, 10_000), 1024, 2)
+    1024
+    """
+
+    def count(size: int) -> int:
+        return math.ceil(grid.rows / size) * math.ceil(grid.cols / size)
+
+    size = tile_size
+    while size // 2 >= MIN_BALANCED_TILE and count(size) < TILES_PER_WORKER * workers:
+        size //= 2
+    return size
+
+
 @dataclass(frozen=True)
 class ComputedIrradiance:
     """Bands of :func:`compute_irradiance` on the whole grid.
@@ -346,7 +390,9 @@ def compute_irradiance(
     scheduler
         ``None`` (local threads) or a ``dask.distributed`` address/Client.
     tile_size
-        Tile edge [pixels].
+        Tile edge [pixels]; the compiled kernel halves it (down to
+        :data:`MIN_BALANCED_TILE`) until every worker has :data:`TILES_PER_WORKER` tiles
+        (:func:`balanced_tile_size`), which its output does not depend on.
     num_workers
         Local threads (default one per core).
     progress
@@ -363,6 +409,8 @@ def compute_irradiance(
     ``luminaires``; its output is bit-identical for any ``tile_size`` and scheduler.
     """
     illuminance.check_backend(backend)
+    if backend == "numba":
+        tile_size = balanced_tile_size(grid, tile_size, num_workers or os.cpu_count() or 1)
     x, y = luminaires.light_point[:, 0], luminaires.light_point[:, 1]
     finite_radius = np.where(
         np.isfinite(radius), radius, 2.0 * (grid.rows + grid.cols) * grid.resolution
