@@ -58,6 +58,7 @@ from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance_grid
+from nightlights.sky.multiple import apply_multiple_scattering
 from nightlights.sky.pca import LevelDecomposition, compress_kernel
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
@@ -396,7 +397,9 @@ def compute_kernel(
     )
     tables = kernel_tables(spec, backend=backend, progress=progress)
     _check_tables(tables, spec)
+    multiple_attrs = apply_multiple_scattering(tables, spec)
     ds = kernel_dataset(tables, spec)
+    ds.attrs.update(multiple_attrs)
     ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
     return ds
 
@@ -452,8 +455,9 @@ def kernel_dataset(
         + ("; tabulated_emission (kernel_tabulated)" if spec.tabulated_emission else "")
     )
     ds.attrs["description"] = (
-        "Single-scattering sky luminance per lumen of upward flux of a ground source "
-        "(nightlights.sky, Dobashi et al. 2023 Sec. 3)"
+        "Sky luminance per lumen of upward flux of a ground source: single scattering "
+        "(nightlights.sky, Dobashi et al. 2023 Sec. 3), times the Monte Carlo "
+        f"multiple-scattering factor (multiple_scattering = {spec.multiple_scattering})"
     )
     return ds
 

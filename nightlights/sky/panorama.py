@@ -480,6 +480,7 @@ def panorama_naive(
     nodes: int = 24,
     uplight_exponent: float = UPLIGHT_EXPONENT,
     functions: Sequence[EmissionFunction] | None = None,
+    multiple_scattering: str = "single",
 ) -> FloatArray:
     """Reference panorama: the kernel integrated directly for each lit cell at its centre.
 
@@ -507,13 +508,18 @@ def panorama_naive(
         Exponent n of the uplight lobe sin^n [1].
     functions
         Emission function of each band; default band 0 Lambertian, band 1 uplight.
+    multiple_scattering
+        ``single``, or ``monte-carlo``: each cell's single scattering times the Monte Carlo
+        factor at its own distance and direction (:mod:`nightlights.sky.multiple`), the model
+        of a default kernel.
 
     Returns
     -------
     numpy.ndarray
         ``(n_el, n_az)`` luminance [cd m-2].
     """
-    from nightlights.sky.kernel import sky_luminance
+    from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance
+    from nightlights.sky.multiple import multiple_scattering_table, nearest_shape
 
     atmosphere = atmosphere if atmosphere is not None else Atmosphere()
     data = np.nan_to_num(np.asarray(emission, dtype=float), nan=0.0)
@@ -540,15 +546,25 @@ def panorama_naive(
             for shape, weight in function.weights:
                 if weight <= 0:
                     continue
-                result += (weight * flux[i]) * sky_luminance(
-                    elevation[:, None],
-                    relative,
-                    r[i],
-                    source_altitude=heights[rows[i], cols[i]],
-                    observer_altitude=observer_altitude,
-                    atmosphere=atmosphere,
-                    emission=shape,
-                    nodes=nodes,
-                    uplight_exponent=uplight_exponent,
+                factor: FloatArray | float = 1.0
+                if multiple_scattering != "single" and atmosphere.extinction:
+                    borrowed = nearest_shape(shape) if shape.startswith(TABULATED_PREFIX) else shape
+                    factor = multiple_scattering_table(
+                        atmosphere, borrowed, uplight_exponent=uplight_exponent
+                    )(elevation[:, None], relative, r[i])
+                result += (
+                    (weight * flux[i])
+                    * factor
+                    * sky_luminance(
+                        elevation[:, None],
+                        relative,
+                        r[i],
+                        source_altitude=heights[rows[i], cols[i]],
+                        observer_altitude=observer_altitude,
+                        atmosphere=atmosphere,
+                        emission=shape,
+                        nodes=nodes,
+                        uplight_exponent=uplight_exponent,
+                    )
                 )
     return result

@@ -216,6 +216,7 @@ def skyglow_panorama(
             atmosphere=_kernel_atmosphere(table),
             uplight_exponent=float(table.attrs.get("uplight_exponent", UPLIGHT_EXPONENT)),
             functions=setup.functions,
+            multiple_scattering=str(table.attrs.get("multiple_scattering", "single")),
         )
     xyz = None
     if bands == "RGB":

@@ -343,6 +343,12 @@ class KernelSpec:
     precision
         Storage precision of the bases and coefficients, ``"float64"`` or ``"float32"``
         (rounded on building, so that a file written in float32 reads back unchanged).
+    multiple_scattering
+        ``"monte-carlo"``: every table is multiplied by the multiple-scattering factor
+        f(elevation, azimuth, distance) of :mod:`nightlights.sky.multiple` (all scattering
+        orders, measured by Monte Carlo; shipped for turbidity 2 and Garstang's K = 1 at 550
+        nm, measured on the first build for other atmospheres); ``"single"``: single
+        scattering only, the kernel of Dobashi et al. (2023) and of earlier versions.
     altitude_step
         Precompute every ``altitude_step``-th (observer, source) altitude pair along each line
         of equal height difference h_c - h_o (and both ends) and interpolate the others
@@ -386,6 +392,7 @@ class KernelSpec:
     shared_bases: bool = False
     precision: str = "float64"
     altitude_step: int = 1
+    multiple_scattering: str = "monte-carlo"
 
     def __post_init__(self) -> None:
         self._check_size()
@@ -438,6 +445,11 @@ class KernelSpec:
             raise InputError(f"n_components {self.n_components!r}; expected >= 1")
         if self.pca_error is not None and not 0 < self.pca_error < 1:
             raise InputError(f"pca_error {self.pca_error!r}; expected 0 < error < 1")
+        if self.multiple_scattering not in ("monte-carlo", "single"):
+            raise InputError(
+                f"multiple_scattering {self.multiple_scattering!r}; expected 'monte-carlo' or "
+                "'single'"
+            )
         if self.precision not in ("float64", "float32"):
             raise InputError(f"precision {self.precision!r}; expected 'float64' or 'float32'")
         if not (isinstance(self.altitude_step, (int, np.integer)) and self.altitude_step >= 1):
@@ -528,6 +540,8 @@ class KernelSpec:
             optional["precision"] = self.precision
         if self.altitude_step != 1:
             optional["altitude_step"] = self.altitude_step
+        if self.multiple_scattering != "single":
+            optional["multiple_scattering"] = self.multiple_scattering
         return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
             "distance_edges": list(self.distance_edges or ()),
@@ -591,6 +605,7 @@ class KernelSpec:
         attrs["shared_bases"] = int(self.shared_bases)
         attrs["precision"] = self.precision
         attrs["altitude_step"] = self.altitude_step
+        attrs["multiple_scattering"] = self.multiple_scattering
         return attrs
 
     @classmethod
@@ -658,6 +673,7 @@ class KernelSpec:
             store_tables=bool(number("store_tables")),
             pca_error=None if error < 0 else error,
             shared_bases=bool(int(attrs.get("shared_bases", 0))),
+            multiple_scattering=str(attrs.get("multiple_scattering", "single")),
             precision=str(attrs.get("precision", "float64")),
             altitude_step=int(attrs.get("altitude_step", 1)),
         )

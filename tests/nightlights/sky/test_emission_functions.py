@@ -342,6 +342,7 @@ def test_a_band_mix_reads_the_mix_of_coefficient_tables(lobe_kernel: xr.Dataset)
         n_az=raw.n_az,
         observer_altitude=0.0,
         functions=[garstang],
+        multiple_scattering="monte-carlo",  # the model of the default kernel
     )
     bright = naive > 0.01 * naive.max()
     assert np.mean(np.abs(exact[bright] - naive[bright]) / naive[bright]) < 0.1

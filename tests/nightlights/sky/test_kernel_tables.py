@@ -104,6 +104,7 @@ def test_bin_value_is_area_weighted_average_of_point_kernel() -> None:
         nodes=16,
         sub_distances=2,
         supersample=1,
+        multiple_scattering="single",  # the single-scattering integral itself
         progress=False,
     )
     # two Gauss-Legendre nodes in ln r, weights r^2 (equal Gauss weights)

@@ -165,6 +165,7 @@ def test_exact_mode_agrees_with_the_naive_reference(small_kernel) -> None:
         elevation=tables.elevation,
         n_az=tables.n_az,
         observer_altitude=0.0,
+        multiple_scattering=small_kernel.attrs["multiple_scattering"],
     )
     bright = naive > 0.01 * naive.max()
     # The test kernel is coarse (24 distance bins over 5 m - 20 km, ratio 1.41 per bin; 8 x 32

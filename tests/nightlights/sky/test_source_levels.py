@@ -154,6 +154,7 @@ def test_per_cell_altitudes_match_the_naive_reference(level_kernel: xr.Dataset) 
         observer_altitude=300.0,
         source_altitude=np.nan_to_num(heights),
         atmosphere=Atmosphere(),
+        multiple_scattering="monte-carlo",  # the model of the default kernel
     )
     lit = naive > 0.01 * naive.max()
 

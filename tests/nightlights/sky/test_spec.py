@@ -44,6 +44,7 @@ CHANGES = {
     "shared_bases": True,
     "precision": "float32",
     "altitude_step": 2,
+    "multiple_scattering": "single",
 }
 
 
@@ -66,13 +67,16 @@ def test_hash_is_sensitive_to_every_field(field: str) -> None:
 
 
 def test_hash_is_stable() -> None:
-    """Equal specifications, equal hashes; the value of the default kernel is pinned so that
-    caches written by earlier versions (same parameters) stay valid."""
+    """Equal specifications, equal hashes; the value of a single-scattering kernel is pinned
+    so that caches written by earlier versions (same parameters) stay valid, and the default
+    (multiple scattering) differs from it."""
     assert KernelSpec(**TINY).content_hash == KernelSpec(**TINY).content_hash
     assert KernelSpec(source_altitudes=(5.0, 0.0)) == KernelSpec(source_altitudes=[0.0, 5.0])
-    spec = KernelSpec(n_elevation=32, n_azimuth=128)
+    spec = KernelSpec(n_elevation=32, n_azimuth=128, multiple_scattering="single")
     # kernel_parameters() of the former precompute module gave this hash for its defaults
     assert spec.content_hash == "4553b69d7a4a1aa7bd5c9af95a6bf709645715d328479bf0db2f6e1783f6b36b"
+    default = KernelSpec(n_elevation=32, n_azimuth=128)
+    assert default.content_hash != spec.content_hash
 
 
 @pytest.mark.parametrize(
