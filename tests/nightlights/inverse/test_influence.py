@@ -44,7 +44,7 @@ def full_kernel():
         n_elevation=8,
         n_azimuth=32,
         uplight=True,
-        n_components=15,
+        n_components=24,
     )
     return build_kernel(spec, progress=False)
 
