@@ -266,7 +266,7 @@ def least_dimming(
     ...                      kernel=kernel)
     >>> zenith = plan.summary["observers"][0]["zenith"]
     >>> round(zenith["before_mag_arcsec2"], 2), round(zenith["after_mag_arcsec2"], 2)
-    (23.65, 24.0)
+    (23.58, 24.0)
     >>> plan.summary["plan"]["method"]
     'greedy'
     """
