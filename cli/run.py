@@ -6,6 +6,8 @@ from typing import Any
 
 import click
 
+from cli.options import files_argument, output_option, resolve_inout
+
 STAGE_NAMES = (
     "normalize",
     "sample",
@@ -23,14 +25,8 @@ STAGE_NAMES = (
 
 
 @click.command("run")
-@click.argument("project", type=click.Path(dir_okay=False), metavar="PROJECT.toml")
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(file_okay=False),
-    default=None,
-    help="Output folder (default: the project's [project] output, relative to the file).",
-)
+@files_argument("PROJECT.toml [OUTPUT]")
+@output_option
 @click.option(
     "--force",
     multiple=True,
@@ -44,8 +40,11 @@ STAGE_NAMES = (
     is_flag=True,
     help="Check the project file and list which stages would run; run nothing.",
 )
-def run_command(project: str, output: str | None, force: tuple[str, ...], check_only: bool) -> None:
-    """Run the stages of PROJECT.toml (nightlights init writes a commented template).
+def run_command(
+    files: tuple[str, ...], output: str | None, force: tuple[str, ...], check_only: bool
+) -> None:
+    """Run the stages of PROJECT.toml (nightlights init writes a commented template) into the
+    folder OUTPUT (default: the project's [project] output, relative to the file).
 
     The whole file is checked before any stage runs. A stage whose outputs exist and whose
     inputs and options are unchanged since it last ran (content hashes recorded beside the
@@ -56,6 +55,12 @@ def run_command(project: str, output: str | None, force: tuple[str, ...], check_
 
     from nightlights.project import check, run
 
+    usage = "PROJECT.toml [OUTPUT]"
+    if output is None and len(files) == 1:
+        project = files[0]
+    else:
+        inputs, output = resolve_inout(files, output, inputs=1, usage=usage, overwrite=True)
+        project = inputs[0]
     console = Console(stderr=True, emoji=False, highlight=False, soft_wrap=True)
     if check_only:
         plan = check(project, output, force=force)
