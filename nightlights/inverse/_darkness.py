@@ -69,6 +69,7 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights.sky.multiple import scattering_note
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
 from nightlights.sky.setup import (
@@ -488,7 +489,8 @@ def darkness(
         "method": "FFT convolution of the flux per cell with the zenith stencil (azimuth mean "
         "of the kernel's top row, cells sampled as the polar map); terrain: per source and "
         f"observer level; {n_chunks} chunk(s) of {used_chunk} cells",
-        "note": "artificial skyglow only (no natural sky background), single scattering",
+        "note": "artificial skyglow only (no natural sky background), "
+        + scattering_note(table.attrs),
         "reference": "Dobashi et al. 2023, Sec. 3.3-3.4 (zenith of the forward panorama)",
     }
     result = Raster(

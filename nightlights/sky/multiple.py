@@ -387,3 +387,21 @@ def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, st
         stand_in = f" (factor of {shape})" if shape != emission else ""
         notes.append(f"{name}: {factors.source}, {factors.photons} photons{stand_in}")
     return {"multiple_scattering_tables": "; ".join(notes)}
+
+
+def scattering_note(kernel_attrs: Any) -> str:
+    """What a kernel's luminance counts, for the notes of the products made with it.
+
+    Parameters
+    ----------
+    kernel_attrs
+        The kernel dataset's attributes.
+
+    Returns
+    -------
+    str
+        ``all scattering orders (...)`` or ``single scattering``.
+    """
+    if str(kernel_attrs.get("multiple_scattering", "single")) == "single":
+        return "single scattering"
+    return "all scattering orders (single scattering x the Monte Carlo multiple-scattering factor)"

@@ -68,6 +68,7 @@ from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.build import EMISSION_TABLES
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.multiple import scattering_note
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import (
     PolarMap,
@@ -890,6 +891,7 @@ def _panorama(
         "zenith_total_sky_brightness": float(natural["zenith_sky_brightness"]),
         "bortle_class_zenith_total": int(natural["bortle_class_zenith"]),
         "bands": "V",
-        "note": "artificial skyglow only (no natural sky background), single scattering",
+        "note": "artificial skyglow only (no natural sky background), "
+        + scattering_note(setup.table.attrs),
     }
     return dataset

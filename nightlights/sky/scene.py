@@ -28,6 +28,7 @@ from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
+from nightlights.sky.multiple import scattering_note
 from nightlights.sky.panorama import (
     MODES,
     KernelSlice,
@@ -265,7 +266,8 @@ def skyglow_panorama(
         "emitted_flux_lm": float(polar.total_flux.sum()),
         "flux_beyond_kernel_lm": float(polar.dropped_flux.sum()),
         **dataset.attrs,
-        "note": "artificial skyglow only (no natural sky background), single scattering",
+        "note": "artificial skyglow only (no natural sky background), "
+        + scattering_note(table.attrs),
     }
     if xyz is not None:
         dataset.attrs["spectrum"] = spectrum
