@@ -15,7 +15,7 @@ coarse grid, which the skyglow stages take as their source:
    without street data (see :func:`viirs_radiance_to_flux_density`): one band tagged with
    the emission function that turned its nadir radiance into flux.
 
-Length: about 745 lines, because the two routes to one product share its raster, its
+Length: about 780 lines, because the two routes to one product share its raster, its
 float32 round trip, its checked writing and its memory checks made before reading; split in
 two modules they would import each other's private helpers.
 """

@@ -60,11 +60,8 @@ def test_numpy_backend_is_the_reference(lights: Path, tmp_path: Path) -> None:
     lit = bands["numpy"] > 0
     assert lit.any() and np.array_equal(bands["numba"] > 0, lit)
     np.testing.assert_allclose(bands["numba"][lit], bands["numpy"][lit], rtol=1e-6)
-    result = CliRunner().invoke(
-        cli,
-        ["irradiance", str(lights), str(tmp_path / "x.tif"), "--resolution", "2"]
-        + ["--backend", "cuda"],
-    )
+    args = ["irradiance", str(lights), str(tmp_path / "x.tif"), "--resolution", "2"]
+    result = CliRunner().invoke(cli, [*args, "--backend", "cuda"])
     assert result.exit_code == 2 and "'cuda' is not one of 'numba', 'numpy'" in result.output
 
 
