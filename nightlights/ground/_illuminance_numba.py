@@ -203,11 +203,12 @@ def _row_lookup(
         ih = min(int(h), n_h - 2)
         tv = v - iv
         th = h - ih
-        base = offset + ih * n_v + iv
+        # unsigned (the clamps keep it >= 0): no negative-index wraparound per load
+        base = np.uint64(offset + ih * n_v + iv)
         c00 = candela[base]
-        c01 = candela[base + 1]
-        c10 = candela[base + n_v]
-        c11 = candela[base + n_v + 1]
+        c01 = candela[base + np.uint64(1)]
+        c10 = candela[base + np.uint64(n_v)]
+        c11 = candela[base + np.uint64(n_v + 1)]
         lower = c00 + tv * (c01 - c00)
         upper = c10 + tv * (c11 - c10)
         values[k] = (lower + th * (upper - lower)) * factor[k]
