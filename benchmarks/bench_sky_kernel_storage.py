@@ -278,7 +278,7 @@ def error_curves(table: np.ndarray, levels: list) -> dict[str, list[dict]]:
 
 def plot(out: dict):
     plt = harness.pyplot()
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 6.0))
     rows = out["levers"]
     for index, row in enumerate(rows):
         ax1.loglog(
@@ -293,7 +293,7 @@ def plot(out: dict):
     ax1.set_xlabel("file size [MB]")
     ax1.set_ylabel("mean relative error (pixels > 1 % of max)")
     ax1.set_title("Storage levers, each added to the previous")
-    ax1.legend(fontsize=6, loc="upper right")
+    ax1.legend(fontsize=6, loc="upper left", bbox_to_anchor=(0.0, -0.14))
     for name, points in out["error_against_bases"].items():
         style = "-" if name.startswith("shared") else "--"
         marker = "o" if name.endswith("float64") else "x"
