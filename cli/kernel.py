@@ -133,6 +133,15 @@ def kernel() -> None:
 )
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
 @click.option(
+    "--multiple-scattering",
+    type=click.Choice(["monte-carlo", "single"]),
+    default="monte-carlo",
+    show_default=True,
+    help="monte-carlo: single scattering times the Monte Carlo factor of all scattering "
+    "orders (shipped for turbidity 2 and Garstang's K = 1; measured on the first build "
+    "otherwise); single: single scattering only (Dobashi et al. 2023).",
+)
+@click.option(
     "--tables/--no-tables",
     default=False,
     show_default=True,
@@ -175,6 +184,7 @@ def build(
     garstang_lobe: bool,
     tabulated_emission: str | None,
     flat_earth: bool,
+    multiple_scattering: str,
     tables: bool,
     backend: str,
 ) -> None:
@@ -210,6 +220,7 @@ def build(
         shared_bases=shared_bases,
         precision=precision,
         altitude_step=altitude_step,
+        multiple_scattering=multiple_scattering,
     )
     start = time.perf_counter()
     result = nl.build_kernel(spec, out, backend=backend, progress=True)

@@ -154,3 +154,19 @@ def test_kernel_build_refuses_an_existing_output(fake_build, tmp_path: Path) -> 
     assert CliRunner().invoke(cli, ["kernel", "build", str(out), "--overwrite"]).exit_code == 0
     result = CliRunner().invoke(cli, ["kernel", "build"])
     assert result.exit_code == 2 and "missing OUTPUT" in result.output
+
+
+def test_kernel_build_multiple_scattering_choice(tmp_path: Path) -> None:
+    """The default counts all scattering orders (brighter than single scattering everywhere);
+    --multiple-scattering single keeps Dobashi's single scattering; each kernel says which."""
+    kernels = {}
+    for choice in ("monte-carlo", "single"):
+        out = tmp_path / f"{choice}.nc"
+        args = ["kernel", "build", str(out), *SMALL, "--tables", "--multiple-scattering", choice]
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 0, result.output
+        kernels[choice] = read_kernel(out)
+    assert kernels["monte-carlo"].attrs["multiple_scattering"] == "monte-carlo"
+    assert kernels["single"].attrs["multiple_scattering"] == "single"
+    ratio = kernels["monte-carlo"].kernel.values / kernels["single"].kernel.values
+    assert np.all(ratio >= 1.0) and ratio.max() > 1.05
