@@ -112,7 +112,6 @@ if TYPE_CHECKING:
     from nightlights.io import Raster
     from nightlights.nightsky import SkyRenderResult, sky_render
     from nightlights.project import ProjectResult, load_project, run
-    from nightlights.sky.observers import ObserversResult, observers
     from nightlights.sky import (
         KernelResult,
         KernelSpec,
@@ -120,6 +119,7 @@ if TYPE_CHECKING:
         build_kernel,
         skyglow,
     )
+    from nightlights.sky.observers import ObserversResult, observers
     from nightlights.streets import (
         FitResult,
         LearnResult,
