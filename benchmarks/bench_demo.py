@@ -55,7 +55,10 @@ def _run_demo(out: Path, cache: Path, *extra: str) -> dict[str, Any]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise RuntimeError(f"nightlights demo failed: {done.stderr[-2000:]}")
-    summary = [line for line in done.stderr.splitlines() if line.startswith("ran ")]
+    root = str(Path(__file__).resolve().parents[1]) + "/"
+    summary = [  # the project file's path relative to the repository, not this machine's
+        line.replace(root, "") for line in done.stderr.splitlines() if line.startswith("ran ")
+    ]
     return {
         "wall_s": wall,
         "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),

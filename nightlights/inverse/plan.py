@@ -16,6 +16,7 @@ the computation, each written atomically).
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -516,8 +517,12 @@ def _reduce_outputs(
         ("1",),
         {"meaning": "fraction of each cell's upward flux removed"},
     )
-    if dimming_output is not None:
-        summary["dimming_raster"] = str(dimming_output)
+    if dimming_output is not None:  # relative to the summary: both move together
+        summary["dimming_raster"] = (
+            os.path.relpath(dimming_output, Path(summary_output).parent)
+            if summary_output is not None
+            else str(dimming_output)
+        )
     with outputs:
         if output is not None:
             reduced.write(outputs.temporary(output))
