@@ -254,6 +254,9 @@ def test_reduce_writes_the_dimmed_emission_and_a_summary(kernel, tmp_path: Path)
     assert zenith["after_cd_m2"] < zenith["before_cd_m2"]
     assert zenith["before_cd_m2"] == pytest.approx(q.panorama_value, rel=1e-9)
     assert Raster.read(tmp_path / "reduced.tif").data.shape == city.data.shape
+    assert (
+        summary["dimming_raster"] == "dimming.tif"
+    )  # relative to the summary, which moves with it
 
 
 def test_least_dimming_meets_its_targets(kernel) -> None:
