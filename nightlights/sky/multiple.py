@@ -349,6 +349,15 @@ def garstang_clear_night() -> Atmosphere:
     return garstang_atmosphere(1.0)
 
 
+def shape_table(
+    atmosphere: Atmosphere, emission: str, uplight_exponent: float = UPLIGHT_EXPONENT
+) -> MultipleScatteringTable:
+    """The factor table of a kernel emission shape, or, for a tabulated function, of the shape
+    that stands in for it (:func:`nearest_shape`)."""
+    shape = nearest_shape(emission) if emission.startswith(TABULATED_PREFIX) else emission
+    return multiple_scattering_table(atmosphere, shape, uplight_exponent=uplight_exponent)
+
+
 def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, str]:
     """Multiply a kernel's single-scattering tables by the factor, in place.
 
@@ -375,14 +384,10 @@ def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, st
     az = np.asarray(spec.azimuths, dtype=float)[None, :]
     notes = []
     for emission, table in tables.items():
-        shape = emission
-        if emission.startswith(TABULATED_PREFIX):
-            shape = nearest_shape(emission)
-        factors = multiple_scattering_table(
-            spec.atmosphere, shape, uplight_exponent=spec.uplight_exponent
-        )
+        factors = shape_table(spec.atmosphere, emission, spec.uplight_exponent)
         for k, r in enumerate(np.asarray(spec.distances, dtype=float)):
             table[:, :, k] *= factors(el, az, r).astype(table.dtype)
+        shape = factors.emission
         name = "tabulated" if shape != emission else emission
         stand_in = f" (factor of {shape})" if shape != emission else ""
         notes.append(f"{name}: {factors.source}, {factors.photons} photons{stand_in}")

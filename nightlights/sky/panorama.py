@@ -518,8 +518,8 @@ def panorama_naive(
     numpy.ndarray
         ``(n_el, n_az)`` luminance [cd m-2].
     """
-    from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance
-    from nightlights.sky.multiple import multiple_scattering_table, nearest_shape
+    from nightlights.sky.kernel import sky_luminance
+    from nightlights.sky.multiple import shape_table
 
     atmosphere = atmosphere if atmosphere is not None else Atmosphere()
     data = np.nan_to_num(np.asarray(emission, dtype=float), nan=0.0)
@@ -548,10 +548,9 @@ def panorama_naive(
                     continue
                 factor: FloatArray | float = 1.0
                 if multiple_scattering != "single" and atmosphere.extinction:
-                    borrowed = nearest_shape(shape) if shape.startswith(TABULATED_PREFIX) else shape
-                    factor = multiple_scattering_table(
-                        atmosphere, borrowed, uplight_exponent=uplight_exponent
-                    )(elevation[:, None], relative, r[i])
+                    factor = shape_table(atmosphere, shape, uplight_exponent)(
+                        elevation[:, None], relative, r[i]
+                    )
                 result += (
                     (weight * flux[i])
                     * factor
