@@ -31,7 +31,7 @@ FIELDS = {
 }
 
 
-@pytest.fixture(params=["europe", "north_america", "generic"])
+@pytest.fixture(params=["europe", "north_america", "generic", "east_asia"])
 def net(request: pytest.FixtureRequest) -> BayesNet:
     return load_network(request.param)
 
@@ -46,7 +46,7 @@ def test_catalogue_lists_networks_and_default() -> None:
     assert {"europe", "north_america"} <= set(catalog_names())
     assert default_network_name() == "europe"
     assert load_network().name == "europe"
-    with pytest.raises(CatalogError, match="europe, generic, helsinki, north_america"):
+    with pytest.raises(CatalogError, match="east_asia, europe, generic, helsinki, north_america"):
         load_network("atlantis")
 
 
@@ -86,7 +86,7 @@ def test_arrangement_follows_width_to_height_rule(net: BayesNet) -> None:
             state: _p(net, "ARRANGEMENT", state, HAS_MEDIAN=median, WIDTH_RATIO=ratio)
             for state in net.states["ARRANGEMENT"]
         }
-        assert max(probabilities, key=probabilities.get) == arrangement
+        assert max(probabilities, key=lambda s: probabilities[s]) == arrangement
         if median == "F":
             assert probabilities["central"] == 0.0
         if ratio == "gt1.5":
@@ -144,6 +144,59 @@ def test_north_america_has_more_high_pressure_sodium() -> None:
     }
     hps = load_network("europe").states["SYSTEM"].index("road_hps")
     assert share["north_america"][hps] > 2 * share["europe"][hps]
+
+
+# CJJ 45-2015 (Standard for lighting design of urban road), cut-off luminaires: least
+# mounting height H per effective road width W_eff for each arrangement, H >= k W_eff, i.e.
+# W_eff / H <= 1 / k; spacing S <= 3 H (semi-cut-off: k = 1.2, 0.8, 0.6 and S <= 3.5 H).
+CJJ_45_CUT_OFF_K = {"single_sided": 1.0, "staggered": 0.7, "opposite": 0.5}
+# Lower bound of W / H in each WIDTH_RATIO class.
+RATIO_CLASS_LOWER = {"le1": 0.0, "1to1.5": 1.0, "gt1.5": 1.5}
+
+
+def test_east_asia_follows_the_cjj_45_arrangement_table() -> None:
+    """README (east_asia): an arrangement has weight only where the CJJ 45 rule can hold."""
+    net = load_network("east_asia")
+    for median in ("F", "T"):
+        for ratio, lower in RATIO_CLASS_LOWER.items():
+            for arrangement, k in CJJ_45_CUT_OFF_K.items():
+                p = _p(net, "ARRANGEMENT", arrangement, HAS_MEDIAN=median, WIDTH_RATIO=ratio)
+                # some W / H of the class meets H >= k W_eff, or the arrangement gets none
+                assert p == 0.0 or lower < 1.0 / k, (median, ratio, arrangement)
+    # Concrete streets (W taken as W_eff): 14 m road, 10 m poles (W / H = 1.4 < 1 / 0.7)
+    # without median: staggered or opposite, never single-sided; 10 m road with 12 m poles:
+    # mostly single-sided; 21 m road with 8 m poles (2.6): opposite, or central on a median.
+    frame = pd.DataFrame(
+        {
+            "width": [14.0] * 1000 + [10.0] * 1000 + [21.0] * 2000,
+            "mounting_height": [10.0] * 1000 + [12.0] * 1000 + [8.0] * 2000,
+            "has_median": [False] * 3000 + [True] * 1000,
+        }
+    )
+    out = bayesnets.sample_frame(net, frame, rng=np.random.default_rng(45))
+    a = out["arrangement"].to_numpy()
+    assert set(a[:1000]) == {"staggered", "opposite"}
+    assert (a[:1000] == "staggered").mean() > 0.5
+    assert (a[1000:2000] == "single_sided").mean() > 0.6
+    assert set(a[2000:3000]) == {"opposite"}
+    assert set(a[3000:]) == {"opposite", "central"} and (a[3000:] == "central").mean() > 0.5
+
+
+def test_east_asia_spacing_within_cjj_45_limits() -> None:
+    """Cut-off (LED) S <= 3 H for most poles, semi-cut-off S <= 3.5 H for nearly all."""
+    net = load_network("east_asia")
+    ratios = np.array([float(s) for s in net.states["SPACING_RATIO"]])
+    for arrangement in net.states["ARRANGEMENT"]:
+        column = net.tables["SPACING_RATIO"][:, net.states["ARRANGEMENT"].index(arrangement)]
+        assert column[ratios <= 3.0].sum() >= 0.75, arrangement
+        assert column[ratios <= 3.5].sum() >= 0.95, arrangement
+    # LED share (README, [J]): more HPS than europe, less than north_america
+    hps = net.states["SYSTEM"].index("road_hps")
+    share = {
+        name: exact_marginals(load_network(name), {}, ["SYSTEM"])["SYSTEM"][hps]
+        for name in ("europe", "east_asia", "north_america")
+    }
+    assert share["europe"] < share["east_asia"] < share["north_america"]
 
 
 def test_generic_is_the_mean_of_europe_and_north_america() -> None:

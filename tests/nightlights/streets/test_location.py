@@ -20,7 +20,7 @@ from nightlights.streets._location import (
 from nightlights.streets._sample import network_by_location, sample
 from tests.nightlights.streets.conftest import normalized_layer, write_normalized
 
-ROWS = [{"street_class": "local", "lanes": 2}, {"street_class": "arterial"}, {}]
+ROWS: list[dict] = [{"street_class": "local", "lanes": 2}, {"street_class": "arterial"}, {}]
 
 
 def layer_at(longitude: float, latitude: float, crs: str) -> gpd.GeoDataFrame:
@@ -46,9 +46,28 @@ PLACES = [
     ("Vancouver", -123.12, 49.28, "EPSG:32610", "north_america"),  # UTM 10N
     ("New York", -74.01, 40.71, "EPSG:3857", "north_america"),  # web Mercator
     ("Honolulu", -157.86, 21.31, "EPSG:32604", "north_america"),  # UTM 4N
+    ("Tokyo", 139.69, 35.69, "EPSG:6677", "east_asia"),  # JGD2011 / Japan plane IX
+    ("Tokyo", 139.69, 35.69, "EPSG:32654", "east_asia"),  # UTM 54N
+    ("Tokyo", 139.69, 35.69, "EPSG:4326", "east_asia"),  # geographic
+    ("Sapporo", 141.35, 43.06, "EPSG:3857", "east_asia"),  # web Mercator
+    ("Shanghai", 121.47, 31.23, "EPSG:32651", "east_asia"),  # UTM 51N
+    ("Shanghai", 121.47, 31.23, "EPSG:4490", "east_asia"),  # CGCS2000, geographic
+    ("Beijing", 116.40, 39.90, "EPSG:3857", "east_asia"),  # web Mercator
+    ("Hong Kong", 114.17, 22.30, "EPSG:2326", "east_asia"),  # Hong Kong 1980 Grid
+    ("Chengdu", 104.07, 30.67, "EPSG:32648", "east_asia"),  # UTM 48N
+    ("Harbin", 126.63, 45.75, "EPSG:32652", "east_asia"),  # UTM 52N
+    ("Seoul", 126.98, 37.57, "EPSG:5186", "east_asia"),  # Korea 2000 / Central Belt 2010
+    ("Seoul", 126.98, 37.57, "EPSG:3857", "east_asia"),  # web Mercator
+    ("Taipei", 121.56, 25.03, "EPSG:3826", "east_asia"),  # TWD97 / TM2 zone 121
+    ("Taipei", 121.56, 25.03, "EPSG:4326", "east_asia"),  # geographic
     ("Sydney", 151.21, -33.87, "EPSG:28356", "generic"),  # GDA94 / MGA 56
-    ("Tokyo", 139.69, 35.69, "EPSG:6677", "generic"),  # JGD2011 / Japan plane IX
     ("Sao Paulo", -46.63, -23.55, "EPSG:31983", "generic"),  # SIRGAS 2000 / UTM 23S
+    ("Mumbai", 72.88, 19.08, "EPSG:32643", "generic"),  # UTM 43N
+    ("Hanoi", 105.85, 21.03, "EPSG:32648", "generic"),  # UTM 48N
+    ("Bangkok", 100.50, 13.75, "EPSG:32647", "generic"),  # UTM 47N
+    ("Manila", 120.98, 14.60, "EPSG:3857", "generic"),  # web Mercator
+    ("Ulaanbaatar", 106.91, 47.92, "EPSG:4326", "generic"),  # geographic
+    ("Vladivostok", 131.89, 43.12, "EPSG:32652", "generic"),  # UTM 52N
 ]
 
 
@@ -76,10 +95,41 @@ def test_boxes_edges_and_wrapping() -> None:
     assert network_for_location(east + 0.01, north) == FALLBACK_NETWORK
     assert network_for_location(-87.63 + 360.0, 41.88) == "north_america"  # wrapped
     assert network_for_location(math.nan, 50.0) == FALLBACK_NETWORK
-    assert set(REGION_BOXES) == {"europe", "north_america"}
-    for boxes in REGION_BOXES.values():
-        for west, south, east, north in boxes:
-            assert -180 <= west < east <= 180 and -90 <= south < north <= 90
+    assert set(REGION_BOXES) == {"europe", "north_america", "east_asia"}
+    boxes = [box for region in REGION_BOXES.values() for box in region]
+    for west, south, east, north in boxes:
+        assert -180 <= west < east <= 180 and -90 <= south < north <= 90
+    # no two boxes overlap (shared edges allowed): the order of the regions does not matter
+    for i, (w1, s1, e1, n1) in enumerate(boxes):
+        for w2, s2, e2, n2 in boxes[i + 1 :]:
+            assert min(e1, e2) <= max(w1, w2) or min(n1, n2) <= max(s1, s2)
+
+
+@pytest.mark.parametrize(
+    ("place", "lon", "lat", "expected"),
+    [
+        ("Naha", 127.68, 26.21, "east_asia"),  # Ryukyu Islands
+        ("Fukuoka", 130.40, 33.59, "east_asia"),
+        ("Hiroshima", 132.46, 34.39, "east_asia"),
+        ("Busan", 129.08, 35.18, "east_asia"),
+        ("Kunming", 102.71, 25.04, "east_asia"),
+        ("Lanzhou", 103.83, 36.06, "east_asia"),
+        ("Haikou", 110.33, 20.04, "east_asia"),  # Hainan
+        ("Kaohsiung", 120.30, 22.63, "east_asia"),
+        ("Istanbul", 28.98, 41.01, "europe"),
+        ("Anchorage", -149.90, 61.22, "north_america"),
+        ("Lhasa", 91.11, 29.65, "generic"),  # Tibet: left to generic
+        ("Urumqi", 87.62, 43.83, "generic"),  # Xinjiang
+        ("Yangon", 96.16, 16.84, "generic"),
+        ("Vientiane", 102.63, 17.97, "generic"),
+        ("Delhi", 77.21, 28.61, "generic"),
+        ("Singapore", 103.82, 1.35, "generic"),
+        ("Khabarovsk", 135.07, 48.48, "generic"),
+        ("Yuzhno-Sakhalinsk", 142.74, 46.96, "generic"),
+    ],
+)
+def test_east_asia_boxes(place: str, lon: float, lat: float, expected: str) -> None:
+    assert network_for_location(lon, lat) == expected, place
 
 
 def test_sample_records_the_network_chosen_by_location(tmp_path: Path) -> None:
@@ -97,11 +147,21 @@ def test_sample_records_the_network_chosen_by_location(tmp_path: Path) -> None:
     assert chicago.network == "north_america" and set(chicago.streets["network"]) == {
         "north_america"
     }
+    src = tmp_path / "tokyo.gpkg"
+    write_normalized(layer_at(139.69, 35.69, "EPSG:6677"), src)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataQualityWarning)
+        tokyo = sample(src, tmp_path / "tokyo_lit.gpkg", seed=1)
+    assert tokyo.network == "east_asia"
+    assert set(gpd.read_file(tmp_path / "tokyo_lit.gpkg", layer="streets")["network"]) == {
+        "east_asia"
+    }
 
 
 def test_explicit_network_wins_over_location(tmp_path: Path) -> None:
-    src = tmp_path / "tokyo.gpkg"
-    write_normalized(layer_at(139.69, 35.69, "EPSG:6677"), src)
+    # Sydney would get generic with a warning; an explicit network gets none.
+    src = tmp_path / "sydney.gpkg"
+    write_normalized(layer_at(151.21, -33.87, "EPSG:28356"), src)
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataQualityWarning)
         result = sample(src, tmp_path / "lit.gpkg", network="north_america", seed=1)
