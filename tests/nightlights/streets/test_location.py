@@ -7,6 +7,7 @@ import warnings
 from pathlib import Path
 
 import geopandas as gpd
+import numpy as np
 import pytest
 import shapely
 
@@ -185,14 +186,22 @@ def test_empty_layer_gets_generic_without_warning() -> None:
     assert math.isnan(result.location[0])
 
 
+@pytest.mark.parametrize(
+    ("crs", "x0", "y0", "expected"),
+    [
+        ("EPSG:32618", 583_000.0, 4_507_000.0, "north_america"),  # UTM 18N: New York
+        ("EPSG:32651", 355_000.0, 3_456_000.0, "east_asia"),  # UTM 51N: Shanghai
+    ],
+)
 def test_fit_and_learn_take_the_base_network_of_the_location(
-    monkeypatch: pytest.MonkeyPatch,
+    crs: str, x0: float, y0: float, expected: str
 ) -> None:
-    # Without a network, fit and learn start from the network streets sample would choose.
+    # Without a network, fit and learn start from the network streets sample would choose:
+    # the tables the evidence says nothing about (SYSTEM, SETBACK) stay those of that base
+    # network, not those of the catalogue default (europe).
     from shapely.geometry import LineString, Point
 
-    import nightlights.streets._fit as fit_module
-    import nightlights.streets._learn as learn_module
+    from bayesnets import load_network
     from nightlights.streets import fit, learn
 
     streets = gpd.GeoDataFrame(
@@ -202,28 +211,18 @@ def test_fit_and_learn_take_the_base_network_of_the_location(
             "mounting_height": [6.0, 8.0],
             "spacing": [24.0, 30.0],
         },
-        geometry=[
-            LineString([(583_000.0, 4_507_000.0 + y), (583_400.0, 4_507_000.0 + y)])
-            for y in (0.0, 60.0)
-        ],
-        crs="EPSG:32618",  # UTM 18N: New York
+        geometry=[LineString([(x0, y0 + y), (x0 + 400.0, y0 + y)]) for y in (0.0, 60.0)],
+        crs=crs,
     )
-    chosen: list[object] = []
-    for module in (fit_module, learn_module):
-        original = module.resolve_network
-
-        def spy(network: object, _original: object = original) -> object:
-            chosen.append(network)
-            return _original(network)  # type: ignore[operator]
-
-        monkeypatch.setattr(module, "resolve_network", spy)
+    lamps = gpd.GeoDataFrame(
+        geometry=[Point(x0 + x, y0 + 4.0) for x in (10.0, 40.0, 70.0, 100.0)], crs=crs
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit(streets)
-        lamps = gpd.GeoDataFrame(
-            geometry=[Point(583_000 + x, 4_507_004) for x in (10.0, 40.0, 70.0, 100.0)],
-            crs="EPSG:32618",
-        )
-        learn(streets, lamps, seed=0, iterations=1)
-    assert chosen[0] == "north_america"
-    assert "north_america" in chosen[1:]
+        fitted = fit(streets).network
+        learned = learn(streets, lamps, seed=0, iterations=1).network
+    base, default = load_network(expected), load_network("europe")
+    for net in (fitted, learned):
+        for variable in ("SYSTEM", "SETBACK"):
+            assert np.allclose(net.tables[variable], base.tables[variable]), variable
+        assert not np.allclose(net.tables["SYSTEM"], default.tables["SYSTEM"])
