@@ -49,7 +49,7 @@ DEFAULT_CANDIDATES = 128
 #: nightlights.streets.builtin_mappings()
 BUILTIN_MAPPINGS = ("municipal", "osm")
 #: bayesnets.catalog_names() and bayesnets.default_network_name()
-NETWORK_CATALOG = ("europe", "generic", "helsinki", "north_america")
+NETWORK_CATALOG = ("east_asia", "europe", "generic", "helsinki", "north_america")
 DEFAULT_NETWORK = "europe"
 
 

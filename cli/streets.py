@@ -43,8 +43,8 @@ _NETWORK_HELP = (
 )
 _SAMPLE_NETWORK_HELP = (
     f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: chosen "
-    "from where INPUT lies: north_america in North America, europe in Europe, generic "
-    "elsewhere (with a warning)."
+    "from where INPUT lies: north_america in North America, europe in Europe, east_asia in "
+    "China, Japan, Korea and Taiwan, generic elsewhere (with a warning)."
 )
 
 

@@ -28,8 +28,9 @@ streets = "streets.gpkg"          # any street layer GDAL reads (GeoPackage, Sha
 # viirs = "viirs.tif"             # a VIIRS day/night band raster [nW cm-2 sr-1]
 # dem = "dem.tif"                 # terrain heights above sea level [m]
 mapping = "osm"                   # field mapping: osm, municipal or a mapping TOML file
-# network = "europe"              # Bayesian network: europe, generic, helsinki, north_america
-                                  # or a network folder (default: from where the streets lie)
+# network = "europe"              # Bayesian network: east_asia, europe, generic, helsinki,
+                                  # north_america or a network folder (default: from where
+                                  # the streets lie)
 # catalog = "luminaires/"         # luminaire database folder (default: the bundled one)
 
 [observers]

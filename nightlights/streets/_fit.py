@@ -26,7 +26,7 @@ from bayesnets.errors import BayesNetError
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
 from nightlights.io import as_vector
-from nightlights.streets._sample import network_by_location, resolve_network
+from nightlights.streets._sample import network_by_location, network_for_streets
 from nightlights.streets.schema import observed_field
 
 __all__ = ["FitResult", "fit", "fit_lighting_network", "known_values"]
@@ -87,7 +87,8 @@ def fit_lighting_network(
         Layer with canonical street fields and known lighting fields.
     base
         Network (object, catalogue name or folder) giving structure, states, bindings and
-        the prior; None for the catalogue default.
+        the prior; None for the catalogue network for where the layer lies (the catalogue
+        default for a table without a CRS).
     prior
         Prior strength in pseudo-observations per parent combination [1]; 0 is maximum
         likelihood.
@@ -99,7 +100,7 @@ def fit_lighting_network(
     bayesnets.BayesNet
         The fitted network.
     """
-    net = resolve_network(base)
+    net = network_for_streets(streets, base)
     fields = [binding.field for binding in net.bindings.values()]
     frame = known_values(streets, fields)
     if frame.empty or frame.notna().to_numpy().sum() == 0:

@@ -24,6 +24,10 @@ and the tables of a base network are fitted to it with the base as prior
    same-side gap of a single-sided, opposite or central row and half of it for a staggered
    one, the spacing of ``streets place``; a spacing outside the usual range of
    :data:`~nightlights.streets.schema.VALUE_RANGES` is not taken as evidence.
+   ``occupancy`` is the share of the street's pole positions at that spacing that hold a
+   pole: the positions counted over the expected L / s of a street of length L,
+   capped at 1 (mapped streets are often lit, or mapped, along part of their length; a
+   regular row at the mapped spacing would otherwise carry more lamps than are mapped).
    ``mounting_height`` is the median of the lamps' tagged heights, where tagged.
    ``lit`` is true on a street with a lamp and no ``lit`` tag. Everything else stays
    unobserved: a street without a mapped lamp is *not* evidence of an unlit street (only
@@ -41,14 +45,17 @@ and the tables of a base network are fitted to it with the base as prior
    before (stochastic EM). Tables of variables never observed (e.g. mounting height where
    no lamp is tagged) come out as the base's. The spacing ratio's states are widened to
    cover the evidence (:func:`spacing_ratio_states`): the base's design-guide states
-   (2.5-4) would clip a city whose lamps stand closer.
+   (2.5-4) would clip a city whose lamps stand closer. A base without an occupancy
+   variable gets one (:func:`with_occupancy`, given the street class, prior at 1: the
+   design guides' pole at every position).
 
 Agreement (how far a street's own lamps support its derived value): the share of its lamps
 on the majority side (single-sided), paired (opposite), unpaired (staggered) or on the
 centreline (central); the share of its position gaps within :data:`SPACING_AGREEMENT` of
-the spacing; the share of tagged heights within :data:`SPACING_AGREEMENT` of
-their median (mounting height). The report gives, per field, the number of streets with
-evidence and the share of them whose agreement is at least :data:`AGREEMENT_THRESHOLD`.
+the spacing (spacing, and occupancy, which rests on it); the share of tagged heights within
+:data:`SPACING_AGREEMENT` of their median (mounting height). The report gives, per field,
+the number of streets with evidence and the share of them whose agreement is at least
+:data:`AGREEMENT_THRESHOLD`.
 
 Length: about 1150 lines, because the assignment, the evidence, the agreement and the
 iterated fit share one street table and its column names; each step is a function of it.
@@ -80,7 +87,12 @@ from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
 from nightlights.streets._mapping import parse_length, parse_packed_tags
-from nightlights.streets._sample import fill_lighting, network_by_location, resolve_network
+from nightlights.streets._sample import (
+    fill_lighting,
+    network_by_location,
+    network_for_streets,
+    resolve_network,
+)
 from nightlights.streets.schema import (
     ARRANGEMENTS,
     STREET_CLASSES,
@@ -101,6 +113,7 @@ __all__ = [
     "learn_lighting_network",
     "spacing_ratio_states",
     "street_lamp_evidence",
+    "with_occupancy",
 ]
 
 #: Default reach of a lamp [m]: half a wide carriageway plus a pavement and a setback.
@@ -143,6 +156,17 @@ LAMPS_FILE = "evidence_lamps.gpkg"
 REPORT_FILE = "learn_report.json"
 
 #: Fields of the per-street evidence layer and their types.
+#: Lighting fields derived from the lamps, in report order.
+DERIVED_FIELDS = ("arrangement", "spacing", "occupancy", "mounting_height")
+
+#: Variable a learned network adds when its base binds no ``occupancy`` field, its parent,
+#: and its states [1]: the share of the pole positions at the street's spacing that hold a
+#: pole, in tenths. The prior puts every street class at 1, the design guides' assumption
+#: of a pole at every position.
+OCCUPANCY_VARIABLE = "OCCUPANCY"
+OCCUPANCY_PARENT = "STREET_CLASS"
+OCCUPANCY_STATES = tuple(round(0.1 * k, 1) for k in range(1, 11))
+
 EVIDENCE_SCHEMA: dict[str, FieldType] = {
     "source_id": "str",
     "street_class": "str",
@@ -155,12 +179,15 @@ EVIDENCE_SCHEMA: dict[str, FieldType] = {
     "arrangement": "str",
     "spacing": "float",
     "unusual_spacing": "float",
+    "positions": "int",
+    "occupancy": "float",
     "mounting_height": "float",
     "lit": "bool",
     "arrangement_agreement": "float",
     "spacing_agreement": "float",
+    "occupancy_agreement": "float",
     "mounting_height_agreement": "float",
-    **{observed_field(name): "bool" for name in ("arrangement", "spacing", "mounting_height")},
+    **{observed_field(name): "bool" for name in DERIVED_FIELDS},
 }
 
 #: Fields of the assigned-lamp layer and their types.
@@ -322,7 +349,11 @@ def _signed_offset(lines: np.ndarray, points: np.ndarray, along: np.ndarray) -> 
 
 
 def street_lamp_evidence(
-    assignment: LampAssignment, n_streets: int, *, heights: np.ndarray | None = None
+    assignment: LampAssignment,
+    n_streets: int,
+    *,
+    heights: np.ndarray | None = None,
+    lengths: np.ndarray | None = None,
 ) -> pd.DataFrame:
     """Lighting evidence of each street from its assigned lamps.
 
@@ -334,24 +365,34 @@ def street_lamp_evidence(
         Number of streets in the layer [1].
     heights
         Tagged mounting height per lamp [m], NaN where untagged; default none tagged.
+    lengths
+        Length of each street [m]; without them no occupancy is derived.
 
     Returns
     -------
     pandas.DataFrame
         One row per street (index ``0 .. n_streets - 1``) with the lamp counts
         (``lamps``, ``lamps_left``, ``lamps_right``, ``lamps_centre``), ``same_side_gaps``
-        [1], ``median_gap`` (same-side) [m], ``arrangement``, ``spacing`` [m],
+        [1], ``median_gap`` (same-side) [m], ``arrangement``, ``spacing`` [m], ``positions``
+        (pole positions the spacing was measured on) [1], ``occupancy`` [1],
         ``mounting_height`` [m] (None/NaN without evidence), their ``<field>_observed`` flags
         and ``<field>_agreement`` [1] (see the module notes); ``unusual_spacing`` [m], a
         spacing outside the usual range that was not taken as evidence.
     """
     frame = pd.DataFrame(index=pd.RangeIndex(n_streets))
-    for column in ("lamps", "lamps_left", "lamps_right", "lamps_centre", "same_side_gaps"):
+    for column in (
+        "lamps",
+        "lamps_left",
+        "lamps_right",
+        "lamps_centre",
+        "same_side_gaps",
+        "positions",
+    ):
         frame[column] = 0
-    for column in ("median_gap", "spacing", "unusual_spacing", "mounting_height"):
+    for column in ("median_gap", "spacing", "unusual_spacing", "occupancy", "mounting_height"):
         frame[column] = np.nan
-    for column in ("arrangement_agreement", "spacing_agreement", "mounting_height_agreement"):
-        frame[column] = np.nan
+    for name in DERIVED_FIELDS:
+        frame[f"{name}_agreement"] = np.nan
     frame["arrangement"] = pd.Series([None] * n_streets, dtype=object)
     lamp_heights = np.full(len(assignment.street), np.nan) if heights is None else heights
     table = pd.DataFrame(
@@ -369,9 +410,17 @@ def street_lamp_evidence(
         found = pd.DataFrame(rows).set_index("street")
         for column in found.columns:
             frame.loc[found.index, column] = found[column].to_numpy()
-    frame["arrangement_observed"] = frame["arrangement"].notna()
-    frame["spacing_observed"] = frame["spacing"].notna()
-    frame["mounting_height_observed"] = frame["mounting_height"].notna()
+    if lengths is not None:
+        # expected positions on a street of length L at spacing s are L / s (as placed)
+        length = np.asarray(lengths, dtype=float)
+        spacing = frame["spacing"].to_numpy(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            occupancy = np.minimum(frame["positions"].to_numpy(float) * spacing / length, 1.0)
+        seen = np.isfinite(occupancy) & (length > 0)
+        frame["occupancy"] = np.where(seen, occupancy, np.nan)
+        frame["occupancy_agreement"] = np.where(seen, frame["spacing_agreement"], np.nan)
+    for name in DERIVED_FIELDS:
+        frame[observed_field(name)] = frame[name].notna()
     return frame
 
 
@@ -412,6 +461,7 @@ def _one_street(group: pd.DataFrame) -> dict[str, Any]:
             result["unusual_spacing"] = spacing
             return result
         result["spacing"] = spacing
+        result["positions"] = int(steps.size + 1)
         result["spacing_agreement"] = float(
             np.mean(np.abs(steps - spacing) <= SPACING_AGREEMENT * spacing)
         )
@@ -533,6 +583,58 @@ def _widen_spacing_ratio(base: BayesNet, ratios: np.ndarray) -> BayesNet:
     return replace(base, states=states, tables=tables, bindings=bindings)
 
 
+def with_occupancy(network: BayesNet) -> BayesNet:
+    """``network`` with an occupancy variable, if it binds none.
+
+    Parameters
+    ----------
+    network
+        A street-lighting network.
+
+    Returns
+    -------
+    bayesnets.BayesNet
+        ``network`` itself when a variable is bound to the ``occupancy`` field; otherwise a
+        copy with :data:`OCCUPANCY_VARIABLE` (states :data:`OCCUPANCY_STATES`, parent
+        :data:`OCCUPANCY_PARENT` where the network has it) whose table puts every parent
+        state at occupancy 1: the design guides' pole at every position, the prior that
+        lamp evidence moves.
+
+    Examples
+    --------
+    >>> from bayesnets import load_network
+    >>> net = with_occupancy(load_network("europe"))
+    >>> net.bindings["OCCUPANCY"].field, net.parents["OCCUPANCY"]
+    ('occupancy', ('STREET_CLASS',))
+    >>> float(net.tables["OCCUPANCY"][-1].min())
+    1.0
+    """
+    if any(binding.field == "occupancy" for binding in network.bindings.values()):
+        return network
+    if OCCUPANCY_VARIABLE in network.variables:
+        raise BayesNetError(
+            f"network {network.name!r} has a variable {OCCUPANCY_VARIABLE} not bound to the "
+            "occupancy field"
+        )
+    parents = (OCCUPANCY_PARENT,) if OCCUPANCY_PARENT in network.variables else ()
+    labels = tuple(f"{n:g}" for n in OCCUPANCY_STATES)
+    table = np.zeros((len(labels), *(len(network.states[p]) for p in parents)))
+    table[-1] = 1.0
+    return replace(
+        network,
+        variables=(*network.variables, OCCUPANCY_VARIABLE),
+        states={**network.states, OCCUPANCY_VARIABLE: labels},
+        parents={**network.parents, OCCUPANCY_VARIABLE: parents},
+        tables={**network.tables, OCCUPANCY_VARIABLE: table},
+        bindings={
+            **network.bindings,
+            OCCUPANCY_VARIABLE: Binding(
+                OCCUPANCY_VARIABLE, "occupancy", "float", labels, OCCUPANCY_STATES, (), nearest=True
+            ),
+        },
+    )
+
+
 def learn_lighting_network(
     streets: gpd.GeoDataFrame | pd.DataFrame,
     evidence: pd.DataFrame,
@@ -554,7 +656,8 @@ def learn_lighting_network(
         and ``lit_observed`` set from the lamps where the layer has no ``lit`` value).
     base
         Base network: structure, states, bindings and prior; None for the catalogue
-        default.
+        network for where the streets lie (the catalogue default for a table without a
+        CRS).
     prior
         Prior strength in pseudo-observations per parent combination [1].
     iterations
@@ -571,7 +674,7 @@ def learn_lighting_network(
         The learned network: the base's structure and bindings, the spacing ratio's states
         widened to the evidence.
     """
-    net = resolve_network(base)
+    net = network_for_streets(streets, base)
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations={iterations!r}; expected an integer >= 1")
     if isinstance(streets, gpd.GeoDataFrame):
@@ -607,7 +710,7 @@ def learn_lighting_network(
             np.isfinite(np.tile(ratio, draws)), None
         )
         if widened is None:
-            widened = _widen_spacing_ratio(net, ratio)
+            widened = with_occupancy(_widen_spacing_ratio(net, ratio))
         # Monte Carlo E-step: every draw is a record; the prior is scaled by the number of
         # draws so that it weighs as much against the data as with one record per street
         model = replace(widened, tables=_fit_tables(stacked_known, drawn, widened, prior * draws))
@@ -687,7 +790,10 @@ def _known_fields(layer: pd.DataFrame, evidence: pd.DataFrame) -> pd.DataFrame:
         known[name] = layer[name].astype(object).where(seen, None)
     lamp_lit = evidence["lamps"].to_numpy() > 0
     known["lit"] = known["lit"].where(known["lit"].notna() | ~lamp_lit, True)
-    for name in ("arrangement", "mounting_height"):
+    for name in ("arrangement", "mounting_height", "occupancy"):
+        if name not in evidence:
+            known[name] = pd.Series([None] * len(layer), dtype=object)
+            continue
         values = evidence[name].astype(object).reset_index(drop=True)
         known[name] = values.where(evidence[observed_field(name)].to_numpy(bool), None)
     return known
@@ -936,7 +1042,12 @@ def learn(
         street_rank=rank,
         allowed=~unlit,
     )
-    evidence = street_lamp_evidence(assignment, len(frame), heights=_lamp_heights(points))
+    evidence = street_lamp_evidence(
+        assignment,
+        len(frame),
+        heights=_lamp_heights(points),
+        lengths=shapely.length(frame.geometry.to_numpy()),
+    )
     if (
         not evidence["arrangement_observed"].any()
         and not evidence["mounting_height_observed"].any()
@@ -1078,7 +1189,9 @@ def _report(
         unlit_tagged=int(unlit.sum()),
         max_distance=max_distance,
     )
-    for name in ("arrangement", "spacing", "mounting_height"):
+    for name in DERIVED_FIELDS:
+        if name not in evidence:
+            continue
         seen = evidence[observed_field(name)].to_numpy(bool)
         agreement = evidence[f"{name}_agreement"].to_numpy(float)[seen]
         values = evidence.loc[seen, name]

@@ -45,8 +45,8 @@ LIGHT_FIELDS: dict[str, FieldType] = {
 }
 
 _REQUIRED = ("width", "lit", "arrangement", "spacing", "mounting_height", "system_id")
-_DEFAULTS = {"arm_length": 0.0, "setback": 1.0, "tilt": 0.0}
-_CHECKED = ("width", "spacing", "mounting_height", "arm_length", "setback", "tilt")
+_DEFAULTS = {"arm_length": 0.0, "setback": 1.0, "tilt": 0.0, "occupancy": 1.0}
+_CHECKED = ("width", "spacing", "mounting_height", "arm_length", "setback", "tilt", "occupancy")
 
 #: Luminaires per pole position by arrangement (Chuang 2011, Fig. 8).
 LIGHTS_PER_POSITION = {"single_sided": 1, "staggered": 1, "opposite": 2, "central": 2}
@@ -126,7 +126,7 @@ def place_lights(
         Output of ``streets sample``: lines in a projected CRS [m] with ``width`` [m],
         ``lit``, ``arrangement``, ``spacing`` [m], ``mounting_height`` [m], ``system_id``
         and optionally ``arm_length`` [m], ``setback`` [m], ``tilt`` [deg],
-        ``street_class`` and ``source_id``.
+        ``occupancy`` [1], ``street_class`` and ``source_id``.
     rng
         Random generator for the pole count, phase and jitter.
     options
@@ -148,8 +148,12 @@ def place_lights(
     even on the short pieces OSM splits streets into; the positions keep spacing s and start
     at a uniform random phase. Opposite and central arrangements put a pole pair (or a
     twin-arm pole) at every position; staggered alternates sides, so consecutive poles on
-    one side are 2 s apart. Poles of different streets closer than ``merge_fraction * s``
-    are merged, keeping the pole of the higher street class.
+    one side are 2 s apart. Where a street's ``occupancy`` q is below 1 (a network learned
+    from mapped lamps, :func:`~nightlights.streets.learn`), only a stretch of
+    ``floor(q n + U)`` successive positions of the n holds poles, at a uniform random start:
+    the expected count is q L / s and the poles keep spacing s (mapped streets are often lit
+    along part of their length). Poles of different streets closer than
+    ``merge_fraction * s`` are merged, keeping the pole of the higher street class.
 
     Raises
     ------
@@ -190,6 +194,15 @@ def place_lights(
     along = phase[street_index] + position * spacing[street_index]
     along += rng.normal(0.0, options.along_jitter, along.size) * spacing[street_index]
     along = np.clip(along, 0.0, lengths[street_index])
+    occupancy = table["occupancy"].to_numpy(float)
+    if (occupancy < 1.0).any():
+        # a lit stretch of floor(q n + U) successive positions (expectation q n) at a
+        # uniform random start
+        kept = np.floor(occupancy * counts + rng.random(len(table))).astype(int)
+        start = np.floor(rng.random(len(table)) * (counts - kept + 1)).astype(int)
+        first = start[street_index]
+        held = (position >= first) & (position < first + kept[street_index])
+        street_index, position, along = street_index[held], position[held], along[held]
 
     rows = _expand_arrangement(table, street_index, position.astype(int))
     street_of_row = street_index[rows.slot]

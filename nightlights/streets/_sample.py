@@ -53,15 +53,23 @@ __all__ = [
     "fill_lighting",
     "lighting_summary",
     "network_by_location",
+    "network_for_streets",
     "resolve_network",
     "sample",
 ]
 
 logger = logging.getLogger(__name__)
 
-#: Fields the sampled layer gets besides the canonical ones: the sampled spacing ratio [1]
-#: and the name of the network that filled the layer (provenance).
-EXTRA_FIELDS: dict[str, FieldType] = {"spacing_ratio": "float", "network": "str"}
+#: Fields the sampled layer gets besides the canonical ones: the sampled spacing ratio [1];
+#: the occupancy [1], the share of the pole positions at the street's spacing that hold a
+#: pole (sampled where the network binds it, as networks learned from mapped lamps do; 1,
+#: every position, where it does not: the design guides' assumption); and the name of the
+#: network that filled the layer (provenance).
+EXTRA_FIELDS: dict[str, FieldType] = {
+    "spacing_ratio": "float",
+    "occupancy": "float",
+    "network": "str",
+}
 
 #: Field types of the sampled layer (besides the input's other fields).
 OUTPUT_SCHEMA: dict[str, FieldType] = {
@@ -72,6 +80,30 @@ OUTPUT_SCHEMA: dict[str, FieldType] = {
 }
 
 _NETWORK_FIELDS = tuple(name for name in (*STREET_FIELDS, *LIGHTING_FIELDS) if name != "spacing")
+
+
+def network_for_streets(
+    streets: pd.DataFrame, network: str | os.PathLike[str] | BayesNet | None
+) -> BayesNet:
+    """The network to use for ``streets``: ``network``, or where it is None and the layer
+    has a CRS, the catalogue network for where the layer lies (:func:`network_by_location`);
+    a table without a CRS gets the catalogue default.
+
+    Parameters
+    ----------
+    streets
+        Street layer (a GeoDataFrame with a CRS, or a table).
+    network
+        Network object, catalogue name, network folder, or None.
+
+    Returns
+    -------
+    bayesnets.BayesNet
+        The network.
+    """
+    if network is None and isinstance(streets, gpd.GeoDataFrame) and streets.crs is not None:
+        network, _ = network_by_location(streets)
+    return resolve_network(network)
 
 
 def resolve_network(network: str | os.PathLike[str] | BayesNet | None) -> BayesNet:
@@ -115,7 +147,9 @@ def fill_lighting(
         allowed) with ``<field>_observed`` flags. A field without a flag counts as observed
         where it is not missing. Lighting fields with an ``_observed`` flag are evidence too.
     network
-        Network object, catalogue name or folder; None for the catalogue default.
+        Network object, catalogue name or folder; None for the catalogue network for where
+        the layer lies (:func:`network_by_location`; the catalogue default for a table
+        without a CRS).
     candidates
         Likelihood-weighting candidates per segment [1] (Chuang 2011, Sec. 3.3).
     rng
@@ -131,7 +165,8 @@ def fill_lighting(
     geopandas.GeoDataFrame
         ``streets`` with every street field filled (observed values kept as they were,
         flags kept), the lighting fields of :data:`LIGHTING_FIELDS` and ``spacing_ratio``
-        [1]; ``spacing = spacing_ratio * mounting_height`` [m]; ``network``, the name of
+        [1]; ``spacing = spacing_ratio * mounting_height`` [m]; ``occupancy`` [1] (1 unless
+        the network binds it, see :data:`EXTRA_FIELDS`); ``network``, the name of
         the network used. An empty layer gives an empty layer with these columns.
 
     Raises
@@ -147,7 +182,7 @@ def fill_lighting(
     ----------
     Chuang 2011, Sec. 3.2-3.3.
     """
-    net = resolve_network(network)
+    net = network_for_streets(streets, network)
     check_network_values(net, VALUE_RANGES)
     bound = {binding.field for binding in net.bindings.values()}
     missing = [name for name in _NETWORK_FIELDS if name not in bound]
@@ -205,6 +240,11 @@ def fill_lighting(
         out[name] = _typed(sampled[name], kind).to_numpy()
     out["spacing_ratio"] = sampled["spacing_ratio"].to_numpy(float)
     out["spacing"] = out["spacing_ratio"].to_numpy(float) * out["mounting_height"].to_numpy(float)
+    out["occupancy"] = (
+        pd.to_numeric(sampled["occupancy"], errors="coerce").to_numpy(float)
+        if "occupancy" in bound
+        else np.ones(len(out))
+    )
     out["network"] = pd.Series([net.name] * len(out), index=out.index, dtype=object)
     logger.info("sampled %d street segments with network %r", len(out), net.name)
     return out
@@ -260,7 +300,8 @@ def network_by_location(
 
     The centre of the layer's extent is transformed to WGS84 and looked up in the boxes of
     :data:`~nightlights.streets._location.REGION_BOXES`: North America gives
-    ``north_america``, Europe ``europe``, anywhere else the ``generic`` blend, with a
+    ``north_america``, Europe ``europe``, China, Japan, Korea and Taiwan ``east_asia``,
+    anywhere else the ``generic`` blend, with a
     :class:`~nightlights.errors.DataQualityWarning` that names it and how to choose another
     (none for an empty layer, which has no position and gets ``generic``).
 
@@ -322,9 +363,10 @@ def sample(
         None writes nothing.
     network
         Network object, catalogue network name (``europe``, ``north_america``,
-        ``generic``) or network folder. None chooses a catalogue network from where the
-        layer lies (:func:`network_by_location`): North America ``north_america``, Europe
-        ``europe``, elsewhere ``generic`` with a warning.
+        ``east_asia``, ``generic``, ``helsinki``) or network folder. None chooses a catalogue
+        network from where the layer lies (:func:`network_by_location`): North America
+        ``north_america``, Europe ``europe``, China, Japan, Korea and Taiwan ``east_asia``,
+        elsewhere ``generic`` with a warning.
     candidates
         Likelihood-weighting candidates per segment [1].
     seed

@@ -55,7 +55,8 @@ ARRANGEMENTS: tuple[str, ...] = ("single_sided", "staggered", "opposite", "centr
 #: usual range it is kept with a warning. Lanes count both directions (the widest roads
 #: carry about 25); carriageways reach about 150 m across plazas and boulevards; poles stand
 #: at most a few metres from the kerb and tens of metres apart (spacing is 2-6 mounting
-#: heights in practice).
+#: heights in practice). Occupancy, the share of a street's pole positions at its spacing that
+#: hold a pole, is at most 1 and above 0 on a lit street.
 VALUE_RANGES: dict[str, PlausibleRange] = {
     "lanes": PlausibleRange("lanes", "", 1.0, 30.0, 1.0, 12.0),
     "width": PlausibleRange("width", "m", 0.0, 200.0, 0.5, 80.0, low_open=True),
@@ -63,6 +64,7 @@ VALUE_RANGES: dict[str, PlausibleRange] = {
     "setback": PlausibleRange("setback", "m", 0.0, 100.0, 0.0, 10.0),
     "spacing": PlausibleRange("spacing", "m", 1.0, 5000.0, 5.0, 200.0),
     "spacing_ratio": PlausibleRange("spacing_ratio", "", 0.0, 50.0, 1.5, 8.0, low_open=True),
+    "occupancy": PlausibleRange("occupancy", "", 0.0, 1.0, 0.2, 1.0, low_open=True),
 }
 
 

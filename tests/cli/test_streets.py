@@ -162,11 +162,24 @@ def test_sample_chooses_the_network_by_location(tmp_path: Path, caplog, recwarn)
     assert result.exit_code == 0, result.output
     assert "network europe, chosen by location" in " ".join(result.output.split())
     assert set(gpd.read_file(out)["network"]) == {"europe"}
-    # Tokyo (JGD2011 / Japan plane rectangular CS IX): generic, with a warning
+    # Tokyo (JGD2011 / Japan plane rectangular CS IX): east_asia, without a warning
     tokyo = _normalised(tmp_path / "tokyo.gpkg", ROWS, crs="EPSG:6677", origin=(-5000.0, -35000.0))
     out = tmp_path / "tokyo_lit.gpkg"
     with caplog.at_level(logging.WARNING):
         result = runner.invoke(cli, ["streets", "sample", str(tokyo), str(out), "--seed", "1"])
+    assert result.exit_code == 0, result.output
+    assert "network east_asia, chosen by location" in " ".join(result.output.split())
+    assert "'generic'" not in caplog.text and not [w for w in recwarn if "'generic'" in str(w)]
+    assert set(gpd.read_file(out)["network"]) == {"east_asia"}
+    caplog.clear()
+    recwarn.clear()
+    # Sydney (GDA94 / MGA zone 56): generic, with a warning
+    sydney = _normalised(
+        tmp_path / "sydney.gpkg", ROWS, crs="EPSG:28356", origin=(334000.0, 6250000.0)
+    )
+    out = tmp_path / "sydney_lit.gpkg"
+    with caplog.at_level(logging.WARNING):
+        result = runner.invoke(cli, ["streets", "sample", str(sydney), str(out), "--seed", "1"])
     assert result.exit_code == 0, result.output
     assert "network generic, chosen by location" in " ".join(result.output.split())
     # The CLI logs warnings as one line (under pytest they may reach its recorder instead).
@@ -177,7 +190,7 @@ def test_sample_chooses_the_network_by_location(tmp_path: Path, caplog, recwarn)
     recwarn.clear()
     assert set(gpd.read_file(out)["network"]) == {"generic"}
     # an explicit --network wins
-    again = ["streets", "sample", str(tokyo), str(out), "--overwrite", "--network", "europe"]
+    again = ["streets", "sample", str(sydney), str(out), "--overwrite", "--network", "europe"]
     with caplog.at_level(logging.WARNING):
         result = runner.invoke(cli, again)
     assert result.exit_code == 0, result.output

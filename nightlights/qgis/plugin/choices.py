@@ -9,7 +9,7 @@ from __future__ import annotations
 #: ``nightlights.streets.builtin_mappings()``: field mappings of ``streets normalize``.
 MAPPINGS = ("municipal", "osm")
 #: ``bayesnets.catalog_names()``: the networks of ``streets sample``.
-NETWORKS = ("europe", "generic", "helsinki", "north_america")
+NETWORKS = ("east_asia", "europe", "generic", "helsinki", "north_america")
 #: ``ies.spectra.SENSORS``: the bands of ``irradiance`` (photopic gives lx, the others W m-2).
 SENSORS = (
     "photopic",

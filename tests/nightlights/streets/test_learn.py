@@ -20,6 +20,7 @@ from nightlights.streets import (
     assign_lamps,
     learn,
     learn_lighting_network,
+    place,
     sample,
     street_lamp_evidence,
 )
@@ -174,9 +175,34 @@ def test_spacing_ratio_states_cover_base_and_evidence() -> None:
 # --- learning ----------------------------------------------------------------------------------
 
 
-def _city(n_streets: int = 12, spacing: float = 15.0) -> tuple[gpd.GeoDataFrame, gpd.GeoDataFrame]:
+def test_occupancy_is_positions_at_the_spacing_over_the_length() -> None:
+    street = np.array([LineString([(0, 0), (300.0, 0)])])
+
+    def evidence(xs: range) -> pd.Series:
+        points = np.array([Point(x, -6.0) for x in xs])
+        assignment = assign_lamps(points, street)
+        return street_lamp_evidence(assignment, 1, lengths=np.array([300.0])).iloc[0]
+
+    # six lamps 25 m apart on the first half: 6 positions x 25 m over 300 m
+    half = evidence(range(10, 160, 25))
+    assert half["positions"] == 6 and half["occupancy"] == pytest.approx(0.5)
+    assert half["occupancy_observed"] and half["occupancy_agreement"] == 1.0
+    # a full row: 12 x 25 m = 300 m, capped at one position per spacing
+    assert evidence(range(10, 300, 25))["occupancy"] == pytest.approx(1.0)
+    # a missing lamp in the row: 11 of the 12 positions
+    gap = evidence([x for x in range(10, 300, 25) if x != 135])
+    assert gap["spacing"] == pytest.approx(25.0) and gap["occupancy"] == pytest.approx(11 / 12)
+    # without street lengths there is no occupancy evidence
+    row = _evidence([(x, -6.0) for x in range(10, 300, 25)])
+    assert not row["occupancy_observed"] and np.isnan(row["occupancy"])
+
+
+def _city(
+    n_streets: int = 12, spacing: float = 15.0, lit_length: float = 240.0
+) -> tuple[gpd.GeoDataFrame, gpd.GeoDataFrame]:
     """Local streets 240 m long, 100 m apart; the first ``n_streets - 2`` have a row of lamps
-    every ``spacing`` m on the right; the last two have none (one of them tagged lit=no)."""
+    every ``spacing`` m on the right over their first ``lit_length`` m; the last two have
+    none (one of them tagged lit=no)."""
     rows = [{"street_class": "local"} for _ in range(n_streets)]
     rows[-1]["lit"] = False
     streets = normalized_layer(rows)
@@ -186,7 +212,7 @@ def _city(n_streets: int = 12, spacing: float = 15.0) -> tuple[gpd.GeoDataFrame,
     points = [
         Point(X0 + x, Y0 + 100 * i - 6.0)
         for i in range(n_streets - 2)
-        for x in np.arange(5.0, 240.0, spacing)
+        for x in np.arange(5.0, lit_length, spacing)
     ]
     points.append(Point(X0 + 100, Y0 + 100 * (n_streets - 1) + 3))  # beside the lit=no street
     lamps = gpd.GeoDataFrame({"highway": ["street_lamp"] * len(points)}, geometry=points, crs=CRS)
@@ -225,7 +251,9 @@ def test_learn_reports_what_the_lamps_gave(learned) -> None:
 def test_learned_network_moves_to_the_evidence_and_keeps_the_rest(learned) -> None:
     _, _, result = learned
     net, base = result.network, load_network("europe")
-    assert net.variables == base.variables and net.parents == base.parents
+    # the base's variables, plus the occupancy the design-guide networks leave out
+    assert net.variables == (*base.variables, "OCCUPANCY")
+    assert dict(net.parents) == {**base.parents, "OCCUPANCY": ("STREET_CLASS",)}
     # unobserved everywhere: kept from the base
     for variable in ("MOUNTING_HEIGHT", "SYSTEM", "SETBACK"):
         np.testing.assert_allclose(net.tables[variable], base.tables[variable])
@@ -360,3 +388,50 @@ def test_learn_lighting_network_without_lamp_evidence_keeps_lighting_tables() ->
     base = load_network("europe")
     for variable in ("ARRANGEMENT", "SPACING_RATIO", "MOUNTING_HEIGHT"):
         np.testing.assert_allclose(net.tables[variable], base.tables[variable])
+
+
+def test_partly_lit_streets_teach_an_occupancy_that_sampling_and_placing_honour() -> None:
+    # lamps every 15 m over the first 120 m of 240 m streets: occupancy 0.5
+    streets, lamps = _city(lit_length=120.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = learn(streets, lamps, network="europe", seed=3, iterations=2)
+    assert result.report.fields["occupancy"].streets == 10
+    assert result.report.fields["occupancy"].summary["median"] == pytest.approx(0.5)
+    net = result.network
+    local = net.states["STREET_CLASS"].index("local")
+    column = net.tables["OCCUPANCY"][:, local]
+    # ten streets at 0.5 against one prior pseudo-observation at 1
+    assert column[net.states["OCCUPANCY"].index("0.5")] == pytest.approx(10 / 11, abs=1e-9)
+    many = pd.concat([streets.iloc[:1]] * 300, ignore_index=True)
+    many["source_id"] = [f"s{i}" for i in range(len(many))]
+    # streets 100 m apart, so that no pole merges with another street's
+    many["geometry"] = [
+        shapely.affinity.translate(g, 0, 100 * i) for i, g in enumerate(many.geometry)
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        filled = sample(many, network=net, seed=1).streets
+        lit = filled.loc[filled["lit"].astype(bool)].copy()
+        assert np.mean(lit["occupancy"] == 0.5) > 0.8
+        placed = place(lit, seed=2).lights
+        lit["occupancy"] = 1.0
+        full = place(lit, seed=2).lights
+    # occupancy thins the pole positions: about the occupancy's share of them stand
+    poles, full_poles = placed["pole_id"].nunique(), full["pole_id"].nunique()
+    expected = float(np.mean(filled.loc[lit.index, "occupancy"]))
+    assert poles / full_poles == pytest.approx(expected, abs=0.05)
+
+
+def test_full_occupancy_places_as_without_it() -> None:
+    streets, _ = _city()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        filled = sample(streets, network="europe", seed=4).streets
+    assert (filled["occupancy"] == 1.0).all()
+    lit = filled.loc[filled["lit"].astype(bool)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        one = place(lit, seed=5).lights
+        without = place(lit.drop(columns="occupancy"), seed=5).lights
+    assert one.geometry.equals(without.geometry)

@@ -122,3 +122,22 @@ def test_geographic_input_is_refused(tmp_path: Path) -> None:
     write_normalized(normalized_layer(ROWS).to_crs(4326), src)
     with pytest.raises(InputError, match="projected CRS"):
         sample(src, tmp_path / "o.gpkg")
+
+
+def test_pure_functions_take_the_network_for_where_the_layer_lies() -> None:
+    helsinki = normalized_layer(ROWS)  # EPSG:3067, Helsinki
+    assert (fill_lighting(helsinki, rng=np.random.default_rng(0))["network"] == "europe").all()
+    # the same layer moved to New York (UTM 18N)
+    new_york = helsinki.copy()
+    new_york["geometry"] = gpd.GeoSeries.from_xy([583000.0] * len(ROWS), [4507000.0] * len(ROWS))
+    new_york["geometry"] = new_york.geometry.buffer(1.0).boundary
+    new_york = new_york.set_crs("EPSG:32618", allow_override=True)
+    out = fill_lighting(new_york, rng=np.random.default_rng(0))
+    assert (out["network"] == "north_america").all()
+    # a table without a CRS has no location: the catalogue default
+    table = pd.DataFrame(helsinki.drop(columns="geometry"))
+    assert (fill_lighting(table, rng=np.random.default_rng(0))["network"] == "europe").all()
+    # an explicit network wins
+    assert (
+        fill_lighting(new_york, "europe", rng=np.random.default_rng(0))["network"] == "europe"
+    ).all()
