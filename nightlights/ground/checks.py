@@ -279,7 +279,13 @@ def irradiance_memory(
 
 
 def emission_memory(
-    rows: int, cols: int, bands: int, factor: int, *, albedo_raster: bool = False
+    rows: int,
+    cols: int,
+    bands: int,
+    factor: int,
+    *,
+    albedo_raster: bool = False,
+    streamed: bool = False,
 ) -> float:
     """Peak memory of ``emission`` from an irradiance raster [B].
 
@@ -291,6 +297,9 @@ def emission_memory(
         Fine pixels per coarse cell along each axis [1].
     albedo_raster
         Whether the albedo is a raster (resampled onto the irradiance grid).
+    streamed
+        Whether the raster is read strip by strip (a file with a uniform albedo): then only
+        the strips in flight and the coarse output count.
 
     Returns
     -------
@@ -299,7 +308,7 @@ def emission_memory(
         in flight and the coarse output [B].
     """
     pixels = float(rows) * float(cols)
-    per_pixel = 8 * bands + EMISSION_BYTES_PER_PIXEL
+    per_pixel = 0.0 if streamed else 8 * bands + EMISSION_BYTES_PER_PIXEL
     if albedo_raster:
         per_pixel += ALBEDO_BYTES_PER_PIXEL
     coarse = math.ceil(rows / factor) * math.ceil(cols / factor)

@@ -376,6 +376,8 @@ def emission(
     assume_crs = parse_crs(crs, option="crs")
     check_resolution(resolution)
     outputs = None if output is None else OutputSet(output)
+    # a file with a uniform albedo is read strip by strip, never whole
+    streamed = isinstance(irradiance, (str, os.PathLike)) and isinstance(albedo, (int, float))
     header = raster_header(irradiance)
     if header is not None:
         fine_size = abs(header.transform.a) or 1.0
@@ -386,30 +388,27 @@ def emission(
                 header.count,
                 max(1, round(resolution / fine_size)),
                 albedo_raster=not isinstance(albedo, (int, float)),
+                streamed=streamed,
             ),
             f"emission from {label} ({header.rows} x {header.cols} pixels x {header.count} bands)",
             option="use a smaller irradiance raster",
         )
-    raster = as_raster(irradiance)
-    if raster.crs is None:
-        raise CRSError(f"{label}: the irradiance raster has no CRS")
-    raster_crs = raster.crs
-    transform = raster.transform
-    if transform.b != 0 or transform.d != 0 or not math.isclose(transform.a, -transform.e):
-        raise InputError(f"{label}: expected a north-up grid with square pixels, got {transform}")
-    fine = transform.a
-    band = _photopic_band(raster, label)
-    factor = round(resolution / fine)
-    if factor < 1 or not math.isclose(factor * fine, resolution, rel_tol=1e-6):
-        raise InputError(
-            f"resolution={resolution} m is not an integer multiple of the irradiance pixel "
-            f"size {fine} m; expected e.g. {max(1, factor) * fine} m"
+    if streamed:
+        assert isinstance(irradiance, (str, os.PathLike)) and isinstance(albedo, (int, float))
+        uniform = _albedo(albedo, (0, 0), Affine.identity(), CRS(4326))  # range checked
+        assert isinstance(uniform, float)
+        reflected, transform, raster_crs = _reflected_from_file(
+            irradiance, label, uniform, resolution
         )
-    illuminance = raster.data[band]
-    check_finite_raster(illuminance, label, "illuminance", "lx")
-    reflected = _reflected(
-        illuminance, _albedo(albedo, illuminance.shape, transform, raster_crs), factor
-    )
+    else:
+        raster = as_raster(irradiance)
+        transform, raster_crs, factor = _check_grid(raster.transform, raster.crs, label, resolution)
+        band = _photopic_band(raster.descriptions, raster.band_tags, label)
+        illuminance = raster.data[band]
+        check_finite_raster(illuminance, label, "illuminance", "lx")
+        reflected = _reflected(
+            illuminance, _albedo(albedo, illuminance.shape, transform, raster_crs), factor
+        )
     grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
     uplight = np.zeros_like(reflected)
     if lights is not None:
@@ -473,16 +472,88 @@ def emission(
     return EmissionResult(result, _write(result, output, outputs), totals)
 
 
-def _photopic_band(raster: Raster, label: str) -> int:
-    for index, (description, tags) in enumerate(
-        zip(raster.descriptions, raster.band_tags, strict=True)
-    ):
+def _photopic_band(
+    descriptions: Sequence[str], band_tags: Sequence[Mapping[str, str]], label: str
+) -> int:
+    for index, (description, tags) in enumerate(zip(descriptions, band_tags, strict=True)):
         if tags.get("sensor") == "photopic" or description == "photopic":
             return index
     raise InputError(
-        f"{label}: no photopic band (band descriptions {list(raster.descriptions)}); "
+        f"{label}: no photopic band (band descriptions {list(descriptions)}); "
         "run irradiance with --sensor photopic"
     )
+
+
+def _check_grid(
+    transform: Affine, crs: CRS | None, label: str, resolution: float
+) -> tuple[Affine, CRS, int]:
+    """The irradiance grid's transform, CRS and the fine pixels per coarse cell, checked."""
+    if crs is None:
+        raise CRSError(f"{label}: the irradiance raster has no CRS")
+    if transform.b != 0 or transform.d != 0 or not math.isclose(transform.a, -transform.e):
+        raise InputError(f"{label}: expected a north-up grid with square pixels, got {transform}")
+    fine = transform.a
+    factor = round(resolution / fine)
+    if factor < 1 or not math.isclose(factor * fine, resolution, rel_tol=1e-6):
+        raise InputError(
+            f"resolution={resolution} m is not an integer multiple of the irradiance pixel "
+            f"size {fine} m; expected e.g. {max(1, factor) * fine} m"
+        )
+    return transform, crs, factor
+
+
+def _reflected_from_file(
+    path: str | os.PathLike[str], label: str, albedo: float, resolution: float
+) -> tuple[FloatArray, Affine, CRS]:
+    """:func:`_reflected` of a raster file's photopic band, read in strips of whole cells.
+
+    Memory holds one strip of :data:`STRIP_PIXELS` pixels (as :func:`_reflected` does) and
+    the coarse grid; the checks of :func:`check_finite_raster` are made over all strips and
+    give the same messages.
+    """
+    import rasterio
+    from rasterio.windows import Window
+
+    source = Path(path)
+    if not source.exists():
+        raise InputError(f"{source}: no such file")
+    try:
+        with rasterio.open(source) as dataset:
+            crs = None if dataset.crs is None else CRS.from_user_input(dataset.crs.to_wkt())
+            transform, crs, factor = _check_grid(dataset.transform, crs, label, resolution)
+            descriptions = tuple(d or "" for d in dataset.descriptions)
+            tags = tuple(dataset.tags(i) for i in range(1, dataset.count + 1))
+            band = _photopic_band(descriptions, tags, label) + 1
+            rows, cols = dataset.height, dataset.width
+            step = factor * max(1, STRIP_PIXELS // max(1, factor * cols))
+            strips, infinite, negative, lowest, finite = [], 0, 0, math.inf, False
+            for start in range(0, rows, step):
+                window = Window(0, start, cols, min(step, rows - start))
+                values = dataset.read(band, window=window, masked=True)
+                illuminance = values.astype(np.float64).filled(np.nan)
+                infinite += int(np.isinf(illuminance).sum())
+                finite = finite or bool(np.isfinite(illuminance).any())
+                with np.errstate(invalid="ignore"):
+                    below = illuminance < 0
+                if below.any():
+                    negative += int(below.sum())
+                    lowest = min(lowest, float(np.nanmin(illuminance)))
+                strips.append(block_aggregate(albedo * illuminance, factor))
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputError(f"{source}: cannot read raster: {exc}") from exc
+    if infinite:
+        raise InputError(
+            f"{label}: {infinite} pixels hold an infinite illuminance; expected finite values "
+            "[lx] (NaN for nodata)"
+        )
+    if not finite:
+        raise InputError(f"{label}: every pixel is nodata; expected illuminance values [lx]")
+    if negative:
+        raise InputError(
+            f"{label}: {negative} pixels hold a negative illuminance (min {lowest:.3g} lx); "
+            "expected values >= 0"
+        )
+    return np.concatenate(strips, axis=0), transform, crs
 
 
 def _reflected(illuminance: FloatArray, albedo: float | FloatArray, factor: int) -> FloatArray:

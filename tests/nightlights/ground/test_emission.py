@@ -99,6 +99,75 @@ def test_reflected_flux_in_strips_equals_the_whole_raster(
     np.testing.assert_array_equal(upward._reflected(ground, grid, 4), whole)
 
 
+def _irradiance_file(path: Path, values: np.ndarray, *, sensor: str = "photopic") -> Path:
+    profile = {
+        "driver": "GTiff",
+        "height": values.shape[0],
+        "width": values.shape[1],
+        "count": 1,
+        "dtype": "float32",
+        "crs": CRS,
+        "transform": Affine(1.0, 0, 500.0, 0, -1.0, 800.0),
+        "nodata": np.nan,
+    }
+    with rasterio.open(path, "w", **profile) as out:
+        out.write(values.astype(np.float32), 1)
+        out.set_band_description(1, sensor)
+        out.update_tags(1, sensor=sensor)
+    return path
+
+
+def test_a_file_is_read_in_strips_and_gives_the_in_memory_result(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import nightlights.ground.upward as upward
+    from nightlights.io import Raster
+
+    rng = np.random.default_rng(5)
+    values = rng.gamma(2.0, 3.0, (53, 41)).astype(np.float32)
+    values[5, 7] = np.nan
+    path = _irradiance_file(tmp_path / "e.tif", values)
+    whole = emission(Raster.read(path), resolution=4.0, albedo=0.2).raster.data
+    monkeypatch.setattr(upward, "STRIP_PIXELS", 4 * 41 * 2)  # strips of 8 rows: 7 strips
+    read = []
+    original = upward._reflected_from_file
+
+    def spy(*args, **kwargs):
+        read.append(True)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(upward, "_reflected_from_file", spy)
+    streamed = emission(path, resolution=4.0, albedo=0.2).raster.data
+    assert read  # the file path took the strip reader
+    np.testing.assert_array_equal(streamed, whole)
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (np.inf, "1 pixels hold an infinite illuminance"),
+        (-2.0, "negative illuminance"),
+        (np.nan, "every pixel is nodata"),
+    ],
+)
+def test_a_file_read_in_strips_is_checked_as_a_whole(
+    value: float, message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import nightlights.ground.upward as upward
+
+    monkeypatch.setattr(upward, "STRIP_PIXELS", 4 * 20)  # one cell row per strip
+    values = np.full((12, 20), np.nan if np.isnan(value) else 1.0)
+    values[9, 3] = value  # in the last strip
+    path = _irradiance_file(tmp_path / "bad.tif", values)
+    with pytest.raises(InputError, match=message):
+        emission(path, resolution=4.0, albedo=0.2)
+    # the strips' checks say what the whole raster's say
+    from nightlights.io import Raster
+
+    with pytest.raises(InputError, match=message):
+        emission(Raster.read(path), resolution=4.0, albedo=0.2)
+
+
 def test_deposit_flux() -> None:
     grid = RasterGrid(0.0, 100.0, 10.0, 10, 10)
     density, inside = deposit_flux([5, 7, 55, -1], [95, 91, 45, 50], [10, 30, 5, 99], grid)
