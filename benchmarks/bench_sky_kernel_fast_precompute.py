@@ -40,7 +40,7 @@ import numpy as np
 
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.build import _bin_images, altitude_pairs
+from nightlights.sky.build import altitude_pairs, pair_images
 from nightlights.sky.pca import BRIGHT_FRACTION
 
 TARGET_SECONDS = 180.0
@@ -70,28 +70,7 @@ def dobashi_spec(quick: bool, step: int, nodes: int) -> KernelSpec:
 
 def images(spec: KernelSpec, o: int, c: int, nodes: int) -> np.ndarray:
     """Single-scattering Lambertian images of one altitude pair, shape (n_r, n_el, n_az)."""
-    n_az = spec.n_azimuth
-    half = spec.azimuths[: n_az // 2 + 1]
-    mirror = np.minimum(np.arange(n_az), n_az - np.arange(n_az))
-    img = _bin_images(
-        spec.edges,
-        float(spec.source_altitudes[c]),
-        float(spec.observer_altitudes[o]),
-        spec.elevations,
-        half,
-        n_el=spec.n_elevation,
-        n_az=n_az,
-        atmosphere=spec.atmosphere,
-        emission="lambertian",
-        nodes=nodes,
-        leg_nodes=spec.leg_nodes,
-        core_radius=spec.core_radius,
-        sub_distances=spec.sub_distances,
-        sub_pixels=spec.sub_pixels,
-        supersample=spec.supersample,
-        uplight_exponent=spec.uplight_exponent,
-    )
-    return img[:, :, mirror]
+    return pair_images(spec, o, c, "lambertian", nodes=nodes)
 
 
 def mean_relative_error(approx: np.ndarray, exact: np.ndarray) -> float:

@@ -462,6 +462,63 @@ def kernel_dataset(
     return ds
 
 
+def pair_images(
+    spec: KernelSpec,
+    observer: int,
+    source: int,
+    emission: str,
+    *,
+    bins: slice = slice(None),
+    nodes: int | None = None,
+    backend: str = "auto",
+) -> FloatArray:
+    """The bin images of one (observer, source) altitude pair, integrated (never interpolated).
+
+    Parameters
+    ----------
+    spec
+        What to tabulate.
+    observer, source
+        Indices of the observer and source altitudes [1].
+    emission
+        Emission shape.
+    bins
+        Distance bins to integrate (default all).
+    nodes
+        Gauss nodes per panel (default the spec's).
+    backend
+        Line-of-sight integrator (:func:`compute_kernel`).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_bins, n_el, n_az)`` [cd m-2 lm-1], single scattering, the azimuths past 180
+        deg mirrored.
+    """
+    n_az = spec.n_azimuth
+    first, last, _ = bins.indices(spec.edges.size - 1)
+    img = _bin_images(
+        spec.edges[first : last + 1],
+        float(np.asarray(spec.source_altitudes, dtype=float)[source]),
+        float(np.asarray(spec.observer_altitudes, dtype=float)[observer]),
+        spec.elevations,
+        spec.azimuths[: n_az // 2 + 1],
+        n_el=spec.n_elevation,
+        n_az=n_az,
+        atmosphere=spec.atmosphere,
+        emission=emission,
+        nodes=spec.nodes if nodes is None else nodes,
+        leg_nodes=spec.leg_nodes,
+        core_radius=spec.core_radius,
+        sub_distances=spec.sub_distances,
+        sub_pixels=spec.sub_pixels,
+        supersample=spec.supersample,
+        uplight_exponent=spec.uplight_exponent,
+        backend=backend,
+    )
+    return img[:, :, np.minimum(np.arange(n_az), n_az - np.arange(n_az))]
+
+
 def kernel_tables(
     spec: KernelSpec, *, backend: str = "auto", progress: bool = True
 ) -> dict[str, NDArray[np.float32]]:
@@ -482,16 +539,11 @@ def kernel_tables(
         Emission shape -> float32 images, shape ``(n_o, n_c, n_r, n_el, n_az)``
         [cd m-2 lm-1] (single scattering).
     """
-    atm = spec.atmosphere
     n_el, n_az = spec.n_elevation, spec.n_azimuth
-    edges = spec.edges
     h_c = np.asarray(spec.source_altitudes, dtype=float)
     h_o = np.asarray(spec.observer_altitudes, dtype=float)
-    n_r_bins = edges.size - 1
-    elevations = spec.elevations
-    azimuths = spec.azimuths
-    half = azimuths[: n_az // 2 + 1]
-    mirror = np.minimum(np.arange(n_az), n_az - np.arange(n_az))
+    n_r_bins = spec.edges.size - 1
+    half = spec.azimuths[: n_az // 2 + 1]
     emissions = spec.emissions
     shape = (h_o.size, h_c.size, n_r_bins, n_el, n_az)
     tables = {e: np.zeros(shape, dtype=np.float32) for e in emissions}
@@ -518,26 +570,7 @@ def kernel_tables(
         task = bar.add_task("kernel", total=len(steps))
         for o, c, e, lo in steps:
             sl = slice(lo, min(lo + r_chunk, n_r_bins))
-            img = _bin_images(
-                edges[sl.start : sl.stop + 1],
-                float(h_c[c]),
-                float(h_o[o]),
-                elevations,
-                half,
-                n_el=n_el,
-                n_az=n_az,
-                atmosphere=atm,
-                emission=e,
-                nodes=spec.nodes,
-                leg_nodes=spec.leg_nodes,
-                core_radius=spec.core_radius,
-                sub_distances=spec.sub_distances,
-                sub_pixels=spec.sub_pixels,
-                supersample=spec.supersample,
-                uplight_exponent=spec.uplight_exponent,
-                backend=backend,
-            )
-            tables[e][o, c, sl] = img[:, :, mirror]
+            tables[e][o, c, sl] = pair_images(spec, o, c, e, bins=sl, backend=backend)
             bar.advance(task)
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
     interpolate_pairs(tables, interpolated)
