@@ -29,7 +29,7 @@ linear in the emission function). With ``shared_bases`` one basis serves every o
 altitude (the same array for each level); with ``pca_error`` the attribute ``pca_mean_error``
 holds the reconstruction's measured error.
 
-Length: about 610 lines, because the bin integration, the choice of the altitude pairs it
+Length: about 650 lines, because the bin integration, the choice of the altitude pairs it
 integrates (and the interpolation of the others) and the assembly of the dataset are the one
 build path of a kernel.
 

@@ -57,7 +57,7 @@ the spacing (spacing, and occupancy, which rests on it); the share of tagged hei
 the number of streets with evidence and the share of them whose agreement is at least
 :data:`AGREEMENT_THRESHOLD`.
 
-Length: about 1150 lines, because the assignment, the evidence, the agreement and the
+Length: about 1250 lines, because the assignment, the evidence, the agreement and the
 iterated fit share one street table and its column names; each step is a function of it.
 """
 
