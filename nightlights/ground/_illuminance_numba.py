@@ -5,17 +5,35 @@ The same sum as the numpy reference :func:`nightlights.ground.illuminance.ground
 
 .. math:: E = I(V, H)\\, \\max(0, \\cos\\beta) / d^2
 
-to each pixel centre inside its region of influence [1, Eq. 11]. One pass per luminaire over
-the pixel rows of its disc; per row run, one loop computes the photometric angles and
-:math:`\\max(0, \\cos\\beta) / d^2` (free of calls and branches, so that the compiler turns it
-into SIMD code: the arc tangent is fdlibm's polynomial [2] with a branch-free reduction,
-:func:`_atan2`), a second the bilinear candela lookup [1, Eq. 4]. No array per light-pixel
-pair is made: the buffers hold one row.
+to each pixel centre inside its region of influence [1, Eq. 11]. The window is done in blocks
+of :data:`BLOCK` x :data:`BLOCK` pixels (512 KiB of float64 a band, which stays in a core's
+L2 cache while the luminaires add to it); in each block, one pass per luminaire over the pixel
+rows of its disc. Per row run, one loop finds, for every pixel, the candela-table cell and
+the fractions within it and :math:`\max(0, \cos\beta) / d^2`, free of calls and branches so
+that the compiler turns it into SIMD code:
+
+* the light's body coordinates :math:`b = R^T d` [1, Eq. 5] with the row's terms hoisted;
+* :math:`V = \operatorname{atan2}(|b_{xy}|, -b_z)` and
+  :math:`H = H_{street} + \operatorname{atan2}(-b_x, b_y)`, each arc tangent fdlibm's
+  polynomial [2] after a branch-free reduction to :math:`|u| \le \tan(\pi/8)`
+  (:func:`_octant`, :func:`_unfold`); the two reductions' divisions and :math:`1/d` share
+  one division, :math:`q = 1 / (D_1 D_2 d)`, so that a pixel costs two square roots and one
+  division (within a few ulp of three divisions);
+* rows farther than ``MIN_DISTANCE`` from the light point skip the reference's near-light
+  clipping (:func:`_pixel_far`, the same bits as :func:`_pixel` there).
+
+A second loop reads the four corners of each cell and adds the bilinear candela [1, Eq. 4]
+times the factor to the row, fused for one band. No array per light-pixel pair is made: the
+buffers hold one row of a block.
 
 Which pixels a luminaire lights, and the order in which luminaires add to a pixel, depend on
 the pixel's index in the whole grid, never on the window, and every pixel goes through the
 same arithmetic (fused multiply-adds allowed, no reassociation): a raster cut into any tiles,
 on any scheduler, gives the same bits (tested).
+
+Length: the per-pixel steps (reduction, unfolding, cell, near and far pixels, flat and terrain
+rows, fused and banded lookups) are small functions that the compiler inlines into one loop
+each; they share the constants and conventions of one kernel.
 
 References
 ----------
@@ -63,14 +81,14 @@ _AT9 = -3.65315727442169155270e-02
 _AT10 = 1.62858201153657823623e-02
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
-def _atan2(y: float, x: float) -> float:  # pragma: no cover - compiled
-    """math.atan2(y, x) without branches or calls, to ~1e-16 (0 for y = x = 0) [rad].
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
+def _octant(y: float, x: float) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """Numerator, denominator and offset of the reduced arc tangent of atan2(y, x).
 
     With s = min(|x|, |y|) and l = max(|x|, |y|), arctan(s / l) is in [0, pi/4]; above
     tan(pi/8) it is pi/4 + arctan((s - l) / (s + l)), so that the polynomial's argument
-    stays within tan(pi/8) and one division serves both cases. The octant follows from the
-    signs and the larger component.
+    stays within tan(pi/8). Returns (s - b l, l + b s, b pi/4) with b in {0, 1}; a zero
+    denominator (x = y = 0) becomes 1.
     """
     ay = abs(y)
     ax = abs(x)
@@ -78,56 +96,114 @@ def _atan2(y: float, x: float) -> float:  # pragma: no cover - compiled
     small = ax if ay > ax else ay
     b = 1.0 if small > _TAN_PI_8 * large else 0.0
     denominator = large + b * small
-    u = (small - b * large) / (denominator if denominator > 0.0 else 1.0)
+    return small - b * large, denominator if denominator > 0.0 else 1.0, b * _QUARTER_PI
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
+def _unfold(y: float, x: float, u: float, base: float) -> float:  # pragma: no cover - compiled
+    """atan2(y, x) from the reduced argument u and offset of :func:`_octant` [rad]."""
     z = u * u
     w = z * z
     s1 = z * (_AT0 + w * (_AT2 + w * (_AT4 + w * (_AT6 + w * (_AT8 + w * _AT10)))))
     s2 = w * (_AT1 + w * (_AT3 + w * (_AT5 + w * (_AT7 + w * _AT9))))
-    angle = b * _QUARTER_PI + (u - u * (s1 + s2))
-    angle = _HALF_PI - angle if ay > ax else angle
+    angle = base + (u - u * (s1 + s2))
+    angle = _HALF_PI - angle if abs(y) > abs(x) else angle
     angle = math.pi - angle if x < 0.0 else angle
     return -angle if y < 0.0 else angle
 
 
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+def _atan2(y: float, x: float) -> float:  # pragma: no cover - compiled
+    """math.atan2(y, x) without branches or calls, to ~1e-16 (0 for y = x = 0) [rad]."""
+    numerator, denominator, base = _octant(y, x)
+    return _unfold(y, x, numerator / denominator, base)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
-def _photometric(
-    dx: float,
-    dy: float,
-    dz: float,
-    rot: tuple[float, float, float, float, float, float, float, float, float],
+def _cell(
+    sin_v: float,
+    cos_v: float,
+    bx: float,
+    by: float,
+    distance: float,
     azimuth: float,
-    scale_v: float,
-    scale_h: float,
-) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Table coordinates (fv, fh) of direction d from the light, and 1 / |d|."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
-    # body coordinates b = R^T d (right, forward, up); Chuang 2011, Eq. 5
-    bx = r00 * dx + r10 * dy + r20 * dz
-    by = r01 * dx + r11 * dy + r21 * dz
-    bz = r02 * dx + r12 * dy + r22 * dz
+    table: tuple[float, float, float, float, float, float, float],
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+    """Candela-table cell of the direction with body coordinates b, and 1 / |b|.
+
+    V = atan2(sin_v, cos_v) and H = H_street + atan2(-b_x, b_y), wrapped into [0, 360).
+    Returns the flat index of the cell's (0, 0) corner and the fractions (tv, th) within the
+    cell, as the bilinear lookup [1, Eq. 4] reads them, and 1 / ``distance``. The two arc
+    tangents' divisions and 1 / ``distance`` share one division: with
+    q = 1 / (D1 D2 distance), N1 / D1 = N1 D2 distance q, N2 / D2 = N2 D1 distance q and
+    1 / distance = D1 D2 q (a few ulp).
+    """
+    scale_v, scale_h, top_v, top_h, last_v, last_h, n_v = table
+    n1, d1, base1 = _octant(sin_v, cos_v)
+    n2, d2, base2 = _octant(-bx, by)
+    q = 1.0 / (d1 * d2 * distance)
+    inv_d = d1 * d2 * q
+    q = distance * q
+    vertical = _unfold(sin_v, cos_v, n1 * (d2 * q), base1) * scale_v
+    horizontal = _unfold(-bx, by, n2 * (d1 * q), base2) * _DEGREES + azimuth
+    horizontal -= 360.0 * np.floor(horizontal * (1.0 / 360.0))
+    horizontal *= scale_h
+    # NaN and rounding past the table's ends clamp
+    v = vertical if vertical >= 0.0 else 0.0
+    v = v if v <= top_v else top_v
+    h = horizontal if horizontal >= 0.0 else 0.0
+    h = h if h <= top_h else top_h
+    iv = np.floor(v)
+    iv = iv if iv < last_v else last_v
+    ih = np.floor(h)
+    ih = ih if ih < last_h else last_h
+    return ih * n_v + iv, v - iv, h - ih, inv_d
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
+def _pixel(
+    bx: float,
+    by: float,
+    bz: float,
+    d2_raw: float,
+    azimuth: float,
+    table: tuple[float, float, float, float, float, float, float],
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+    """:func:`_cell` of body direction b with |b|^2 = ``d2_raw``, at any distance.
+
+    V = arccos(-b_z / d) is atan2(|b_xy|, -b_z); closer than MIN_DISTANCE, the reference's
+    arccos of the clipped cosine -b_z / MIN_DISTANCE, and d = MIN_DISTANCE.
+    """
     min2 = MIN_DISTANCE * MIN_DISTANCE
-    d2_raw = dx * dx + dy * dy + dz * dz
-    d2 = d2_raw if d2_raw > min2 else min2
-    inv_d = 1.0 / math.sqrt(d2)
-    # V = arccos(-b_z / d) as atan2(|b_xy|, -b_z); closer than MIN_DISTANCE, the
-    # reference's clipped cosine
-    cos_v = -bz * inv_d
+    near = d2_raw <= min2
+    distance = math.sqrt(d2_raw if d2_raw > min2 else min2)
+    cos_v = -bz * (1.0 / MIN_DISTANCE)
     cos_v = cos_v if cos_v < 1.0 else 1.0
     cos_v = cos_v if cos_v > -1.0 else -1.0
-    near = d2_raw <= min2
     sin_v = 1.0 - cos_v * cos_v if near else bx * bx + by * by
     sin_v = math.sqrt(sin_v if sin_v > 0.0 else 0.0)
-    fv = _atan2(sin_v, cos_v if near else -bz) * scale_v
-    # H = H_street + atan2(-b_x, b_y), wrapped into [0, 360)
-    horizontal = _atan2(-bx, by) * _DEGREES + azimuth
-    horizontal -= 360.0 * np.floor(horizontal * (1.0 / 360.0))
-    return fv, horizontal * scale_h, inv_d
+    cos_v = cos_v if near else -bz
+    return _cell(sin_v, cos_v, bx, by, distance, azimuth, table)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
+def _pixel_far(
+    bx: float,
+    by: float,
+    bz: float,
+    d2_raw: float,
+    azimuth: float,
+    table: tuple[float, float, float, float, float, float, float],
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+    """:func:`_pixel` for |b|^2 = ``d2_raw`` > MIN_DISTANCE^2 (the same bits, fewer steps)."""
+    return _cell(math.sqrt(bx * bx + by * by), -bz, bx, by, math.sqrt(d2_raw), azimuth, table)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _row_flat(
-    fv: FloatArray,
-    fh: FloatArray,
+    cell: NDArray[np.int64],
+    tv: FloatArray,
+    th: FloatArray,
     factor: FloatArray,
     n: int,
     x0: float,
@@ -138,22 +214,42 @@ def _row_flat(
     pz: float,
     rot: tuple[float, float, float, float, float, float, float, float, float],
     azimuth: float,
-    scale_v: float,
-    scale_h: float,
+    table: tuple[float, float, float, float, float, float, float],
 ) -> None:  # pragma: no cover - compiled
-    """(fv, fh) and cos(incidence) / d^2 on flat ground, z = 0, at columns first.. of a row."""
+    """Table cells and cos(incidence) / d^2 on flat ground, z = 0, at columns first.. of a row."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
     dz = -pz
+    # body coordinates b = R^T d (right, forward, up) [1, Eq. 5], the row's terms hoisted
+    cx = r10 * dy + r20 * dz
+    cy = r11 * dy + r21 * dz
+    cz = r12 * dy + r22 * dz
+    dyz2 = dy * dy + dz * dz
+    if dyz2 > MIN_DISTANCE * MIN_DISTANCE:
+        # no pixel of the row is within MIN_DISTANCE of the light point
+        for k in range(n):
+            dx = (x0 + (first + k) * resolution) - px
+            index, tv[k], th[k], inv_d = _pixel_far(
+                r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2, azimuth, table
+            )
+            cell[k] = np.int64(index)
+            cos_incidence = -dz * inv_d
+            factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
+        return
     for k in range(n):
         dx = (x0 + (first + k) * resolution) - px
-        fv[k], fh[k], inv_d = _photometric(dx, dy, dz, rot, azimuth, scale_v, scale_h)
+        index, tv[k], th[k], inv_d = _pixel(
+            r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2, azimuth, table
+        )
+        cell[k] = np.int64(index)
         cos_incidence = -dz * inv_d
         factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _row_terrain(
-    fv: FloatArray,
-    fh: FloatArray,
+    cell: NDArray[np.int64],
+    tv: FloatArray,
+    th: FloatArray,
     factor: FloatArray,
     n: int,
     x0: float,
@@ -164,54 +260,81 @@ def _row_terrain(
     pz: float,
     rot: tuple[float, float, float, float, float, float, float, float, float],
     azimuth: float,
-    scale_v: float,
-    scale_h: float,
+    table: tuple[float, float, float, float, float, float, float],
     ground_z: FloatArray,
     normals: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     """As :func:`_row_flat` over a DEM: ground heights (n,) and unit normals (n, 3)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
+    cx = r10 * dy
+    cy = r11 * dy
+    cz = r12 * dy
+    dy2 = dy * dy
     for k in range(n):
         dx = (x0 + (first + k) * resolution) - px
         dz = ground_z[k] - pz
-        fv[k], fh[k], inv_d = _photometric(dx, dy, dz, rot, azimuth, scale_v, scale_h)
+        index, tv[k], th[k], inv_d = _pixel(
+            r00 * dx + cx + r20 * dz,
+            r01 * dx + cy + r21 * dz,
+            r02 * dx + cz + r22 * dz,
+            dx * dx + dy2 + dz * dz,
+            azimuth,
+            table,
+        )
+        cell[k] = np.int64(index)
         cos_incidence = -(normals[k, 0] * dx + normals[k, 1] * dy + normals[k, 2] * dz) * inv_d
         factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _bilinear(
+    candela: FloatArray, offset: int, n_v: int, cell: int, tv: float, th: float
+) -> float:  # pragma: no cover - compiled
+    """Bilinear candela in the cell at flat index ``cell`` (Chuang 2011, Eq. 4) [cd]."""
+    # unsigned (the clamps keep it >= 0): no negative-index wraparound per load
+    base = np.uint64(offset + cell)
+    c00 = candela[base]
+    c01 = candela[base + np.uint64(1)]
+    c10 = candela[base + np.uint64(n_v)]
+    c11 = candela[base + np.uint64(n_v + 1)]
+    lower = c00 + tv * (c01 - c00)
+    upper = c10 + tv * (c11 - c10)
+    return lower + th * (upper - lower)
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def _row_lookup(
-    values: FloatArray,
-    fv: FloatArray,
-    fh: FloatArray,
+def _row_add(
+    out: FloatArray,
+    weight: float,
+    cell: NDArray[np.int64],
+    tv: FloatArray,
+    th: FloatArray,
     factor: FloatArray,
     n: int,
     candela: FloatArray,
     offset: int,
     n_v: int,
-    n_h: int,
 ) -> None:  # pragma: no cover - compiled
-    """Bilinear candela at (fv, fh) times ``factor`` (Chuang 2011, Eq. 4), into ``values``."""
-    top_v = n_v - 1.0
-    top_h = n_h - 1.0
+    """Add ``weight`` x candela x ``factor`` to the row run ``out`` (one band)."""
     for k in range(n):
-        # NaN and rounding past the table's ends clamp
-        v = fv[k] if fv[k] >= 0.0 else 0.0
-        v = v if v <= top_v else top_v
-        h = fh[k] if fh[k] >= 0.0 else 0.0
-        h = h if h <= top_h else top_h
-        iv = min(int(v), n_v - 2)
-        ih = min(int(h), n_h - 2)
-        tv = v - iv
-        th = h - ih
-        # unsigned (the clamps keep it >= 0): no negative-index wraparound per load
-        base = np.uint64(offset + ih * n_v + iv)
-        c00 = candela[base]
-        c01 = candela[base + np.uint64(1)]
-        c10 = candela[base + np.uint64(n_v)]
-        c11 = candela[base + np.uint64(n_v + 1)]
-        lower = c00 + tv * (c01 - c00)
-        upper = c10 + tv * (c11 - c10)
-        values[k] = (lower + th * (upper - lower)) * factor[k]
+        out[k] += weight * (_bilinear(candela, offset, n_v, cell[k], tv[k], th[k]) * factor[k])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _row_lookup(
+    values: FloatArray,
+    cell: NDArray[np.int64],
+    tv: FloatArray,
+    th: FloatArray,
+    factor: FloatArray,
+    n: int,
+    candela: FloatArray,
+    offset: int,
+    n_v: int,
+) -> None:  # pragma: no cover - compiled
+    """Candela x ``factor`` into ``values`` (several bands)."""
+    for k in range(n):
+        values[k] = _bilinear(candela, offset, n_v, cell[k], tv[k], th[k]) * factor[k]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -261,6 +384,10 @@ def pack_tables(tables: Sequence[IntensityTable]) -> PackedTables:
         ).reshape(-1, 2),
     )
 
+
+#: Edge of the blocks in which :func:`window_illuminance` adds the lights [pixels]: a float64
+#: block of 256 x 256 pixels (512 KiB a band) stays in a core's L2 cache.
+BLOCK = 256
 
 #: Stand-ins for the DEM arrays on flat ground (never read).
 _NO_GROUND = np.zeros((0, 0))
@@ -368,30 +495,110 @@ def _window(
     # ``out`` is the window at global row ``row0`` and column ``col0`` of a grid whose pixel
     # (R, C) has its centre at (x0 + C res, y0 - R res). A light lights pixel (R, C) when
     # dx^2 + dy^2 <= radius^2 for the centre's offsets from the light point: the reference's
-    # test, evaluated the same way.
-    n_bands, rows, cols = out.shape
-    fv = np.empty(cols)
-    fh = np.empty(cols)
-    factor = np.empty(cols)
-    values = np.empty(cols)
+    # test, evaluated the same way. The window is done in blocks of BLOCK x BLOCK pixels,
+    # each with all the lights in their order, so that the block being added to stays in
+    # the core's cache.
+    _, rows, cols = out.shape
+    buffers = np.empty((4, min(cols, BLOCK)))
+    cell = np.empty(min(cols, BLOCK), dtype=np.int64)
+    pairs = 0
+    for block_row in range(row0, row0 + rows, BLOCK):
+        for block_col in range(col0, col0 + cols, BLOCK):
+            pairs += _block(
+                out,
+                row0,
+                col0,
+                block_row,
+                min(block_row + BLOCK, row0 + rows),
+                block_col,
+                min(block_col + BLOCK, col0 + cols),
+                cell,
+                buffers,
+                x0,
+                y0,
+                resolution,
+                light_point,
+                rotation,
+                street_azimuth,
+                table_index,
+                weights,
+                radius,
+                candela,
+                table_offset,
+                table_shape,
+                table_scale,
+                ground_z,
+                normals,
+                terrain,
+            )
+    return pairs
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _block(
+    out: FloatArray,
+    row0: int,
+    col0: int,
+    top: int,
+    bottom: int,
+    left: int,
+    right: int,
+    cell: NDArray[np.int64],
+    buffers: FloatArray,
+    x0: float,
+    y0: float,
+    resolution: float,
+    light_point: FloatArray,
+    rotation: FloatArray,
+    street_azimuth: FloatArray,
+    table_index: NDArray[np.int64],
+    weights: FloatArray,
+    radius: FloatArray,
+    candela: FloatArray,
+    table_offset: NDArray[np.int64],
+    table_shape: NDArray[np.int64],
+    table_scale: FloatArray,
+    ground_z: FloatArray,
+    normals: FloatArray,
+    terrain: bool,
+) -> int:  # pragma: no cover - compiled
+    """The lights' sum on grid rows top..bottom - 1, columns left..right - 1 of ``out``."""
+    n_bands = out.shape[0]
+    tv = buffers[0]
+    th = buffers[1]
+    factor = buffers[2]
+    values = buffers[3]
     pairs = 0
     for i in range(light_point.shape[0]):
         px, py, pz = light_point[i, 0], light_point[i, 1], light_point[i, 2]
         r = radius[i]
         r2 = r * r
-        table = table_index[i]
-        offset = table_offset[table]
-        n_h, n_v = table_shape[table, 0], table_shape[table, 1]
-        scale_v = table_scale[table, 0] * _DEGREES
-        scale_h = table_scale[table, 1]
-        m = rotation[i]
-        rot = (m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
         # rows whose centre may lie within r of the light (one row of margin: the exact test
-        # below decides), clipped to the window before converting to integers
+        # below decides), clipped to the block before converting to integers
         low = np.floor((y0 - (py + r)) / resolution) - 1.0
         high = np.ceil((y0 - (py - r)) / resolution) + 1.0
-        first_row = int(min(max(low, float(row0)), float(row0 + rows)))
-        last_row = int(min(max(high, float(row0 - 1)), float(row0 + rows - 1)))
+        first_row = int(min(max(low, float(top)), float(bottom)))
+        last_row = int(min(max(high, float(top - 1)), float(bottom - 1)))
+        # the columns of every row below lie within these (a light west or east of the
+        # block has none in it)
+        low = np.floor((px - r - x0) / resolution) - 1.0
+        high = np.ceil((px + r - x0) / resolution) + 1.0
+        if first_row > last_row or not (high >= left and low <= right - 1):
+            continue
+        t = table_index[i]
+        offset = table_offset[t]
+        n_h, n_v = table_shape[t, 0], table_shape[t, 1]
+        table = (
+            table_scale[t, 0] * _DEGREES,
+            table_scale[t, 1],
+            n_v - 1.0,
+            n_h - 1.0,
+            n_v - 2.0,
+            n_h - 2.0,
+            float(n_v),
+        )
+        m = rotation[i]
+        rot = (m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
         for row in range(first_row, last_row + 1):
             dy = (y0 - row * resolution) - py
             dy2 = dy * dy
@@ -400,8 +607,8 @@ def _window(
             half = math.sqrt(r2 - dy2)
             low = np.floor((px - half - x0) / resolution) - 1.0
             high = np.ceil((px + half - x0) / resolution) + 1.0
-            first = int(min(max(low, float(col0)), float(col0 + cols)))
-            last = int(min(max(high, float(col0 - 1)), float(col0 + cols - 1)))
+            first = int(min(max(low, float(left)), float(right)))
+            last = int(min(max(high, float(left - 1)), float(right - 1)))
             while first <= last and not _inside(first, x0, resolution, px, dy2, r2):
                 first += 1
             while last >= first and not _inside(last, x0, resolution, px, dy2, r2):
@@ -413,8 +620,9 @@ def _window(
             local = row - row0
             if terrain:
                 _row_terrain(
-                    fv,
-                    fh,
+                    cell,
+                    tv,
+                    th,
                     factor,
                     n,
                     x0,
@@ -425,15 +633,15 @@ def _window(
                     pz,
                     rot,
                     street_azimuth[i],
-                    scale_v,
-                    scale_h,
+                    table,
                     ground_z[local, first - col0 : last - col0 + 1],
                     normals[local, first - col0 : last - col0 + 1],
                 )
             else:
                 _row_flat(
-                    fv,
-                    fh,
+                    cell,
+                    tv,
+                    th,
                     factor,
                     n,
                     x0,
@@ -444,11 +652,24 @@ def _window(
                     pz,
                     rot,
                     street_azimuth[i],
-                    scale_v,
-                    scale_h,
+                    table,
                 )
-            _row_lookup(values, fv, fh, factor, n, candela, offset, n_v, n_h)
             start = first - col0
+            if n_bands == 1:
+                _row_add(
+                    out[0, local, start : start + n],
+                    weights[i, 0],
+                    cell,
+                    tv,
+                    th,
+                    factor,
+                    n,
+                    candela,
+                    offset,
+                    n_v,
+                )
+                continue
+            _row_lookup(values, cell, tv, th, factor, n, candela, offset, n_v)
             for band in range(n_bands):
                 weight = weights[i, band]
                 for k in range(n):

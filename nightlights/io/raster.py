@@ -76,6 +76,8 @@ def write_cog(
     nodata: float = np.nan,
     tags: Mapping[str, Any] | None = None,
     compress: str = "DEFLATE",
+    level: int | None = None,
+    num_threads: int | str | None = None,
     blocksize: int = 512,
     qml: str | bool = True,
 ) -> Path:
@@ -97,6 +99,12 @@ def write_cog(
         Dataset-level metadata (model parameters, provenance).
     compress
         GDAL compression (``DEFLATE``, ``ZSTD``, ``LZW``).
+    level
+        Compression level of ``DEFLATE`` (1-12) or ``ZSTD`` (1-22); ``None``: GDAL's default
+        (6 and 9). Lower is faster and compresses less.
+    num_threads
+        Threads compressing the blocks (a number or ``"ALL_CPUS"``); ``None``: one. The file
+        is the same for any number.
     blocksize
         Tile size [pixels].
     qml
@@ -141,6 +149,9 @@ def write_cog(
                 {key: str(value) for key, value in (tags or {}).items()},
             )
         style = sidecar_path(path) if qml else None
+        extra = {} if level is None else {"LEVEL": str(level)}
+        if num_threads is not None:
+            extra["NUM_THREADS"] = str(num_threads)
         with OutputSet(path, style) as outputs:
             rasterio.shutil.copy(
                 mem,
@@ -150,6 +161,7 @@ def write_cog(
                 BLOCKSIZE=str(blocksize),
                 OVERVIEWS="AUTO" if min(rows, cols) > blocksize else "NONE",
                 PREDICTOR="YES",
+                **extra,
             )
             if style is not None and isinstance(qml, str):
                 outputs.temporary(style).write_text(qml, encoding="utf-8")

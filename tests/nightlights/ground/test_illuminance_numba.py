@@ -20,7 +20,7 @@ from nightlights.ground import (
     resolve_luminaires,
     surface_normals,
 )
-from nightlights.ground._illuminance_numba import _atan2
+from nightlights.ground._illuminance_numba import BLOCK, _atan2
 from nightlights.ground.illuminance import window_and_pairs
 
 #: Agreement of the backends on every pixel [1] (the kernels differ in the order of their
@@ -267,3 +267,63 @@ def test_a_nan_ground_height_touches_its_own_pixel_only() -> None:
     ground_z[3, 4] = np.nan  # the table lookup clamps: no read outside the table
     holed = lit(ground_z)
     np.testing.assert_array_equal(np.delete(holed, 34), np.delete(flat, 34))
+
+
+def test_windows_larger_than_a_block_agree_and_tile_to_the_same_bits() -> None:
+    """Windows of several of the kernel's blocks (BLOCK pixels) in both directions, one band
+    (the fused lookup-and-add) and two, at 1 m with the bundled photometries and tilts."""
+    import geopandas as gpd
+
+    rng = np.random.default_rng(13)
+    database = load_library()
+    names = sorted(database.systems)
+    n = 300
+    side = 2 * BLOCK + 90.0
+    frame = gpd.GeoDataFrame(
+        {
+            "system_id": rng.choice(names, n),
+            "heading": rng.uniform(0, 360, n),
+            "tilt": rng.choice([0.0, 5.0, 10.0], n),
+        },
+        geometry=gpd.points_from_xy(rng.uniform(-40, side + 40, n), rng.uniform(0, side, n)),
+        crs="EPSG:32633",
+    )
+    luminaires = resolve_luminaires(frame, database)
+    grid = grid_from_bounds((0, 0, side, side - 30.0), 1.0)
+    radius = luminaires.radius(InfluenceThreshold())
+    two = np.column_stack([np.ones(n), rng.uniform(0.2, 3.0, n)])
+    runs = {
+        # one worker: the 1024-pixel tile is halved to 512 only (balanced_tile_size)
+        (bands, size): compute_irradiance(
+            grid, luminaires, two[:, :bands], radius, tile_size=size, num_workers=1, progress=False
+        )
+        for bands in (1, 2)
+        for size in (1024, BLOCK + 1, 100, 37)
+    }
+    one = runs[1, 1024]
+    assert one.bands.shape == (1, grid.rows, grid.cols) and grid.rows > 2 * BLOCK
+    for (bands, _), result in runs.items():
+        np.testing.assert_array_equal(result.bands, runs[bands, 1024].bands)
+        assert result.n_pairs == one.n_pairs > 0
+    # the one-band path adds the same bits as the general one
+    np.testing.assert_array_equal(runs[2, 1024].bands[0], one.bands[0])
+    # and the whole grid as one window
+    whole, pairs = window_and_pairs(
+        (grid.rows, grid.cols),
+        (0.5, grid.y_max - 0.5),
+        1.0,
+        luminaires.light_point,
+        luminaires.rotation,
+        luminaires.street_azimuth,
+        luminaires.table_index,
+        luminaires.tables,
+        two,
+        radius=radius,
+    )
+    assert pairs == one.n_pairs
+    np.testing.assert_array_equal(whole.astype(np.float32), runs[2, 1024].bands)
+    reference = compute_irradiance(
+        grid, luminaires, two, radius, tile_size=1024, progress=False, backend="numpy"
+    )
+    assert reference.n_pairs == one.n_pairs
+    assert_agree(runs[2, 1024].bands.astype(float), reference.bands.astype(float))

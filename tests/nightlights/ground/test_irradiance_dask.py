@@ -1,19 +1,27 @@
-"""Irradiance tiles on a real dask.distributed LocalCluster equal the local result."""
+"""Irradiance tiles on a real dask.distributed LocalCluster equal the local result; the
+stage's COG holds the tiles' values."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import geopandas as gpd
 import numpy as np
 import pytest
+import rasterio
 from distributed import Client, LocalCluster
 
+from ies.library import load_library
 from nightlights.ground import (
     InfluenceThreshold,
     IntensityTable,
     Luminaires,
     compute_irradiance,
     grid_from_bounds,
+    irradiance,
     luminaire_rotation,
 )
+from nightlights.ground.stage import COG_OPTIONS
 
 
 def make_luminaires(n: int, rng: np.random.Generator) -> Luminaires:
@@ -81,3 +89,30 @@ def test_a_failing_tile_raises_and_returns_nothing() -> None:
         compute_irradiance(
             grid, luminaires, bad_weights, np.full(5, 50.0), tile_size=40, progress=False
         )
+
+
+def test_stage_writes_a_valid_cog_of_the_tiled_values(tmp_path: Path) -> None:
+    rng = np.random.default_rng(4)
+    n = 40
+    frame = gpd.GeoDataFrame(
+        {
+            "system_id": rng.choice(sorted(load_library().systems), n),
+            "heading": rng.uniform(0, 360, n),
+        },
+        geometry=gpd.points_from_xy(rng.uniform(0, 700, n), rng.uniform(0, 600, n)),
+        crs="EPSG:32633",
+    )
+    out = tmp_path / "irradiance.tif"
+    bounds = (0, 0, 700, 600)
+    result = irradiance(frame, out, resolution=1.0, bounds=bounds, tile_size=300, progress=False)
+    in_memory = irradiance(frame, resolution=1.0, bounds=bounds, tile_size=64, progress=False)
+    with rasterio.open(out) as dataset:
+        structure = dataset.tags(ns="IMAGE_STRUCTURE")
+        assert structure["LAYOUT"] == "COG"
+        assert structure["COMPRESSION"] == COG_OPTIONS["compress"] == "ZSTD"
+        assert structure["PREDICTOR"] == "3"  # floating-point predictor
+        assert dataset.overviews(1) and dataset.profile["blockxsize"] == 512
+        data = dataset.read(1)
+    assert (data > 0).mean() > 0.5
+    np.testing.assert_array_equal(data, result.raster.data[0].astype(np.float32))
+    np.testing.assert_array_equal(in_memory.raster.data, result.raster.data)
