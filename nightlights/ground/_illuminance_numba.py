@@ -9,18 +9,20 @@ to each pixel centre inside its region of influence [1, Eq. 11]. The window is d
 of :data:`BLOCK` x :data:`BLOCK` pixels (512 KiB of float64 a band, which stays in a core's
 L2 cache while the luminaires add to it); in each block, one pass per luminaire over the pixel
 rows of its disc. Per row run, one loop finds, for every pixel, the candela-table cell and
-the fractions within it and :math:`\max(0, \cos\beta) / d^2`, free of calls and branches so
+the fractions within it and :math:`\\max(0, \\cos\\beta) / d^2`, free of calls and branches so
 that the compiler turns it into SIMD code:
 
 * the light's body coordinates :math:`b = R^T d` [1, Eq. 5] with the row's terms hoisted;
-* :math:`V = \operatorname{atan2}(|b_{xy}|, -b_z)` and
-  :math:`H = H_{street} + \operatorname{atan2}(-b_x, b_y)`, each arc tangent fdlibm's
-  polynomial [2] after a branch-free reduction to :math:`|u| \le \tan(\pi/8)`
+* :math:`V = \\operatorname{atan2}(|b_{xy}|, -b_z)` and
+  :math:`H = H_{street} + \\operatorname{atan2}(-b_x, b_y)`, each arc tangent fdlibm's
+  polynomial [2] after a branch-free reduction to :math:`|u| \\le \\tan(\\pi/8)`
   (:func:`_octant`, :func:`_unfold`); the two reductions' divisions and :math:`1/d` share
   one division, :math:`q = 1 / (D_1 D_2 d)`, so that a pixel costs two square roots and one
   division (within a few ulp of three divisions);
 * rows farther than ``MIN_DISTANCE`` from the light point skip the reference's near-light
   clipping (:func:`_pixel_far`, the same bits as :func:`_pixel` there).
+* on flat ground the loop runs over a whole number of SIMD widths (``_LANES``), the few
+  pixels past the run computed and left unread, so that no pixel falls to a scalar loop.
 
 A second loop reads the four corners of each cell and adds the bilinear candela [1, Eq. 4]
 times the factor to the row, fused for one band. No array per light-pixel pair is made: the
@@ -389,6 +391,11 @@ def pack_tables(tables: Sequence[IntensityTable]) -> PackedTables:
 #: block of 256 x 256 pixels (512 KiB a band) stays in a core's L2 cache.
 BLOCK = 256
 
+#: The flat-ground loop runs over whole multiples of this many pixels (the SIMD width and
+#: more), so that no pixel of a row falls to a scalar remainder loop; the extra pixels'
+#: values stay unread in the buffers.
+_LANES = 8
+
 #: Stand-ins for the DEM arrays on flat ground (never read).
 _NO_GROUND = np.zeros((0, 0))
 _NO_NORMALS = np.zeros((0, 0, 3))
@@ -499,8 +506,8 @@ def _window(
     # each with all the lights in their order, so that the block being added to stays in
     # the core's cache.
     _, rows, cols = out.shape
-    buffers = np.empty((4, min(cols, BLOCK)))
-    cell = np.empty(min(cols, BLOCK), dtype=np.int64)
+    buffers = np.empty((4, min(cols, BLOCK) + _LANES))
+    cell = np.empty(min(cols, BLOCK) + _LANES, dtype=np.int64)
     pairs = 0
     for block_row in range(row0, row0 + rows, BLOCK):
         for block_col in range(col0, col0 + cols, BLOCK):
@@ -643,7 +650,7 @@ def _block(
                     tv,
                     th,
                     factor,
-                    n,
+                    (n + _LANES - 1) // _LANES * _LANES,
                     x0,
                     first,
                     resolution,
