@@ -78,6 +78,7 @@ def write_cog(
     compress: str = "DEFLATE",
     level: int | None = None,
     num_threads: int | str | None = None,
+    overview_resampling: str | None = None,
     blocksize: int = 512,
     qml: str | bool = True,
 ) -> Path:
@@ -105,6 +106,9 @@ def write_cog(
     num_threads
         Threads compressing the blocks (a number or ``"ALL_CPUS"``); ``None``: one. The file
         is the same for any number.
+    overview_resampling
+        How the overviews are computed (``AVERAGE``, ``NEAREST``, ``CUBIC``, ...); ``None``:
+        the GDAL COG driver's default (``CUBIC``).
     blocksize
         Tile size [pixels].
     qml
@@ -152,6 +156,8 @@ def write_cog(
         extra = {} if level is None else {"LEVEL": str(level)}
         if num_threads is not None:
             extra["NUM_THREADS"] = str(num_threads)
+        if overview_resampling is not None:
+            extra["RESAMPLING"] = overview_resampling
         with OutputSet(path, style) as outputs:
             rasterio.shutil.copy(
                 mem,

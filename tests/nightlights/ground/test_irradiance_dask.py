@@ -111,8 +111,12 @@ def test_stage_writes_a_valid_cog_of_the_tiled_values(tmp_path: Path) -> None:
         assert structure["LAYOUT"] == "COG"
         assert structure["COMPRESSION"] == COG_OPTIONS["compress"] == "ZSTD"
         assert structure["PREDICTOR"] == "3"  # floating-point predictor
-        assert dataset.overviews(1) and dataset.profile["blockxsize"] == 512
+        assert dataset.overviews(1)[0] == 2 and dataset.profile["blockxsize"] == 512
         data = dataset.read(1)
+        # the first overview: means of 2 x 2 pixels
+        half = dataset.read(1, out_shape=(300, 350))
     assert (data > 0).mean() > 0.5
     np.testing.assert_array_equal(data, result.raster.data[0].astype(np.float32))
+    means = data.astype(float).reshape(300, 2, 350, 2).mean(axis=(1, 3))
+    np.testing.assert_allclose(half, means, rtol=1e-6)
     np.testing.assert_array_equal(in_memory.raster.data, result.raster.data)
