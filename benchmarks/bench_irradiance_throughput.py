@@ -12,7 +12,8 @@ region of influence ``floor:0.01`` lx), both kernels in the same run:
 * agreement: the largest relative difference of the two kernels' float32 rasters over the
   lit pixels of each scene;
 * the COG write of a lit 2 km square at 1 m (``nightlights.io.write_cog``), with the writer's
-  defaults and with the irradiance stage's options (ZSTD level 1, all cores);
+  defaults and with the irradiance stage's options (ZSTD level 1, all cores, averaged
+  overviews);
 * end to end, measured: ``nightlights.ground.irradiance`` on the target scene, 100,000
   luminaires over 10 x 10 km at 1 m, from the light layer to the written COG, split into the
   kernel (``compute_irradiance``), the write and the rest ("setup": luminaire placement and
