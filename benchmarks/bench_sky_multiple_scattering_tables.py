@@ -14,9 +14,14 @@ f(elevation, azimuth, distance) of :mod:`nightlights.sky.multiple`. This script
 3. charts the error of a table measured at kernel-build time against its photons and cost
    (T = 2, Lambertian), the shipped table as the reference.
 
+The tables are measured with azimuthal splitting (:data:`~nightlights.sky.multiple.SPLIT_WINDOW`;
+runs before it are marked ``plain`` in the summary); the reference uses the plain estimator.
+
 Run: ``python benchmarks/bench_sky_multiple_scattering_tables.py [--quick] [--no-tables]
-[--out DIR]`` (``--quick``: 20,000-photon tables into the results folder only, fewer photon
-counts in the chart). Writes ``sky_multiple_scattering_tables.json`` and ``.png``.
+[--add ATMOSPHERE [--fresh]] [--shapes SHAPE ...] [--photons N] [--out DIR]`` (``--quick``:
+20,000-photon tables into the results folder only, fewer photon counts in the chart;
+``--add``: merge a run of the next seed into that atmosphere's shipped tables, or with
+``--fresh`` replace them by it). Writes ``sky_multiple_scattering_tables.json`` and ``.png``.
 """
 
 from __future__ import annotations
@@ -59,18 +64,25 @@ def merge(
 
 
 def measure_tables(
-    photons: int, previous: dict[str, Any], only: str | None
+    photons: int,
+    previous: dict[str, Any],
+    only: str | None,
+    shapes: tuple[str, ...] = SHAPES,
+    fresh: bool = False,
 ) -> tuple[dict[str, Any], list[dict[str, object]]]:
-    """Measure every (atmosphere, shape) table, or add a run of another seed to ``only``'s."""
+    """Measure every (atmosphere, shape) table, or add a run of another seed to ``only``'s
+    (``fresh``: replace ``only``'s tables of ``shapes`` by one new run instead)."""
     tables: dict[str, Any] = dict(previous)
     runs: list[dict[str, object]] = []
     for label, atmosphere in ATMOSPHERES.items():
         if only is not None and label != only:
             continue
-        for shape in SHAPES:
+        for shape in shapes:
             key = f"{shape}|{UPLIGHT_EXPONENT:g}|{multiple._atmosphere_key(atmosphere)}"
-            entry = tables.get(key) if only is not None else None
-            seed = multiple.SEED + (len(entry["runs"]) if entry else 0)
+            old = tables.get(key) if only is not None else None
+            entry = None if fresh else old
+            # a new run takes the seed after the highest of the table's runs (replaced or kept)
+            seed = max(int(r["seed"]) for r in old["runs"]) + 1 if old else multiple.SEED
             (factor, error), seconds = harness.timed(
                 lambda a=atmosphere, s=shape, seed=seed: multiple._measure(
                     a, s, photons, UPLIGHT_EXPONENT, seed
@@ -78,7 +90,15 @@ def measure_tables(
             )
             combined, combined_error, total = merge(entry, factor, error, photons)
             history = list(entry["runs"]) if entry else []
-            history.append({"photons": photons, "seed": seed, "seconds": round(seconds, 1)})
+            history.append(
+                {
+                    "photons": photons,
+                    "seed": seed,
+                    "seconds": round(seconds, 1),
+                    "split_window": multiple.SPLIT_WINDOW,
+                    "split_points": multiple.SPLIT_POINTS,
+                }
+            )
             tables[key] = {
                 "atmosphere": label,
                 "emission": shape,
@@ -277,11 +297,13 @@ def summary(tables: dict[str, Any]) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
     for entry in tables.values():
         rel = np.asarray(entry["standard_error"]) / np.asarray(entry["factor"])
+        split = ["split_window" in r for r in entry["runs"]]
         rows.append(
             {
                 "atmosphere": entry["atmosphere"],
                 "emission": entry["emission"],
                 "photons": entry["photons"],
+                "estimator": "split" if all(split) else ("plain" if not any(split) else "mixed"),
                 "seconds": round(sum(float(r["seconds"]) for r in entry["runs"]), 1),
                 "median_relative_error": float(np.median(rel)),
                 "max_relative_error_to_150km": float(np.max(rel[..., near])),
@@ -300,13 +322,21 @@ def main() -> None:
         help="add a run of another seed to this atmosphere's shipped tables",
     )
     parser.add_argument("--photons", type=int, default=multiple.SHIPPED_PHOTONS)
+    parser.add_argument(
+        "--shapes", nargs="+", choices=SHAPES, default=list(SHAPES), help="shapes to measure"
+    )
+    parser.add_argument(
+        "--fresh", action="store_true", help="with --add: replace the tables instead of merging"
+    )
     args = harness.parse_args(parser)
     shipped = json.loads(PACKAGE_TABLES.read_text()) if PACKAGE_TABLES.is_file() else {}
     if args.no_tables:
         tables = shipped
     else:
         photons = 20_000 if args.quick else args.photons
-        tables, _ = measure_tables(photons, shipped if args.add else {}, args.add)
+        tables, _ = measure_tables(
+            photons, shipped if args.add else {}, args.add, tuple(args.shapes), args.fresh
+        )
         if not args.quick:
             PACKAGE_TABLES.parent.mkdir(parents=True, exist_ok=True)
             PACKAGE_TABLES.write_text(json.dumps(tables) + "\n")

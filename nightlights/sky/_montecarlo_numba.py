@@ -16,8 +16,9 @@ The numpy reference of this module is :func:`nightlights.sky.montecarlo.point_so
 (the estimator of one scattering event) together with :func:`nightlights.sky.kernel.optical_depth`
 (the free paths of a recorded photon), compared in the tests.
 
-Length: about 730 lines, because the random-number stream, the transport, and the
-ray-integrated estimator are one compiled unit that numba inlines together.
+Length: about 870 lines, because the random-number stream, the transport, the
+ray-integrated estimator and its azimuthal splitting are one compiled unit that numba inlines
+together.
 """
 
 from __future__ import annotations
@@ -55,6 +56,10 @@ _ERFCX_SERIES_FROM = 25.0
 _TAU_TOLERANCE = 1e-11
 _SQRT_PI = math.sqrt(math.pi)
 _TWO_POW_53 = 1.0 / 9007199254740992.0
+#: Salt of the second random stream of a photon (the azimuthal splitting's offsets).
+_SPLIT_SALT = np.uint64(0x6A09E667F3BCC909)
+#: Half-length of the split arc along the event's circle, in windows (at most the circle) [1].
+_ARC_WINDOWS = 4.0
 
 
 def model_parameters(
@@ -519,6 +524,104 @@ def _ray_integral(
     return total
 
 
+@njit(cache=True, inline="always")
+def _ray_parameter_at(
+    ray: FloatArray, h: float, p: FloatArray, flat: bool
+) -> float:  # pragma: no cover
+    """Distance along a view ray to where it reaches altitude h, clamped to [0, u_top] [m]."""
+    vz, h_o, u_top = ray[_R_VZ], ray[_R_H_O], ray[_R_U_TOP]
+    if flat:
+        u = (h - h_o) / vz if vz > 0.0 else 0.0
+    else:
+        radius = p[_P_RADIUS]
+        b = ray[_R_OX] * ray[_R_VX] + ray[_R_OY] * ray[_R_VY] + (ray[_R_OZ] + radius) * vz
+        c = (h_o - h) * (2.0 * radius + h_o + h)  # |O - C|^2 - (R + h)^2
+        disc = b * b - c
+        if disc < 0.0:
+            u = -b
+        elif c < 0.0:
+            root = math.sqrt(disc)
+            u = -c / (b + root) if b > 0.0 else root - b
+        else:
+            u = math.sqrt(disc) - b
+    return min(max(u, 0.0), u_top)
+
+
+@njit(cache=True)
+def _event_estimate(
+    x: float,
+    y: float,
+    z: float,
+    dx: float,
+    dy: float,
+    dz: float,
+    ray: FloatArray,
+    window: float,
+    points: int,
+    shift: float,
+    x_gl: FloatArray,
+    w_gl: FloatArray,
+    p: FloatArray,
+    flags: NDArray[np.int64],
+) -> float:  # pragma: no cover - compiled
+    """One event's estimate along one ray, averaged over rotations about the source's vertical
+    where the event's circle passes near the ray (see :func:`transport`); ``shift`` in (0, 1]
+    is the stratification offset of the rotations."""
+    if window <= 0.0 or points < 1:
+        return _ray_integral(x, y, z, False, dx, dy, dz, ray, x_gl, w_gl, p, flags)
+    flat = flags[_F_FLAT] != 0
+    s = math.sqrt(x * x + y * y)
+    # the arc of the event's circle nearest the ray: centred on the azimuth of the ray's point
+    # at the event's altitude, so that it depends on (s, z) and the ray only
+    u = _ray_parameter_at(ray, _altitude(x, y, z, p[_P_RADIUS], flat), p, flat)
+    ox, oy, oz = ray[_R_OX], ray[_R_OY], ray[_R_OZ]
+    vx, vy, vz = ray[_R_VX], ray[_R_VY], ray[_R_VZ]
+    centre = math.atan2(oy + u * vy, ox + u * vx)
+    qx, qy = s * math.cos(centre), s * math.sin(centre)
+    rx, ry, rz = qx - ox, qy - oy, z - oz
+    t = min(max(rx * vx + ry * vy + rz * vz, 0.0), ray[_R_U_TOP])
+    ex, ey, ez = rx - t * vx, ry - t * vy, rz - t * vz
+    gap = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if gap >= window or s <= p[_P_CORE]:
+        return _ray_integral(x, y, z, False, dx, dy, dz, ray, x_gl, w_gl, p, flags)
+    length = min(_ARC_WINDOWS * window, math.pi * s)  # half-length of the arc [m]
+    half = length / s
+    azimuth = math.atan2(y, x)
+    off = (azimuth - centre + math.pi) % (2.0 * math.pi) - math.pi
+    total = 0.0
+    if abs(off) > half:  # outside the arc: the event itself
+        total = _ray_integral(x, y, z, False, dx, dy, dz, ray, x_gl, w_gl, p, flags)
+    # arc length l = g sinh(t), t stratified: density 1 / sqrt(g^2 + l^2) along the arc, the
+    # shape of the 1 / d peak of an event passing at gap g from the ray
+    g = max(gap, p[_P_CORE])
+    t_max = math.asinh(length / g)
+    step = 2.0 * t_max / points
+    part = 0.0
+    for k in range(points):
+        t = -t_max + (k + shift) * step
+        angle = centre + g * math.sinh(t) / s - azimuth  # rotation of the event
+        ca, sa = math.cos(angle), math.sin(angle)
+        part += (
+            g
+            * math.cosh(t)
+            * _ray_integral(
+                x * ca - y * sa,
+                x * sa + y * ca,
+                z,
+                False,
+                dx * ca - dy * sa,
+                dx * sa + dy * ca,
+                dz,
+                ray,
+                x_gl,
+                w_gl,
+                p,
+                flags,
+            )
+        )
+    return total + part * step / (2.0 * math.pi * s)
+
+
 @njit(cache=True)
 def _source_luminance(
     rays: FloatArray, x_gl: FloatArray, w_gl: FloatArray, p: FloatArray, flags: NDArray[np.int64]
@@ -542,6 +645,8 @@ def _history(
     w_gl: FloatArray,
     p: FloatArray,
     flags: NDArray[np.int64],
+    windows: FloatArray,
+    points: int,
     tally: FloatArray,
     budget: FloatArray,
     record: FloatArray,
@@ -555,6 +660,8 @@ def _history(
     iso = flags[_F_ISOTROPIC_MOLECULES] != 0
     radius = p[_P_RADIUS]
     state = _seed_state(seed, photon)
+    split_state = _seed_state(seed, photon)  # a second stream: the histories do not change
+    split_state[0] ^= _SPLIT_SALT
     mu = _sample_emission(state, flags[_F_EMISSION], p)
     dx, dy, dz = _turn(0.0, 0.0, 1.0, mu, 2.0 * math.pi * _next(state))
     x, y, z = 0.0, 0.0, p[_P_H_C]
@@ -583,9 +690,10 @@ def _history(
         survive = sig_s / (sig_m + sig_a)
         budget[_B_ABSORBED] += weight * (1.0 - survive)
         weight *= survive
+        shift = _next(split_state)
         for j in range(rays.shape[0]):
-            tally[order + 1, j] += weight * _ray_integral(
-                x, y, z, False, dx, dy, dz, rays[j], x_gl, w_gl, p, flags
+            tally[order + 1, j] += weight * _event_estimate(
+                x, y, z, dx, dy, dz, rays[j], windows[j], points, shift, x_gl, w_gl, p, flags
             )
         # new direction: species by its share of scattering, then its phase function
         if _next(state) * sig_s < sig_m:
@@ -606,6 +714,8 @@ def _transport(
     w_gl: FloatArray,
     p: FloatArray,
     flags: NDArray[np.int64],
+    windows: FloatArray,
+    points: int,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:  # pragma: no cover
     """Per-block sums over photons of the order tallies, their squares, the squares of the
     per-photon sum over orders >= 2, the flux budget, and the event counts."""
@@ -621,7 +731,19 @@ def _transport(
         for photon in range(b, photons, blocks):
             tally[:] = 0.0
             events[b] += _history(
-                seed, photon, max_order, rays, x_gl, w_gl, p, flags, tally, budgets[b], no_record
+                seed,
+                photon,
+                max_order,
+                rays,
+                x_gl,
+                w_gl,
+                p,
+                flags,
+                windows,
+                points,
+                tally,
+                budgets[b],
+                no_record,
             )
             for k in range(max_order + 1):
                 for j in range(n_rays):
@@ -645,8 +767,32 @@ def transport(
     params: FloatArray,
     flags: NDArray[np.int64],
     blocks: int = 64,
+    windows: FloatArray | None = None,
+    points: int = 0,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float, FloatArray]:
     """Run ``photons`` histories; the result does not depend on the number of threads.
+
+    Azimuthal splitting (``windows``, ``points``): the atmosphere and the emission are
+    symmetric about the source's vertical, so an event rotated by any angle about it is an
+    event of the same distribution. When the circle of an event (its rotations) passes within
+    ``windows[j]`` of ray j (the gap g measured at the circle's point at the azimuth of the
+    ray's point at the event's altitude: a function of the event's radius and altitude and of
+    the ray, not of the event's own azimuth), its estimate is the arc A of half-length
+    L = min(4 window, pi s) about that point, sampled at ``points`` rotations with arc length
+    g sinh(t), t stratified (density 1 / sqrt(g^2 + l^2) along the arc, weighted by its
+    inverse), plus the event itself when it lies outside A. Its expectation is the event's
+    (each part is that of a uniform azimuth); the rare events that pass near a ray far from
+    the source, which carry most of the variance there, are replaced by an importance-sampled
+    average over their arc. The stratification offsets come from a second random stream per
+    photon, so the histories are those of the unsplit estimator.
+
+    Parameters
+    ----------
+    windows
+        Per ray: distance from its ray under which an event's circle is split; None or 0:
+        no splitting [m].
+    points
+        Rotations sampled on the arc [1].
 
     Returns
     -------
@@ -663,8 +809,19 @@ def transport(
         Order-1 luminance per ray.
     """
     blocks = max(1, min(blocks, photons))
+    win = np.zeros(rays.shape[0]) if windows is None else np.asarray(windows, dtype=float)
     sums, squares, total_squares, budgets, events = _transport(
-        int(seed), int(photons), blocks, int(max_order), rays, x_gl, w_gl, params, flags
+        int(seed),
+        int(photons),
+        blocks,
+        int(max_order),
+        rays,
+        x_gl,
+        w_gl,
+        params,
+        flags,
+        win,
+        int(points),
     )
     order1 = _source_luminance(rays, x_gl, w_gl, params, flags)
     return (
@@ -713,5 +870,8 @@ def trace_photon(
     tally = np.zeros((max_order + 1, rays.shape[0]))
     budget = np.zeros(4)
     record = np.zeros((max_order, 8))
-    n = _history(seed, photon, max_order, rays, x_gl, w_gl, params, flags, tally, budget, record)
+    windows = np.zeros(rays.shape[0])
+    n = _history(
+        seed, photon, max_order, rays, x_gl, w_gl, params, flags, windows, 0, tally, budget, record
+    )
     return record[:n], tally, budget

@@ -30,6 +30,25 @@ point detector), and a cone wide enough to collect many collisions blurs the dir
 ray integral has no observer singularity, and the 1 / d of a chord passing at miss distance d
 from the event only gives a logarithmic growth of the variance, bounded by the softening r0.
 
+Azimuthal splitting (optional, ``split_window``). The atmosphere is horizontally uniform and
+the emission symmetric about the source's vertical, so an event rotated about that vertical by
+any angle is an event of the same distribution. Far from the source the variance is carried
+by rare events that pass a few hundred metres to a few kilometres from a view ray (photons
+that reached the observer's neighbourhood); when the event's circle about the vertical passes
+within a window of the ray (gap g, a test on the event's radius s and altitude only, not its
+azimuth), the estimate is the arc A of that circle nearest the ray (arc length l from its
+centre, |l| <= L), sampled at K rotations l_k = g sinh(t_k) with t_k stratified in
+[-asinh(L / g), asinh(L / g)] (density 1 / sqrt(g^2 + l^2), the shape of the 1 / d peak),
+plus the event itself when it lies outside the arc:
+
+.. math::
+    \\hat b = \\frac{1}{2 \\pi s} \\frac{2\\,\\mathrm{asinh}(L / g)}{K}
+        \\sum_{k=1}^{K} \\sqrt{g^2 + l_k^2}\\, b(l_k) + b(\\phi_e)\\, [\\phi_e \\notin A],
+
+whose expectation over the event's uniform azimuth phi_e and the stratification offset is the
+event's own. The histories are unchanged (the offsets come from a second random stream per
+photon).
+
 One set of photon histories serves every observer distance and view direction (the atmosphere
 is horizontally uniform, the emission symmetric about the source's vertical). Each photon has
 its own random-number stream (SplitMix64 seeded by the seed and the photon's index), so results
@@ -141,6 +160,8 @@ def monte_carlo_luminance(
     event_nodes: int = 12,
     core_radius: float = 1.0,
     uplight_exponent: float = UPLIGHT_EXPONENT,
+    split_window: float = 0.0,
+    split_points: int = 16,
 ) -> MonteCarloLuminance:
     """Sky luminance per scattering order from a ground point source, by Monte Carlo.
 
@@ -178,6 +199,12 @@ def monte_carlo_luminance(
         Softening radius r0 of the source and of each event [m].
     uplight_exponent
         Exponent of the uplight lobe [1].
+    split_window
+        Azimuthal splitting: an event whose circle about the source's vertical passes within
+        ``split_window`` x (observer distance) of a ray is averaged over ``split_points``
+        rotations on the arc near the ray (unbiased; same histories); 0: off [1].
+    split_points
+        Rotations per split event [1].
 
     Returns
     -------
@@ -210,6 +237,10 @@ def monte_carlo_luminance(
         raise InputError(f"seed {seed!r}; expected an integer from 0 to 2**63 - 1")
     if not core_radius > 0:
         raise InputError(f"core_radius {core_radius!r} m; expected > 0")
+    if not split_window >= 0 or split_points < 1:
+        raise InputError(
+            f"split_window {split_window!r}, split_points {split_points!r}; expected >= 0, >= 1"
+        )
     el, az, r = (
         a.ravel().astype(float)
         for a in np.broadcast_arrays(
@@ -243,7 +274,16 @@ def monte_carlo_luminance(
     if max_order > 1:
         x_gl, w_gl = gauss_legendre(event_nodes)
         sums, squares, total_squares, budget, events, _ = compiled.transport(
-            int(seed), int(photons), int(max_order), rays, x_gl, w_gl, params, flags
+            int(seed),
+            int(photons),
+            int(max_order),
+            rays,
+            x_gl,
+            w_gl,
+            params,
+            flags,
+            windows=float(split_window) * r,
+            points=int(split_points),
         )
         budget = budget / photons
         mean = sums / photons

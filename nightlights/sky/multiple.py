@@ -17,10 +17,14 @@ Modelling choices:
 - f is measured by the Monte Carlo of :func:`~nightlights.sky.montecarlo.monte_carlo_luminance`
   (all orders, next-event estimation) on a coarse grid: 4 elevations (90, 45, 20, 8 deg) x 3
   relative azimuths (0 = towards the source, 90, 180) x 12 distances (100 m to 300 km, even in
-  ln r), one photon run serving every ray. It is interpolated linearly in (elevation,
-  azimuth, ln r) on ln f and held constant outside the grid (below 8 deg elevation, nearer than
-  100 m, farther than 300 km). The grid is coarse because f is smooth: the benchmark's
-  directions differ by 20-60 % at 10-300 km, not by orders of magnitude.
+  ln r), one photon run serving every ray. ln f is interpolated linearly in elevation and
+  azimuth and by a monotone cubic Hermite (Fritsch-Carlson) through the nodes in ln r, and
+  held constant outside the grid (below 8 deg elevation, nearer than 100 m, farther than
+  300 km). The grid is coarse because f is smooth: the benchmark's directions differ by
+  20-60 % at 10-300 km, not by orders of magnitude. In ln r, f of a Lambertian source bends
+  upwards beyond 50 km (a factor 2 in f from 70 to 145 km): linear interpolation overshot an
+  independent Monte Carlo at the midpoints 49 and 101 km by up to 4 and 10 %, the cubic by up
+  to 2 and 5 %.
 - f is computed for a source and an observer at sea level and applied at every source and
   observer altitude of the kernel (the altitudes of a city, up to a few hundred metres, are
   small against the scale heights that set f).
@@ -32,10 +36,17 @@ Modelling choices:
   none is applied: the error left is the tables' own noise, which falls as 1 / sqrt(photons).
 - The tables for the default atmospheres (turbidity 2 and Garstang's K = 1 at 550 nm, ground
   levels, each emission shape) are shipped, measured by
-  ``benchmarks/bench_sky_multiple_scattering_tables.py`` (120,000 photons per shape at
-  turbidity 2, 40,000 at K = 1, in runs of :data:`SHIPPED_PHOTONS` and more, seeds from
-  :data:`SEED`); any other atmosphere is measured when its first kernel is built
-  (:data:`BUILD_PHOTONS` photons, cached for the process).
+  ``benchmarks/bench_sky_multiple_scattering_tables.py`` (seeds from :data:`SEED`; each
+  table's runs, photons and estimator are recorded in the file): at turbidity 2, 120,000
+  photons for the Lambertian and uplight shapes and 60,000 with azimuthal splitting for
+  Garstang's psi^4 lobe; at K = 1, 40,000 per shape. Any other atmosphere is measured when its
+  first kernel is built (:data:`BUILD_PHOTONS` photons with azimuthal splitting, cached for
+  the process).
+- Azimuthal splitting (:func:`~nightlights.sky.montecarlo.monte_carlo_luminance`,
+  ``split_window`` = :data:`SPLIT_WINDOW`): an event whose circle about the source's vertical
+  passes near a view ray is replaced by an importance-sampled average over the arc near the
+  ray (unbiased, same histories). It removes most of the heavy tail that the few events
+  passing near a distant observer's rays give the plain estimator.
 - A tabulated (user) emission function cannot be sampled by the Monte Carlo; its table gets the
   factor of the kernel shape nearest to it in the share of flux below 30 deg elevation
   (:func:`nearest_shape`), and the kernel's attributes say so.
@@ -92,6 +103,11 @@ BUILD_PHOTONS = 5_000
 MAX_ORDER = 50
 #: Seed of the factor tables' photon streams.
 SEED = 20_231_219
+#: Azimuthal splitting of the table's Monte Carlo
+#: (:func:`~nightlights.sky.montecarlo.monte_carlo_luminance`): window as a fraction of the
+#: observer distance [1], and rotations per split event [1].
+SPLIT_WINDOW = 0.25
+SPLIT_POINTS = 16
 #: Elevation below which a shape's share of flux decides :func:`nearest_shape` [deg].
 LOW_ANGLE = 30.0
 
@@ -143,6 +159,7 @@ def _measure(
     photons: int,
     uplight_exponent: float,
     seed: int = SEED,
+    split_window: float = SPLIT_WINDOW,
 ) -> tuple[FloatArray, FloatArray]:
     """Factor and its standard error on the grid, shape ``(4, 3, 12)`` (the zenith is
     measured once and shared by the three azimuths)."""
@@ -161,6 +178,8 @@ def _measure(
         max_order=MAX_ORDER,
         seed=seed,
         uplight_exponent=uplight_exponent,
+        split_window=split_window,
+        split_points=SPLIT_POINTS,
     )
     shape = (len(FACTOR_ELEVATIONS), len(FACTOR_AZIMUTHS), zenith.size)
     factor = np.empty(shape)
@@ -242,6 +261,25 @@ def multiple_scattering_table(
     return MultipleScatteringTable(emission, raw, error, n, "measured")
 
 
+def _pchip_slopes(y: FloatArray, h: float) -> FloatArray:
+    """Fritsch-Carlson (monotone) node slopes of y on a uniform grid of step h, along the last
+    axis (three-point end formula, limited)."""
+    d = np.diff(y, axis=-1) / h
+    m = np.zeros(y.shape)
+    a, b = d[..., :-1], d[..., 1:]
+    same = a * b > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m[..., 1:-1] = np.where(
+            same, 2.0 / (1.0 / np.where(same, a, 1.0) + 1.0 / np.where(same, b, 1.0)), 0.0
+        )
+    for end, d0, d1 in ((0, d[..., 0], d[..., 1]), (-1, d[..., -1], d[..., -2])):
+        e = (3.0 * d0 - d1) / 2.0
+        e = np.where(e * d0 <= 0, 0.0, e)
+        e = np.where((d0 * d1 < 0) & (np.abs(e) > 3.0 * np.abs(d0)), 3.0 * d0, e)
+        m[..., end] = e
+    return m
+
+
 def _interpolate(
     factor: FloatArray, elevation: ArrayLike, azimuth: ArrayLike, distance: ArrayLike
 ) -> FloatArray:
@@ -258,7 +296,6 @@ def _interpolate(
     )
     points = (el, az, np.log(np.maximum(r, 1e-9)))
     log_f = np.log(factor)
-    # trilinear on ln f, clamped to the grid
     index = []
     frac = []
     for axis, p in zip(grid, points, strict=True):
@@ -266,14 +303,27 @@ def _interpolate(
         i = np.clip(np.searchsorted(axis, p, side="right") - 1, 0, axis.size - 2)
         index.append(i)
         frac.append((p - axis[i]) / (axis[i + 1] - axis[i]))
+    # in ln r: monotone cubic Hermite (Fritsch-Carlson) on ln f through the nodes
+    step = float(grid[2][1] - grid[2][0])
+    slopes = _pchip_slopes(log_f, step)
+    t = frac[2]
+    h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
+    h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2
+    # linear in elevation and azimuth
     out = np.zeros(el.shape)
+    k = index[2]
     for de in (0, 1):
         we = frac[0] if de else 1.0 - frac[0]
         for da in (0, 1):
             wa = frac[1] if da else 1.0 - frac[1]
-            for dr in (0, 1):
-                wr = frac[2] if dr else 1.0 - frac[2]
-                out += we * wa * wr * log_f[index[0] + de, index[1] + da, index[2] + dr]
+            ie, ia = index[0] + de, index[1] + da
+            value = (
+                h00 * log_f[ie, ia, k]
+                + h10 * step * slopes[ie, ia, k]
+                + h01 * log_f[ie, ia, k + 1]
+                + h11 * step * slopes[ie, ia, k + 1]
+            )
+            out += we * wa * value
     return np.asarray(np.exp(out))
 
 
@@ -356,6 +406,40 @@ def shape_table(
     that stands in for it (:func:`nearest_shape`)."""
     shape = nearest_shape(emission) if emission.startswith(TABULATED_PREFIX) else emission
     return multiple_scattering_table(atmosphere, shape, uplight_exponent=uplight_exponent)
+
+
+def tables_digest(atmosphere: Atmosphere, shapes: tuple[str, ...], uplight_exponent: float) -> str:
+    """A short hash of the factor tables a kernel of these shapes would use, for its cache key.
+
+    Parameters
+    ----------
+    atmosphere
+        The kernel's atmosphere.
+    shapes
+        Its emission shapes (tabulated functions: the text, their stand-in shape is used).
+    uplight_exponent
+        Exponent of the uplight lobe [1].
+
+    Returns
+    -------
+    str
+        16 hexadecimal digits: the shipped tables' values where they exist, else the
+        parameters of the build-time measurement (photons, seed, orders, splitting).
+    """
+    import hashlib
+
+    key = _atmosphere_key(atmosphere)
+    parts: list[Any] = []
+    for emission in shapes:
+        shape = nearest_shape(emission) if emission.startswith(TABULATED_PREFIX) else emission
+        entry = _shipped().get(f"{shape}|{float(uplight_exponent):g}|{key}")
+        if entry is not None:
+            parts.append([shape, entry["photons"], entry["factor"]])
+        else:
+            measured = [BUILD_PHOTONS, SEED, MAX_ORDER, SPLIT_WINDOW, SPLIT_POINTS]
+            parts.append([shape, "measured", *measured])
+    text = json.dumps(parts, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, str]:
