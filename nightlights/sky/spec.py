@@ -541,7 +541,13 @@ class KernelSpec:
         if self.altitude_step != 1:
             optional["altitude_step"] = self.altitude_step
         if self.multiple_scattering != "single":
+            from nightlights.sky.multiple import tables_digest
+
             optional["multiple_scattering"] = self.multiple_scattering
+            # the factor tables' content: a kernel cached with other tables is stale
+            optional["multiple_scattering_tables"] = tables_digest(
+                self.atmosphere, self.emissions, self.uplight_exponent
+            )
         return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
             "distance_edges": list(self.distance_edges or ()),
