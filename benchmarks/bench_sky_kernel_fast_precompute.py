@@ -25,8 +25,10 @@ interpolated pair's neighbours along one line of each kind.
 Targets (the kernel precompute issue): Dobashi's configuration in <= 3 min on this machine
 with <= 0.5 % mean relative error against today's build.
 
-Run: ``python benchmarks/bench_sky_kernel_fast_precompute.py [--quick] [--out DIR]``
-(``--quick``: a 16 x 64 panorama, 32 distances and 6 x 6 altitudes). Writes
+Run: ``NIGHTLIGHTS_MAX_MEMORY=20G python benchmarks/bench_sky_kernel_fast_precompute.py
+[--quick] [--out DIR]`` (``--quick``: a 16 x 64 panorama, 32 distances and 6 x 6 altitudes).
+The full configuration's build is estimated at 17.6 GiB, above the default limit of half the
+machine's memory, hence the raised limit. Writes
 ``sky_kernel_fast_precompute.json`` and ``.png``. Timings come from a shared 2-core machine
 and are noisy.
 """
@@ -47,7 +49,7 @@ TARGET_SECONDS = 180.0
 TARGET_ERROR = 0.005
 TODAY_SECONDS = 722.1  # sky_kernel_precompute.json, dobashi_configuration.build_seconds
 #: (altitude_step, nodes) settings; (1, 12) is today's path.
-SETTINGS = ((15, 12), (15, 8), (15, 6))
+SETTINGS = ((15, 8), (15, 6))
 #: Altitude pairs compared with today's path: (observer level, source level).
 SAMPLE_PAIRS = 8
 
@@ -198,7 +200,12 @@ def plot(payload: dict):
     plt = harness.pyplot()
     rows = payload["settings"]
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    ax.plot([payload["today_seconds"] / 60], [1e-7], "ks", label="today (every pair, 12 nodes)")
+    ax.plot(
+        [payload["today_seconds"] / 60],
+        [1e-7],
+        "ks",
+        label="today (every pair, 12 nodes): the reference, error 0 drawn at 1e-7",
+    )
     for row in rows:
         ax.plot(
             row["build_seconds"] / 60,
