@@ -14,10 +14,11 @@ region of influence ``floor:0.01`` lx), both kernels in the same run:
 * the COG write of a lit 2 km square at 1 m (``nightlights.io.write_cog``), with the writer's
   defaults and with the irradiance stage's options (ZSTD level 1, all cores, averaged
   overviews);
-* end to end, measured: ``nightlights.ground.irradiance`` on the target scene, 100,000
-  luminaires over 10 x 10 km at 1 m, from the light layer to the written COG, split into the
-  kernel (``compute_irradiance``), the write and the rest ("setup": luminaire placement and
-  photometry, regions of influence, grid, the float64 raster).
+* end to end, measured (the fastest of three runs): ``nightlights.ground.irradiance`` on the
+  target scene, 100,000 luminaires over 10 x 10 km at 1 m, from the light layer to the
+  written COG, split into the kernel (``compute_irradiance``), the write and the rest
+  ("setup": luminaire placement and photometry, regions of influence, grid, the float64
+  raster).
 
 Light-pixel evaluations per second ("pairs/s") is the throughput figure, from wall time
 (2 local threads unless stated; the fastest of three runs of the compiled kernel and of two of
@@ -194,13 +195,21 @@ def stage_clock(clock: dict):
 
 
 def end_to_end(side: float) -> dict:
-    """The irradiance stage on a ``side``-metre square at the target density, to a COG.
+    """The irradiance stage on a ``side``-metre square at the target density, to a COG: the
+    fastest of ``REPEATS["numba"]`` runs (every run's total in ``totals_s``).
 
     One call of ``nightlights.ground.irradiance`` (the compiled kernel, local threads) from
     the light layer to the written file; the kernel and the write are timed inside it, the
     rest (luminaire placement and photometry, regions of influence, grid, the float64
     raster) is ``setup_s``.
     """
+    runs = [end_to_end_once(side) for _ in range(REPEATS["numba"])]
+    best = min(runs, key=lambda run: run["total_s"])
+    return best | {"totals_s": [round(run["total_s"], 2) for run in runs]}
+
+
+def end_to_end_once(side: float) -> dict:
+    """One run of :func:`end_to_end`."""
     frame = scene_frame(side)
     clock: dict = {}
     with tempfile.TemporaryDirectory() as folder, stage_clock(clock):
