@@ -33,11 +33,10 @@ from pathlib import Path
 
 import _harness as harness
 import numpy as np
+from _dobashi import bright_relative_errors, dobashi_spec
 
 from nightlights.sky import KernelSpec
-from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import altitude_pairs, kernel_tables
-from nightlights.sky.pca import BRIGHT_FRACTION
 
 TARGET_ERROR = 0.005
 TARGET_RATIO = 0.25
@@ -46,17 +45,7 @@ TARGET_RATIO = 0.25
 def spec_for(quick: bool, step: int) -> KernelSpec:
     """Dobashi's altitudes and distances on an 8 x 32 panorama (``quick``: fewer)."""
     n_levels, n_r = (6, 32) if quick else (16, 128)
-    altitudes = np.arange(n_levels) * 62.5
-    edges = np.concatenate([[1.0], np.arange(1, n_r + 1) * (10_000.0 / n_r)])
-    return KernelSpec(
-        distance_edges=edges,
-        source_altitudes=altitudes,
-        observer_altitudes=altitudes,
-        n_elevation=8,
-        n_azimuth=32,
-        atmosphere=Atmosphere(turbidity=1.3),
-        altitude_step=step,
-    )
+    return dobashi_spec(n_levels, n_r, 8, 32, altitude_step=step)
 
 
 def pair_errors(table: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
@@ -66,10 +55,7 @@ def pair_errors(table: np.ndarray, reference: np.ndarray) -> tuple[float, float]
     total, count, worst = 0.0, 0, 0.0
     for o in range(n_o):
         for c in range(n_c):
-            exact = reference[o, c].reshape(reference.shape[2], -1).astype(float)
-            approx = table[o, c].reshape(exact.shape).astype(float)
-            bright = exact > BRIGHT_FRACTION * exact.max(axis=1, keepdims=True)
-            rel = np.abs(approx[bright] - exact[bright]) / exact[bright]
+            rel = bright_relative_errors(table[o, c], reference[o, c])
             total, count = total + float(rel.sum()), count + rel.size
             worst = max(worst, float(rel.mean()) if rel.size else 0.0)
     return total / count, worst

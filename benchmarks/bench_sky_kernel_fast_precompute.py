@@ -39,11 +39,10 @@ import os
 
 import _harness as harness
 import numpy as np
+from _dobashi import bright_relative_errors, dobashi_spec
 
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import altitude_pairs, pair_images
-from nightlights.sky.pca import BRIGHT_FRACTION
 
 TARGET_SECONDS = 180.0
 TARGET_ERROR = 0.005
@@ -54,32 +53,15 @@ SETTINGS = ((15, 8), (15, 6))
 SAMPLE_PAIRS = 8
 
 
-def dobashi_spec(quick: bool, step: int, nodes: int) -> KernelSpec:
-    n_levels, n_r, n_el, n_az = (6, 32, 16, 64) if quick else (16, 128, 64, 256)
-    altitudes = np.arange(n_levels) * 62.5
-    edges = np.concatenate([[1.0], np.arange(1, n_r + 1) * (10_000.0 / n_r)])
-    return KernelSpec(
-        distance_edges=edges,
-        source_altitudes=altitudes,
-        observer_altitudes=altitudes,
-        n_elevation=n_el,
-        n_azimuth=n_az,
-        atmosphere=Atmosphere(turbidity=1.3),
-        altitude_step=step,
-        nodes=nodes,
-    )
+def spec_for(quick: bool, step: int, nodes: int) -> KernelSpec:
+    """Dobashi's configuration (``quick``: a 16 x 64 panorama, 32 distances, 6 x 6 altitudes)."""
+    grid = (6, 32, 16, 64) if quick else (16, 128, 64, 256)
+    return dobashi_spec(*grid, altitude_step=step, nodes=nodes)
 
 
 def images(spec: KernelSpec, o: int, c: int, nodes: int) -> np.ndarray:
     """Single-scattering Lambertian images of one altitude pair, shape (n_r, n_el, n_az)."""
     return pair_images(spec, o, c, "lambertian", nodes=nodes)
-
-
-def mean_relative_error(approx: np.ndarray, exact: np.ndarray) -> float:
-    """Mean |approx - exact| / exact over the pixels above BRIGHT_FRACTION of each image's max."""
-    peak = exact.max(axis=(-2, -1), keepdims=True)
-    bright = exact > BRIGHT_FRACTION * peak
-    return float(np.mean(np.abs(approx[bright] - exact[bright]) / exact[bright]))
 
 
 def lever_error(spec: KernelSpec, pairs: list[tuple[int, int]]) -> dict:
@@ -113,7 +95,7 @@ def lever_error(spec: KernelSpec, pairs: list[tuple[int, int]]) -> dict:
                 "observer_level": o,
                 "source_level": c,
                 "computed": bool(computed[o, c]),
-                "mean_rel_error": mean_relative_error(approx, exact),
+                "mean_rel_error": float(np.mean(bright_relative_errors(approx, exact))),
             }
         )
     interpolated_share = 1.0 - computed.mean()
@@ -156,7 +138,7 @@ def main() -> None:
     build_kernel(KernelSpec(n_distance=2, n_elevation=2, n_azimuth=4), progress=False)
     rows = []
     for step, nodes in SETTINGS:
-        spec = dobashi_spec(args.quick, step, nodes)
+        spec = spec_for(args.quick, step, nodes)
         result, seconds = harness.timed(lambda spec=spec: build_kernel(spec, progress=False))
         ds = result.kernel
         row = {

@@ -24,10 +24,9 @@ import tempfile
 from pathlib import Path
 
 import _harness as harness
-import numpy as np
+from _dobashi import dobashi_spec
 
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.store import write_kernel
 
 
@@ -89,16 +88,7 @@ def main() -> None:
     if kept is not None:
         out["dobashi_configuration"] = kept
     elif not args.quick and not args.keep_dobashi:
-        altitudes = np.arange(16) * 62.5
-        edges = np.concatenate([[1.0], (np.arange(1, 129)) * 78.125])
-        spec = KernelSpec(
-            distance_edges=edges,
-            source_altitudes=altitudes,
-            observer_altitudes=altitudes,
-            n_elevation=64,
-            n_azimuth=256,
-            atmosphere=Atmosphere(turbidity=1.3),
-        )
+        spec = dobashi_spec()
         seconds, ds = timed(spec)
         with tempfile.TemporaryDirectory() as tmp:
             path, write_seconds = harness.timed(

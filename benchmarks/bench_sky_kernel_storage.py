@@ -47,9 +47,9 @@ from pathlib import Path
 
 import _harness as harness
 import numpy as np
+from _dobashi import dobashi_spec
 
 from nightlights.sky import KernelSpec
-from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import kernel_dataset, kernel_tables
 from nightlights.sky.panorama import kernel_slice
 from nightlights.sky.pca import (
@@ -65,22 +65,11 @@ TARGET_ERROR = 0.01
 TARGET_LOAD_SECONDS = 1.0
 
 
-def dobashi_spec(quick: bool, full: bool) -> KernelSpec:
+def spec_for(quick: bool, full: bool) -> KernelSpec:
     """The reduced configuration (``quick``: fewer altitudes; ``full``: Dobashi's), with the
     original storage options."""
-    n_levels = 4 if quick else 16
-    n_r = 128 if full else 32
-    altitudes = np.arange(n_levels) * 62.5
-    edges = np.concatenate([[1.0], np.arange(1, n_r + 1) * (10_000.0 / n_r)])
     n_el, n_az = (64, 256) if full else (16, 64)
-    return KernelSpec(
-        distance_edges=edges,
-        source_altitudes=altitudes,
-        observer_altitudes=altitudes,
-        n_elevation=n_el,
-        n_azimuth=n_az,
-        atmosphere=Atmosphere(turbidity=1.3),
-    )
+    return dobashi_spec(4 if quick else 16, 128 if full else 32, n_el, n_az)
 
 
 def images_error(ds, table: np.ndarray) -> tuple[float, float]:
@@ -124,7 +113,7 @@ def main() -> None:
         "--altitude-step", type=int, default=1, help="build the tables with this altitude_step"
     )
     args = harness.parse_args(parser)
-    spec = dobashi_spec(args.quick, args.full)
+    spec = spec_for(args.quick, args.full)
     cache = args.tables_cache
     if cache is not None and cache.is_file():
         table = np.load(cache, mmap_mode="r")
