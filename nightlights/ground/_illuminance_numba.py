@@ -8,33 +8,42 @@ The same sum as the numpy reference :func:`nightlights.ground.illuminance.ground
 to each pixel centre inside its region of influence [1, Eq. 11]. The window is done in blocks
 of :data:`BLOCK` x :data:`BLOCK` pixels (512 KiB of float64 a band, which stays in a core's
 L2 cache while the luminaires add to it); in each block, one pass per luminaire over the pixel
-rows of its disc. Per row run, one loop finds, for every pixel, the candela-table cell and
-the fractions within it and :math:`\\max(0, \\cos\\beta) / d^2`, free of calls and branches so
-that the compiler turns it into SIMD code:
+rows of its disc. Per row run, three loops, the first two free of calls and branches so that
+the compiler turns them into SIMD code:
 
-* the light's body coordinates :math:`b = R^T d` [1, Eq. 5] with the row's terms hoisted;
-* :math:`V = \\operatorname{atan2}(|b_{xy}|, -b_z)` and
-  :math:`H = H_{street} + \\operatorname{atan2}(-b_x, b_y)`, each arc tangent fdlibm's
-  polynomial [2] after a branch-free reduction to :math:`|u| \\le \\tan(\\pi/8)`
-  (:func:`_octant`, :func:`_unfold`); the two reductions' divisions and :math:`1/d` share
-  one division, :math:`q = 1 / (D_1 D_2 d)`, so that a pixel costs two square roots and one
-  division (within a few ulp of three divisions);
-* rows farther than ``MIN_DISTANCE`` from the light point skip the reference's near-light
-  clipping (:func:`_pixel_far`, the same bits as :func:`_pixel` there).
-* on flat ground the loop runs over a whole number of SIMD widths (``_LANES``), the few
-  pixels past the run computed and left unread, so that no pixel falls to a scalar loop.
+1. the reduced arc-tangent arguments of V and H and :math:`\\max(0, \\cos\\beta) / d^2`:
 
-A second loop reads the four corners of each cell and adds the bilinear candela [1, Eq. 4]
-times the factor to the row, fused for one band. No array per light-pixel pair is made: the
-buffers hold one row of a block.
+   * the light's body coordinates :math:`b = R^T d` [1, Eq. 5] with the row's terms hoisted;
+   * :math:`V = \\operatorname{atan2}(|b_{xy}|, -b_z)` and
+     :math:`H = H_{street} + \\operatorname{atan2}(-b_x, b_y)`, each reduced without branches
+     to an offset plus :math:`\\arctan u` with :math:`|u| \\le \\tan(\\pi/8)`
+     (:func:`_reduce`); the two reductions' divisions and :math:`1/d` share one division,
+     :math:`q = 1 / (D_1 D_2 d)`, so that a pixel costs two square roots and one division
+     (within a few ulp of three divisions);
+   * rows farther than ``MIN_DISTANCE`` from the light point skip the reference's
+     near-light clipping (:func:`_pixel_far`, the same bits as :func:`_pixel` there);
+   * on flat ground the loop runs over a whole number of SIMD widths (``_LANES``), the few
+     pixels past the run computed and left unread, so that no pixel falls to a scalar loop;
+
+2. the arc tangents, fdlibm's polynomial [2] (:func:`_arctan`), and from them the
+   candela-table cell and the fractions within it (:func:`_row_cells`);
+3. the bilinear candela [1, Eq. 4] from the cell's four corners, read as two pairs of
+   vertical neighbours (:attr:`PackedTables.pairs`), times the factor, added to the row
+   (fused for one band).
+
+The first two loops were one until the arithmetic of a pixel (some 140 vector instructions,
+a dependency chain of two square roots, a division and a polynomial) outgrew what the core
+overlaps from one iteration to the next; split, each overlaps its iterations, which cut the
+time per pixel by about a fifth (``benchmarks/bench_irradiance_throughput.py``). No array
+per light-pixel pair is made: the buffers hold one row of a block.
 
 Which pixels a luminaire lights, and the order in which luminaires add to a pixel, depend on
 the pixel's index in the whole grid, never on the window, and every pixel goes through the
 same arithmetic (fused multiply-adds allowed, no reassociation): a raster cut into any tiles,
 on any scheduler, gives the same bits (tested).
 
-Length: the per-pixel steps (reduction, unfolding, cell, near and far pixels, flat and terrain
-rows, fused and banded lookups) are small functions that the compiler inlines into one loop
+Length: the per-pixel steps (reduction, arc tangent, near and far pixels, flat and terrain
+rows, cells, fused and banded lookups) are small functions that the compiler inlines into one loop
 each; they share the constants and conventions of one kernel.
 
 References
@@ -53,7 +62,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from nightlights._typing import FloatArray
+from nightlights._typing import ComplexArray, FloatArray
 from nightlights.ground.frames import IntensityTable
 
 __all__ = ["PackedTables", "pack_tables", "window_illuminance"]
@@ -84,94 +93,80 @@ _AT10 = 1.62858201153657823623e-02
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
-def _octant(y: float, x: float) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Numerator, denominator and offset of the reduced arc tangent of atan2(y, x).
+def _reduce(
+    y: float, x: float, upper: bool
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """atan2(y, x) as ``offset + arctan(numerator / denominator)``, with |ratio| <= tan(pi/8).
 
     With s = min(|x|, |y|) and l = max(|x|, |y|), arctan(s / l) is in [0, pi/4]; above
     tan(pi/8) it is pi/4 + arctan((s - l) / (s + l)), so that the polynomial's argument
-    stays within tan(pi/8). Returns (s - b l, l + b s, b pi/4) with b in {0, 1}; a zero
-    denominator (x = y = 0) becomes 1.
+    stays within tan(pi/8). The octant's reflections (pi/2 - a when |y| > |x|, pi - a when
+    x < 0, -a when y < 0) move into the offset and the sign of the numerator (the arc
+    tangent is odd), so that the angle is one addition once the ratio's arc tangent is
+    known. Returns (numerator, denominator, offset [rad]); a zero denominator (x = y = 0)
+    becomes 1.
     """
-    ay = abs(y)
+    ay = y if upper else abs(y)
     ax = abs(x)
-    large = ay if ay > ax else ax
-    small = ax if ay > ax else ay
+    swap = ay > ax
+    large = ay if swap else ax
+    small = ax if swap else ay
     b = 1.0 if small > _TAN_PI_8 * large else 0.0
     denominator = large + b * small
-    return small - b * large, denominator if denominator > 0.0 else 1.0, b * _QUARTER_PI
+    numerator = small - b * large
+    offset = b * _QUARTER_PI
+    offset = _HALF_PI - offset if swap else offset
+    sign = -1.0 if swap else 1.0
+    offset = math.pi - offset if x < 0.0 else offset
+    sign = -sign if x < 0.0 else sign
+    if not upper:
+        offset = -offset if y < 0.0 else offset
+        sign = -sign if y < 0.0 else sign
+    return sign * numerator, denominator if denominator > 0.0 else 1.0, offset
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
-def _unfold(y: float, x: float, u: float, base: float) -> float:  # pragma: no cover - compiled
-    """atan2(y, x) from the reduced argument u and offset of :func:`_octant` [rad]."""
+def _arctan(u: float) -> float:  # pragma: no cover - compiled
+    """arctan(u) for |u| <= tan(pi/8): fdlibm's polynomial [2] [rad]."""
     z = u * u
     w = z * z
     s1 = z * (_AT0 + w * (_AT2 + w * (_AT4 + w * (_AT6 + w * (_AT8 + w * _AT10)))))
     s2 = w * (_AT1 + w * (_AT3 + w * (_AT5 + w * (_AT7 + w * _AT9))))
-    angle = base + (u - u * (s1 + s2))
-    angle = _HALF_PI - angle if abs(y) > abs(x) else angle
-    angle = math.pi - angle if x < 0.0 else angle
-    return -angle if y < 0.0 else angle
+    return u - u * (s1 + s2)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _atan2(y: float, x: float) -> float:  # pragma: no cover - compiled
     """math.atan2(y, x) without branches or calls, to ~1e-16 (0 for y = x = 0) [rad]."""
-    numerator, denominator, base = _octant(y, x)
-    return _unfold(y, x, numerator / denominator, base)
+    numerator, denominator, offset = _reduce(y, x, False)
+    return offset + _arctan(numerator / denominator)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
-def _cell(
-    sin_v: float,
-    cos_v: float,
-    bx: float,
-    by: float,
-    distance: float,
-    azimuth: float,
-    table: tuple[float, float, float, float, float, float, float],
-) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    """Candela-table cell of the direction with body coordinates b, and 1 / |b|.
+def _reduced(
+    sin_v: float, cos_v: float, bx: float, by: float, distance: float
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled
+    """Reduced arc-tangent arguments of V and H, and 1 / ``distance``.
 
-    V = atan2(sin_v, cos_v) and H = H_street + atan2(-b_x, b_y), wrapped into [0, 360).
-    Returns the flat index of the cell's (0, 0) corner and the fractions (tv, th) within the
-    cell, as the bilinear lookup [1, Eq. 4] reads them, and 1 / ``distance``. The two arc
-    tangents' divisions and 1 / ``distance`` share one division: with
-    q = 1 / (D1 D2 distance), N1 / D1 = N1 D2 distance q, N2 / D2 = N2 D1 distance q and
-    1 / distance = D1 D2 q (a few ulp).
+    V = atan2(sin_v, cos_v) and H - H_street = atan2(-b_x, b_y), each as
+    ``offset + arctan(u)`` (:func:`_reduce`). The two ratios and 1 / ``distance`` share one
+    division: with q = 1 / (D1 D2 distance), N1 / D1 = N1 D2 distance q,
+    N2 / D2 = N2 D1 distance q and 1 / distance = D1 D2 q (a few ulp).
+    Returns (u_V, offset_V, u_H, offset_H, 1 / distance).
     """
-    scale_v, scale_h, top_v, top_h, last_v, last_h, n_v = table
-    n1, d1, base1 = _octant(sin_v, cos_v)
-    n2, d2, base2 = _octant(-bx, by)
+    n1, d1, offset_v = _reduce(sin_v, cos_v, True)
+    n2, d2, offset_h = _reduce(-bx, by, False)
     q = 1.0 / (d1 * d2 * distance)
     inv_d = d1 * d2 * q
     q = distance * q
-    vertical = _unfold(sin_v, cos_v, n1 * (d2 * q), base1) * scale_v
-    horizontal = _unfold(-bx, by, n2 * (d1 * q), base2) * _DEGREES + azimuth
-    horizontal -= 360.0 * np.floor(horizontal * (1.0 / 360.0))
-    horizontal *= scale_h
-    # NaN and rounding past the table's ends clamp
-    v = vertical if vertical >= 0.0 else 0.0
-    v = v if v <= top_v else top_v
-    h = horizontal if horizontal >= 0.0 else 0.0
-    h = h if h <= top_h else top_h
-    iv = np.floor(v)
-    iv = iv if iv < last_v else last_v
-    ih = np.floor(h)
-    ih = ih if ih < last_h else last_h
-    return ih * n_v + iv, v - iv, h - ih, inv_d
+    return n1 * (d2 * q), offset_v, n2 * (d1 * q), offset_h, inv_d
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
 def _pixel(
-    bx: float,
-    by: float,
-    bz: float,
-    d2_raw: float,
-    azimuth: float,
-    table: tuple[float, float, float, float, float, float, float],
-) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    """:func:`_cell` of body direction b with |b|^2 = ``d2_raw``, at any distance.
+    bx: float, by: float, bz: float, d2_raw: float
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled
+    """:func:`_reduced` of body direction b with |b|^2 = ``d2_raw``, at any distance.
 
     V = arccos(-b_z / d) is atan2(|b_xy|, -b_z); closer than MIN_DISTANCE, the reference's
     arccos of the clipped cosine -b_z / MIN_DISTANCE, and d = MIN_DISTANCE.
@@ -185,27 +180,23 @@ def _pixel(
     sin_v = 1.0 - cos_v * cos_v if near else bx * bx + by * by
     sin_v = math.sqrt(sin_v if sin_v > 0.0 else 0.0)
     cos_v = cos_v if near else -bz
-    return _cell(sin_v, cos_v, bx, by, distance, azimuth, table)
+    return _reduced(sin_v, cos_v, bx, by, distance)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
 def _pixel_far(
-    bx: float,
-    by: float,
-    bz: float,
-    d2_raw: float,
-    azimuth: float,
-    table: tuple[float, float, float, float, float, float, float],
-) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+    bx: float, by: float, bz: float, d2_raw: float
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled
     """:func:`_pixel` for |b|^2 = ``d2_raw`` > MIN_DISTANCE^2 (the same bits, fewer steps)."""
-    return _cell(math.sqrt(bx * bx + by * by), -bz, bx, by, math.sqrt(d2_raw), azimuth, table)
+    return _reduced(math.sqrt(bx * bx + by * by), -bz, bx, by, math.sqrt(d2_raw))
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _row_flat(
-    cell: NDArray[np.int64],
-    tv: FloatArray,
-    th: FloatArray,
+    u_v: FloatArray,
+    offset_v: FloatArray,
+    u_h: FloatArray,
+    offset_h: FloatArray,
     factor: FloatArray,
     n: int,
     x0: float,
@@ -215,10 +206,8 @@ def _row_flat(
     px: float,
     pz: float,
     rot: tuple[float, float, float, float, float, float, float, float, float],
-    azimuth: float,
-    table: tuple[float, float, float, float, float, float, float],
 ) -> None:  # pragma: no cover - compiled
-    """Table cells and cos(incidence) / d^2 on flat ground, z = 0, at columns first.. of a row."""
+    """:func:`_reduced` and cos(incidence) / d^2 on flat ground, z = 0, at columns first.."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
     dz = -pz
     # body coordinates b = R^T d (right, forward, up) [1, Eq. 5], the row's terms hoisted
@@ -230,28 +219,27 @@ def _row_flat(
         # no pixel of the row is within MIN_DISTANCE of the light point
         for k in range(n):
             dx = (x0 + (first + k) * resolution) - px
-            index, tv[k], th[k], inv_d = _pixel_far(
-                r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2, azimuth, table
+            u_v[k], offset_v[k], u_h[k], offset_h[k], inv_d = _pixel_far(
+                r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2
             )
-            cell[k] = np.int64(index)
             cos_incidence = -dz * inv_d
             factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
         return
     for k in range(n):
         dx = (x0 + (first + k) * resolution) - px
-        index, tv[k], th[k], inv_d = _pixel(
-            r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2, azimuth, table
+        u_v[k], offset_v[k], u_h[k], offset_h[k], inv_d = _pixel(
+            r00 * dx + cx, r01 * dx + cy, r02 * dx + cz, dx * dx + dyz2
         )
-        cell[k] = np.int64(index)
         cos_incidence = -dz * inv_d
         factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _row_terrain(
-    cell: NDArray[np.int64],
-    tv: FloatArray,
-    th: FloatArray,
+    u_v: FloatArray,
+    offset_v: FloatArray,
+    u_h: FloatArray,
+    offset_h: FloatArray,
     factor: FloatArray,
     n: int,
     x0: float,
@@ -261,8 +249,6 @@ def _row_terrain(
     px: float,
     pz: float,
     rot: tuple[float, float, float, float, float, float, float, float, float],
-    azimuth: float,
-    table: tuple[float, float, float, float, float, float, float],
     ground_z: FloatArray,
     normals: FloatArray,
 ) -> None:  # pragma: no cover - compiled
@@ -275,30 +261,69 @@ def _row_terrain(
     for k in range(n):
         dx = (x0 + (first + k) * resolution) - px
         dz = ground_z[k] - pz
-        index, tv[k], th[k], inv_d = _pixel(
+        u_v[k], offset_v[k], u_h[k], offset_h[k], inv_d = _pixel(
             r00 * dx + cx + r20 * dz,
             r01 * dx + cy + r21 * dz,
             r02 * dx + cz + r22 * dz,
             dx * dx + dy2 + dz * dz,
-            azimuth,
-            table,
         )
-        cell[k] = np.int64(index)
         cos_incidence = -(normals[k, 0] * dx + normals[k, 1] * dy + normals[k, 2] * dz) * inv_d
         factor[k] = (cos_incidence if cos_incidence > 0.0 else 0.0) * (inv_d * inv_d)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+def _row_cells(
+    cell: NDArray[np.int64],
+    u_v: FloatArray,
+    offset_v: FloatArray,
+    u_h: FloatArray,
+    offset_h: FloatArray,
+    n: int,
+    azimuth: float,
+    table: tuple[float, float, float, float, float, float, float],
+) -> None:  # pragma: no cover - compiled
+    """Candela-table cells of a row run from :func:`_row_flat`'s reduced arguments.
+
+    V = offset_V + arctan(u_V) and H = H_street + offset_H + arctan(u_H), wrapped into
+    [0, 360) (``azimuth`` is in [0, 360)). Writes the flat index of each cell's (0, 0)
+    corner to ``cell`` and the fractions (tv, th) within it, as the bilinear lookup
+    [1, Eq. 4] reads them, over ``u_v`` and ``u_h``.
+    """
+    scale_v, scale_h, top_v, top_h, last_v, last_h, n_v = table
+    for k in range(n):
+        vertical = (offset_v[k] + _arctan(u_v[k])) * scale_v
+        horizontal = (offset_h[k] + _arctan(u_h[k])) * _DEGREES + azimuth
+        horizontal = horizontal + 360.0 if horizontal < 0.0 else horizontal
+        horizontal = horizontal - 360.0 if horizontal >= 360.0 else horizontal
+        horizontal *= scale_h
+        # NaN and rounding past the table's ends clamp
+        v = vertical if vertical >= 0.0 else 0.0
+        v = v if v <= top_v else top_v
+        h = horizontal if horizontal >= 0.0 else 0.0
+        h = h if h <= top_h else top_h
+        iv = np.floor(v)
+        iv = iv if iv < last_v else last_v
+        ih = np.floor(h)
+        ih = ih if ih < last_h else last_h
+        cell[k] = np.int64(ih * n_v + iv)
+        u_v[k] = v - iv
+        u_h[k] = h - ih
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _bilinear(
-    candela: FloatArray, offset: int, n_v: int, cell: int, tv: float, th: float
+    pairs: ComplexArray, offset: int, n_v: int, cell: int, tv: float, th: float
 ) -> float:  # pragma: no cover - compiled
     """Bilinear candela in the cell at flat index ``cell`` (Chuang 2011, Eq. 4) [cd]."""
-    # unsigned (the clamps keep it >= 0): no negative-index wraparound per load
+    # unsigned (the clamps keep it >= 0): no negative-index wraparound per load; one
+    # 16-byte load reads a corner and its vertical neighbour
     base = np.uint64(offset + cell)
-    c00 = candela[base]
-    c01 = candela[base + np.uint64(1)]
-    c10 = candela[base + np.uint64(n_v)]
-    c11 = candela[base + np.uint64(n_v + 1)]
+    near = pairs[base]
+    far = pairs[base + np.uint64(n_v)]
+    c00 = near.real
+    c01 = near.imag
+    c10 = far.real
+    c11 = far.imag
     lower = c00 + tv * (c01 - c00)
     upper = c10 + tv * (c11 - c10)
     return lower + th * (upper - lower)
@@ -313,13 +338,13 @@ def _row_add(
     th: FloatArray,
     factor: FloatArray,
     n: int,
-    candela: FloatArray,
+    pairs: ComplexArray,
     offset: int,
     n_v: int,
 ) -> None:  # pragma: no cover - compiled
     """Add ``weight`` x candela x ``factor`` to the row run ``out`` (one band)."""
     for k in range(n):
-        out[k] += weight * (_bilinear(candela, offset, n_v, cell[k], tv[k], th[k]) * factor[k])
+        out[k] += weight * (_bilinear(pairs, offset, n_v, cell[k], tv[k], th[k]) * factor[k])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -330,13 +355,13 @@ def _row_lookup(
     th: FloatArray,
     factor: FloatArray,
     n: int,
-    candela: FloatArray,
+    pairs: ComplexArray,
     offset: int,
     n_v: int,
 ) -> None:  # pragma: no cover - compiled
     """Candela x ``factor`` into ``values`` (several bands)."""
     for k in range(n):
-        values[k] = _bilinear(candela, offset, n_v, cell[k], tv[k], th[k]) * factor[k]
+        values[k] = _bilinear(pairs, offset, n_v, cell[k], tv[k], th[k]) * factor[k]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -353,6 +378,10 @@ class PackedTables:
     ----------
     candela
         All tables' candela values, each table row-major (horizontal, vertical) [cd].
+    pairs
+        ``candela`` with each value's successor along the flat array as the imaginary part,
+        (c[j], c[j + 1]): a cell's two corners at one horizontal angle in one 16-byte load
+        (the last imaginary part, never read, is 0) [cd].
     offset
         Start of each table in ``candela`` (tables,).
     shape
@@ -362,6 +391,7 @@ class PackedTables:
     """
 
     candela: FloatArray
+    pairs: ComplexArray
     offset: NDArray[np.int64]
     shape: NDArray[np.int64]
     scale: FloatArray
@@ -376,8 +406,12 @@ def pack_tables(tables: Sequence[IntensityTable]) -> PackedTables:
         Candela tables [cd].
     """
     sizes = [table.candela.size for table in tables]
+    candela = np.concatenate([table.candela.ravel() for table in tables]).astype(np.float64)
+    pairs = candela.astype(np.complex128)
+    pairs.imag[:-1] = candela[1:]
     return PackedTables(
-        np.concatenate([table.candela.ravel() for table in tables]).astype(np.float64),
+        candela,
+        pairs,
         np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64),
         np.array([table.candela.shape for table in tables], dtype=np.int64).reshape(-1, 2),
         np.array(
@@ -462,11 +496,12 @@ def window_illuminance(
             float(resolution),
             np.ascontiguousarray(light_point, dtype=np.float64),
             np.ascontiguousarray(rotation, dtype=np.float64),
-            np.ascontiguousarray(street_azimuth, dtype=np.float64),
+            # in [0, 360], so that one turn wraps H = H_street + atan2(-b_x, b_y)
+            np.ascontiguousarray(np.mod(street_azimuth, 360.0), dtype=np.float64),
             np.ascontiguousarray(table_index, dtype=np.int64),
             np.ascontiguousarray(weights, dtype=np.float64),
             np.ascontiguousarray(radius, dtype=np.float64),
-            tables.candela,
+            tables.pairs,
             tables.offset,
             tables.shape,
             tables.scale,
@@ -491,7 +526,7 @@ def _window(
     table_index: NDArray[np.int64],
     weights: FloatArray,
     radius: FloatArray,
-    candela: FloatArray,
+    pairs: ComplexArray,
     table_offset: NDArray[np.int64],
     table_shape: NDArray[np.int64],
     table_scale: FloatArray,
@@ -506,12 +541,12 @@ def _window(
     # each with all the lights in their order, so that the block being added to stays in
     # the core's cache.
     _, rows, cols = out.shape
-    buffers = np.empty((4, min(cols, BLOCK) + _LANES))
+    buffers = np.empty((6, min(cols, BLOCK) + _LANES))
     cell = np.empty(min(cols, BLOCK) + _LANES, dtype=np.int64)
-    pairs = 0
+    evaluations = 0
     for block_row in range(row0, row0 + rows, BLOCK):
         for block_col in range(col0, col0 + cols, BLOCK):
-            pairs += _block(
+            evaluations += _block(
                 out,
                 row0,
                 col0,
@@ -530,7 +565,7 @@ def _window(
                 table_index,
                 weights,
                 radius,
-                candela,
+                pairs,
                 table_offset,
                 table_shape,
                 table_scale,
@@ -538,7 +573,7 @@ def _window(
                 normals,
                 terrain,
             )
-    return pairs
+    return evaluations
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -561,7 +596,7 @@ def _block(
     table_index: NDArray[np.int64],
     weights: FloatArray,
     radius: FloatArray,
-    candela: FloatArray,
+    pairs: ComplexArray,
     table_offset: NDArray[np.int64],
     table_shape: NDArray[np.int64],
     table_scale: FloatArray,
@@ -571,11 +606,14 @@ def _block(
 ) -> int:  # pragma: no cover - compiled
     """The lights' sum on grid rows top..bottom - 1, columns left..right - 1 of ``out``."""
     n_bands = out.shape[0]
+    # the reduced arguments u_V and u_H become the fractions tv and th in place
     tv = buffers[0]
     th = buffers[1]
     factor = buffers[2]
     values = buffers[3]
-    pairs = 0
+    offset_v = buffers[4]
+    offset_h = buffers[5]
+    evaluations = 0
     for i in range(light_point.shape[0]):
         px, py, pz = light_point[i, 0], light_point[i, 1], light_point[i, 2]
         r = radius[i]
@@ -622,14 +660,17 @@ def _block(
                 last -= 1
             if first > last:
                 continue
-            pairs += last - first + 1
+            evaluations += last - first + 1
             n = last - first + 1
+            # on flat ground, whole SIMD widths (the pixels past the run are left unread)
+            width = n if terrain else (n + _LANES - 1) // _LANES * _LANES
             local = row - row0
             if terrain:
                 _row_terrain(
-                    cell,
                     tv,
+                    offset_v,
                     th,
+                    offset_h,
                     factor,
                     n,
                     x0,
@@ -639,18 +680,17 @@ def _block(
                     px,
                     pz,
                     rot,
-                    street_azimuth[i],
-                    table,
                     ground_z[local, first - col0 : last - col0 + 1],
                     normals[local, first - col0 : last - col0 + 1],
                 )
             else:
                 _row_flat(
-                    cell,
                     tv,
+                    offset_v,
                     th,
+                    offset_h,
                     factor,
-                    (n + _LANES - 1) // _LANES * _LANES,
+                    width,
                     x0,
                     first,
                     resolution,
@@ -658,9 +698,8 @@ def _block(
                     px,
                     pz,
                     rot,
-                    street_azimuth[i],
-                    table,
                 )
+            _row_cells(cell, tv, offset_v, th, offset_h, width, street_azimuth[i], table)
             start = first - col0
             if n_bands == 1:
                 _row_add(
@@ -671,14 +710,14 @@ def _block(
                     th,
                     factor,
                     n,
-                    candela,
+                    pairs,
                     offset,
                     n_v,
                 )
                 continue
-            _row_lookup(values, cell, tv, th, factor, n, candela, offset, n_v)
+            _row_lookup(values, cell, tv, th, factor, n, pairs, offset, n_v)
             for band in range(n_bands):
                 weight = weights[i, band]
                 for k in range(n):
                     out[band, local, start + k] += weight * values[k]
-    return pairs
+    return evaluations

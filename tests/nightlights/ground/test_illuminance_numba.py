@@ -20,7 +20,7 @@ from nightlights.ground import (
     resolve_luminaires,
     surface_normals,
 )
-from nightlights.ground._illuminance_numba import BLOCK, _atan2
+from nightlights.ground._illuminance_numba import BLOCK, _arctan, _atan2, _reduce
 from nightlights.ground.illuminance import window_and_pairs
 
 #: Agreement of the backends on every pixel [1] (the kernels differ in the order of their
@@ -241,6 +241,16 @@ def test_arc_tangent_matches_the_c_library() -> None:
     # exactly on the reduction's switch, tan(pi / 8)
     t = math.tan(math.pi / 8)
     assert _atan2(t, 1.0) == pytest.approx(math.pi / 8, rel=2e-16)
+
+
+def test_the_reduction_for_the_upper_half_plane_is_the_general_one_there() -> None:
+    # V = atan2(|b_xy|, -b_z) has y >= 0: the kernel's shorter reduction for it
+    rng = np.random.default_rng(1)
+    for y, x in zip(np.abs(rng.normal(0, 1, 2000)), rng.normal(0, 1, 2000), strict=True):
+        upper, general = _reduce(y, x, True), _reduce(y, x, False)
+        assert upper == general
+        numerator, denominator, offset = upper
+        assert abs(offset + _arctan(numerator / denominator) - math.atan2(y, x)) <= 4.5e-16 * 4
 
 
 def test_a_nan_ground_height_touches_its_own_pixel_only() -> None:
