@@ -80,7 +80,8 @@ elif kind == "irradiance":
         source, out, resolution=1.0, sensors=tuple(sys.argv[5].split(",")), backend=backend,
         progress=False,
     )
-    extra = {"pairs": result.n_pairs, "lights": result.n_lights, "shape": result.raster.shape}
+    grid = result.grid  # not result.raster, which would read the streamed file back
+    extra = {"pairs": result.n_pairs, "lights": result.n_lights, "shape": [grid.rows, grid.cols]}
 else:
     result = nl.emission(source, out, resolution=50.0, albedo=0.15)
     extra = {"shape": result.raster.shape}

@@ -170,7 +170,7 @@ def irradiance_command(
     )
     from rich.console import Console
 
-    rows, cols = result.raster.shape
+    rows, cols = result.grid.rows, result.grid.cols
     Console(stderr=True).print(
         f"[bold]{result.n_lights}[/] lights, {rows} x {cols} pixels, "
         f"{result.n_pairs:.3g} light-pixel evaluations -> {out}"

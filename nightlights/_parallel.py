@@ -36,7 +36,10 @@ class TaskProgress(Callback):
 
 
 def compute_distributed(
-    tasks: list[Any], scheduler: str | Any, advance: Callable[[], None]
+    tasks: list[Any],
+    scheduler: str | Any,
+    advance: Callable[[], None],
+    consume: Callable[[int, Any], Any] | None = None,
 ) -> list[Any]:
     """Compute Dask tasks on a ``dask.distributed`` cluster, in order, with progress.
 
@@ -50,12 +53,15 @@ def compute_distributed(
         :data:`SCHEDULER_TIMEOUT` is an error.
     advance
         Called once per finished task.
+    consume
+        Called in this process as ``consume(index, result)`` as each result arrives; its
+        return value is kept in place of the result (which is then released).
 
     Returns
     -------
     list
-        The results in the order of ``tasks``; on the first failure the rest are cancelled
-        and the exception re-raised.
+        The results (or what ``consume`` returned) in the order of ``tasks``; on the first
+        failure the rest are cancelled and the exception re-raised.
 
     Raises
     ------
@@ -73,7 +79,10 @@ def compute_distributed(
         results: list[Any] = [None] * len(futures)
         try:
             for future in as_completed(futures):
-                results[position[future.key]] = future.result()
+                index = position[future.key]
+                result = future.result()
+                future.release()
+                results[index] = result if consume is None else consume(index, result)
                 advance()
         except BaseException:
             client.cancel(futures)

@@ -41,8 +41,10 @@ __all__ = [
     "viirs_memory",
 ]
 
-#: Bytes held per output pixel and band of ``irradiance`` at its peak: the float32 tiles
-#: assembled, the float64 raster, and the float32 copies the GeoTIFF writer makes [B].
+#: Bytes held per output pixel and band of ``irradiance`` at its peak when it keeps the raster
+#: (no output file): the float32 tiles assembled and the float64 raster [B]. With an output
+#: file the tiles are streamed to it (:class:`nightlights.io.CogWriter`) and nothing is held
+#: per pixel.
 IRRADIANCE_BYTES_PER_PIXEL = 24
 #: Bytes per output pixel for a DEM: elevation on the grid, its gradients and the
 #: (rows, cols, 3) unit normals [B].
@@ -218,6 +220,7 @@ def irradiance_memory(
     dem: bool = False,
     local: bool = True,
     backend: str = "numba",
+    streamed: bool = False,
 ) -> float:
     """Peak memory of ``irradiance`` on a grid [B].
 
@@ -240,12 +243,17 @@ def irradiance_memory(
     backend
         Illuminance kernel: the numpy reference holds one batch of light-pixel pairs per
         tile in flight, the compiled kernel none.
+    streamed
+        Whether the tiles go to a file as they are computed: the raster is then never
+        held, and GDAL's block cache of the copy to a COG
+        (:data:`nightlights.io.streamed.COPY_CACHE_MB`) takes its place.
 
     Returns
     -------
     float
-        Output raster, DEM grids, tiles in flight (tile pixels x bands x working arrays, plus
-        one batch of light-pixel pairs each for the numpy kernel) and the task graph [B].
+        Output raster (or the writer's cache), DEM grids, tiles in flight (tile pixels x
+        bands x working arrays, plus one batch of light-pixel pairs each for the numpy
+        kernel) and the task graph [B].
 
     Examples
     --------
@@ -260,9 +268,13 @@ def irradiance_memory(
     951
     """
     from nightlights.ground.illuminance import PAIRS_PER_BATCH
+    from nightlights.io.streamed import COPY_CACHE_MB
 
     pixels = float(rows) * float(cols)
-    total = pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
+    if streamed:
+        total = min(pixels * bands * IRRADIANCE_BYTES_PER_PIXEL, COPY_CACHE_MB * 2.0**20)
+    else:
+        total = pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
     if dem:
         total += pixels * DEM_BYTES_PER_PIXEL
     tile_rows, tile_cols = min(tile_size, rows), min(tile_size, cols)

@@ -8,11 +8,12 @@ Cloud-Optimised GeoTIFF when an output path is given (Chuang 2011, Secs. 4.3-5.2
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -45,7 +46,14 @@ from nightlights.ground.luminaires import (
     sensor_factors,
 )
 from nightlights.ground.tiles import RasterGrid, compute_irradiance, grid_from_bounds
-from nightlights.io import OutputSet, Raster, as_vector, ensure_projected, raster_on_grid
+from nightlights.io import (
+    CogWriter,
+    OutputSet,
+    Raster,
+    as_vector,
+    ensure_projected,
+    raster_on_grid,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -72,31 +80,37 @@ class IrradianceResult:
 
     Attributes
     ----------
-    raster
-        One band per sensor: ``photopic`` illuminance [lx], other sensors sensor-weighted
-        irradiance [W m-2]; the values of the float32 file.
     n_lights
         Luminaires (including area pseudo-lights) that light at least one pixel.
     n_pairs
         Light-pixel evaluations [1].
+    grid
+        The raster's grid.
+    crs
+        The raster's projected CRS.
     path
         The written raster, or ``None`` when no output was asked for.
     """
 
-    raster: Raster
     n_lights: int
     n_pairs: int
+    grid: RasterGrid
+    crs: CRS
     path: Path | None = None
+    _in_memory: Raster | None = field(default=None, repr=False)
 
-    @property
-    def grid(self) -> RasterGrid:
-        """The raster's grid."""
-        return RasterGrid.from_transform(self.raster.transform, self.raster.shape)
+    @functools.cached_property
+    def raster(self) -> Raster:
+        """One band per sensor: ``photopic`` illuminance [lx], other sensors sensor-weighted
+        irradiance [W m-2]; the values of the float32 file.
 
-    @property
-    def crs(self) -> CRS:
-        """The raster's projected CRS."""
-        return self.raster.projected_crs(source="irradiance")
+        A stage that wrote a file streamed its tiles there and kept no raster: this reads the
+        file (whole, as float64) on first access.
+        """
+        if self._in_memory is not None:
+            return self._in_memory
+        assert self.path is not None
+        return Raster.read(self.path)
 
 
 def irradiance(
@@ -237,7 +251,8 @@ def irradiance(
     if not sensors:
         raise InputError("no sensors requested; expected at least one (e.g. photopic)")
     assume_crs = parse_crs(crs, option="crs")
-    outputs = None if output is None else OutputSet(output)
+    if output is not None:
+        OutputSet(output)  # checks the output's folder before anything is computed
     frame, label = as_vector(lights, name="lights")
     frame = ensure_projected(frame, source=label, assume_crs=assume_crs)
     layer_crs = CRS.from_user_input(frame.crs)
@@ -288,13 +303,38 @@ def irradiance(
         )
     grid = grid_from_bounds(bounds, resolution)
     _check_memory(
-        grid, len(sensors), radius, tile_size, dem is not None, scheduler is None, backend
+        grid,
+        len(sensors),
+        radius,
+        tile_size,
+        dem is not None,
+        scheduler is None,
+        backend,
+        streamed=output is not None,
     )
     coarse = _coarse_pixels(radius, resolution)
     ground_z = normals = None
     if dem is not None:
         ground_z, normals = ground_on_grid(dem, grid, layer_crs)
-    computed = compute_irradiance(
+    tags = {
+        "nightlights_stage": "irradiance",
+        "resolution_m": resolution,
+        "threshold": f"{threshold.kind}:{threshold.value}",
+        "max_radius_m": threshold.max_radius,
+        "lights": len(luminaires),
+        "kernel": backend,
+        "reference": "Chuang 2011, Sec. 5.1, Eq. 11",
+    }
+    units = tuple(band_unit(sensor) for sensor in sensors)
+    band_tags = tuple(
+        {
+            "sensor": sensor,
+            "quantity": "illuminance" if sensor == "photopic" else "sensor-weighted irradiance",
+        }
+        for sensor in sensors
+    )
+    kernel = functools.partial(
+        compute_irradiance,
         grid,
         luminaires,
         weights,
@@ -306,8 +346,44 @@ def irradiance(
         progress=progress,
         backend=backend,
     )
-    if not computed.bands.any():
-        reason = _zero_reason(luminaires, radius, threshold, coarse, computed.n_lights)
+    raster = None
+    if output is None:
+        computed = kernel()
+        assert computed.bands is not None
+        tags["light_pixel_evaluations"] = computed.n_pairs
+        raster = Raster(
+            computed.bands.astype(np.float64),
+            grid.transform,
+            layer_crs,
+            descriptions=tuple(sensors),
+            units=units,
+            tags={key: str(value) for key, value in tags.items()},
+            band_tags=band_tags,
+        )
+    else:
+        # the tiles go to the file as they are computed: memory holds the tiles in flight
+        # and the writer's block cache, never the raster
+        writer = CogWriter(
+            output,
+            shape=(len(sensors), grid.rows, grid.cols),
+            transform=grid.transform,
+            crs=layer_crs,
+            descriptions=tuple(sensors),
+            units=units,
+            band_tags=band_tags,
+            tags=tags,
+            **COG_OPTIONS,
+        )
+        with writer:
+            computed = kernel(
+                write=lambda tile, values: writer.write(values, row=tile.row0, col=tile.col0)
+            )
+            # the count is known once the tiles are done, before the file is finished
+            writer.update_tags(light_pixel_evaluations=computed.n_pairs)
+    n_lights, n_pairs, lit = computed.n_lights, computed.n_pairs, computed.lit
+    del computed
+    if not lit:
+        reason = _zero_reason(luminaires, radius, threshold, coarse, n_lights)
         warnings.warn(
             f"{label}: the irradiance raster is all zero: {reason}",
             DataQualityWarning,
@@ -315,39 +391,14 @@ def irradiance(
         )
     elif coarse:
         warnings.warn(f"{label}: {coarse}", DataQualityWarning, stacklevel=2)
-    tags = {
-        "nightlights_stage": "irradiance",
-        "resolution_m": resolution,
-        "threshold": f"{threshold.kind}:{threshold.value}",
-        "max_radius_m": threshold.max_radius,
-        "lights": len(luminaires),
-        "light_pixel_evaluations": computed.n_pairs,
-        "kernel": backend,
-        "reference": "Chuang 2011, Sec. 5.1, Eq. 11",
-    }
-    n_lights, n_pairs = computed.n_lights, computed.n_pairs
-    raster = Raster(
-        computed.bands.astype(np.float64),
-        grid.transform,
+    return IrradianceResult(
+        n_lights,
+        n_pairs,
+        grid,
         layer_crs,
-        descriptions=tuple(sensors),
-        units=tuple(band_unit(sensor) for sensor in sensors),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=tuple(
-            {
-                "sensor": sensor,
-                "quantity": "illuminance" if sensor == "photopic" else "sensor-weighted irradiance",
-            }
-            for sensor in sensors
-        ),
+        None if output is None else Path(output),
+        raster,
     )
-    del computed
-    path = None
-    if outputs is not None and output is not None:
-        with outputs:
-            raster.write(outputs.temporary(output), **COG_OPTIONS)
-        path = Path(output)
-    return IrradianceResult(raster, n_lights, n_pairs, path)
 
 
 def _check_memory(
@@ -358,6 +409,7 @@ def _check_memory(
     dem: bool,
     local: bool,
     backend: str,
+    streamed: bool,
 ) -> None:
     """Refuse a grid whose estimated peak memory is over the limit (before allocating)."""
     pixels = float(grid.rows) * float(grid.cols)
@@ -374,9 +426,11 @@ def _check_memory(
         dem=dem,
         local=local,
         backend=backend,
+        streamed=streamed,
     )
     # The grid's own arrays; the rest is tiles in flight and the task graph.
-    grid_part = pixels * (bands * IRRADIANCE_BYTES_PER_PIXEL + (DEM_BYTES_PER_PIXEL if dem else 0))
+    raster_part = 0 if streamed else bands * IRRADIANCE_BYTES_PER_PIXEL
+    grid_part = pixels * (raster_part + (DEM_BYTES_PER_PIXEL if dem else 0))
     n_tiles = math.ceil(grid.rows / tile_size) * math.ceil(grid.cols / tile_size)
     if n_tiles * BYTES_PER_TILE > estimate / 2:
         hint = "use a larger --tile-size"

@@ -250,6 +250,7 @@ def compute_tiles(
     num_workers: int | None = None,
     description: str = "tiles",
     progress: bool = True,
+    sink: Callable[[int, Any], Any] | None = None,
 ) -> list[Any]:
     """Run ``function(*args, shared)`` for every tile in parallel with Dask.
 
@@ -270,17 +271,27 @@ def compute_tiles(
         Label of the progress bar.
     progress
         Show a rich progress bar on stderr.
+    sink
+        Called as ``sink(index, result)`` as each tile finishes; what it returns is kept in
+        place of the result, so that a large result (a tile of a raster being written)
+        need not wait for the others. On local threads it runs in the worker thread and
+        must be thread-safe; on a cluster it runs in this process.
 
     Returns
     -------
     list
-        Results in the order of ``per_tile_args``. The first failing tile's exception is
-        re-raised; remaining tiles are cancelled.
+        Results (or what ``sink`` returned) in the order of ``per_tile_args``. The first
+        failing tile's exception is re-raised; remaining tiles are cancelled.
     """
     prefix = f"tile-{function.__name__}"
     shared_key = dask.delayed(shared, name=f"shared-{dask.base.tokenize(shared)}", pure=True)
+    local = scheduler is None
     tasks = [
-        dask.delayed(function, pure=True, name=f"{prefix}-{index}")(*args, shared_key)
+        dask.delayed(_sunk, pure=True)(
+            function, sink, index, *args, shared_key, dask_key_name=f"{prefix}-{index}"
+        )
+        if local and sink is not None
+        else dask.delayed(function, pure=True)(*args, shared_key, dask_key_name=f"{prefix}-{index}")
         for index, args in enumerate(per_tile_args)
     ]
     columns = (
@@ -291,10 +302,17 @@ def compute_tiles(
     )
     with Progress(*columns, transient=True, disable=not progress) as bar:
         task_id = bar.add_task(description, total=len(tasks))
-        if scheduler is None:
+        if local:
             with TaskProgress(lambda: bar.advance(task_id), prefix):
                 return list(dask.compute(*tasks, scheduler="threads", num_workers=num_workers))
-        return compute_distributed(tasks, scheduler, lambda: bar.advance(task_id))
+        return compute_distributed(tasks, scheduler, lambda: bar.advance(task_id), sink)
+
+
+def _sunk(
+    function: Callable[..., Any], sink: Callable[[int, Any], Any], index: int, *args: Any
+) -> Any:
+    """``sink(index, function(*args))``: a local tile handed on as soon as it is done."""
+    return sink(index, function(*args))
 
 
 #: Tiles per worker that :func:`balanced_tile_size` aims for, so that a raster of a few tiles
@@ -346,16 +364,19 @@ class ComputedIrradiance:
     Attributes
     ----------
     bands
-        Array (bands, rows, cols) [band units].
+        Array (bands, rows, cols) [band units]; ``None`` when the tiles went to ``write``.
     n_lights
         Lights that light at least one pixel of the grid.
     n_pairs
         Light-pixel evaluations [1].
+    lit
+        Some pixel of some band is not zero.
     """
 
-    bands: NDArray[np.float32]
+    bands: NDArray[np.float32] | None
     n_lights: int
     n_pairs: int
+    lit: bool = True
 
 
 def compute_irradiance(
@@ -371,6 +392,7 @@ def compute_irradiance(
     num_workers: int | None = None,
     progress: bool = True,
     backend: str = "numba",
+    write: Callable[[Tile, NDArray[np.float32]], None] | None = None,
 ) -> ComputedIrradiance:
     """Tile ``grid``, bin lights to tiles, run the illuminance kernel per tile with Dask.
 
@@ -400,6 +422,11 @@ def compute_irradiance(
     backend
         Illuminance kernel, one of :data:`~nightlights.ground.illuminance.BACKENDS`:
         ``"numba"`` (compiled, the default) or ``"numpy"`` (the reference).
+    write
+        Called as ``write(tile, values)`` with each tile's bands (bands, rows, cols) as soon
+        as it is computed, instead of gathering the grid: memory then holds the tiles in
+        flight, not the raster (see :class:`~nightlights.io.CogWriter`). On local threads
+        it is called from the worker threads and must be thread-safe.
 
     Notes
     -----
@@ -449,6 +476,13 @@ def compute_irradiance(
             )
         )
     shared = (grid, tables, backend)
+
+    def handed_on(index: int, result: tuple[NDArray[np.float32], int]) -> tuple[None, int, bool]:
+        values, pairs = result
+        assert write is not None
+        write(tiles[index], values)
+        return None, pairs, bool(values.any())
+
     results = compute_tiles(
         _irradiance_tile,
         per_tile,
@@ -457,14 +491,17 @@ def compute_irradiance(
         num_workers=num_workers,
         description=f"irradiance: {len(tiles)} tiles",
         progress=progress,
+        sink=None if write is None else handed_on,
     )
+    n_pairs = sum(int(result[1]) for result in results)
+    if write is not None:
+        lit = any(result[2] for result in results)
+        return ComputedIrradiance(None, int(touching.sum()), n_pairs, lit)
     bands = np.zeros((weights.shape[1], grid.rows, grid.cols), dtype=np.float32)
-    n_pairs = 0
-    for tile, (values, pairs) in zip(tiles, results, strict=True):
+    for tile, (values, _) in zip(tiles, results, strict=True):
         rows, cols = tile.slices
         bands[:, rows, cols] = values
-        n_pairs += pairs
-    return ComputedIrradiance(bands, int(touching.sum()), n_pairs)
+    return ComputedIrradiance(bands, int(touching.sum()), n_pairs, bool(bands.any()))
 
 
 def _irradiance_tile(

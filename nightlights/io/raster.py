@@ -153,25 +153,50 @@ def write_cog(
                 {key: str(value) for key, value in (tags or {}).items()},
             )
         style = sidecar_path(path) if qml else None
-        extra = {} if level is None else {"LEVEL": str(level)}
-        if num_threads is not None:
-            extra["NUM_THREADS"] = str(num_threads)
-        if overview_resampling is not None:
-            extra["RESAMPLING"] = overview_resampling
         with OutputSet(path, style) as outputs:
-            rasterio.shutil.copy(
+            copy_to_cog(
                 mem,
                 outputs.temporary(path),
-                driver="COG",
-                COMPRESS=compress,
-                BLOCKSIZE=str(blocksize),
-                OVERVIEWS="AUTO" if min(rows, cols) > blocksize else "NONE",
-                PREDICTOR="YES",
-                **extra,
+                compress=compress,
+                level=level,
+                num_threads=num_threads,
+                overview_resampling=overview_resampling,
+                blocksize=blocksize,
             )
             if style is not None and isinstance(qml, str):
                 outputs.temporary(style).write_text(qml, encoding="utf-8")
     return Path(path)
+
+
+def copy_to_cog(
+    source: Any,
+    destination: Path,
+    *,
+    compress: str = "DEFLATE",
+    level: int | None = None,
+    num_threads: int | str | None = None,
+    overview_resampling: str | None = None,
+    blocksize: int = 512,
+) -> None:
+    """Copy an open float32 GDAL dataset to a Cloud-Optimised GeoTIFF (see :func:`write_cog`).
+
+    Overviews are built when the raster is larger than one block on both sides.
+    """
+    extra = {} if level is None else {"LEVEL": str(level)}
+    if num_threads is not None:
+        extra["NUM_THREADS"] = str(num_threads)
+    if overview_resampling is not None:
+        extra["RESAMPLING"] = overview_resampling
+    rasterio.shutil.copy(
+        source,
+        destination,
+        driver="COG",
+        COMPRESS=compress,
+        BLOCKSIZE=str(blocksize),
+        OVERVIEWS="AUTO" if min(source.height, source.width) > blocksize else "NONE",
+        PREDICTOR="YES",
+        **extra,
+    )
 
 
 @dataclass(frozen=True, eq=False)

@@ -95,7 +95,7 @@ def _irradiance(project: Project, options: dict[str, Any]) -> list[Task]:
         from nightlights.io import read_vector
 
         lights = read_vector(src["lights"], layer="lights")
-        ground = nl.irradiance(
+        nl.irradiance(
             lights,
             out["irradiance"],
             resolution=o.resolution,
@@ -108,12 +108,12 @@ def _irradiance(project: Project, options: dict[str, Any]) -> list[Task]:
             skip_unknown=o.skip_unknown,
             tile_size=o.tile_size,
             progress=ctx.progress,
-        ).raster
+        )
         if "irradiance_map" in out:
             from nightlights.maps import plot_raster_map
 
             plot_raster_map(
-                ground,
+                out["irradiance"],
                 out["irradiance_map"],
                 points=lights.drop_duplicates("pole_id") if "pole_id" in lights else lights,
                 title=f"{ctx.project.file.project.name}: predicted poles and ground illuminance",

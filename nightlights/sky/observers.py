@@ -785,8 +785,8 @@ def _run(
     prefix = f"observers-{uuid.uuid4().hex}"
     shared = dask.delayed(engine, name=f"{prefix}-engine", pure=True)
     tasks = [
-        dask.delayed(_observe_chunk, name=f"{prefix}-chunk-{i}", pure=True)(
-            shared, points[part], single_thread
+        dask.delayed(_observe_chunk, pure=True)(
+            shared, points[part], single_thread, dask_key_name=f"{prefix}-chunk-{i}"
         )
         for i, part in enumerate(_chunks(len(points), workers))
     ]

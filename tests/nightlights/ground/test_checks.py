@@ -99,6 +99,17 @@ def test_memory_estimate_grows_with_pixels_bands_and_tiles() -> None:
     assert irradiance_memory(100, 100, 1, tile_size=64, workers=2, pairs=1e4, dem=True) > small
 
 
+def test_a_streamed_raster_costs_its_tiles_not_its_pixels() -> None:
+    def estimate(side: int, streamed: bool) -> float:
+        return irradiance_memory(side, side, 1, tile_size=1024, workers=2, streamed=streamed)
+
+    # 1e8 pixels held: 2.4 GB; streamed to a file: the copy's cache and the tiles in flight
+    assert estimate(10_000, False) > 2.2e9
+    assert estimate(10_000, True) < 0.2e9
+    assert estimate(40_000, True) < 0.3e9
+    assert estimate(100, True) == estimate(100, False)  # a tiny raster is below the cache
+
+
 def test_raster_header_reads_no_pixels(tmp_path: Path, ground: Raster) -> None:
     path = ground.write(tmp_path / "g.tif")
     header = raster_header(path)
@@ -195,6 +206,9 @@ def test_irradiance_refuses_a_raster_over_the_memory_limit(limit, tmp_path: Path
     limit("64M")
     out = tmp_path / "e.tif"
     with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a coarser --resolution"):
+        irradiance(_lights(), resolution=0.01, progress=False)
+    # written to a file the raster is streamed, never held: its tiles are what is too large
+    with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a smaller --tile-size"):
         irradiance(_lights(), out, resolution=0.01, progress=False)
     assert list(tmp_path.iterdir()) == []
 

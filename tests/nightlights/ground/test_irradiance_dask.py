@@ -120,3 +120,60 @@ def test_stage_writes_a_valid_cog_of_the_tiled_values(tmp_path: Path) -> None:
     means = data.astype(float).reshape(300, 2, 350, 2).mean(axis=(1, 3))
     np.testing.assert_allclose(half, means, rtol=1e-6)
     np.testing.assert_array_equal(in_memory.raster.data, result.raster.data)
+    assert result.grid == in_memory.grid and result.path == out
+
+
+def test_streamed_tiles_equal_the_gathered_raster_locally_and_on_a_cluster() -> None:
+    rng = np.random.default_rng(5)
+    luminaires = make_luminaires(40, rng)
+    grid = grid_from_bounds((0, 0, 300, 300), 2.0)
+    radius = luminaires.radius(InfluenceThreshold("energy", 0.02))
+    weights = np.column_stack([np.ones(40), rng.uniform(0.5, 2, 40)])
+    gathered = compute_irradiance(grid, luminaires, weights, radius, tile_size=40, progress=False)
+    assert gathered.bands is not None and gathered.lit
+
+    def stream(**options) -> tuple[np.ndarray, object]:
+        canvas = np.full((2, grid.rows, grid.cols), np.nan, dtype=np.float32)
+        seen = []
+
+        def write(tile, values) -> None:
+            seen.append((tile.row0, tile.col0))
+            canvas[:, tile.row0 : tile.row0 + tile.rows, tile.col0 : tile.col0 + tile.cols] = values
+
+        result = compute_irradiance(
+            grid, luminaires, weights, radius, tile_size=40, progress=False, write=write, **options
+        )
+        assert len(seen) == len(set(seen)) == 16  # every tile once (4 x 4 tiles of 40)
+        return canvas, result
+
+    local, result = stream()
+    assert result.bands is None and result.lit
+    assert (result.n_pairs, result.n_lights) == (gathered.n_pairs, gathered.n_lights)
+    np.testing.assert_array_equal(local, gathered.bands)
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        remote, _ = stream(scheduler=client)
+    np.testing.assert_array_equal(remote, gathered.bands)
+
+
+def test_the_progress_bar_advances_once_per_tile(monkeypatch: pytest.MonkeyPatch) -> None:
+    import nightlights.ground.tiles as tiles
+
+    advanced = []
+    real = tiles.TaskProgress
+
+    class Counting(real):  # type: ignore[misc, valid-type]
+        def __init__(self, advance, prefix) -> None:
+            super().__init__(lambda: (advanced.append(1), advance()), prefix)
+
+    monkeypatch.setattr(tiles, "TaskProgress", Counting)
+    assert tiles.compute_tiles(lambda x, shared: x + shared, [(1,), (2,), (3,)], shared=10) == [
+        11,
+        12,
+        13,
+    ]
+    assert len(advanced) == 3
