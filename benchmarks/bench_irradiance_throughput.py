@@ -16,9 +16,10 @@ region of influence ``floor:0.01`` lx), both kernels in the same run:
   overviews);
 * end to end, measured (the fastest of three runs): ``nightlights.ground.irradiance`` on the
   target scene, 100,000 luminaires over 10 x 10 km at 1 m, from the light layer to the
-  written COG, split into the kernel (``compute_irradiance``), the write and the rest
-  ("setup": luminaire placement and photometry, regions of influence, grid, the float64
-  raster).
+  written COG, split into the kernel (``compute_irradiance``, which streams each tile into
+  the writer's scratch GeoTIFF as it is done), the COG made from that file when the writer
+  closes ("write") and the rest ("setup": luminaire placement and photometry, regions of
+  influence, grid, opening the writer).
 
 Light-pixel evaluations per second ("pairs/s") is the throughput figure, from wall time
 (2 local threads unless stated; the fastest of three runs of the compiled kernel and of two of
@@ -60,7 +61,7 @@ from nightlights.ground import (
     sensor_factors,
 )
 from nightlights.ground import stage as irradiance_stage
-from nightlights.io import Raster, RasterBand, write_cog
+from nightlights.io import CogWriter, RasterBand, write_cog
 
 DENSITY = 1000.0  # luminaires per km2 (100,000 over 10 x 10 km)
 TARGET_SIDE = 10_000.0  # [m]
@@ -176,22 +177,23 @@ def write_time(side: float) -> dict:
 
 @contextmanager
 def stage_clock(clock: dict):
-    """Time the irradiance stage's kernel (``compute_irradiance``) and COG write inside it."""
-    compute, write = irradiance_stage.compute_irradiance, Raster.write
+    """Time the irradiance stage's kernel (``compute_irradiance``, which also streams the tiles
+    into the writer's scratch file) and the COG made from that file when the writer closes."""
+    compute, finish = irradiance_stage.compute_irradiance, CogWriter._finish
 
     def timed_compute(*args, **kwargs):
         result, clock["compute_s"] = harness.timed(lambda: compute(*args, **kwargs))
         return result
 
-    def timed_write(self, *args, **kwargs):
-        result, clock["write_s"] = harness.timed(lambda: write(self, *args, **kwargs))
+    def timed_finish(self, *args, **kwargs):
+        result, clock["write_s"] = harness.timed(lambda: finish(self, *args, **kwargs))
         return result
 
-    irradiance_stage.compute_irradiance, Raster.write = timed_compute, timed_write
+    irradiance_stage.compute_irradiance, CogWriter._finish = timed_compute, timed_finish
     try:
         yield clock
     finally:
-        irradiance_stage.compute_irradiance, Raster.write = compute, write
+        irradiance_stage.compute_irradiance, CogWriter._finish = compute, finish
 
 
 def end_to_end(side: float) -> dict:
@@ -199,9 +201,9 @@ def end_to_end(side: float) -> dict:
     fastest of ``REPEATS["numba"]`` runs (every run's total in ``totals_s``).
 
     One call of ``nightlights.ground.irradiance`` (the compiled kernel, local threads) from
-    the light layer to the written file; the kernel and the write are timed inside it, the
-    rest (luminaire placement and photometry, regions of influence, grid, the float64
-    raster) is ``setup_s``.
+    the light layer to the written file; the kernel (with the tiles streamed into the
+    scratch file) and the COG made from it are timed inside it, the rest (luminaire placement
+    and photometry, regions of influence, grid, opening the writer) is ``setup_s``.
     """
     runs = [end_to_end_once(side) for _ in range(REPEATS["numba"])]
     best = min(runs, key=lambda run: run["total_s"])
@@ -230,7 +232,7 @@ def end_to_end_once(side: float) -> dict:
         "side_m": side,
         "lights": len(frame),
         "resolution_m": 1.0,
-        "pixels": int(result.raster.shape[0] * result.raster.shape[1]),
+        "pixels": int(result.grid.rows * result.grid.cols),
         "pairs": result.n_pairs,
         "setup_s": total - clock["compute_s"] - clock["write_s"],
         "compute_s": clock["compute_s"],

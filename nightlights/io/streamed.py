@@ -49,7 +49,9 @@ class CogWriter:
     Parameters
     ----------
     path
-        Output ``.tif``; its folder is checked on entering, before anything is computed.
+        Output ``.tif``. Its folder is checked here, before anything is computed, for
+        write access and for free space for the scratch file (4 B per pixel and band) and
+        the COG (at most as much again).
     shape
         (bands, rows, cols) of the raster.
     transform
@@ -141,7 +143,11 @@ class CogWriter:
             "overview_resampling": overview_resampling,
             "blocksize": blocksize,
         }
-        self._outputs = OutputSet(self.path, sidecar_path(self.path) if qml else None)
+        # the scratch file (float32, uncompressed) and the COG, at most as large again
+        scratch_bytes = 4.0 * count * rows * cols
+        self._outputs = OutputSet(
+            self.path, sidecar_path(self.path) if qml else None, free_bytes=2 * scratch_bytes
+        )
         self._qml = qml
         self._lock = threading.Lock()
         self._scratch: Path | None = None

@@ -118,7 +118,7 @@ def test_errors_are_one_line(lights: Path, tmp_path: Path) -> None:
 
 
 def _fake_result() -> SimpleNamespace:
-    return SimpleNamespace(raster=SimpleNamespace(shape=(4, 5)), n_lights=3, n_pairs=60)
+    return SimpleNamespace(grid=SimpleNamespace(rows=4, cols=5), n_lights=3, n_pairs=60)
 
 
 def test_options_reach_the_stage(fake_stage, lights: Path, tmp_path: Path) -> None:
