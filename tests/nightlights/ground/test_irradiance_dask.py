@@ -48,13 +48,19 @@ def make_luminaires(n: int, rng: np.random.Generator) -> Luminaires:
     )
 
 
-@pytest.mark.parametrize("processes", [False, True])
-def test_local_cluster_equals_single_process(processes: bool) -> None:
-    rng = np.random.default_rng(11)
-    luminaires = make_luminaires(60, rng)
+def two_band_scene(n: int, seed: int) -> tuple:
+    """A 300 m square at 2 m, ``n`` lights and two bands (grid, lights, weights, radii)."""
+    rng = np.random.default_rng(seed)
+    luminaires = make_luminaires(n, rng)
     grid = grid_from_bounds((0, 0, 300, 300), 2.0)
     radius = luminaires.radius(InfluenceThreshold("energy", 0.02))
-    weights = np.column_stack([np.ones(60), rng.uniform(0.5, 2, 60)])
+    weights = np.column_stack([np.ones(n), rng.uniform(0.5, 2, n)])
+    return grid, luminaires, weights, radius
+
+
+@pytest.mark.parametrize("processes", [False, True])
+def test_local_cluster_equals_single_process(processes: bool) -> None:
+    grid, luminaires, weights, radius = two_band_scene(60, seed=11)
     local = compute_irradiance(grid, luminaires, weights, radius, tile_size=40, progress=False)
     with (
         LocalCluster(
@@ -124,11 +130,7 @@ def test_stage_writes_a_valid_cog_of_the_tiled_values(tmp_path: Path) -> None:
 
 
 def test_streamed_tiles_equal_the_gathered_raster_locally_and_on_a_cluster() -> None:
-    rng = np.random.default_rng(5)
-    luminaires = make_luminaires(40, rng)
-    grid = grid_from_bounds((0, 0, 300, 300), 2.0)
-    radius = luminaires.radius(InfluenceThreshold("energy", 0.02))
-    weights = np.column_stack([np.ones(40), rng.uniform(0.5, 2, 40)])
+    grid, luminaires, weights, radius = two_band_scene(40, seed=5)
     gathered = compute_irradiance(grid, luminaires, weights, radius, tile_size=40, progress=False)
     assert gathered.bands is not None and gathered.lit
 
