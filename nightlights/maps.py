@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import geopandas as gpd
 import matplotlib
+import rasterio
+import rasterio.errors
+import rasterio.windows
+from affine import Affine
+from pyproj import CRS
+from rasterio.enums import Resampling
+from rasterio.windows import Window
 
 matplotlib.use("Agg")
 import matplotlib.patches
@@ -19,6 +27,12 @@ from nightlights.io import Raster, as_raster, atomic_output
 
 if TYPE_CHECKING:
     import xarray as xr
+
+#: Largest side of the image a map draws in a panel when it reads a raster file [pixels]. A
+#: larger file is read averaged down to this (from the COG's overviews), and the enlarged
+#: panel reads its window alone, so that a city's raster is never read whole for a picture
+#: some 700 pixels across.
+MAP_PIXELS = 2048
 
 
 def plot_raster_map(
@@ -64,27 +78,25 @@ def plot_raster_map(
     pathlib.Path
         The written PNG.
     """
-    image_raster = as_raster(raster)
-    values = image_raster.data[band - 1]
-    transform = image_raster.transform
-    rows, cols = values.shape
-    extent = (
-        transform.c,
-        transform.c + transform.a * cols,
-        transform.f + transform.e * rows,
-        transform.f,
-    )
-    unit = image_raster.units[band - 1] or ""
-    description = image_raster.descriptions[band - 1] or f"band {band}"
-    finite = values[np.isfinite(values)]
+    if isinstance(raster, (str, os.PathLike)):
+        images, crs, unit, description = _read_images(raster, band, zoom)
+    else:
+        image_raster = as_raster(raster)
+        values = image_raster.data[band - 1]
+        images = [(values, _extent(image_raster.transform, *values.shape))] * 2
+        crs = image_raster.crs
+        unit = image_raster.units[band - 1] or ""
+        description = image_raster.descriptions[band - 1] or ""
+    description = description or f"band {band}"
+    finite = np.concatenate([values[np.isfinite(values)].ravel() for values, _ in images])
     top = max(float(finite.max()) if finite.size else 1.0, floor * 10)
     panels = 2 if zoom else 1
     fig, axes = plt.subplots(
         1, panels, figsize=(6.5 * panels + 1, 7.5), squeeze=False, layout="constrained"
     )
     norm = LogNorm(vmin=floor, vmax=top)
-    crs = image_raster.crs
     for index, ax in enumerate(axes[0]):
+        values, extent = images[index]
         image = ax.imshow(
             np.clip(values, floor, None),
             extent=extent,
@@ -129,3 +141,47 @@ def plot_raster_map(
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
     return Path(out_png)
+
+
+def _extent(transform: Affine, rows: int, cols: int) -> tuple[float, float, float, float]:
+    """(left, right, bottom, top) of a north-up grid [m]."""
+    return (
+        transform.c,
+        transform.c + transform.a * cols,
+        transform.f + transform.e * rows,
+        transform.f,
+    )
+
+
+def _read_images(
+    path: str | os.PathLike[str], band: int, zoom: tuple[float, float, float, float] | None
+) -> tuple[list[tuple[np.ndarray, tuple[float, float, float, float]]], CRS | None, str, str]:
+    """The panels' images of a raster file, each at most :data:`MAP_PIXELS` on a side.
+
+    Returns the (values, extent) of the whole raster and of the ``zoom`` window (the whole
+    raster again without one), the CRS, the band's unit and description.
+    """
+    with rasterio.open(path) as dataset:
+
+        def read(window: Window) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+            step = max(1, math.ceil(max(window.height, window.width) / MAP_PIXELS))
+            shape = (math.ceil(window.height / step), math.ceil(window.width / step))
+            data = dataset.read(
+                band, window=window, out_shape=shape, resampling=Resampling.average, masked=True
+            )
+            bounds = rasterio.windows.bounds(window, dataset.transform)
+            return data.astype(float).filled(np.nan), (bounds[0], bounds[2], bounds[1], bounds[3])
+
+        whole = Window(0, 0, dataset.width, dataset.height)
+        images = [read(whole)]
+        if zoom is not None:
+            window = rasterio.windows.from_bounds(*zoom, transform=dataset.transform)
+            try:
+                window = window.round_offsets().round_lengths().intersection(whole)
+            except rasterio.errors.WindowError:  # the window misses the raster: an empty panel
+                window = whole
+            images.append(read(window))
+        else:
+            images.append(images[0])
+        crs = CRS.from_user_input(dataset.crs.to_wkt()) if dataset.crs else None
+        return images, crs, dataset.units[band - 1] or "", dataset.descriptions[band - 1] or ""
