@@ -175,9 +175,19 @@ def _read_images(
         whole = Window(0, 0, dataset.width, dataset.height)
         images = [read(whole)]
         if zoom is not None:
-            window = rasterio.windows.from_bounds(*zoom, transform=dataset.transform)
+            x0, x1 = sorted(zoom[0::2])
+            y0, y1 = sorted(zoom[1::2])
+            exact = rasterio.windows.from_bounds(x0, y0, x1, y1, transform=dataset.transform)
+            # every pixel the zoom touches, its edges rounded outwards
+            col, row = math.floor(exact.col_off), math.floor(exact.row_off)
+            window = Window(
+                col,
+                row,
+                math.ceil(exact.col_off + exact.width) - col,
+                math.ceil(exact.row_off + exact.height) - row,
+            )
             try:
-                window = window.round_offsets().round_lengths().intersection(whole)
+                window = window.intersection(whole)
             except rasterio.errors.WindowError:  # the window misses the raster: an empty panel
                 window = whole
             images.append(read(window))

@@ -285,7 +285,7 @@ def _row_cells(
     """Candela-table cells of a row run from :func:`_row_flat`'s reduced arguments.
 
     V = offset_V + arctan(u_V) and H = H_street + offset_H + arctan(u_H), wrapped into
-    [0, 360) (``azimuth`` is in [0, 360)). Writes the flat index of each cell's (0, 0)
+    [0, 360) (``azimuth`` is in [0, 360]). Writes the flat index of each cell's (0, 0)
     corner to ``cell`` and the fractions (tv, th) within it, as the bilinear lookup
     [1, Eq. 4] reads them, over ``u_v`` and ``u_h``.
     """

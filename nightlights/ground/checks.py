@@ -245,8 +245,8 @@ def irradiance_memory(
         tile in flight, the compiled kernel none.
     streamed
         Whether the tiles go to a file as they are computed: the raster is then never
-        held, and GDAL's block cache of the copy to a COG
-        (:data:`nightlights.io.streamed.COPY_CACHE_MB`) takes its place.
+        held, and GDAL's block cache (:data:`nightlights.io.streamed.CACHE_MB`, held while
+        the file is written and made into a COG) takes its place.
 
     Returns
     -------
@@ -268,11 +268,11 @@ def irradiance_memory(
     951
     """
     from nightlights.ground.illuminance import PAIRS_PER_BATCH
-    from nightlights.io.streamed import COPY_CACHE_MB
+    from nightlights.io.streamed import CACHE_MB
 
     pixels = float(rows) * float(cols)
     if streamed:
-        total = min(pixels * bands * IRRADIANCE_BYTES_PER_PIXEL, COPY_CACHE_MB * 2.0**20)
+        total = min(pixels * bands * IRRADIANCE_BYTES_PER_PIXEL, CACHE_MB * 2.0**20)
     else:
         total = pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
     if dem:

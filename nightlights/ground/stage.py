@@ -105,7 +105,8 @@ class IrradianceResult:
         irradiance [W m-2]; the values of the float32 file.
 
         A stage that wrote a file streamed its tiles there and kept no raster: this reads the
-        file (whole, as float64) on first access.
+        file (whole, as float64) on first access, as it is then, with the metadata GDAL keeps
+        in it (band tags carry the unit too).
         """
         if self._in_memory is not None:
             return self._in_memory

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import uuid
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -283,7 +284,8 @@ def compute_tiles(
         Results (or what ``sink`` returned) in the order of ``per_tile_args``. The first
         failing tile's exception is re-raised; remaining tiles are cancelled.
     """
-    prefix = f"tile-{function.__name__}"
+    # unique per call: a cluster shared by several runs takes equal keys for the same task
+    prefix = f"tile-{function.__name__}-{uuid.uuid4().hex}"
     shared_key = dask.delayed(shared, name=f"shared-{dask.base.tokenize(shared)}", pure=True)
     local = scheduler is None
     tasks = [

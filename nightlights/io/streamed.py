@@ -36,11 +36,13 @@ from nightlights.io.styles import SAMPLE_LIMIT, raster_qml, sidecar_path
 
 __all__ = ["CogWriter"]
 
-#: GDAL's block cache while the COG is made from the scratch file [MiB]. Without a limit GDAL
-#: keeps up to 5 % of the machine's memory of blocks: the irradiance stage's peak on a
-#: 10,000 x 10,000 raster was 1.10 GiB, 0.53 GiB with a limit (0.46 GiB before the copy). The
-#: copy took as long with 32 MiB as with no limit (2.9-3.6 s on 2 cores).
-COPY_CACHE_MB = 64
+#: GDAL's block cache while a writer is open: while the windows are written and while the COG
+#: is made from the scratch file [MiB]. Without a limit GDAL keeps up to 5 % of the machine's
+#: memory of blocks: 281 MiB more for 8000 x 8000 float32 windows written from two threads,
+#: 30 MiB with this limit; the irradiance stage's peak on a 10,000 x 10,000 raster was
+#: 1.10 GiB with no limit on the copy, 0.53 GiB with one. The copy took as long with 32 MiB
+#: as with no limit (2.9-3.6 s on 2 cores).
+CACHE_MB = 64
 
 
 class CogWriter:
@@ -50,8 +52,8 @@ class CogWriter:
     ----------
     path
         Output ``.tif``. Its folder is checked here, before anything is computed, for
-        write access and for free space for the scratch file (4 B per pixel and band) and
-        the COG (at most as much again).
+        write access and for free space for the scratch file (4 B per pixel and band), the
+        COG and its temporary overviews (2.7 times the scratch file in all).
     shape
         (bands, rows, cols) of the raster.
     transform
@@ -116,6 +118,8 @@ class CogWriter:
             raise OutputError(f"{path}: raster shape {shape}; expected (bands, rows, cols) >= 1")
         if len(descriptions) != count or len(units) != count:
             raise OutputError(f"{path}: {count} bands but {len(descriptions)} names")
+        if band_tags and len(band_tags) != count:
+            raise OutputError(f"{path}: {count} bands but {len(band_tags)} sets of band tags")
         self.path = Path(path)
         self.shape = (count, rows, cols)
         self._profile = {
@@ -128,6 +132,9 @@ class CogWriter:
             "transform": transform,
             "nodata": nodata,
             "tiled": True,
+            # a block per band: GDAL fills a new pixel-interleaved block's later bands with
+            # zeros, not nodata, when the block cache is small
+            "interleave": "band",
             "blockxsize": blocksize,
             "blockysize": blocksize,
             "BIGTIFF": "IF_SAFER",
@@ -143,19 +150,27 @@ class CogWriter:
             "overview_resampling": overview_resampling,
             "blocksize": blocksize,
         }
-        # the scratch file (float32, uncompressed) and the COG, at most as large again
+        # the scratch file (float32, uncompressed), the COG (a lit raster hardly compresses:
+        # as large again and a third for the overviews) and the COG driver's temporary
+        # overviews (a third)
         scratch_bytes = 4.0 * count * rows * cols
         self._outputs = OutputSet(
-            self.path, sidecar_path(self.path) if qml else None, free_bytes=2 * scratch_bytes
+            self.path,
+            sidecar_path(self.path) if qml else None,
+            free_bytes=(1 + 4 / 3 + 1 / 3) * scratch_bytes,
         )
         self._qml = qml
         self._lock = threading.Lock()
         self._scratch: Path | None = None
         self._dataset: Any = None
+        self._env: Any = None
 
     def __enter__(self) -> CogWriter:
         self._outputs.__enter__()
         try:
+            # a limit on GDAL's (process-wide) block cache, for writes from any thread
+            self._env = rasterio.Env(GDAL_CACHEMAX=CACHE_MB)
+            self._env.__enter__()
             self._scratch = Path(
                 tempfile.mkdtemp(prefix=f".{self.path.stem}-", dir=self.path.parent)
             )
@@ -174,12 +189,14 @@ class CogWriter:
 
         Safe to call from several threads at once; the window is converted to float32.
         """
-        if self._dataset is None:
-            raise OutputError(f"{self.path}: the writer is not open")
         _, rows, cols = values.shape
         window = rasterio.windows.Window(col, row, cols, rows)
         data = np.asarray(values, dtype=np.float32)
         with self._lock:
+            # checked under the lock: a failing run closes the writer while tiles still
+            # finish in other threads
+            if self._dataset is None:
+                raise OutputError(f"{self.path}: the writer is not open")
             self._dataset.write(data, window=window)
 
     def __exit__(
@@ -197,13 +214,14 @@ class CogWriter:
         traceback: TracebackType | None,
     ) -> None:
         try:
-            if self._dataset is not None:
+            with self._lock:
+                dataset, self._dataset = self._dataset, None
+            if dataset is not None:
                 try:
                     if exc_type is None:
-                        self._label()
+                        self._label(dataset)
                 finally:
-                    self._dataset.close()
-                    self._dataset = None
+                    dataset.close()
             if exc_type is None and self._scratch is not None:
                 self._finish(self._scratch / "windows.tif")
         except BaseException as error:
@@ -213,11 +231,13 @@ class CogWriter:
             if self._scratch is not None:
                 shutil.rmtree(self._scratch, ignore_errors=True)
                 self._scratch = None
+            if self._env is not None:
+                self._env.__exit__(None, None, None)
+                self._env = None
             self._outputs.__exit__(exc_type, exc, traceback)
 
-    def _label(self) -> None:
+    def _label(self, dataset: Any) -> None:
         """Band names, units and metadata on the scratch file."""
-        dataset = self._dataset
         for index in range(1, self.shape[0] + 1):
             unit = self._units[index - 1]
             dataset.set_band_description(index, self._descriptions[index - 1])
@@ -228,7 +248,7 @@ class CogWriter:
 
     def _finish(self, scratch: Path) -> None:
         """The COG and its style from the scratch file."""
-        with rasterio.Env(GDAL_CACHEMAX=COPY_CACHE_MB), rasterio.open(scratch) as source:
+        with rasterio.open(scratch) as source:
             copy_to_cog(source, self._outputs.temporary(self.path), **self._cog)
             if self._qml:
                 style = sidecar_path(self.path)

@@ -34,6 +34,10 @@ def test_a_file_is_read_averaged_down_and_the_zoom_window_alone(
     np.testing.assert_array_equal(window, data[150:200, 50:90])
     assert zoom_extent == (1100.0, 1180.0, 4600.0, 4700.0)
     assert ("TM35FIN" in crs.name, unit, name) == (True, "lx", "photopic")
+    # a zoom off the pixel edges takes every pixel it touches; its corners in any order
+    [_, (edges, edges_extent)], *_ = maps._read_images(path, 1, (1181.0, 4699.0, 1101.0, 4601.0))
+    np.testing.assert_array_equal(edges, data[150:200, 50:91])
+    assert edges_extent == (1100.0, 1182.0, 4600.0, 4700.0)
     # a zoom beside the raster draws an empty panel, not an error
     [_, (outside, _)], *_ = maps._read_images(path, 1, (0.0, 0.0, 10.0, 10.0))
     assert outside.shape == (75, 100)

@@ -165,11 +165,12 @@ def test_streamed_tiles_equal_the_gathered_raster_locally_and_on_a_cluster() -> 
 def test_the_progress_bar_advances_once_per_tile(monkeypatch: pytest.MonkeyPatch) -> None:
     import nightlights.ground.tiles as tiles
 
-    advanced = []
+    advanced, prefixes = [], []
     real = tiles.TaskProgress
 
     class Counting(real):  # type: ignore[misc, valid-type]
         def __init__(self, advance, prefix) -> None:
+            prefixes.append(prefix)
             super().__init__(lambda: (advanced.append(1), advance()), prefix)
 
     monkeypatch.setattr(tiles, "TaskProgress", Counting)
@@ -179,3 +180,7 @@ def test_the_progress_bar_advances_once_per_tile(monkeypatch: pytest.MonkeyPatch
         13,
     ]
     assert len(advanced) == 3
+    # every call's tasks have keys of their own: on a cluster that several runs share, equal
+    # keys would be taken for the same task and one run would get another's tiles
+    tiles.compute_tiles(lambda x, shared: x + shared, [(1,)], shared=20)
+    assert len(set(prefixes)) == 2
