@@ -90,6 +90,9 @@ _AT7 = -5.83357013379057348645e-02
 _AT8 = 4.97687799461593236017e-02
 _AT9 = -3.65315727442169155270e-02
 _AT10 = 1.62858201153657823623e-02
+#: Below this an arc tangent's denominator is scaled up by _TINY_SCALE (see :func:`_reduced`).
+_TINY = 2.0**-500
+_TINY_SCALE = 2.0**600
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", fastmath={"contract"})
@@ -156,6 +159,12 @@ def _reduced(
     """
     n1, d1, offset_v = _reduce(sin_v, cos_v, True)
     n2, d2, offset_h = _reduce(-bx, by, False)
+    # a pixel all but straight below the light has |b_xy| down to the subnormals, where
+    # D1 D2 distance would underflow and q overflow: scale N2 and D2 by a power of two (their
+    # ratio is unchanged, exactly; D1, distance >= MIN_DISTANCE / 2 keep the product normal)
+    scale = _TINY_SCALE if d2 < _TINY else 1.0
+    n2 *= scale
+    d2 *= scale
     q = 1.0 / (d1 * d2 * distance)
     inv_d = d1 * d2 * q
     q = distance * q

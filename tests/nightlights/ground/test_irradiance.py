@@ -112,6 +112,18 @@ def test_isotropic_source_follows_inverse_square_and_cosine_law(
     np.testing.assert_allclose(values, intensity * height / distance**3, rtol=1e-12)
 
 
+@pytest.mark.parametrize("y", [2.2250738585e-313, 5e-324, -3e-310, 1e-160, 1e-300, 0.0])
+@pytest.mark.parametrize("x", [0.0, 1e-320, -2e-315])
+def test_a_light_a_subnormal_distance_off_a_pixel_centre(x: float, y: float) -> None:
+    # the pixel straight below: its horizontal angle comes from subnormal offsets
+    table = IntensityTable.from_function(lambda v, h: np.full_like(v, 3.0))
+    values = single(table, (5, 7), (-3.0, 2.0), 1.0, (x, y, 2.0))
+    cx = -3.0 + np.arange(7)
+    cy = 2.0 - np.arange(5)
+    distance = np.sqrt((cx[None, :] - x) ** 2 + (cy[:, None] - y) ** 2 + 2.0**2)
+    np.testing.assert_allclose(values, 3.0 * 2.0 / distance**3, rtol=1e-12)
+
+
 def test_energy_conservation_on_a_large_raster() -> None:
     """Flux on the ground = downward flux of the luminaire (asymmetric lobe), within 1 %."""
     table = IntensityTable.from_function(asymmetric_lobe, vertical_step=2.5, horizontal_step=5)
