@@ -76,21 +76,17 @@ def plot(payload: dict):
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for estimator, colour in (("plain", "tab:orange"), ("split", "tab:blue")):
         rows = [r for r in payload["runs"] if r["estimator"] == estimator]
-        seconds = [r["seconds"] for r in rows]
-        ax.loglog(
-            seconds,
-            [r["worst_deviation"] for r in rows],
-            "o-",
-            color=colour,
-            label=f"{estimator}: worst to 150 km",
-        )
-        ax.loglog(
-            seconds,
-            [r["median_deviation"] for r in rows],
-            "s--",
-            color=colour,
-            label=f"{estimator}: median",
-        )
+        for key, style, label in (
+            ("worst_deviation", "o-", "worst to 150 km"),
+            ("median_deviation", "s--", "median"),
+        ):
+            ax.loglog(
+                [r["seconds"] for r in rows],
+                [r[key] for r in rows],
+                style,
+                color=colour,
+                label=f"{estimator}: {label}",
+            )
         for r in rows:
             ax.annotate(f"{r['photons']}", (r["seconds"], r["worst_deviation"]), fontsize=7)
     ax.set_xlabel("measurement time [s] (labels: photons)")

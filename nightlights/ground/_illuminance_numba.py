@@ -385,21 +385,19 @@ class PackedTables:
 
     Attributes
     ----------
-    candela
-        All tables' candela values, each table row-major (horizontal, vertical) [cd].
     pairs
-        ``candela`` with each value's successor along the flat array as the imaginary part,
+        All tables' candela values c, each table row-major (horizontal, vertical), as the
+        real parts, and each value's successor along the flat array as the imaginary part,
         (c[j], c[j + 1]): a cell's two corners at one horizontal angle in one 16-byte load
         (the last imaginary part, never read, is 0) [cd].
     offset
-        Start of each table in ``candela`` (tables,).
+        Start of each table in ``pairs`` (tables,).
     shape
         (n_horizontal, n_vertical) of each table (tables, 2).
     scale
         (1 / vertical step, 1 / horizontal step) of each table (tables, 2) [deg-1].
     """
 
-    candela: FloatArray
     pairs: ComplexArray
     offset: NDArray[np.int64]
     shape: NDArray[np.int64]
@@ -419,7 +417,6 @@ def pack_tables(tables: Sequence[IntensityTable]) -> PackedTables:
     pairs = candela.astype(np.complex128)
     pairs.imag[:-1] = candela[1:]
     return PackedTables(
-        candela,
         pairs,
         np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64),
         np.array([table.candela.shape for table in tables], dtype=np.int64).reshape(-1, 2),

@@ -140,11 +140,13 @@ def write_cog(
     with MemoryFile() as memfile, memfile.open(**profile) as mem:
         for index, band in enumerate(bands, start=1):
             mem.write(np.asarray(band.data, dtype=np.float32), index)
-            mem.set_band_description(index, band.description)
-            mem.update_tags(index, **{**dict(band.tags), "unit": band.unit})
-            mem.set_band_unit(index, band.unit)
-        if tags:
-            mem.update_tags(**{key: str(value) for key, value in tags.items()})
+        label_bands(
+            mem,
+            [band.description for band in bands],
+            [band.unit for band in bands],
+            [band.tags for band in bands],
+            tags,
+        )
         if qml is True:
             qml = raster_qml(
                 [band.description for band in bands],
@@ -166,6 +168,24 @@ def write_cog(
             if style is not None and isinstance(qml, str):
                 outputs.temporary(style).write_text(qml, encoding="utf-8")
     return Path(path)
+
+
+def label_bands(
+    dataset: Any,
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    band_tags: Sequence[Mapping[str, str]],
+    tags: Mapping[str, Any] | None,
+) -> None:
+    """Band names, units (also as each band's ``unit`` tag) and metadata on an open dataset."""
+    for index, (description, unit, extra) in enumerate(
+        zip(descriptions, units, band_tags, strict=True), start=1
+    ):
+        dataset.set_band_description(index, description)
+        dataset.update_tags(index, **{**dict(extra), "unit": unit})
+        dataset.set_band_unit(index, unit)
+    if tags:
+        dataset.update_tags(**{key: str(value) for key, value in tags.items()})
 
 
 def copy_to_cog(

@@ -31,7 +31,7 @@ from rasterio.enums import Resampling
 
 from nightlights.errors import OutputError
 from nightlights.io.outputs import OutputSet
-from nightlights.io.raster import copy_to_cog
+from nightlights.io.raster import copy_to_cog, label_bands
 from nightlights.io.styles import SAMPLE_LIMIT, raster_qml, sidecar_path
 
 __all__ = ["CogWriter"]
@@ -219,7 +219,9 @@ class CogWriter:
             if dataset is not None:
                 try:
                     if exc_type is None:
-                        self._label(dataset)
+                        label_bands(
+                            dataset, self._descriptions, self._units, self._band_tags, self._tags
+                        )
                 finally:
                     dataset.close()
             if exc_type is None and self._scratch is not None:
@@ -235,16 +237,6 @@ class CogWriter:
                 self._env.__exit__(None, None, None)
                 self._env = None
             self._outputs.__exit__(exc_type, exc, traceback)
-
-    def _label(self, dataset: Any) -> None:
-        """Band names, units and metadata on the scratch file."""
-        for index in range(1, self.shape[0] + 1):
-            unit = self._units[index - 1]
-            dataset.set_band_description(index, self._descriptions[index - 1])
-            dataset.update_tags(index, **{**dict(self._band_tags[index - 1]), "unit": unit})
-            dataset.set_band_unit(index, unit)
-        if self._tags:
-            dataset.update_tags(**self._tags)
 
     def _finish(self, scratch: Path) -> None:
         """The COG and its style from the scratch file."""
