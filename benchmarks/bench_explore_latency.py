@@ -49,7 +49,7 @@ from nightlights.sky import KernelSpec
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.panorama import KernelSlice, panorama_pca
 from nightlights.sky.polar import PolarMap, level_maps, lit_polar_cells
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.store import get_or_build_kernel
 
 CELL = 10.0  # [m]

@@ -7,7 +7,7 @@ threads). Time: :attr:`DarknessResult.seconds` (stencils and convolutions, kerne
 with the peak of numpy memory traced during the call.
 
 Error: the map's zenith luminance at sampled cells against a full
-:func:`~nightlights.sky.scene.skyglow_panorama` there (its zenith: the mean of the top row),
+:func:`~nightlights.sky.forward.skyglow_panorama` there (its zenith: the mean of the top row),
 the way a user would compute it: the observer at the cell centre, its own scene kernel (range
 to the farthest corner from that cell, exact eye altitude, default PCA mode). Flat terrain:
 400 x 400 cells of 500 m with 40 towns, default kernels (64 x 256, 64 distance bins); also
@@ -36,7 +36,7 @@ from nightlights.errors import DataQualityWarning
 from nightlights.inverse._darkness import darkness
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import get_or_build_kernel, kernel_cache_path, read_kernel
 

@@ -1,6 +1,6 @@
 """The region-wide zenith darkness map: the artificial zenith sky brightness at every cell.
 
-The forward panorama's zenith luminance (:func:`~nightlights.sky.scene.skyglow_panorama`, the
+The forward panorama's zenith luminance (:func:`~nightlights.sky.forward.skyglow_panorama`, the
 mean of its top row) is linear in the emission and, averaged over azimuth, no longer depends on
 the direction of a source, only on its distance. With the observer at a cell centre ``o`` and
 every lit cell ``s`` split into the k x k sub-points ``p`` of the polar map

@@ -25,7 +25,7 @@ from nightlights.io.outputs import OutputSet
 from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
 from nightlights.nightsky.tonemap import ToneMapping, tone_map
 from nightlights.sky.brightness import luminance_to_magnitude
-from nightlights.sky.scene import panorama_coords
+from nightlights.sky.forward import panorama_coords
 
 __all__ = ["SkyRenderResult", "legend_text", "png_bytes", "read_panorama", "sky_render"]
 

@@ -10,7 +10,9 @@ Units: flux [lm] in, luminance [cd m-2] out; angles in degrees, azimuth clockwis
 elevation above the horizon.
 """
 
-from nightlights.sky.scene import SkyglowScene, skyglow_panorama
+from nightlights.sky.forward import SkyglowScene, skyglow_panorama
+from nightlights.sky.observer import Observer
+from nightlights.sky.scene import Scene
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.stage import SkyglowResult, build_kernel, skyglow
 from nightlights.sky.store import KernelResult
@@ -18,6 +20,8 @@ from nightlights.sky.store import KernelResult
 __all__ = [
     "KernelResult",
     "KernelSpec",
+    "Observer",
+    "Scene",
     "SkyglowResult",
     "SkyglowScene",
     "build_kernel",

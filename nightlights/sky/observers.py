@@ -67,6 +67,7 @@ from nightlights.io.styles import observers_style
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.build import EMISSION_TABLES
+from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
@@ -75,7 +76,6 @@ from nightlights.sky.polar import (
     lit_polar_cells,
     source_level_weights,
 )
-from nightlights.sky.scene import _panorama_dataset
 from nightlights.sky.setup import (
     EmissionInput,
     RasterInput,

@@ -1,376 +1,316 @@
-"""The skyglow panorama of a scene: an emission raster, an observer, a kernel and a terrain.
+"""What a sky computation is about: :class:`Scene`, the emission seen through one atmosphere.
 
-:func:`skyglow_panorama` is the in-memory form of the ``skyglow`` stage: a raster of upward flux
-density in, a :class:`SkyglowScene` out (an :class:`xarray.Dataset` of sky luminance and
-brightness, and the polar flux map it came from), no output files.
-It resamples the emission into the observer's polar grid (:mod:`nightlights.sky.polar`) and
-convolves it in azimuth with the kernel (:mod:`nightlights.sky.panorama`).
+A scene holds the upward emission (a raster of flux density, a path or its lit cells), the
+terrain it stands on (a DEM, optional), the atmosphere (Preetham's turbidity) and either a
+precomputed kernel or the grid of the scene kernel to build (panorama rows and columns,
+distance bins), with the folder that caches built kernels. Every sky stage takes one
+(``skyglow(scene, observer)``, the inverse maps, the dimming rule and plan, the darkness map,
+the many-observer summary, the explore session), as pvlib's stages take a ``Location``.
 
-References
-----------
-Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
-the Night Sky", ACM TOG 42(6) 219, Sec. 3.3.
+The scene finds its kernel in exactly one place, :meth:`Scene.find_kernel`: a given kernel is
+loaded once and checked against the scene's grid and turbidity; otherwise a kernel is sized to
+the scene (:func:`~nightlights.sky.spec.scene_kernel_spec`: distances to the farthest lit
+corner, the observers' and sources' altitude levels, the shape tables the bands' emission
+functions need) and built or reused from the cache.
+
+A product computed from a scene (the Q, S and dimming rasters) records it in its tags
+(:meth:`Scene.record`), and the stages that read such a product back rebuild the same scene
+from them (:meth:`Scene.recorded`), so the figures they add are computed in the same atmosphere
+on the same grid.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
-from dataclasses import dataclass
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from nightlights._typing import FloatArray, PathLike
-from nightlights.errors import InputError
-from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
-from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
-from nightlights.sky.kernel import UPLIGHT_EXPONENT
-from nightlights.sky.multiple import scattering_note
-from nightlights.sky.panorama import (
-    MODES,
-    KernelSlice,
-    band_slice,
-    kernel_levels,
-    panorama_exact,
-    panorama_naive,
-    panorama_pca,
-)
-from nightlights.sky.polar import PolarMap, level_maps
-from nightlights.sky.setup import EmissionInput, RasterInput, SceneSetup, prepare_scene
-from nightlights.sky.store import KernelResult, get_or_build_kernel
+from nightlights.errors import DataQualityWarning, InputError
+from nightlights.io import Raster, source_label
+from nightlights.io.raster import LitCells
+from nightlights.sky.setup import EmissionInput, RasterInput, check_kernel_grid, kernel_tables
+from nightlights.sky.spec import EmissionFunction, KernelSpec, scene_kernel_spec
+from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
-__all__ = ["SkyglowScene", "skyglow_panorama"]
+__all__ = ["DEFAULT_GRID", "DEFAULT_TURBIDITY", "KernelInput", "Scene"]
 
+#: What a scene's kernel may be: a built kernel, its dataset or its NetCDF file.
+KernelInput = KernelResult | xr.Dataset | PathLike
+#: Turbidity of a scene kernel when none is given (Preetham 1999: a clear sky) [1].
+DEFAULT_TURBIDITY = 2.0
+#: Grid of a scene kernel when none is given: panorama rows, columns, distance bins [1]
+#: (the grid every sky stage has always defaulted to).
+DEFAULT_GRID = {"n_elevation": 64, "n_azimuth": 256, "n_distance": 64}
 
-@dataclass(frozen=True)
-class SkyglowScene:
-    """What :func:`skyglow_panorama` computed: the panorama and the polar map it came from.
-
-    Attributes
-    ----------
-    panorama
-        Sky luminance and brightness over (elevation, azimuth).
-    polar
-        The observer's polar flux map, all source levels together [lm].
-    seconds
-        Time of the panorama computation after the polar map [s].
-    """
-
-    panorama: xr.Dataset
-    polar: PolarMap
-    seconds: float
+#: Tags a product writes to record its scene (:meth:`Scene.record`).
+_RECORD_TAGS = ("turbidity", "n_elevation", "n_azimuth", "n_distance", "kernel_hash")
 
 
-def skyglow_panorama(
-    emission: EmissionInput,
-    observer: tuple[float, float],
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
-    dem: RasterInput | None = None,
-    *,
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    turbidity: float | None = None,
-    mode: str = "pca",
-    components: int | None = None,
-    bands: str = "V",
-    spectrum: str = "LED_4000K",
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
-    n_distance: int | None = None,
-    cache_dir: PathLike | None = None,
-    progress: bool = True,
-) -> SkyglowScene:
-    """What an observer sees: the skyglow panorama of an emission raster, in memory.
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """An emission raster, its terrain and atmosphere, and the kernel (or its grid).
 
     Parameters
     ----------
     emission
-        Upward flux density [lm m-2] in a projected CRS (a
-        :class:`~nightlights.io.Raster`, a DataArray or a path), one or two bands, each with
-        the emission function of its ``emission_function`` tag (lambertian, uplight,
-        garstang:F,G); without tags one band is read as garstang:0.15,0.15 and two bands as
-        Lambertian + direct uplight (the ``emission`` stage's output, which tags them). See
-        :func:`~nightlights.sky.setup.band_emission_functions`.
-    observer
-        Observer position (x, y) in ``observer_crs`` [m or deg].
-    kernel
-        Precomputed kernel (:class:`~nightlights.sky.store.KernelResult`, dataset or path);
-        default: built for the scene, or reused from the kernel cache in ``cache_dir``.
+        Upward flux density [lm m-2] in a projected CRS: a :class:`~nightlights.io.Raster`, a
+        DataArray, a path or its :class:`~nightlights.io.raster.LitCells`; one or two bands,
+        each with the emission function of its ``emission_function`` tag (untagged: one band
+        Garstang's F = G = 0.15, two bands Lambertian + direct uplight).
     dem
-        Terrain heights above sea level [m] in the emission's CRS: the observer stands
-        ``observer_height`` above it, every lit cell emits from its own terrain height (the
-        kernel is tabulated at :func:`source_levels` and interpolated linearly per cell), and
-        the panorama is masked below the terrain horizon (``terrain_mask``).
-    observer_crs
-        CRS of ``observer`` (default: the raster's).
-    observer_height
-        Observer height above the ground [m].
+        Terrain heights above sea level [m] in the emission's CRS (Raster, DataArray or path):
+        observers stand on it, every lit cell emits from its own height, and it hides the sky
+        below its horizon. None: flat ground at 0 m.
     turbidity
-        Atmospheric turbidity (Preetham 1999) [1]; default 2, or the given kernel's.
-    mode
-        ``pca`` (fast), ``exact`` (no PCA) or ``naive`` (direct integration with the kernel's
-        atmosphere, slow reference).
-    components
-        PCA bases used in ``pca`` mode (default: all the kernel stores) [1].
-    bands
-        ``V`` (luminance only) or ``RGB``: CIE X, Y, Z panoramas with wavelength-dependent
-        scattering and the emission colour of ``spectrum`` (needs scene kernels, so no
-        ``kernel``).
-    spectrum
-        Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
+        Atmospheric turbidity (Preetham 1999) [1]; None: :data:`DEFAULT_TURBIDITY` for a scene
+        kernel, the kernel's own with ``kernel``.
+    kernel
+        A precomputed kernel (:class:`~nightlights.sky.store.KernelResult`, dataset or NetCDF
+        path); None: a scene kernel, built for each stage's reach or reused from the cache.
     n_elevation, n_azimuth, n_distance
-        Panorama rows and columns and distance bins of a scene kernel (default 64, 256, 64);
-        with ``kernel`` None or the kernel's own (a given kernel fixes the grid) [1].
+        Panorama rows and columns and distance bins of a scene kernel (None:
+        :data:`DEFAULT_GRID`); with ``kernel`` None or equal to the kernel's own [1].
     cache_dir
-        Kernel cache folder (scene kernels are cached there).
-    progress
-        Progress bar while building a kernel.
-
-    Returns
-    -------
-    SkyglowScene
-        ``panorama``: a Dataset of ``luminance`` [cd m-2], ``sky_brightness``
-        [mag arcsec-2] and ``terrain_mask`` over (elevation, azimuth) [deg] (and ``X``, ``Y``,
-        ``Z`` [cd m-2] for ``RGB``), with the observer, kernel and zenith figures and each
-        band's emission function (``emission_functions``, ``emission_function_sources``) in
-        the attributes; ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
-        the panorama after the polar map [s].
+        Folder of the kernel cache (None: the default cache folder).
 
     Examples
     --------
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
-    >>> kernel = build_kernel(spec, progress=False)
-    >>> scene = skyglow_panorama(raster, (1000.0, 1000.0), kernel, observer_height=0.0)
-    >>> pano = scene.panorama
-    >>> pano["luminance"].shape, bool(pano.attrs["zenith_luminance_cd_m2"] > 0)
+    >>> scene = Scene(raster, kernel=build_kernel(spec, progress=False))
+    >>> sky = skyglow(scene, Observer(1000.0, 1000.0, height=0.0))
+    >>> sky.panorama["luminance"].shape, 1 <= sky.bortle <= 9
     ((8, 16), True)
     """
-    if mode not in MODES:
-        raise InputError(f"mode {mode!r}; expected one of {', '.join(MODES)}")
-    if bands not in ("V", "RGB"):
-        raise InputError(f"bands {bands!r}; expected V or RGB")
-    if bands == "RGB" and (kernel is not None or mode == "naive"):
-        raise InputError(
-            "--bands RGB builds one scene kernel per tristimulus band: give no --kernel and "
-            "use mode pca or exact"
-        )
-    setup = prepare_scene(
-        emission,
-        observer,
-        kernel,
-        dem,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
-        cache_dir=cache_dir,
-        progress=progress,
+
+    emission: EmissionInput
+    dem: RasterInput | None = None
+    turbidity: float | None = None
+    kernel: KernelInput | None = None
+    n_elevation: int | None = None
+    n_azimuth: int | None = None
+    n_distance: int | None = None
+    cache_dir: PathLike | None = None
+    _loaded: dict[str, xr.Dataset] = field(
+        default_factory=dict, init=False, repr=False, compare=False
     )
-    xy, table, levels = setup.xy, setup.table, setup.levels
-    label, terrain, spec = setup.label, setup.terrain, setup.spec
-    observer_altitude, offset, slices = setup.observer_altitude, setup.offset, setup.slices
-    kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
-    tables = slices[0]
-    cells = setup.polar_cells()
-    polars = level_maps(cells, setup.level_weights(cells))
-    polar = _total(polars)
-    band_tables: dict[str, list[KernelSlice]] = {}
-    if bands == "RGB" and spec is not None:
-        for band, wavelength in TRISTIMULUS_WAVELENGTHS.items():
-            band_spec = dataclasses.replace(
-                spec, atmosphere=dataclasses.replace(spec.atmosphere, wavelength_nm=wavelength)
-            )
-            band_tables[band] = [
-                band_slice(level, setup.functions)
-                for level in kernel_levels(
-                    get_or_build_kernel(band_spec, cache_dir=cache_dir, progress=progress).kernel,
-                    observer_altitude=observer_altitude,
+
+    def __post_init__(self) -> None:
+        if self.emission is None:
+            raise InputError("emission=None; expected an emission raster (Raster, DataArray, path)")
+        if self.turbidity is not None:
+            try:
+                turbidity = float(self.turbidity)
+            except (TypeError, ValueError):
+                raise InputError(f"turbidity={self.turbidity!r}; expected a number") from None
+            if not (np.isfinite(turbidity) and turbidity > 0):
+                raise InputError(f"turbidity={turbidity!r}; expected a finite number > 0")
+            object.__setattr__(self, "turbidity", turbidity)
+        for name in DEFAULT_GRID:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise InputError(f"{name}={value!r}; expected an integer >= 1")
+            object.__setattr__(self, name, int(value))
+
+    @property
+    def label(self) -> str:
+        """How messages name the emission."""
+        if isinstance(self.emission, LitCells):
+            return "in-memory emission raster"
+        return source_label(self.emission, "emission raster")
+
+    @property
+    def grid(self) -> dict[str, int | None]:
+        """The grid options as given (None where the default or the kernel's applies)."""
+        return {name: getattr(self, name) for name in DEFAULT_GRID}
+
+    def replace(self, **changes: Any) -> Scene:
+        """A copy with some fields changed (``turbidity=3.0``, ``dem="dem.tif"``)."""
+        return dataclasses.replace(self, **changes)
+
+    # --- the kernel: found in one place ------------------------------------------------------
+
+    def kernel_dataset(self) -> xr.Dataset | None:
+        """The given kernel's dataset, loaded once (None for a scene kernel)."""
+        if self.kernel is None:
+            return None
+        if "kernel" not in self._loaded:
+            self._loaded["kernel"] = load_kernel(self.kernel)
+        return self._loaded["kernel"]
+
+    def find_kernel(
+        self,
+        extent: Raster | LitCells,
+        xy: tuple[float, float],
+        *,
+        observer_altitudes: Sequence[float],
+        source_altitudes: FloatArray | Sequence[float],
+        functions: Sequence[EmissionFunction],
+        progress: bool = True,
+    ) -> tuple[xr.Dataset, KernelSpec | None]:
+        """The scene's kernel for a reach and altitudes: the given one, checked, or a scene
+        kernel built (or reused from the cache) for them.
+
+        Parameters
+        ----------
+        extent
+            The emission raster or its lit cells: with ``xy``, the farthest corner sets the
+            scene kernel's range.
+        xy
+            The point the range is measured from, in the emission's CRS [m].
+        observer_altitudes
+            Eye altitudes to tabulate, lowest first (one, or the lowest and highest) [m].
+        source_altitudes
+            Source-altitude levels [m].
+        functions
+            The bands' emission functions: the shape tables the kernel needs.
+        progress
+            Progress bar while building.
+
+        Returns
+        -------
+        table : xarray.Dataset
+            The kernel.
+        spec : KernelSpec or None
+            The scene kernel's specification (None for a given kernel).
+
+        Raises
+        ------
+        InputError
+            Grid options or a turbidity that differ from a given kernel's.
+        """
+        table = self.kernel_dataset()
+        if table is not None:
+            check_kernel_grid(table, **self.grid)
+            given = float(table.attrs.get("turbidity", np.nan))
+            if self.turbidity is not None and not np.isclose(self.turbidity, given):
+                raise InputError(
+                    f"turbidity {self.turbidity} differs from the kernel's ({given}); omit "
+                    "turbidity= or build a kernel for it"
                 )
-            ]
-    start = time.perf_counter()
-    if mode == "pca":
-        luminance = panorama_pca(polars, slices, components=components)
-    elif mode == "exact":
-        luminance = panorama_exact(polars, slices)
-    else:
-        window, window_transform = setup.emission.dense()
-        window_heights = _dense_heights(setup)
-        luminance = panorama_naive(
-            window,
-            window_transform,
+            return table, None
+        grid = {name: value or DEFAULT_GRID[name] for name, value in self.grid.items()}
+        spec = scene_kernel_spec(
+            extent,
             xy,
-            elevation=tables.elevation,
-            n_az=tables.n_az,
-            observer_altitude=observer_altitude,
-            source_altitude=window_heights,
-            atmosphere=_kernel_atmosphere(table),
-            uplight_exponent=float(table.attrs.get("uplight_exponent", UPLIGHT_EXPONENT)),
-            functions=setup.functions,
-            multiple_scattering=str(table.attrs.get("multiple_scattering", "single")),
+            observer_altitude=observer_altitudes[0],
+            source_altitudes=source_altitudes,
+            turbidity=DEFAULT_TURBIDITY if self.turbidity is None else self.turbidity,
+            n_elevation=grid["n_elevation"],
+            n_azimuth=grid["n_azimuth"],
+            n_distance=grid["n_distance"],
+            **kernel_tables(functions, self.label),
         )
-    xyz = None
-    if bands == "RGB":
-        ratios = tristimulus_flux_ratios(spectrum)
-        channels = []
-        for band, table_c in band_tables.items():
-            scaled = [
-                PolarMap(
-                    p.flux * ratios[band],
-                    p.distance_edges,
-                    p.n_az,
-                    p.dropped_flux * ratios[band],
-                    p.total_flux * ratios[band],
-                )
-                for p in polars
-            ]
-            if mode == "pca":
-                channels.append(panorama_pca(scaled, table_c, components=components))
-            else:
-                channels.append(panorama_exact(scaled, table_c))
-        xyz = np.maximum(np.stack(channels, axis=-1), 0.0)
-        luminance = xyz[..., 1]
-    seconds = time.perf_counter() - start
-    luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
-    below_terrain = setup.below_terrain()
-    if terrain is not None:
-        luminance = np.where(below_terrain, np.nan, luminance)
-        if xyz is not None:
-            xyz = np.where(below_terrain[..., None], np.nan, xyz)
-    dataset = _panorama_dataset(luminance, below_terrain, tables.elevation, xyz)
-    dataset.attrs = {
-        "observer_x": xy[0],
-        "observer_y": xy[1],
-        "crs": setup.crs.to_wkt(),
-        "observer_height_m": observer_height,
-        "source_altitude_m": terrain.source_altitude if terrain is not None else 0.0,
-        "source_altitude_levels_m": levels,
-        "observer_altitude_m": observer_altitude + offset,
-        "kernel_altitude_offset_m": offset,
-        "turbidity": kernel_turbidity,
-        "kernel_hash": str(table.attrs.get("content_hash", "")),
-        "mode": mode,
-        "emission": label,
-        "emission_functions": "; ".join(f.tag for f in setup.functions),
-        "emission_function_sources": "; ".join(setup.function_notes),
-        "emitted_flux_lm": float(polar.total_flux.sum()),
-        "flux_beyond_kernel_lm": float(polar.dropped_flux.sum()),
-        **dataset.attrs,
-        "note": "artificial skyglow only (no natural sky background), "
-        + scattering_note(table.attrs),
-    }
-    if xyz is not None:
-        dataset.attrs["spectrum"] = spectrum
-    dataset.attrs["bands"] = bands
-    return SkyglowScene(dataset, polar, seconds)
+        if len(observer_altitudes) > 1:
+            spec = dataclasses.replace(spec, observer_altitudes=tuple(observer_altitudes))
+        return get_or_build_kernel(spec, cache_dir=self.cache_dir, progress=progress).kernel, spec
 
+    # --- recorded in products, rebuilt from them -------------------------------------------
 
-def _panorama_dataset(
-    luminance: FloatArray,
-    below_terrain: np.ndarray,
-    elevation: FloatArray,
-    xyz: FloatArray | None,
-) -> xr.Dataset:
-    """Panorama variables and coordinates, with the zenith figures in the attributes."""
-    n_az = luminance.shape[1]
-    azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
-    magnitude = luminance_to_magnitude(luminance)
-    zenith = float(np.nanmean(luminance[0])) if np.isfinite(luminance[0]).any() else 0.0
-    zenith_mag = float(luminance_to_magnitude(zenith))
-    dataset = xr.Dataset(
-        {
-            "luminance": (
-                ("elevation", "azimuth"),
-                luminance,
-                {"units": "cd m-2", "long_name": "artificial sky luminance"},
-            ),
-            "sky_brightness": (
-                ("elevation", "azimuth"),
-                magnitude,
-                {"units": "mag arcsec-2", "long_name": "sky brightness, -2.5 log10(L / 1.08e5)"},
-            ),
-            "terrain_mask": (
-                ("elevation", "azimuth"),
-                below_terrain.astype(np.int8),
-                {"long_name": "1 where the terrain (DEM) hides the sky"},
-            ),
-        },
-        coords=panorama_coords(elevation, azimuth),
-        attrs={
-            "zenith_luminance_cd_m2": zenith,
-            "zenith_sky_brightness": zenith_mag,
-            "bortle_class_zenith": int(bortle_class(zenith_mag)),
-        },
-    )
-    if xyz is not None:
-        for index, band in enumerate(TRISTIMULUS_WAVELENGTHS):
-            dataset[band] = (
-                ("elevation", "azimuth"),
-                xyz[..., index],
-                {
-                    "units": "cd m-2",
-                    "long_name": f"CIE 1931 {band} tristimulus luminance",
-                    "scattering_wavelength_nm": TRISTIMULUS_WAVELENGTHS[band],
-                },
+    def record(self, table: xr.Dataset) -> dict[str, str]:
+        """Tags that let a stage rebuild this scene from a product computed with ``table``.
+
+        Parameters
+        ----------
+        table
+            The kernel the product was computed with.
+
+        Returns
+        -------
+        dict
+            ``turbidity``, ``n_elevation``, ``n_azimuth``, ``n_distance``, ``kernel_hash``,
+            and ``kernel_file`` / ``dem_file`` when they were given as files.
+        """
+        n_frequency = int(table.sizes.get("frequency", 0))
+        tags = {
+            "turbidity": str(table.attrs.get("turbidity", "")),
+            "n_elevation": str(int(table.sizes["elevation"])),
+            "n_azimuth": str(int(table.sizes.get("azimuth", 2 * (n_frequency - 1)))),
+            "n_distance": str(int(table.sizes["distance"])),
+            "kernel_hash": str(table.attrs.get("content_hash", "")),
+        }
+        if isinstance(self.kernel, str | Path):
+            tags["kernel_file"] = str(Path(self.kernel).resolve())
+        if isinstance(self.dem, str | Path):
+            tags["dem_file"] = str(Path(self.dem).resolve())
+        return tags
+
+    def recorded(self, tags: Mapping[str, Any], label: str = "product") -> Scene:
+        """This scene completed with the scene a product recorded (:meth:`record`).
+
+        What this scene leaves open (None) is taken from the tags: the turbidity and grid of
+        the product's kernel, its kernel file (when it still exists with the recorded
+        content hash) and its DEM file. What this scene gives explicitly wins; a turbidity
+        that differs from the recorded one is warned about.
+
+        Parameters
+        ----------
+        tags
+            The product's tags.
+        label
+            How the product is named in messages.
+
+        Returns
+        -------
+        Scene
+        """
+        changes: dict[str, Any] = {}
+        recorded_turbidity = _number(tags.get("turbidity"))
+        if self.kernel is None:
+            kernel_file = tags.get("kernel_file")
+            if kernel_file and Path(kernel_file).is_file():
+                attrs = xr.open_dataset(kernel_file, engine="h5netcdf").attrs
+                if str(attrs.get("content_hash", "")) == str(tags.get("kernel_hash", "")):
+                    changes["kernel"] = Path(kernel_file)
+            if "kernel" not in changes:
+                if self.turbidity is None and recorded_turbidity is not None:
+                    changes["turbidity"] = recorded_turbidity
+                for name in DEFAULT_GRID:
+                    value = _number(tags.get(name))
+                    if getattr(self, name) is None and value is not None:
+                        changes[name] = int(value)
+        if (
+            self.turbidity is not None
+            and recorded_turbidity is not None
+            and not np.isclose(self.turbidity, recorded_turbidity)
+        ):
+            warnings.warn(
+                f"{label} was computed at turbidity {recorded_turbidity:g}, this scene gives "
+                f"{self.turbidity:g}; the figures use {self.turbidity:g}",
+                DataQualityWarning,
+                stacklevel=3,
             )
-    return dataset
+        dem_file = tags.get("dem_file")
+        if self.dem is None and dem_file:
+            if Path(dem_file).is_file():
+                changes["dem"] = Path(dem_file)
+            else:
+                warnings.warn(
+                    f"{label} was computed over the DEM {dem_file}, which no longer exists; "
+                    "the figures use flat ground",
+                    DataQualityWarning,
+                    stacklevel=3,
+                )
+        return self.replace(**changes) if changes else self
 
 
-def panorama_coords(elevation: FloatArray, azimuth: FloatArray) -> dict[str, Any]:
-    """The (elevation, azimuth) coordinates of a sky grid dataset, pixel centres [deg],
-    azimuth clockwise from north: the convention every panorama file shares."""
-    return {
-        "elevation": (
-            "elevation",
-            elevation,
-            {"units": "degree", "long_name": "elevation of pixel centre"},
-        ),
-        "azimuth": (
-            "azimuth",
-            azimuth,
-            {"units": "degree", "long_name": "azimuth clockwise from north"},
-        ),
-    }
-
-
-def _kernel_atmosphere(table: xr.Dataset) -> Atmosphere:
-    """The atmosphere a kernel was built with, from its attributes."""
-    if "turbidity" not in table.attrs:
-        raise InputError(
-            "the kernel has no atmosphere attributes; naive mode integrates with the kernel's "
-            "atmosphere"
-        )
-    return Atmosphere.from_parameters(table.attrs)
-
-
-def _dense_heights(setup: SceneSetup) -> FloatArray:
-    """The lit cells' source altitudes on the window of :meth:`LitCells.dense` [m]."""
-    cells = setup.emission
-    if cells.n_cells == 0:
-        return np.zeros((0, 0))
-    row0, col0 = int(cells.rows.min()), int(cells.cols.min())
-    shape = (int(cells.rows.max()) + 1 - row0, int(cells.cols.max()) + 1 - col0)
-    out = np.zeros(shape)
-    out[cells.rows - row0, cells.cols - col0] = setup.heights
-    return out
-
-
-def _total(polars: list[PolarMap]) -> PolarMap:
-    """The polar map of all source levels together."""
-    return PolarMap(
-        np.sum([p.flux for p in polars], axis=0),
-        polars[0].distance_edges,
-        polars[0].n_az,
-        np.sum([p.dropped_flux for p in polars], axis=0),
-        np.sum([p.total_flux for p in polars], axis=0),
-    )
+def _number(value: Any) -> float | None:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return number if np.isfinite(number) else None

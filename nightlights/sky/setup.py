@@ -4,7 +4,7 @@
 terrain, and loads (or builds and caches) the kernel with one slice per source-altitude level at
 the observer's altitude, one row per emission band: the mix of kernel shapes of the band's
 emission function (band tag ``emission_function``, :func:`band_emission_functions`).
-:func:`nightlights.sky.scene.skyglow_panorama` and the inverse maps
+:func:`nightlights.sky.forward.skyglow_panorama` and the inverse maps
 (:mod:`nightlights.inverse`) start from its :class:`SceneSetup`.
 
 Length: about 650 lines, because every check a scene passes before its kernel is used (the
@@ -19,13 +19,12 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypedDict
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import xarray as xr
 from affine import Affine
-from pyproj import CRS, Transformer
-from pyproj.exceptions import ProjError
+from pyproj import CRS
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
@@ -47,10 +46,12 @@ from nightlights.sky.spec import (
     MAX_KERNEL_RANGE,
     EmissionFunction,
     KernelSpec,
-    scene_kernel_spec,
     source_levels,
 )
-from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+
+if TYPE_CHECKING:
+    from nightlights.sky.observer import Observer
+    from nightlights.sky.scene import Scene
 
 __all__ = [
     "EmissionInput",
@@ -116,6 +117,8 @@ class SceneSetup:
         The emission function each band was given.
     function_notes
         Where each band's function came from: ``tag``, ``default`` or why another was used.
+    scene
+        The scene it was prepared from.
     """
 
     label: str
@@ -132,6 +135,7 @@ class SceneSetup:
     slices: list[KernelSlice]
     functions: tuple[EmissionFunction, ...] = ()
     function_notes: tuple[str, ...] = ()
+    scene: Scene | None = None
 
     @property
     def crs(self) -> CRS:
@@ -187,51 +191,32 @@ class SceneSetup:
         return first.elevation[:, None] < horizon[None, :]
 
 
-def prepare_scene(
-    emission: EmissionInput,
-    observer: tuple[float, float],
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
-    dem: RasterInput | None = None,
-    *,
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    turbidity: float | None = None,
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
-    n_distance: int | None = None,
-    cache_dir: PathLike | None = None,
-    progress: bool = True,
-) -> SceneSetup:
-    """Check an emission raster and an observer, and load or build the kernel for them.
+def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) -> SceneSetup:
+    """Check a scene's emission and an observer, and find the scene's kernel for them.
 
     A file is read window by window keeping only its lit cells
     (:func:`~nightlights.io.raster.read_lit_cells`). Refused with a one-line
     :class:`~nightlights.errors.InputError`: infinite or negative flux, no lit cell, an
-    observer whose coordinates are not on the Earth in ``observer_crs``, an observer farther
-    from every lit cell than the kernel reaches (an observer outside the raster within that
-    range is a dark site, and legal), and grid options that differ from a given kernel's.
+    observer whose coordinates are not on the Earth in its CRS, an observer farther from every
+    lit cell than the kernel reaches (an observer outside the raster within that range is a
+    dark site, and legal), and grid options that differ from a given kernel's.
 
     Parameters
     ----------
-    emission, observer, kernel, dem, observer_crs, observer_height, turbidity
-        As :func:`skyglow_panorama`; ``emission`` may also be its
-        :class:`~nightlights.io.raster.LitCells`.
-    n_elevation, n_azimuth, n_distance
-        Grid of a scene kernel (default 64, 256, 64); with ``kernel`` they must be None or
-        equal the kernel's [1].
-    cache_dir, progress
-        As :func:`skyglow_panorama`, for a scene kernel.
+    scene
+        The emission, terrain, atmosphere and kernel (:class:`~nightlights.sky.scene.Scene`).
+    observer
+        Who looks (:class:`~nightlights.sky.observer.Observer`).
+    progress
+        Progress bar while building a kernel.
 
     Returns
     -------
     SceneSetup
         The checked scene with one kernel slice per source level.
     """
-    label = (
-        "in-memory emission raster"
-        if isinstance(emission, LitCells)
-        else source_label(emission, "emission raster")
-    )
+    emission = scene.emission
+    label = scene.label
     cells = as_lit_cells(emission)
     if cells.crs is None or not cells.crs.is_projected:
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
@@ -241,10 +226,11 @@ def prepare_scene(
         )
     functions, notes = band_emission_functions(emission, cells.count, label=label)
     _check_flux(cells, label)
-    xy = _observer_xy(observer, observer_crs, cells.crs)
-    if not (np.isfinite(observer_height) and observer_height >= 0):
-        raise InputError(f"observer height {observer_height} m; expected a finite value >= 0")
-    _check_reach(cells, xy, MAX_KERNEL_RANGE, label, observer, observer_crs, "any kernel's")
+    xy = observer.position(cells.crs)
+    observer_height = observer.height
+    given = (observer.x, observer.y)
+    _check_reach(cells, xy, MAX_KERNEL_RANGE, label, given, observer.crs, "any kernel's")
+    dem = scene.dem
     terrain = (
         scene_terrain(dem, cells, xy, observer_height, label=source_label(dem, "DEM"))
         if dem is not None
@@ -253,38 +239,22 @@ def prepare_scene(
     # Altitudes above sea level: without terrain the ground is at 0 m.
     observer_altitude = terrain.eye_altitude if terrain is not None else observer_height
     heights = terrain.heights if terrain is not None else np.zeros(cells.n_cells)
-    spec: KernelSpec | None = None
-    if kernel is not None:
-        table = load_kernel(kernel)
-        check_kernel_grid(
-            table, n_elevation=n_elevation, n_azimuth=n_azimuth, n_distance=n_distance
-        )
-    else:
-        spec = scene_kernel_spec(
-            cells,
-            xy,
-            observer_altitude=observer_altitude,
-            source_altitudes=source_levels(heights),
-            turbidity=2.0 if turbidity is None else turbidity,
-            n_elevation=64 if n_elevation is None else n_elevation,
-            n_azimuth=256 if n_azimuth is None else n_azimuth,
-            n_distance=64 if n_distance is None else n_distance,
-            **kernel_tables(functions, label),
-        )
-        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
-    kernel_turbidity = float(table.attrs.get("turbidity", np.nan))
-    if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
-        raise InputError(
-            f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
-            "omit --turbidity or build a kernel for it"
-        )
+    table, spec = scene.find_kernel(
+        cells,
+        xy,
+        observer_altitudes=(observer_altitude,),
+        source_altitudes=source_levels(heights),
+        functions=functions,
+        progress=progress,
+    )
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     offset = level_offset(heights, None, levels)
     slices = kernel_levels(table, observer_altitude=observer_altitude - offset)
     functions, notes = kernel_band_functions(functions, notes, slices[0].emissions, label)
     slices = [band_slice(s, functions) for s in slices]
-    if kernel is not None:
-        _check_reach(cells, xy, float(slices[0].distance_edges[-1]), label, observer, observer_crs)
+    if spec is None:
+        reach = float(slices[0].distance_edges[-1])
+        _check_reach(cells, xy, reach, label, given, observer.crs)
     first = slices[0]
     check_memory(
         scene_memory(
@@ -297,7 +267,7 @@ def prepare_scene(
         ),
         f"the polar map and panorama of {cells.n_cells} lit cells ({first.elevation.size} x "
         f"{first.n_az} pixels)",
-        option="lower --n-azimuth or --n-elevation, or coarsen the emission raster",
+        option="lower n_azimuth or n_elevation, or coarsen the emission raster",
     )
     return SceneSetup(
         label=label,
@@ -314,6 +284,7 @@ def prepare_scene(
         slices=slices,
         functions=functions,
         function_notes=notes,
+        scene=scene,
     )
 
 
@@ -651,35 +622,3 @@ def level_offset(heights: FloatArray, lit: np.ndarray | None, levels: FloatArray
         stacklevel=4,
     )
     return offset
-
-
-def _observer_xy(
-    observer: tuple[float, float], observer_crs: str | None, raster_crs: CRS
-) -> tuple[float, float]:
-    x, y = (float(v) for v in observer)
-    if not (np.isfinite(x) and np.isfinite(y)):
-        raise InputError(f"observer {observer!r}; expected two finite numbers")
-    if observer_crs is None:
-        return x, y
-    try:
-        source = CRS.from_user_input(observer_crs)
-    except Exception as exc:  # pyproj raises its own CRSError
-        raise CRSError(f"observer CRS {observer_crs!r} is not a CRS: {exc}") from exc
-    if source.is_geographic and not (-360.0 <= x <= 360.0 and -90.0 <= y <= 90.0):
-        raise InputError(
-            f"observer ({x:g}, {y:g}) in {source.name}: expected longitude within +-360 deg "
-            "and latitude within +-90 deg (X,Y = lon,lat)"
-        )
-    try:
-        transformer = Transformer.from_crs(source, raster_crs, always_xy=True)
-        tx, ty = transformer.transform(x, y, errcheck=True)
-    except ProjError as exc:
-        raise CRSError(
-            f"observer ({x:g}, {y:g}) cannot be placed from {source.name} into the raster's "
-            f"CRS: {exc}"
-        ) from exc
-    if not (np.isfinite(tx) and np.isfinite(ty)):
-        raise CRSError(
-            f"observer ({x:g}, {y:g}) in {source.name} has no position in the raster's CRS"
-        )
-    return float(tx), float(ty)

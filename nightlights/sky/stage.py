@@ -2,7 +2,7 @@
 or GeoTIFF).
 
 Each stage computes in memory (:func:`nightlights.sky.build.compute_kernel`,
-:func:`nightlights.sky.scene.skyglow_panorama`), writes its product only when given an output
+:func:`nightlights.sky.forward.skyglow_panorama`), writes its product only when given an output
 path, and returns a frozen result holding the product.
 
 A panorama or polar map written to a ``.tif`` is a GeoTIFF that QGIS opens with its style:
@@ -25,12 +25,14 @@ from nightlights._typing import PathLike
 from nightlights.errors import InputError
 from nightlights.io import Raster, atomic_output
 from nightlights.io.outputs import OutputSet
+from nightlights.sky._flat import flat_keywords
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
+from nightlights.sky.forward import skyglow_panorama
+from nightlights.sky.observer import Observer
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.render import render_panorama
-from nightlights.sky.scene import skyglow_panorama
-from nightlights.sky.setup import EmissionInput, RasterInput
+from nightlights.sky.scene import Scene
 from nightlights.sky.spec import KernelSpec
 from nightlights.sky.store import KernelResult, write_kernel
 
@@ -143,55 +145,36 @@ def build_kernel(
     return KernelResult(ds, spec, target)
 
 
+@flat_keywords(legacy=("output",), observer="one")
 def skyglow(
-    emission: EmissionInput,
+    scene: Scene,
+    observer: Observer,
     output: PathLike | None = None,
     *,
-    observer: tuple[float, float],
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    turbidity: float | None = None,
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
     mode: str = "pca",
     components: int | None = None,
     png: PathLike | None = None,
     projection: str = "equirectangular",
     polar_output: PathLike | None = None,
-    dem: RasterInput | None = None,
     bands: str = "V",
     spectrum: str = "LED_4000K",
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
-    n_distance: int | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> SkyglowResult:
     """Compute what an observer sees: the skyglow panorama of an emission raster.
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] in a projected CRS: a :class:`~nightlights.io.Raster`, a
-        DataArray or a path; one or two bands, each with the emission function of its
-        ``emission_function`` tag (untagged: one band Garstang's F = G = 0.15, two bands
-        Lambertian + direct uplight).
+    scene
+        The emission, terrain, atmosphere and kernel (:class:`~nightlights.sky.scene.Scene`);
+        see :func:`~nightlights.sky.forward.skyglow_panorama` for how each is used.
+    observer
+        Who looks (:class:`~nightlights.sky.observer.Observer`): position and eye height.
     output
         Panorama file: NetCDF, or a GeoTIFF when it ends in ``.tif`` (bands ``luminance``
         [cd m-2] and ``sky_brightness`` [mag arcsec-2] and, for ``RGB``, ``X``, ``Y``, ``Z``
         [cd m-2], on the azimuth/elevation grid of :func:`panorama_raster`, with its QGIS
         style beside it); None writes nothing. It, ``png`` and ``polar_output`` are all
         checked before the computation and appear together at the end, or none of them.
-    observer
-        Observer position (x, y) in ``observer_crs`` [m or deg].
-    observer_crs
-        CRS of ``observer`` (default: the raster's).
-    observer_height
-        Observer height above the ground [m].
-    turbidity
-        Atmospheric turbidity (Preetham 1999) [1]; default 2, or the given kernel's.
-    kernel
-        Precomputed kernel (:class:`~nightlights.sky.store.KernelResult`, dataset or path);
-        default: built for the scene or reused from the cache.
     mode
         ``pca`` (fast), ``exact`` (no PCA) or ``naive`` (direct integration, slow reference).
     components
@@ -203,19 +186,12 @@ def skyglow(
     polar_output
         Optional file of the observer's polar flux map: NetCDF, or a GeoTIFF in the
         emission's CRS when it ends in ``.tif`` (:func:`polar_raster`).
-    dem
-        Terrain heights above sea level [m] in the emission's CRS (Raster, DataArray or path);
-        see :func:`~nightlights.sky.scene.skyglow_panorama`.
     bands
-        ``V`` (luminance only) or ``RGB`` (CIE X, Y, Z; scene kernels only, so no ``kernel``);
+        ``V`` (luminance only) or ``RGB`` (CIE X, Y, Z; scene kernels only, so a scene
+        without ``kernel``);
         the PNG is then a colour picture (equirectangular).
     spectrum
         Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
-    n_elevation, n_azimuth, n_distance
-        Panorama rows and columns and distance bins of a scene kernel (default 64, 256, 64);
-        with ``kernel`` None or the kernel's own [1].
-    cache_dir
-        Kernel cache folder.
     progress
         Progress bar while building a kernel.
 
@@ -229,38 +205,30 @@ def skyglow(
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel, skyglow
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> result = skyglow(raster, observer=(1000.0, 1000.0), observer_height=0.0, kernel=kernel)
+    >>> scene = Scene(raster, kernel=kernel)
+    >>> result = skyglow(scene, Observer(1000.0, 1000.0, height=0.0))
     >>> result.path is None, 1 <= result.bortle <= 9
     (True, True)
     """
     target = Path(output) if output is not None else None
     # Every location is checked now; the outputs appear together at the end or not at all.
     outputs = OutputSet(target, png, polar_output)
-    scene = skyglow_panorama(
-        emission,
+    sky = skyglow_panorama(
+        scene,
         observer,
-        kernel,
-        dem,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
         mode=mode,
         components=components,
         bands=bands,
         spectrum=spectrum,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
-        cache_dir=cache_dir,
         progress=progress,
     )
-    dataset = scene.panorama
+    dataset = sky.panorama
     zenith = float(dataset.attrs["zenith_luminance_cd_m2"])
     zenith_mag = float(dataset.attrs["zenith_sky_brightness"])
     dataset.attrs.update(_with_natural_sky(zenith))
@@ -271,13 +239,11 @@ def skyglow(
             dataset.to_netcdf(outputs.temporary(target), engine="h5netcdf")
         if polar_output is not None and _is_geotiff(polar_output):
             observer_xy = (float(dataset.attrs["observer_x"]), float(dataset.attrs["observer_y"]))
-            polar_raster(scene.polar, observer_xy, dataset.attrs["crs"]).write(
+            polar_raster(sky.polar, observer_xy, dataset.attrs["crs"]).write(
                 outputs.temporary(polar_output)
             )
         elif polar_output is not None:
-            _polar_dataset(scene.polar).to_netcdf(
-                outputs.temporary(polar_output), engine="h5netcdf"
-            )
+            _polar_dataset(sky.polar).to_netcdf(outputs.temporary(polar_output), engine="h5netcdf")
         if png is not None:
             _render(dataset, outputs.temporary(png), bands, spectrum, projection, zenith_mag)
     return SkyglowResult(
@@ -285,7 +251,7 @@ def skyglow(
         zenith,
         zenith_mag,
         int(dataset.attrs["bortle_class_zenith"]),
-        scene.seconds,
+        sky.seconds,
         target,
     )
 

@@ -22,7 +22,7 @@ from nightlights.explore import ExploreSession, _edits
 from nightlights.inverse import InfeasibleTargetError
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 
 CRS = "EPSG:32635"
 TRANSFORM = Affine(20.0, 0.0, 500_000.0, 0.0, -20.0, 6_700_000.0)

@@ -19,7 +19,7 @@ from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.panorama import kernel_slice
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import kernel_cache_path
 

@@ -41,7 +41,7 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.setup import band_emission_functions
 from nightlights.sky.spec import (
     DEFAULT_EMISSION_FUNCTION,

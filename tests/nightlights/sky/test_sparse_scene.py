@@ -23,7 +23,7 @@ from rasterio.windows import Window
 from nightlights.io import Raster
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import polar_map, polar_map_levels
-from nightlights.sky.scene import skyglow_panorama
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.setup import prepare_scene
 from nightlights.sky.store import write_kernel
 
