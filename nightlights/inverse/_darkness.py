@@ -43,7 +43,6 @@ e1600377 (the same quantity world-wide, with Garstang's model).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import os
@@ -57,7 +56,6 @@ import dask
 import dask.array as da
 import numpy as np
 import scipy.fft
-import xarray as xr
 from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from scipy.ndimage import map_coordinates
@@ -68,20 +66,20 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
+from nightlights.sky._flat import flat_keywords
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.multiple import scattering_note
+from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import source_level_weights, supersampling
+from nightlights.sky.scene import Scene
 from nightlights.sky.setup import (
     RasterInput,
     band_emission_functions,
-    check_kernel_grid,
     kernel_band_functions,
-    kernel_tables,
     level_offset,
 )
-from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
-from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "DarknessResult", "darkness", "zenith_per_lumen"]
 
@@ -307,20 +305,14 @@ def _chunk(*arrays: FloatArray, plan: _Plan) -> FloatArray:
     return _convolve(flux, heights, eye, plan, (a, rows - a, b, cols - b))
 
 
+@flat_keywords(legacy=("output",), observer="height")
 def darkness(
-    emission: RasterInput,
+    scene: Scene,
     output: PathLike | None = None,
     *,
-    observer_height: float = 1.7,
-    dem: RasterInput | None = None,
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
-    turbidity: float | None = None,
-    n_distance: int | None = None,
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
+    height: float = OBSERVER_HEIGHT,
     chunk_size: int | None = None,
     scheduler: str | Any | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> DarknessResult:
     """The artificial zenith sky brightness with the observer at every cell of a region.
@@ -331,33 +323,22 @@ def darkness(
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
-        two bands, each with the emission function of its ``emission_function`` tag
-        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight).
+    scene
+        The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
+        with the emission function of its ``emission_function`` tag), terrain, atmosphere and
+        kernel (:class:`~nightlights.sky.scene.Scene`). Its DEM must cover every cell: each
+        observer stands ``height`` above its cell, each source at its own height. Without a
+        kernel, a scene kernel over the region's diagonal (at most
+        :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels.
     output
         COG to write atomically (2 bands); None writes nothing.
-    observer_height
-        Eye height above the ground at every cell [m].
-    dem
-        Terrain heights above sea level [m] in the emission's CRS covering every cell: each
-        observer stands ``observer_height`` above its cell, each source at its own height.
-    kernel
-        Precomputed kernel; default: a scene kernel over the region's diagonal (at most
-        :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels,
-        cached in ``cache_dir``.
-    turbidity
-        Atmospheric turbidity [1]; default 2, or the given kernel's.
-    n_distance, n_elevation, n_azimuth
-        Distance bins, rows and columns of a scene kernel (default 64, 64, 256); with
-        ``kernel`` None or the kernel's own [1].
+    height
+        Eye height above the ground of the observer at every cell [m].
     chunk_size
         Chunk edge [cells]; default :data:`DEFAULT_CHUNK_SIZE`. A raster within one chunk is
         one FFT in memory; larger ones are chunked (never below twice the stencil radius).
     scheduler
         None: local threads; a ``dask.distributed`` address or ``Client``: that cluster.
-    cache_dir
-        Kernel cache folder.
     progress
         Progress bars (kernel build, chunks).
 
@@ -372,11 +353,12 @@ def darkness(
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
-    >>> result = darkness(raster, kernel=build_kernel(spec, progress=False), progress=False)
+    >>> scene = Scene(raster, kernel=build_kernel(spec, progress=False))
+    >>> result = darkness(scene, progress=False)
     >>> result.raster.descriptions
     ('zenith_luminance', 'zenith_sky_brightness')
     >>> zenith = result.raster.data[0]
@@ -384,13 +366,14 @@ def darkness(
     (True, True)
     """
     target = _check_output(output)
+    emission, dem, observer_height = scene.emission, scene.dem, height
     label = source_label(emission, "emission raster")
     raster = as_raster(emission)
     data = _check_emission(raster, label)
     # each band's emission function (its tag, or the default), read as the skyglow stage does
     functions, notes = band_emission_functions(raster, data.shape[0], label=label)
     if not (math.isfinite(observer_height) and observer_height >= 0):
-        raise InputError(f"observer height {observer_height!r} m; expected a finite value >= 0")
+        raise InputError(f"height={observer_height!r} m; expected a finite value >= 0")
     chunk = _check_chunk_size(chunk_size)
     cell = raster.resolution
     rows, cols = raster.shape
@@ -399,33 +382,14 @@ def darkness(
         _terrain(dem, raster, source_label(dem, "DEM")) if dem is not None else np.zeros(lit.shape)
     )
     eye = ground + observer_height
-    if kernel is not None:
-        table = load_kernel(kernel)
-        check_kernel_grid(
-            table, n_elevation=n_elevation, n_azimuth=n_azimuth, n_distance=n_distance
-        )
-        given = float(table.attrs.get("turbidity", np.nan))
-        if turbidity is not None and not np.isclose(turbidity, given):
-            raise InputError(
-                f"turbidity {turbidity} differs from the kernel's ({given}); omit --turbidity "
-                "or build a kernel for it"
-            )
-    else:
-        spec = dataclasses.replace(
-            scene_kernel_spec(
-                raster,
-                (raster.transform.c, raster.transform.f),  # a corner: range = the diagonal
-                observer_altitude=0.0,
-                source_altitudes=source_levels(ground[lit]),
-                turbidity=2.0 if turbidity is None else turbidity,
-                n_elevation=64 if n_elevation is None else n_elevation,
-                n_azimuth=256 if n_azimuth is None else n_azimuth,
-                n_distance=64 if n_distance is None else n_distance,
-                **kernel_tables(functions, label),
-            ),
-            observer_altitudes=tuple(source_levels(eye)),
-        )
-        table = get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    table, _ = scene.find_kernel(
+        raster,
+        (raster.transform.c, raster.transform.f),  # a corner: range = the diagonal
+        observer_altitudes=tuple(source_levels(eye)),
+        source_altitudes=source_levels(ground[lit]),
+        functions=functions,
+        progress=progress,
+    )
     start = time.perf_counter()
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))

@@ -32,7 +32,6 @@ from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.inverse._region import SkyRegion
 from nightlights.inverse.stage import (
-    KernelInput,
     _check_outputs,
     _lit,
     _panorama,
@@ -42,8 +41,11 @@ from nightlights.inverse.stage import (
 )
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
+from nightlights.sky._flat import flat_keywords
 from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
+from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.polar import PolarCells
+from nightlights.sky.scene import Scene
 from nightlights.sky.setup import RasterInput, prepare_scene
 
 __all__ = ["ReduceResult", "inverse_reduce", "least_dimming"]
@@ -72,20 +74,18 @@ class ReduceResult:
     path: Path | None = None
 
 
+@flat_keywords(legacy=("output",), observer="none")
 def inverse_reduce(
-    emission: RasterInput,
+    scene: Scene,
     output: PathLike | None = None,
     *,
     by: RasterInput,
     qa: float,
     qb: float,
     gamma: float = 1.0,
-    dem: RasterInput | None = None,
-    kernel: KernelInput = None,
     dimming_output: PathLike | None = None,
     summary_output: PathLike | None = None,
     png: PathLike | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> ReduceResult:
     """Dim the lights by their Q or S (Dobashi et al. 2023, Eq. 12), on both emission bands.
@@ -95,30 +95,29 @@ def inverse_reduce(
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] (Raster, DataArray or path).
+    scene
+        The emission (upward flux density [lm m-2]) to dim (:class:`~nightlights.sky.scene.
+        Scene`); what it leaves open (turbidity, grid, kernel, DEM) is taken from the scene
+        ``by`` recorded (:meth:`~nightlights.sky.scene.Scene.recorded`), so the before/after
+        figures are computed as ``by`` was.
     output
         Dimmed emission (COG), written atomically; None writes nothing.
     by
         A Q or S raster of :func:`inverse_q` / :func:`inverse_s` on the emission's grid; its
-        tags name the observer (and region) for the before/after figures.
+        tags name the observer (and region) for the before/after figures and the scene.
     qa, qb
         Q_a < Q_b: influence below which nothing is dimmed and above which gamma_usr is
         [cd m-2, the unit of ``by``].
     gamma
         gamma_usr in [0, 1] [1].
-    dem
-        Terrain for the before/after panoramas (as used for ``by``) [m].
-    kernel
-        Kernel for the before/after panoramas (default: the scene kernel, cached).
     dimming_output
         Dimming raster (COG), band ``dimming`` [1].
     summary_output
         Summary JSON.
     png
         Before/after panoramas side by side.
-    cache_dir, progress
-        Kernel cache folder; progress bar while building a kernel.
+    progress
+        Progress bar while building a kernel.
 
     Returns
     -------
@@ -131,23 +130,24 @@ def inverse_reduce(
     >>> from affine import Affine
     >>> from nightlights.inverse import inverse_q
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 9, 11] = flux[0, 2, 2] = 1.0  # near, far
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> q = inverse_q(raster, observer=(1000.0, 1000.0), kernel=kernel).raster
+    >>> scene = Scene(raster, kernel=kernel)
+    >>> q = inverse_q(scene, Observer(1000.0, 1000.0)).raster
     >>> qa, qb = np.nanmin(q.data), np.nanmax(q.data)
-    >>> result = inverse_reduce(raster, by=q, qa=qa, qb=qb, gamma=0.5, kernel=kernel)
+    >>> result = inverse_reduce(scene, by=q, qa=qa, qb=qb, gamma=0.5)
     >>> float(result.dimming.data[0, 9, 11]), float(result.dimming.data[0, 2, 2])  # near: halved
     (0.5, 0.0)
     >>> round(result.summary["flux_removed_percent"], 1)
     25.0
     """
     outputs = _check_outputs(output, dimming_output, summary_output, png)
-    _check_dense(emission)
-    raster = as_raster(emission)
+    _check_dense(scene.emission)
+    raster = as_raster(scene.emission)
     label = source_label(by, "influence raster")
     influence = as_raster(by)
     _same_grid(raster, influence, label)
@@ -158,15 +158,11 @@ def inverse_reduce(
     region = tags.get("region")
     targets = [("zenith", None)] + ([("region", SkyRegion.parse(region))] if region else [])
     summary, picture = _summary(
-        raster,
+        scene.recorded(tags, label).replace(emission=raster),
         fraction,
         [observer],
         [targets],
         weight=tags.get("weight", "solid-angle"),
-        observer_height=float(tags.get("observer_height_m", 1.7)),
-        dem=dem,
-        kernel=kernel,
-        cache_dir=cache_dir,
         progress=progress,
         picture=png is not None,
     )
@@ -191,22 +187,18 @@ def inverse_reduce(
     )
 
 
+@flat_keywords(legacy=("output",), observer="many")
 def least_dimming(
-    emission: RasterInput,
+    scene: Scene,
+    observers: Sequence[Observer],
     output: PathLike | None = None,
     *,
-    observers: Sequence[tuple[float, float]],
     target_zenith: float | None = None,
     target_region: Sequence[tuple[str | PathLike | SkyRegion, float]] = (),
     max_dimming: float | RasterInput = 1.0,
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    dem: RasterInput | None = None,
-    kernel: KernelInput = None,
     dimming_output: PathLike | None = None,
     summary_output: PathLike | None = None,
     png: PathLike | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> ReduceResult:
     """The dimming that meets sky-brightness targets while removing the least flux.
@@ -220,13 +212,14 @@ def least_dimming(
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] (Raster, DataArray or path).
+    scene
+        The emission (upward flux density [lm m-2]) to dim, its terrain, atmosphere and kernel
+        (:class:`~nightlights.sky.scene.Scene`).
+    observers
+        Who must see the targets (:class:`~nightlights.sky.observer.Observer`), inside the
+        raster or within the kernel's range of it.
     output
         Dimmed emission (COG), written atomically; None writes nothing.
-    observers
-        Observer positions (x, y) in ``observer_crs``, inside the raster or within
-        the kernel's range of it [m or deg].
     target_zenith
         Zenith sky brightness every observer must reach [mag arcsec-2].
     target_region
@@ -235,9 +228,7 @@ def least_dimming(
     max_dimming
         Largest fraction of any cell's flux that may be removed: a number in [0, 1] or a
         raster on the emission grid (safety lighting stays) [1].
-    observer_crs, observer_height, dem, kernel, cache_dir, progress
-        As :func:`inverse_q`.
-    dimming_output, summary_output, png
+    dimming_output, summary_output, png, progress
         As :func:`inverse_reduce`.
 
     Returns
@@ -257,14 +248,14 @@ def least_dimming(
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 9, 11] = flux[0, 2, 2] = 1.0  # near, far
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> plan = least_dimming(raster, observers=[(1000.0, 1000.0)], target_zenith=24.0,
-    ...                      kernel=kernel)
+    >>> scene = Scene(raster, kernel=kernel)
+    >>> plan = least_dimming(scene, [Observer(1000.0, 1000.0)], target_zenith=24.0)
     >>> zenith = plan.summary["observers"][0]["zenith"]
     >>> round(zenith["before_mag_arcsec2"], 2), round(zenith["after_mag_arcsec2"], 2)
     (23.58, 24.0)
@@ -276,8 +267,9 @@ def least_dimming(
     if not observers:
         raise InputError("no observer: the targets are for at least one observer")
     outputs = _check_outputs(output, dimming_output, summary_output, png)
-    _check_dense(emission)
-    raster = as_raster(emission)
+    _check_dense(scene.emission)
+    raster = as_raster(scene.emission)
+    dense = scene.replace(emission=raster)
     regions = [(SkyRegion.parse(region), float(mag)) for region, mag in target_region]
     targets: list[tuple[str, SkyRegion | None, float]] = []
     if target_zenith is not None:
@@ -288,16 +280,7 @@ def least_dimming(
     contributions, before, goal, labels = [], [], [], []
     scene_cells: PolarCells | None = None
     for index, observer in enumerate(observers):
-        setup = prepare_scene(
-            raster,
-            observer,
-            kernel,
-            dem,
-            observer_crs=observer_crs,
-            observer_height=observer_height,
-            cache_dir=cache_dir,
-            progress=progress,
-        )
+        setup = prepare_scene(dense, observer, progress=progress)
         cells = setup.polar_cells()
         scene_cells = cells if scene_cells is None else scene_cells
         levels = setup.level_weights(cells)
@@ -323,16 +306,11 @@ def least_dimming(
     fraction[scene_cells.rows, scene_cells.cols] = plan.fraction
     fraction = np.where(lit, fraction, 0.0)
     summary, picture = _summary(
-        raster,
+        dense,
         fraction,
         list(observers),
         [[(kind, region) for kind, region, _ in targets]] * len(observers),
         weight="solid-angle",
-        observer_height=observer_height,
-        observer_crs=observer_crs,
-        dem=dem,
-        kernel=kernel,
-        cache_dir=cache_dir,
         progress=progress,
         picture=png is not None,
     )
@@ -388,13 +366,15 @@ def _same_grid(raster: Raster, other: Raster, label: str) -> None:
         )
 
 
-def _tag_observer(tags: dict[str, str] | Any, label: str) -> tuple[float, float]:
+def _tag_observer(tags: dict[str, str] | Any, label: str) -> Observer:
+    """The observer an influence raster recorded: (x, y) in its CRS and the eye height."""
     try:
-        return float(tags["observer_x"]), float(tags["observer_y"])
+        xy = float(tags["observer_x"]), float(tags["observer_y"])
     except (KeyError, ValueError) as exc:
         raise InputError(
             f"{label}: no observer in its tags; expected a raster written by inverse q or inverse s"
         ) from exc
+    return Observer(*xy, height=float(tags.get("observer_height_m", OBSERVER_HEIGHT)))
 
 
 def _max_dimming(value: float | RasterInput, raster: Raster) -> FloatArray:
@@ -414,22 +394,20 @@ def _max_dimming(value: float | RasterInput, raster: Raster) -> FloatArray:
 
 
 def _summary(
-    raster: Raster,
+    scene: Scene,
     fraction: FloatArray,
-    observers: Sequence[tuple[float, float]],
+    observers: Sequence[Observer],
     targets: Sequence[Sequence[tuple[str, SkyRegion | None]]],
     *,
     weight: str,
-    observer_height: float,
-    observer_crs: str | None = None,
-    dem: RasterInput | None,
-    kernel: KernelInput,
-    cache_dir: PathLike | None,
     progress: bool,
     picture: bool,
 ) -> tuple[dict[str, Any], tuple[FloatArray, FloatArray, FloatArray] | None]:
     """Flux removed and, per observer, the zenith (and regions) before and after; with
-    ``picture``, the first observer's panoramas before and after and their elevations."""
+    ``picture``, the first observer's panoramas before and after and their elevations.
+    ``scene`` holds the emission in memory (a Raster)."""
+    raster = scene.emission
+    assert isinstance(raster, Raster)
     cell_area = raster.resolution**2
     flux = np.nan_to_num(raster.data).sum(axis=0) * cell_area
     removed = float(np.sum(flux * fraction))
@@ -437,16 +415,7 @@ def _summary(
     entries = []
     pictures = []
     for observer, wanted in zip(observers, targets, strict=True):
-        setup = prepare_scene(
-            raster,
-            observer,
-            kernel,
-            dem,
-            observer_crs=observer_crs,
-            observer_height=observer_height,
-            cache_dir=cache_dir,
-            progress=progress,
-        )
+        setup = prepare_scene(scene, observer, progress=progress)
         cells = setup.polar_cells()
         before = _panorama(setup, cells)
         after = _panorama(setup, cells, 1.0 - fraction[cells.rows, cells.cols])

@@ -37,9 +37,12 @@ from nightlights.inverse._influence import (
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.io.outputs import OutputSet
+from nightlights.sky._flat import flat_keywords
+from nightlights.sky.observer import Observer
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
-from nightlights.sky.setup import EmissionInput, RasterInput, SceneSetup, prepare_scene
+from nightlights.sky.scene import Scene
+from nightlights.sky.setup import SceneSetup, prepare_scene
 from nightlights.sky.store import KernelResult
 
 __all__ = ["InfluenceResult", "inverse_q", "inverse_s"]
@@ -86,56 +89,34 @@ class InfluenceResult:
     path: Path | None = None
 
 
+@flat_keywords(legacy=("output",), observer="one")
 def inverse_q(
-    emission: EmissionInput,
+    scene: Scene,
+    observer: Observer,
     output: PathLike | None = None,
     *,
-    observer: tuple[float, float],
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    dem: RasterInput | None = None,
-    kernel: KernelInput = None,
     metric: str = "pca-norm",
-    turbidity: float | None = None,
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
-    n_distance: int | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> InfluenceResult:
     """Each lit cell's light-pollution level for an observer (Dobashi et al. 2023, Eqs. 10-11).
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
-        two bands, each with the emission function of its ``emission_function`` tag
-        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight).
-    output
-        Q raster (COG), written atomically; None writes nothing.
+    scene
+        The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
+        with the emission function of its ``emission_function`` tag), terrain, atmosphere and
+        kernel (:class:`~nightlights.sky.scene.Scene`).
     observer
-        Observer (x, y) in ``observer_crs``, inside the raster or within the kernel's range
-        of it [m or deg].
-    observer_crs
-        CRS of ``observer`` (default: the raster's).
-    observer_height
-        Observer height above the ground [m].
-    dem
-        Terrain heights above sea level [m] (see :func:`nightlights.sky.skyglow`).
-    kernel
-        Precomputed kernel (default: a scene kernel, cached).
+        Who looks (:class:`~nightlights.sky.observer.Observer`), inside the raster or within
+        the kernel's range of it.
+    output
+        Q raster (COG), written atomically; None writes nothing. Its tags record the observer
+        and the scene (turbidity, grid, kernel), which the dimming rule reads back.
     metric
         ``pca-norm``: Q_i = flux_i sqrt(sum_k c_k^2) (Eqs. 10-11), the L2 norm of the cell's
         sky image over the panorama's pixels; ``zenith``: the cell's part of the zenith
         luminance; ``hemisphere``: its part of the solid-angle-weighted mean luminance of the
         visible sky. The last two add up over the cells to the forward panorama's value.
-    turbidity
-        Atmospheric turbidity [1]; default 2, or the given kernel's.
-    n_elevation, n_azimuth, n_distance
-        Grid of a scene kernel (default 64, 256, 64); with ``kernel`` None or the kernel's
-        own [1].
-    cache_dir
-        Kernel cache folder.
     progress
         Progress bar while building a kernel.
 
@@ -149,33 +130,21 @@ def inverse_q(
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = flux[0, 12, 3] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> q = inverse_q(raster, observer=(1000.0, 1000.0), kernel=kernel, metric="zenith")
+    >>> scene = Scene(raster, kernel=kernel)
+    >>> q = inverse_q(scene, Observer(1000.0, 1000.0), metric="zenith")
     >>> int(np.isfinite(q.raster.data).sum()), bool(np.isclose(q.total, q.panorama_value))
     (2, True)
     """
     if metric not in METRICS:
         raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
     _check_outputs(output)
-    setup = prepare_scene(
-        emission,
-        observer,
-        kernel,
-        dem,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
-        cache_dir=cache_dir,
-        progress=progress,
-    )
+    setup = prepare_scene(scene, observer, progress=progress)
     start = time.perf_counter()
     cells = setup.polar_cells()
     levels = setup.level_weights(cells)
@@ -199,37 +168,26 @@ def inverse_q(
     return _written(result, output)
 
 
+@flat_keywords(legacy=("output",), observer="one")
 def inverse_s(
-    emission: EmissionInput,
+    scene: Scene,
+    observer: Observer,
     output: PathLike | None = None,
     *,
-    observer: tuple[float, float],
     region: str | PathLike | SkyRegion,
     weight: str = "solid-angle",
     method: str = "pca",
     components: int | None = None,
-    observer_crs: str | None = None,
-    observer_height: float = 1.7,
-    dem: RasterInput | None = None,
-    kernel: KernelInput = None,
-    turbidity: float | None = None,
-    n_elevation: int | None = None,
-    n_azimuth: int | None = None,
-    n_distance: int | None = None,
-    cache_dir: PathLike | None = None,
     progress: bool = True,
 ) -> InfluenceResult:
     """Each lit cell's part of the skyglow in a region of the sky (Dobashi et al. 2023, Eq. 14).
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] (Raster, DataArray or path).
+    scene, observer
+        As :func:`inverse_q`.
     output
         S raster (COG), written atomically; None writes nothing.
-    observer
-        Observer (x, y) in ``observer_crs``, inside the raster or within the kernel's range
-        of it [m or deg].
     region
         Region of the sky (:class:`~nightlights.inverse.SkyRegion` or its text:
         ``"az,el az,el ..."`` closed, ``zenith:R``, ``horizon:AZ1,AZ2,EL``, or a GeoJSON/WKT
@@ -242,8 +200,7 @@ def inverse_s(
         ``brute``: each cell's raw kernel image summed over the region (reference).
     components
         PCA bases used (default: all the kernel stores) [1].
-    observer_crs, observer_height, dem, kernel, turbidity, n_elevation, n_azimuth, n_distance, \
-cache_dir, progress
+    progress
         As :func:`inverse_q`.
 
     Returns
@@ -257,13 +214,14 @@ cache_dir, progress
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 10, 18] = flux[0, 10, 1] = 1.0  # east, west
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> s = inverse_s(raster, observer=(1000.0, 950.0), region="horizon:45,135,30", kernel=kernel)
+    >>> scene = Scene(raster, kernel=kernel)
+    >>> s = inverse_s(scene, Observer(1000.0, 950.0), region="horizon:45,135,30")
     >>> bool(s.raster.data[0, 10, 18] > s.raster.data[0, 10, 1])  # the eastern cell leads
     True
     """
@@ -271,20 +229,7 @@ cache_dir, progress
         raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
     sky_region = SkyRegion.parse(region)
     _check_outputs(output)
-    setup = prepare_scene(
-        emission,
-        observer,
-        kernel,
-        dem,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
-        cache_dir=cache_dir,
-        progress=progress,
-    )
+    setup = prepare_scene(scene, observer, progress=progress)
     weights = _region_weights(setup, sky_region, weight)
     start = time.perf_counter()
     cells = setup.polar_cells()
@@ -374,8 +319,14 @@ def _influence_result(
         "metric": metric,
         "total_cd_m2": f"{float(values.sum())!r}",
         "panorama_value_cd_m2": f"{panorama_value!r}",
-        "kernel_hash": str(setup.table.attrs.get("content_hash", "")),
-        "turbidity": str(setup.table.attrs.get("turbidity", "")),
+        **(
+            setup.scene.record(setup.table)
+            if setup.scene is not None
+            else {
+                "kernel_hash": str(setup.table.attrs.get("content_hash", "")),
+                "turbidity": str(setup.table.attrs.get("turbidity", "")),
+            }
+        ),
         "emission": setup.label,
         "reference": "Dobashi et al. 2023, ACM TOG 42(6) 219, Sec. 4",
         **extra,

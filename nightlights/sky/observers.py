@@ -37,7 +37,6 @@ References
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import re
@@ -53,40 +52,38 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 from affine import Affine
-from pyproj import CRS, Transformer
-from pyproj.exceptions import ProjError
+from pyproj import CRS
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.inverse._influence import cell_values, region_table, zenith_weights
-from nightlights.io import OutputSet, as_vector, source_label, write_gpkg
+from nightlights.io import OutputSet, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
+from nightlights.sky._flat import flat_keywords
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.build import EMISSION_TABLES
 from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.multiple import scattering_note
+from nightlights.sky.observer import Observer, positions
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import (
     PolarMap,
     lit_polar_cells,
     source_level_weights,
 )
+from nightlights.sky.scene import Scene
 from nightlights.sky.setup import (
-    EmissionInput,
-    RasterInput,
     _check_flux,
     _check_reach,
     band_emission_functions,
-    kernel_tables,
     prepare_scene,
 )
-from nightlights.sky.spec import MAX_KERNEL_RANGE, scene_kernel_spec, source_levels
-from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
 __all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
 
@@ -362,23 +359,16 @@ def _observe_chunk(
         numba.set_num_threads(previous)
 
 
+@flat_keywords(legacy=("output",), observer="layer")
 def observers(
-    emission: EmissionInput,
+    scene: Scene,
+    observers: Sequence[Observer] | gpd.GeoDataFrame | PathLike,
     output: PathLike | None = None,
     *,
-    observers: Any,
-    observer_crs: str | None = None,
-    observers_layer: str | None = None,
-    names: Sequence[str] | None = None,
-    kernel: KernelResult | xr.Dataset | PathLike | None = None,
-    dem: RasterInput | None = None,
-    observer_height: float = 1.7,
-    turbidity: float | None = None,
     panoramas: PathLike | None = None,
     top_cells: int = 5,
     scheduler: str | Any = "threads",
     num_workers: int | None = None,
-    cache_dir: PathLike | None = None,
     overwrite: bool = False,
     progress: bool = True,
 ) -> ObserversResult:
@@ -386,35 +376,22 @@ def observers(
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
-        two bands, each with the emission function of its ``emission_function`` tag, as
-        :func:`~nightlights.sky.skyglow` reads it.
+    scene
+        The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
+        with the emission function of its ``emission_function`` tag, as
+        :func:`~nightlights.sky.skyglow` reads it), terrain, atmosphere and kernel
+        (:class:`~nightlights.sky.scene.Scene`). Without a kernel: a scene kernel reaching
+        from the farthest observer to the farthest lit cell (tabulated at the lowest and
+        highest eye altitude over a DEM), built or reused from the cache. Over a DEM each
+        observer stands on it and sees its horizon.
+    observers
+        The observers (:class:`~nightlights.sky.observer.Observer`, e.g. from
+        :meth:`Observer.from_layer <nightlights.sky.observer.Observer.from_layer>`), or a
+        layer of points (GeoDataFrame or vector file) read with its defaults. Unnamed
+        observers are called ``observer_1``, ``observer_2``, ... in their order. Without a
+        DEM they must share one eye height.
     output
         Summary GeoPackage (layer :data:`SUMMARY_LAYER`); None writes nothing.
-    observers
-        The observers: an ``(n, 2)`` array of (x, y) in ``observer_crs``, a GeoDataFrame of
-        points, or a vector file of points (GeoPackage or any format GDAL reads); a layer's
-        ``name`` column names them.
-    observer_crs
-        CRS of an array of observers, or of a layer without one (default: the emission's).
-    observers_layer
-        Layer of an observers file (default: its first).
-    names
-        One unique name per observer (default: the layer's ``name`` column, else
-        ``observer_1``, ``observer_2``, ...).
-    kernel
-        Precomputed kernel (path, dataset or :class:`~nightlights.sky.store.KernelResult`);
-        default: a scene kernel reaching from the farthest observer to the farthest lit cell
-        (tabulated at the lowest and highest eye altitude over a DEM), built or reused from
-        the cache.
-    dem
-        Terrain heights above sea level [m] in the emission's CRS: each observer stands on it
-        and sees its horizon.
-    observer_height
-        Eye height above the ground [m].
-    turbidity
-        Turbidity of a scene kernel [1] (default 2; with ``kernel`` the kernel's).
     panoramas
         Folder for one panorama NetCDF per observer (``<name>.nc``, the ``skyglow`` stage's
         format, which ``nightlights sky render --panorama`` reads); None writes none.
@@ -426,8 +403,6 @@ def observers(
     num_workers
         Workers of the local ``threads`` and ``processes`` schedulers (default: one per core)
         [1].
-    cache_dir
-        Kernel cache folder.
     overwrite
         Replace existing outputs.
     progress
@@ -450,30 +425,35 @@ def observers(
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> result = observers(
-    ...     raster, observers=[[1000.0, 1000.0], [500.0, 500.0]], kernel=kernel,
-    ...     observer_height=0.0, top_cells=1, progress=False,
-    ... )
+    >>> sites = [Observer(1000.0, 1000.0, height=0.0), Observer(500.0, 500.0, height=0.0)]
+    >>> result = observers(Scene(raster, kernel=kernel), sites, top_cells=1, progress=False)
     >>> result.summary["name"].tolist(), result.summary["top1_share"].tolist()
     (['observer_1', 'observer_2'], [1.0, 1.0])
     """
     _check_scheduler(scheduler)
     if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
-    if not (math.isfinite(observer_height) and observer_height >= 0):
-        raise InputError(f"observer height {observer_height} m; expected a finite value >= 0")
-    label = source_label(emission, "emission raster")  # type: ignore[arg-type]
+    emission, dem = scene.emission, scene.dem
+    label = scene.label
     cells = as_lit_cells(emission)
     if cells.crs is None or not cells.crs.is_projected:
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
-    xy, given_names = _observer_points(observers, observer_crs, observers_layer, cells.crs)
-    labels = _names(names if names is not None else given_names, len(xy))
+    sites = _as_observers(observers)
+    xy = positions(sites, cells.crs)
+    labels = _names([site.name for site in sites])
+    heights = np.array([site.height for site in sites])
+    if dem is None and np.ptp(heights) > 0:
+        raise InputError(
+            f"observers at eye heights {heights.min():g}-{heights.max():g} m; without a DEM "
+            "the observers of one call share one eye height (give the scene a DEM, or make "
+            "one call per height)"
+        )
     folder = Path(panoramas) if panoramas is not None else None
     files = {name: folder / f"{_file_name(name)}.nc" for name in labels} if folder else {}
     if folder is not None and not folder.is_dir():
@@ -482,30 +462,24 @@ def observers(
         if path is not None and not overwrite and Path(path).exists():
             raise OutputExistsError(f"{path}: exists; give overwrite to replace it")
     outputs = OutputSet(output, *files.values())  # locations checked before any work
-    if kernel is not None:
-        kernel = load_kernel(kernel)
+    given = scene.kernel_dataset()
     # every observer within reach of a lit cell, named, before a kernel is built
-    _check_reaches(cells, xy, labels, label, kernel)
+    _check_reaches(cells, xy, labels, label, given)
     far = _farthest(cells.lit_bounds(), xy)
     relief = None
-    eyes = np.full(len(xy), float(observer_height))
+    observer_height = float(heights[far])
+    eyes = heights.astype(float)
     if dem is not None:
         from nightlights.io import as_raster
 
         relief = as_raster(dem)
-        eyes = _eye_altitudes(relief, xy, labels, observer_height)
-        if kernel is None:
+        eyes = _eye_altitudes(relief, xy, labels, heights)
+        if given is None:
             _check_flux(cells, label)
-            kernel = _scene_kernel(emission, cells, relief, xy[far], eyes, turbidity, label,
-                                   cache_dir, progress)  # fmt: skip
+            given = _scene_kernel(scene, cells, relief, xy[far], eyes, progress)
     setup = prepare_scene(
-        emission,
-        (float(xy[far][0]), float(xy[far][1])),
-        kernel,
-        relief,
-        observer_height=observer_height,
-        turbidity=turbidity,
-        cache_dir=cache_dir,
+        scene.replace(dem=relief, kernel=given) if given is not None else scene,
+        Observer(float(xy[far][0]), float(xy[far][1]), height=observer_height),
         progress=progress,
     )
     _check_reaches(setup.emission, xy, labels, label, setup.table)
@@ -524,8 +498,8 @@ def observers(
     summary = _summary(skies, xy, eyes, labels, setup.crs, engine, files)
     with outputs:
         for name, path in files.items():
-            dataset = _panorama(skies[labels.index(name)], setup, xy[labels.index(name)],
-                                eyes[labels.index(name)], observer_height, engine)  # fmt: skip
+            index = labels.index(name)
+            dataset = _panorama(skies[index], setup, xy[index], eyes[index], heights[index], engine)
             dataset.to_netcdf(outputs.temporary(path), engine="h5netcdf")
         if output is not None:
             _write_summary(summary, outputs.temporary(output))
@@ -550,87 +524,27 @@ def _check_scheduler(scheduler: Any) -> None:
         )
 
 
-def _observer_points(
-    source: Any, observer_crs: str | None, layer: str | None, crs: CRS
-) -> tuple[FloatArray, list[str] | None]:
-    """The observers as ``(n, 2)`` coordinates in the emission's CRS and the layer's names."""
-    names: list[str] | None = None
+def _as_observers(source: Any) -> tuple[Observer, ...]:
+    """The observers of a call: Observer objects, or a layer (GeoDataFrame or file) of points."""
     if isinstance(source, gpd.GeoDataFrame | str | os.PathLike):
-        frame, where = as_vector(source, layer=layer, name="observers")
-        if frame.crs is not None and observer_crs is not None:
-            if not CRS.from_user_input(observer_crs).equals(frame.crs):
-                raise InputError(
-                    f"{where}: the layer is in {frame.crs.name} but observer_crs is "
-                    f"{observer_crs}; give observer_crs only for a layer without a CRS"
-                )
-        if frame.crs is None and observer_crs is None:
-            raise CRSError(f"{where}: the observers' layer has no CRS; give observer_crs")
-        source_crs = frame.crs if frame.crs is not None else observer_crs
-        empty = frame.geometry.is_empty | frame.geometry.isna()
-        if empty.any() or not frame.geom_type.eq("Point").all():
-            bad = int(np.nonzero(empty.to_numpy() | ~frame.geom_type.eq("Point").to_numpy())[0][0])
-            raise InputError(
-                f"{where}: feature {bad} is a {frame.geom_type.iloc[bad] or 'empty geometry'}; "
-                "expected points"
-            )
-        points = np.column_stack([frame.geometry.x.to_numpy(), frame.geometry.y.to_numpy()])
-        if "name" in frame:
-            names = [str(v) for v in frame["name"]]
-    else:
-        if layer is not None:
-            raise InputError(f"observers_layer={layer!r} names a layer of a file of observers")
-        points = np.asarray(source, dtype=float)
-        if points.ndim != 2 or points.shape[1] != 2:
-            raise InputError(
-                f"observers of shape {points.shape}; expected (n, 2) coordinates (x, y)"
-            )
-        source_crs = observer_crs
-        where = "observers"
-    if points.shape[0] == 0:
-        raise InputError(f"{where}: no observer")
-    if not np.isfinite(points).all():
-        bad = int(np.nonzero(~np.isfinite(points).all(axis=1))[0][0])
-        raise InputError(f"{where}: observer {bad} at {points[bad].tolist()}; expected finite")
-    return _to_crs(points, source_crs, crs, where), names
+        return Observer.from_layer(source)
+    if isinstance(source, Observer):
+        return (source,)
+    sites = tuple(source)
+    if not sites:
+        raise InputError("observers: no observer")
+    wrong = [type(site).__name__ for site in sites if not isinstance(site, Observer)]
+    if wrong:
+        raise InputError(
+            f"observers of type {wrong[0]}; expected Observer objects (Observer(x, y, crs), "
+            "Observer.from_layer(...)) or a layer of points"
+        )
+    return sites
 
 
-def _to_crs(points: FloatArray, source_crs: Any, crs: CRS, where: str) -> FloatArray:
-    if source_crs is None:
-        return points
-    try:
-        source = CRS.from_user_input(source_crs)
-    except Exception as exc:  # pyproj raises its own CRSError
-        raise CRSError(f"observer CRS {source_crs!r} is not a CRS: {exc}") from exc
-    if source.equals(crs):
-        return points
-    if source.is_geographic:
-        bad = np.nonzero((np.abs(points[:, 0]) > 360) | (np.abs(points[:, 1]) > 90))[0]
-        if bad.size:
-            x, y = points[bad[0]]
-            raise InputError(
-                f"{where}: observer {bad[0]} ({x:g}, {y:g}) in {source.name}: expected "
-                "longitude within +-360 deg and latitude within +-90 deg (X,Y = lon,lat)"
-            )
-    try:
-        transformer = Transformer.from_crs(source, crs, always_xy=True)
-        x, y = transformer.transform(points[:, 0], points[:, 1], errcheck=True)
-    except ProjError as exc:
-        raise CRSError(
-            f"{where}: the observers cannot be placed from {source.name} into the emission's "
-            f"CRS: {exc}"
-        ) from exc
-    out = np.column_stack([x, y]).astype(float)
-    if not np.isfinite(out).all():
-        raise CRSError(f"{where}: some observers have no position in the emission's CRS")
-    return out
-
-
-def _names(given: Sequence[Any] | None, count: int) -> list[str]:
-    if given is None:
-        return [f"observer_{i + 1}" for i in range(count)]
-    names = [str(v) for v in given]
-    if len(names) != count:
-        raise InputError(f"{len(names)} names for {count} observers")
+def _names(given: Sequence[str | None]) -> list[str]:
+    """Every observer's name: its own, else ``observer_<n>`` (checked unique as files)."""
+    names = [str(v) if v is not None else f"observer_{i + 1}" for i, v in enumerate(given)]
     seen: dict[str, int] = {}
     for index, name in enumerate(names):
         if not name.strip():
@@ -677,51 +591,37 @@ def _farthest(bounds: tuple[float, float, float, float] | None, xy: FloatArray) 
     return int(np.argmax(far))
 
 
-def _eye_altitudes(
-    relief: Any, xy: FloatArray, names: list[str], observer_height: float
-) -> FloatArray:
-    """Eye altitude of each observer above sea level on the DEM [m]."""
+def _eye_altitudes(relief: Any, xy: FloatArray, names: list[str], eye: FloatArray) -> FloatArray:
+    """Eye altitude of each observer above sea level on the DEM [m] (``eye``: each one's
+    height above the ground)."""
     heights = relief.data[0]
     out = np.empty(len(xy))
     for index, (name, (x, y)) in enumerate(zip(names, xy, strict=True)):
         try:
-            out[index] = ground_height(heights, relief.transform, x, y) + observer_height
+            out[index] = ground_height(heights, relief.transform, x, y) + eye[index]
         except InputError as exc:
             raise InputError(f"observer {name!r}: {exc}") from None
     return out
 
 
 def _scene_kernel(
-    emission: EmissionInput,
-    cells: Any,
-    relief: Any,
-    far: FloatArray,
-    eyes: FloatArray,
-    turbidity: float | None,
-    label: str,
-    cache_dir: PathLike | None,
-    progress: bool,
+    scene: Scene, cells: Any, relief: Any, far: FloatArray, eyes: FloatArray, progress: bool
 ) -> xr.Dataset:
     """A scene kernel over a DEM: from the farthest observer to the farthest lit cell, at the
     lowest and the highest eye altitude (others between them are interpolated)."""
     xy = (float(far[0]), float(far[1]))
     terrain = scene_terrain(relief, cells, xy, 0.0, label=source_label(relief, "DEM"))
-    functions, _ = band_emission_functions(emission, cells.count, label=label)
-    spec = scene_kernel_spec(
+    functions, _ = band_emission_functions(scene.emission, cells.count, label=scene.label)
+    low, high = float(eyes.min()), float(eyes.max())
+    table, _ = scene.find_kernel(
         cells,
         xy,
-        observer_altitude=float(eyes.min()),
-        turbidity=2.0 if turbidity is None else turbidity,
-        n_elevation=64,
-        n_azimuth=256,
-        n_distance=64,
+        observer_altitudes=(low, high) if high > low else (low,),
         source_altitudes=source_levels(terrain.heights),
-        **kernel_tables(functions, label),
+        functions=functions,
+        progress=progress,
     )
-    if float(eyes.max()) > float(eyes.min()):
-        altitudes = (float(eyes.min()), float(eyes.max()))
-        spec = dataclasses.replace(spec, observer_altitudes=altitudes)
-    return get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+    return table
 
 
 def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:

@@ -139,8 +139,12 @@ class Scene:
         return {name: getattr(self, name) for name in DEFAULT_GRID}
 
     def replace(self, **changes: Any) -> Scene:
-        """A copy with some fields changed (``turbidity=3.0``, ``dem="dem.tif"``)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (``turbidity=3.0``, ``dem="dem.tif"``); a loaded
+        kernel is shared while ``kernel`` stays."""
+        scene = dataclasses.replace(self, **changes)
+        if "kernel" not in changes:
+            scene._loaded.update(self._loaded)
+        return scene
 
     # --- the kernel: found in one place ------------------------------------------------------
 
