@@ -47,9 +47,9 @@ from nightlights.explore import ExploreSession
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec
 from nightlights.sky._polar_numba import polar_flux_levels
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.panorama import KernelSlice, panorama_pca
 from nightlights.sky.polar import PolarMap, level_maps, lit_polar_cells
-from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.store import get_or_build_kernel
 
 CELL = 10.0  # [m]

@@ -52,7 +52,7 @@ from nightlights.inverse._influence import (
     region_weights,
 )
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec
+from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky.polar import polar_cells
 from nightlights.sky.setup import prepare_scene
 from nightlights.sky.store import get_or_build_kernel
@@ -178,7 +178,9 @@ def core_times(
     raster, finding the lit cells, splitting them into sub-points): PCA (the weights
     cross-correlated with the bases, then one lookup per sub-point) and, when asked, the brute
     force (each sub-point's kernel image summed over the region) [s]."""
-    setup = prepare_scene(raster, where, table, observer_height=OBSERVER_HEIGHT, progress=False)
+    setup = prepare_scene(
+        Scene(raster, kernel=table), Observer(*where, height=OBSERVER_HEIGHT), progress=False
+    )
     cells = setup.polar_cells()
     levels = setup.level_weights(cells)
     first = setup.slices[0]

@@ -149,9 +149,10 @@ def reference(emission: Path, kernel: Any, xy: np.ndarray, summary: Any) -> dict
 
 def candidates(emission: Path, kernel: Any, xy: np.ndarray, top_cells: int) -> dict[str, Any]:
     """How many lit cells the bounds of the top-cell search leave to be summed exactly."""
+    from nightlights.sky import Observer, Scene
     from nightlights.sky.setup import prepare_scene
 
-    setup = prepare_scene(emission, tuple(xy[0]), kernel, progress=False)
+    setup = prepare_scene(Scene(emission, kernel=kernel), Observer(*xy[0]), progress=False)
     engine = _engine(setup, False, top_cells, False)
     zenith = _Levels(engine).zenith(list(engine.slices))
     counts = []

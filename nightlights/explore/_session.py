@@ -56,23 +56,23 @@ from nightlights.inverse._influence import (
     zenith_weights,
 )
 from nightlights.inverse._region import SkyRegion
-from nightlights.io import Raster, as_raster, source_label
+from nightlights.io import Raster, as_raster
 from nightlights.io.raster import LitCells
+from nightlights.sky._flat import SCENE_KEYWORDS
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import PolarMap, lit_mask, lit_polar_cells, source_level_weights
+from nightlights.sky.scene import Scene
 from nightlights.sky.setup import (
     _check_reach,
-    _observer_xy,
     band_emission_functions,
-    kernel_tables,
     level_offset,
     prepare_scene,
 )
-from nightlights.sky.spec import scene_kernel_spec, source_levels
-from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
+from nightlights.sky.spec import source_levels
 
 __all__ = ["DimmingView", "EditView", "ExploreSession", "InfluenceView", "PanoramaView"]
 
@@ -113,27 +113,18 @@ class ExploreSession:
 
     Parameters
     ----------
-    emission
-        Upward flux density [lm m-2] in a projected CRS (Raster, DataArray or path), one or
-        two bands, each with the emission function of its ``emission_function`` tag
-        (untagged: one band Garstang's F = G = 0.15, two bands Lambertian + direct uplight), as
-        the skyglow stage reads them.
+    scene
+        The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
+        with the emission function of its ``emission_function`` tag, as the skyglow stage reads
+        them), terrain, atmosphere and kernel (:class:`~nightlights.sky.scene.Scene`). Without
+        a kernel: a scene kernel reaching across the raster from any cell in it (cached).
     lights
         Optional luminaire layer (any vector format) shown on the map.
-    kernel
-        Precomputed kernel (path, dataset or :class:`~nightlights.sky.store.KernelResult`);
-        default: a scene kernel reaching across the raster from any cell in it (cached).
-    dem
-        Terrain heights above sea level [m] in the emission's CRS.
-    observer_height
-        Observer height above the ground [m].
-    turbidity
-        Turbidity of a scene kernel [1] (default 2).
+    height
+        Eye height above the ground of the observers placed in the session [m].
     components
         PCA bases used for the panoramas (default: all the kernel stores; fewer are faster and
         less accurate, see the benchmarks) [1].
-    cache_dir
-        Kernel cache folder.
     progress
         Progress bar while a kernel is built.
 
@@ -142,13 +133,13 @@ class ExploreSession:
     >>> import numpy as np
     >>> from affine import Affine
     >>> from nightlights.io import Raster
-    >>> from nightlights.sky import KernelSpec, build_kernel
+    >>> from nightlights.sky import KernelSpec, Scene, build_kernel
     >>> flux = np.zeros((1, 20, 20)); flux[0, 5, 15] = 1.0  # [lm m-2]
     >>> raster = Raster(flux, Affine(100, 0, 0, 0, -100, 2000), "EPSG:32635")
     >>> kernel = build_kernel(
     ...     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
     ... )
-    >>> session = ExploreSession(raster, kernel=kernel, observer_height=0.0)
+    >>> session = ExploreSession(Scene(raster, kernel=kernel), height=0.0)
     >>> view = session.panorama(1000.0, 1000.0)
     >>> view.luminance.shape, 1 <= view.bortle <= 9
     ((8, 16), True)
@@ -156,41 +147,41 @@ class ExploreSession:
 
     def __init__(
         self,
-        emission: Raster | xr.DataArray | PathLike,
+        scene: Scene,
         *,
         lights: PathLike | None = None,
-        kernel: KernelResult | xr.Dataset | PathLike | None = None,
-        dem: Raster | xr.DataArray | PathLike | None = None,
-        observer_height: float = 1.7,
-        turbidity: float | None = None,
+        height: float = OBSERVER_HEIGHT,
         components: int | None = None,
-        cache_dir: PathLike | None = None,
         progress: bool = True,
+        **flat: Any,
     ) -> None:
-        self.label = source_label(emission, "emission raster")
+        if not isinstance(scene, Scene):
+            scene, height = _flat_session(scene, height, flat)
+        elif flat:
+            raise TypeError(f"ExploreSession() got unexpected keyword arguments {sorted(flat)}")
+        emission, kernel, dem = scene.emission, scene.kernel, scene.dem
+        self.scene = scene
+        self.label = scene.label
         raster = as_raster(emission)
         self._sources: dict[str, Any] = {
             "emission": _path_or_none(emission),
             "kernel": _path_or_none(kernel),
             "dem": _path_or_none(dem),
             "lights": _path_or_none(lights),
-            "turbidity": turbidity,
+            "turbidity": scene.turbidity,
             "emission_sha256": _file_hash(emission),
         }
         self._raster = raster
-        self._observer_height = float(observer_height)
+        self._observer_height = Observer(0.0, 0.0, height=height).height
         self._dem = as_raster(dem) if dem is not None else None
         centre = _centre(raster)
         # prepare_scene checks the raster, the DEM and the kernel as the skyglow stage does.
-        table = None if kernel is None else load_kernel(kernel)
+        table = scene.kernel_dataset()
         if table is None:
-            table = self._scene_kernel(raster, turbidity, cache_dir, progress)
+            table = self._scene_kernel(raster, progress)
         setup = prepare_scene(
-            raster,
-            centre,
-            table,
-            self._dem,
-            observer_height=observer_height,
+            scene.replace(emission=raster, dem=self._dem, kernel=table),
+            Observer(*centre, height=self._observer_height),
             progress=progress,
         )
         self._table = setup.table
@@ -226,13 +217,7 @@ class ExploreSession:
 
     # --- construction ---------------------------------------------------------------------
 
-    def _scene_kernel(
-        self,
-        raster: Raster,
-        turbidity: float | None,
-        cache_dir: PathLike | None,
-        progress: bool,
-    ) -> xr.Dataset:
+    def _scene_kernel(self, raster: Raster, progress: bool) -> xr.Dataset:
         """A kernel reaching from any cell of the raster to its farthest corner."""
         left, bottom, _, _ = raster.bounds
         cells = raster.lit_cells()
@@ -250,22 +235,15 @@ class ExploreSession:
             )
         # the tables the bands' emission functions need, as the skyglow stage builds them
         functions, _ = band_emission_functions(raster, raster.count, label=self.label)
-        spec = scene_kernel_spec(
+        table, _ = self.scene.find_kernel(
             raster,
             (left, bottom),
-            observer_altitude=eye[0],
-            turbidity=2.0 if turbidity is None else turbidity,
-            n_elevation=64,
-            n_azimuth=256,
-            n_distance=64,
+            observer_altitudes=tuple(eye),
             source_altitudes=source_levels(heights),
-            **kernel_tables(functions, self.label),
+            functions=functions,
+            progress=progress,
         )
-        if len(eye) > 1:
-            import dataclasses
-
-            spec = dataclasses.replace(spec, observer_altitudes=tuple(eye))
-        return get_or_build_kernel(spec, cache_dir=cache_dir, progress=progress).kernel
+        return table
 
     @classmethod
     def open(
@@ -319,13 +297,15 @@ class ExploreSession:
                 stacklevel=2,
             )
         session = cls(
-            emission,
+            Scene(
+                emission,
+                kernel=resolve("kernel"),
+                dem=resolve("dem"),
+                turbidity=content.get("turbidity"),
+                cache_dir=cache_dir,
+            ),
             lights=resolve("lights"),
-            kernel=resolve("kernel"),
-            dem=resolve("dem"),
-            observer_height=float(content.get("observer_height", 1.7)),
-            turbidity=content.get("turbidity"),
-            cache_dir=cache_dir,
+            height=float(content.get("observer_height", OBSERVER_HEIGHT)),
             progress=progress,
         )
         for op in content.get("edits", []):
@@ -433,7 +413,7 @@ class ExploreSession:
         tuple of float
             (x, y) in the raster's CRS [m].
         """
-        return _observer_xy((x, y), crs, self.crs)
+        return Observer(x, y, crs).position(self.crs)
 
     # --- forward ----------------------------------------------------------------------------
 
@@ -950,12 +930,9 @@ class ExploreSession:
                         self._raster.units)  # fmt: skip
         height = view.observer_altitude - self._ground(view.x, view.y)
         result = skyglow(
-            raster,
+            Scene(raster, dem=self._dem, kernel=self._table),
+            Observer(view.x, view.y, height=height),
             nc,
-            observer=(view.x, view.y),
-            observer_height=height,
-            kernel=self._table,
-            dem=self._dem,
             png=png,
             projection=projection,
             progress=False,
@@ -1177,3 +1154,20 @@ def _read_lights(path: PathLike, crs: CRS | None) -> Any:
         )
         layer = layer.iloc[:MAX_LIGHTS]
     return layer
+
+
+def _flat_session(emission: Any, height: float, flat: dict[str, Any]) -> tuple[Scene, float]:
+    """The scene and eye height of the former flat call ``ExploreSession(emission, kernel=,
+    dem=, observer_height=, turbidity=, cache_dir=)``, with a DeprecationWarning."""
+    unknown = sorted(set(flat) - {*SCENE_KEYWORDS, "observer_height"})
+    if unknown:
+        raise TypeError(f"ExploreSession() got unexpected keyword arguments {unknown}")
+    warnings.warn(
+        "ExploreSession(emission, kernel=, dem=, observer_height=, ...) with flat keywords is "
+        "deprecated and goes in the next release: call ExploreSession(nightlights.Scene("
+        "emission, ...), height=...)",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    height = flat.pop("observer_height", height)
+    return Scene(emission, **flat), height

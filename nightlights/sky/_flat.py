@@ -152,5 +152,5 @@ def _layer_observers(
         try:
             out.append(Observer(point[0], point[1], crs, height, label))
         except InputError as exc:
-            raise InputError(f"observers: observer {index}: {exc}") from None
+            raise type(exc)(f"observers: observer {index}: {exc}") from None
     return tuple(out)

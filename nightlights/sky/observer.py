@@ -268,7 +268,7 @@ class Observer:
                     cls(xs[index], ys[index], layer_crs, height, labels[index] if labels else None)
                 )
             except InputError as exc:
-                raise InputError(f"{where}: feature {index}: {exc}") from None
+                raise type(exc)(f"{where}: feature {index}: {exc}") from None
         return tuple(out)
 
     def replace(self, **changes: Any) -> Observer:

@@ -23,8 +23,8 @@ from shapely.geometry import LineString, Point
 
 from nightlights.io import Raster, write_gpkg
 from nightlights.io.styles import observers_style, poles_style, streets_style
-from nightlights.sky.polar import PolarMap
 from nightlights.sky.forward import panorama_coords
+from nightlights.sky.polar import PolarMap
 from nightlights.sky.spec import panorama_elevations
 from nightlights.sky.stage import panorama_raster, polar_raster
 from nightlights.streets.schema import ARRANGEMENTS

@@ -26,6 +26,7 @@ from nightlights.io import Raster
 from nightlights.sky import _kernel_numba
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import compute_kernel
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.kernel import (
     GARSTANG_LOBE_NORM,
     emission_intensity,
@@ -41,7 +42,6 @@ from nightlights.sky.panorama import (
     panorama_pca,
 )
 from nightlights.sky.polar import polar_map
-from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.setup import band_emission_functions
 from nightlights.sky.spec import (
     DEFAULT_EMISSION_FUNCTION,

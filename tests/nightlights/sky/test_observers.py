@@ -19,7 +19,7 @@ from nightlights.inverse import inverse_q
 from nightlights.inverse._influence import cell_values
 from nightlights.io import Raster, RasterBand, write_cog
 from nightlights.nightsky.render import zenith_summary
-from nightlights.sky import KernelSpec, build_kernel, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 from nightlights.sky import observers as module
 from nightlights.sky.observers import SUMMARY_FIELDS, SUMMARY_LAYER, observers
 from nightlights.sky.polar import lit_polar_cells
@@ -108,7 +108,9 @@ def test_top_cells_do_not_change_the_sky(small_kernel: xr.Dataset) -> None:
 def test_every_cells_zenith_part_lies_within_its_bounds(small_kernel, xy) -> None:
     """Only cells whose upper bound reaches the n-th largest lower bound are summed exactly:
     the bounds must hold for every cell, near the observer (many sub-points) and far."""
-    setup = prepare_scene(town(), xy, small_kernel, observer_height=0.0, progress=False)
+    setup = prepare_scene(
+        Scene(town(), kernel=small_kernel), Observer(*xy, height=0.0), progress=False
+    )
     engine = module._engine(setup, False, 3, False)
     zenith = module._Levels(engine).zenith(list(engine.slices))
     cells = lit_polar_cells(engine.rows, engine.cols, engine.values, engine.transform, xy,
@@ -195,13 +197,15 @@ def test_observers_on_terrain_equal_skyglow_over_the_dem(two_eyes: xr.Dataset) -
 def test_the_scene_kernel_reaches_the_farthest_observer_at_every_eye(
     monkeypatch: pytest.MonkeyPatch, two_eyes: xr.Dataset
 ) -> None:
+    import nightlights.sky.scene as scene_module
+
     specs = []
 
     def fake(spec, **_):
         specs.append(spec)
-        return module.KernelResult(two_eyes, spec, None)
+        return scene_module.KernelResult(two_eyes, spec, None)
 
-    monkeypatch.setattr(module, "get_or_build_kernel", fake)
+    monkeypatch.setattr(scene_module, "get_or_build_kernel", fake)
     flux = np.zeros((1, 20, 20))
     flux[0, 8:14, 6:12] = 1.0
     points = np.array([[10_950.0, 19_050.0], [11_750.0, 19_750.0]])
@@ -216,13 +220,13 @@ def test_the_scene_kernel_reaches_the_farthest_observer_at_every_eye(
 def test_the_flat_scene_kernel_reaches_from_the_farthest_observer(
     monkeypatch: pytest.MonkeyPatch, small_kernel: xr.Dataset
 ) -> None:
-    import nightlights.sky.setup as setup_module
+    import nightlights.sky.scene as setup_module
 
     specs = []
 
     def fake(spec, **_):
         specs.append(spec)
-        return module.KernelResult(small_kernel, spec, None)
+        return setup_module.KernelResult(small_kernel, spec, None)
 
     monkeypatch.setattr(setup_module, "get_or_build_kernel", fake)
     raster = town()
@@ -272,7 +276,7 @@ def test_a_point_layer_in_degrees_with_names(tmp_path: Path, small_kernel: xr.Da
     [
         ({"observers": [[1.0, 2.0, 3.0]]}, InputError, r"expected \(n, 2\)"),
         ({"observers": np.zeros((0, 2))}, InputError, "no observer"),
-        ({"observers": [[np.nan, 1.0]]}, InputError, "expected finite"),
+        ({"observers": [[np.nan, 1.0]]}, InputError, "expected two finite numbers"),
         ({"names": ["a", "b", "c", "a"]}, InputError, "same name 'a'"),
         ({"names": ["a/b", "a b", "c", "d"]}, InputError, "same file name"),
         ({"names": ["a"]}, InputError, "1 names for 4 observers"),
@@ -293,11 +297,11 @@ def test_layers_that_are_not_usable_points(small_kernel: xr.Dataset) -> None:
     with pytest.raises(InputError, match="feature 0 is a LineString; expected points"):
         run(town(), small_kernel, observers=lines)
     bare = gpd.GeoDataFrame(geometry=[Point(POINTS[0])])
-    with pytest.raises(CRSError, match="no CRS; give observer_crs"):
+    with pytest.raises(CRSError, match="no CRS; give crs"):
         run(town(), small_kernel, observers=bare)
     assert len(run(town(), small_kernel, observers=bare, observer_crs=CRS).summary) == 1
     placed = bare.set_crs(CRS)
-    with pytest.raises(InputError, match="give observer_crs only for a layer without a CRS"):
+    with pytest.raises(InputError, match="give crs only for a layer without a CRS"):
         run(town(), small_kernel, observers=placed, observer_crs="EPSG:4326")
 
 

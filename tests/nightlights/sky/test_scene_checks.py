@@ -14,7 +14,7 @@ from affine import Affine
 
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec
+from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.setup import prepare_scene
@@ -35,7 +35,7 @@ def _raster(fill: float = 0.0, **cells: float) -> Raster:
 def test_infinite_flux_is_refused_with_its_count(small_kernel: xr.Dataset) -> None:
     raster = _raster(c3_3=np.inf, c4_4=-np.inf)
     with pytest.raises(InputError, match=r"in-memory emission raster: 2 non-finite \(inf\)"):
-        prepare_scene(raster, INSIDE, small_kernel)
+        prepare_scene(Scene(raster, kernel=small_kernel), Observer(*INSIDE))
 
 
 @pytest.mark.parametrize(("fill", "what"), [(np.nan, "are nodata"), (0.0, "zero or nodata")])
@@ -44,13 +44,13 @@ def test_a_raster_without_lit_cells_is_refused(
 ) -> None:
     raster = Raster(np.full((1, 40, 40), fill), TRANSFORM, "EPSG:32635")
     with pytest.raises(InputError, match=f"no lit cell .*{what}"):
-        prepare_scene(raster, INSIDE, small_kernel)
+        prepare_scene(Scene(raster, kernel=small_kernel), Observer(*INSIDE))
 
 
 def test_an_observer_beyond_every_cell_is_refused_before_any_kernel_is_built(
     tmp_path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import nightlights.sky.setup as setup_module
+    import nightlights.sky.scene as setup_module
 
     def no_build(*args: object, **kwargs: object) -> None:
         raise AssertionError("a kernel was built for an observer out of reach")
@@ -58,33 +58,35 @@ def test_an_observer_beyond_every_cell_is_refused_before_any_kernel_is_built(
     monkeypatch.setattr(setup_module, "get_or_build_kernel", no_build)
     far = (INSIDE[0] + 6.0e6, INSIDE[1])  # 6000 km east
     with pytest.raises(InputError, match=r"outside the lit cells .*kernel's range"):
-        prepare_scene(_raster(), far, cache_dir=tmp_path)
+        prepare_scene(Scene(_raster(), cache_dir=tmp_path), Observer(*far))
 
 
 def test_a_dark_site_outside_the_raster_within_reach_is_legal(small_kernel: xr.Dataset) -> None:
     dark_site = (496_000.0, 6_699_000.0)  # 4 km west of the raster, 5 km from the lit cells
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataQualityWarning)
-        setup = prepare_scene(_raster(), dark_site, small_kernel)
+        setup = prepare_scene(Scene(_raster(), kernel=small_kernel), Observer(*dark_site))
     assert setup.xy == dark_site and setup.polar_cells().binned().sum() > 0
 
 
 def test_an_observer_beyond_a_given_kernel_is_refused(small_kernel: xr.Dataset) -> None:
     beyond = (INSIDE[0] + 30_000.0, INSIDE[1])  # 20 km kernel
     with pytest.raises(InputError, match=r"kernel's range \(20 km\)"):
-        prepare_scene(_raster(), beyond, small_kernel)
+        prepare_scene(Scene(_raster(), kernel=small_kernel), Observer(*beyond))
 
 
 def test_degrees_without_an_observer_crs_get_the_hint(small_kernel: xr.Dataset) -> None:
     with pytest.raises(InputError, match="look like degrees: give --observer-crs EPSG:4326"):
-        prepare_scene(_raster(), (24.9, 60.2), small_kernel)
+        prepare_scene(Scene(_raster(), kernel=small_kernel), Observer(24.9, 60.2))
 
 
 def test_degree_like_numbers_near_a_local_raster_warn() -> None:
     local = Raster(_raster().data, Affine(10, 0, 0, 0, -10, 400), "EPSG:32635")
     spec = KernelSpec(r_min=5.0, r_max=2000.0, n_distance=8, n_elevation=4, n_azimuth=8)
     with pytest.warns(DataQualityWarning, match="look like degrees"):
-        prepare_scene(local, (-50.0, 60.0), compute_kernel(spec, progress=False))
+        prepare_scene(
+            Scene(local, kernel=compute_kernel(spec, progress=False)), Observer(-50.0, 60.0)
+        )
 
 
 @pytest.mark.parametrize("observer", [(24.9, 95.0), (400.0, 60.0)])
@@ -92,12 +94,12 @@ def test_coordinates_off_the_earth_are_refused(
     small_kernel: xr.Dataset, observer: tuple[float, float]
 ) -> None:
     with pytest.raises(InputError, match="latitude within"):
-        prepare_scene(_raster(), observer, small_kernel, observer_crs="EPSG:4326")
+        prepare_scene(Scene(_raster(), kernel=small_kernel), Observer(*observer, crs="EPSG:4326"))
 
 
 def test_a_garbage_observer_crs_is_a_crs_error(small_kernel: xr.Dataset) -> None:
     with pytest.raises(CRSError, match="not a CRS"):
-        prepare_scene(_raster(), INSIDE, small_kernel, observer_crs="EPSG:999999")
+        prepare_scene(Scene(_raster(), kernel=small_kernel), Observer(*INSIDE, crs="EPSG:999999"))
 
 
 @pytest.mark.parametrize("option", ["n_azimuth", "n_elevation", "n_distance"])
@@ -105,11 +107,13 @@ def test_grid_options_a_given_kernel_fixes_are_refused(
     small_kernel: xr.Dataset, option: str
 ) -> None:
     flag = "--" + option.replace("_", "-")
-    with pytest.raises(InputError, match=f"{flag} 0: the kernel fixes the grid"):
-        prepare_scene(_raster(), INSIDE, small_kernel, **{option: 0})
+    with pytest.raises(InputError, match=f"{flag} 1: the kernel fixes the grid"):
+        prepare_scene(Scene(_raster(), kernel=small_kernel, **{option: 1}), Observer(*INSIDE))
     # the kernel's own values are accepted
     own = {"n_azimuth": 32, "n_elevation": 8, "n_distance": 24}[option]
-    assert prepare_scene(_raster(), INSIDE, small_kernel, **{option: own}).slices
+    assert prepare_scene(
+        Scene(_raster(), kernel=small_kernel, **{option: own}), Observer(*INSIDE)
+    ).slices
 
 
 @pytest.mark.parametrize(

@@ -21,9 +21,10 @@ from affine import Affine
 from rasterio.windows import Window
 
 from nightlights.io import Raster
+from nightlights.sky import Observer, Scene
+from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import polar_map, polar_map_levels
-from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.setup import prepare_scene
 from nightlights.sky.store import write_kernel
 
@@ -108,7 +109,9 @@ def _small(tmp_path: Path) -> tuple[Path, Raster]:
 def test_sparse_file_path_equals_the_dense_raster(small_kernel: xr.Dataset, tmp_path: Path) -> None:
     path, raster = _small(tmp_path)
     observer = (500_600.0, 6_699_000.0)
-    setup = prepare_scene(path, observer, small_kernel, observer_height=0.0, progress=False)
+    setup = prepare_scene(
+        Scene(path, kernel=small_kernel), Observer(*observer, height=0.0), progress=False
+    )
     first = setup.slices[0]
     dense = polar_map(
         raster.data, raster.transform, observer, distance_edges=first.distance_edges, n_az=32
