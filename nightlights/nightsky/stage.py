@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
 from nightlights.nightsky.tonemap import ToneMapping, tone_map
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.forward import panorama_coords
+from nightlights.sky.observer import Observer
 
 __all__ = ["SkyRenderResult", "legend_text", "png_bytes", "read_panorama", "sky_render"]
 
@@ -175,7 +177,8 @@ def legend_text(time: Any, lonlat: tuple[float, float], summary: dict[str, Any])
 
 
 def sky_render(
-    output: PathLike | None,
+    observer: Observer | None = None,
+    output: PathLike | None = None,
     *,
     time: Any,
     lonlat: tuple[float, float] | None = None,
@@ -199,6 +202,11 @@ def sky_render(
 
     Parameters
     ----------
+    observer
+        Who looks (:class:`~nightlights.sky.observer.Observer`, e.g.
+        ``Observer.from_lonlat(24.95, 60.17)``); default the panorama's observer. With a
+        panorama, it must stand where the panorama was computed (within
+        :data:`SAME_PLACE`).
     output
         ``.png`` (tone-mapped picture with a legend) or ``.nc`` (``luminance`` [cd m-2] and
         ``xyz`` [cd m-2] on (elevation, azimuth) pixel centres [deg]; equirectangular only);
@@ -206,7 +214,7 @@ def sky_render(
     time
         Instant: aware datetime, ISO 8601 text or numpy datetime64 (UTC).
     lonlat
-        Observer's longitude and latitude [deg]; default the panorama's observer.
+        Deprecated: the observer's longitude and latitude [deg]; give ``observer``.
     panorama
         Skyglow panorama (dataset or NetCDF path from ``nightlights skyglow``).
     natural_only, artificial_only
@@ -235,13 +243,30 @@ def sky_render(
 
     Examples
     --------
+    >>> from nightlights.sky import Observer
     >>> result = sky_render(
-    ...     None, time="2026-01-25T20:00:00Z", lonlat=(24.95, 60.17), natural_only=True,
+    ...     Observer.from_lonlat(24.95, 60.17), time="2026-01-25T20:00:00Z", natural_only=True,
     ...     width=256, height=64,
     ... )
     >>> 20.0 < result.image.summary["zenith_sky_brightness"] < 23.0
     True
     """
+    flat = observer is not None and not isinstance(observer, Observer)
+    if flat:  # the former call: sky_render(output, time=, lonlat=)
+        if output is not None:
+            raise InputError(f"observer {observer!r}; expected an Observer")
+        output, observer = observer, None
+    if lonlat is not None:
+        if observer is not None:
+            raise InputError("give observer or lonlat (deprecated), not both")
+        observer = _lonlat_observer(lonlat)
+    if flat or lonlat is not None:
+        warnings.warn(
+            "sky_render(output, lonlat=(lon, lat), ...) is deprecated and goes in the next "
+            "release: call sky_render(nightlights.Observer.from_lonlat(lon, lat), output, ...)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
     target = Path(output) if output is not None else None
     kind = None
     if target is not None:
@@ -258,13 +283,16 @@ def sky_render(
     dataset = read_panorama(panorama) if panorama is not None else None
     if artificial_only and dataset is None:
         raise InputError("artificial_only needs a skyglow panorama")
-    if lonlat is None:
+    if observer is None:
         if dataset is None:
-            raise InputError("no place: give lonlat or a panorama with an observer")
-        lonlat = panorama_lonlat(dataset)
-    lon, lat = (float(v) for v in lonlat)
+            raise InputError("no place: give observer or a panorama with an observer")
+        lon, lat = panorama_lonlat(dataset)
+    else:
+        lon, lat = observer.lonlat()
+        if dataset is not None:
+            _check_same_place((lon, lat), dataset)
     if not (-180.0 <= lon <= 360.0 and -90.0 <= lat <= 90.0):
-        raise InputError(f"lonlat {lon}, {lat}: expected longitude -180..360, latitude -90..90")
+        raise InputError(f"observer {lon}, {lat}: expected longitude -180..360, latitude -90..90")
     outputs = OutputSet(target)
     default_w, default_h = DEFAULT_SIZE.get(projection, (1024, 512))
     view = View(
@@ -480,3 +508,36 @@ def _font(size: int) -> Any:
 
     path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSansMono.ttf"
     return ImageFont.truetype(str(path), size)
+
+
+#: Farthest an observer may stand from the place a given panorama was computed for [m]: the
+#: skyglow of a panorama belongs to its place (a kilometre moves a city's zenith by well under
+#: 0.1 mag, while a panorama of one place drawn over another place's stars is a wrong picture).
+SAME_PLACE = 1000.0
+
+
+def _check_same_place(lonlat: tuple[float, float], dataset: xr.Dataset) -> None:
+    """Refuse an observer that stands elsewhere than the panorama's observer."""
+    from pyproj import Geod
+
+    try:
+        lon, lat = panorama_lonlat(dataset)
+    except InputError:
+        return  # a panorama without its place: the observer places it
+    _, _, distance = Geod(ellps="WGS84").inv(lonlat[0], lonlat[1], lon, lat)
+    if distance > SAME_PLACE:
+        raise InputError(
+            f"observer ({lonlat[0]:.5f}, {lonlat[1]:.5f}) stands {distance / 1000:.4g} km from "
+            f"the panorama's observer ({lon:.5f}, {lat:.5f}); expected the same place (within "
+            f"{SAME_PLACE / 1000:g} km): omit the observer to use the panorama's"
+        )
+
+
+def _lonlat_observer(lonlat: Any) -> Observer:
+    try:
+        lon, lat = (float(v) for v in lonlat)
+    except (TypeError, ValueError):
+        raise InputError(f"lonlat {lonlat!r}; expected (longitude, latitude) [deg]") from None
+    if not (-180.0 <= lon <= 360.0 and -90.0 <= lat <= 90.0):
+        raise InputError(f"lonlat {lon}, {lat}: expected longitude -180..360, latitude -90..90")
+    return Observer.from_lonlat(lon, lat)

@@ -111,8 +111,6 @@ def test_netcdf_is_linear_on_elevation_and_azimuth(panorama: Path, tmp_path: Pat
         str(out),
         "--time",
         TIME,
-        "--lonlat",
-        "0,35",
         "--panorama",
         str(panorama),
         "--artificial-only",
@@ -136,3 +134,11 @@ def test_netcdf_needs_the_equirectangular_grid(tmp_path: Path) -> None:
         str(tmp_path / "sky.nc"), "--time", TIME, "--lonlat", "0,35", "--projection", "fisheye"
     )
     assert result.exit_code == 1 and "equirectangular" in result.output
+
+
+def test_a_panorama_of_another_place_is_refused(panorama: Path, tmp_path: Path) -> None:
+    # the panorama is Helsinki's; its skyglow drawn over the stars of 0 E 35 N is no picture
+    out = tmp_path / "sky.png"
+    result = run(str(out), "--time", TIME, "--lonlat", "0,35", "--panorama", str(panorama))
+    assert result.exit_code == 1
+    assert "from the panorama's observer" in result.output and not out.exists()
