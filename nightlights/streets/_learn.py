@@ -4,61 +4,27 @@ Stage ``streets learn`` (beyond Chuang 2011, whose Fig. 10 weights were counted 
 GIS datasets): a street layer and a point layer of real lamps (OpenStreetMap
 ``highway=street_lamp`` nodes, a municipal inventory) become per-street lighting evidence,
 and the tables of a base network are fitted to it with the base as prior
-(:func:`bayesnets.fit_network`).
+(:func:`bayesnets.fit_network`). This module reads the layers, runs the three steps and
+writes the network folder and the report; each step is modelled in its own module:
 
-1. **Assignment.** Each lamp goes to one street within ``max_distance``. Junction-aware:
-   among the streets in reach, those onto whose *interior* the lamp projects (not onto an
-   end point) come first, then the smaller distance, then the higher street class. A lamp
-   beside a street near a junction projects onto the interior of the street it stands
-   along and onto the end of a side street that stops there, so it goes to the former.
-   Streets tagged ``lit=no`` take no lamps.
-2. **Evidence per street.** Along-street position and side (left, right, or on the
-   centreline within :data:`CENTRE_TOLERANCE`) of each lamp; same-side gaps between
-   successive lamps (gaps under :data:`MIN_GAP` are one pole mapped twice and dropped).
-   A street with a side holding at least two lamps gives ``arrangement`` (central when
-   most lamps stand on the centreline; single-sided when at most
-   :data:`STRAY_SHARE` of the others stand on the minority side; opposite when most lamps
-   have a lamp across the street within :data:`PAIRING_FRACTION` of the same-side gap;
-   staggered otherwise) and ``spacing``: the median gap between successive pole positions
-   (lamps closer along the street than that tolerance share a position), i.e. the
-   same-side gap of a single-sided, opposite or central row and half of it for a staggered
-   one, the spacing of ``streets place``; a spacing outside the usual range of
-   :data:`~nightlights.streets.schema.VALUE_RANGES` is not taken as evidence.
-   ``occupancy`` is the share of the street's pole positions at that spacing that hold a
-   pole: the positions counted over the expected L / s of a street of length L,
-   capped at 1 (mapped streets are often lit, or mapped, along part of their length; a
-   regular row at the mapped spacing would otherwise carry more lamps than are mapped).
-   ``mounting_height`` is the median of the lamps' tagged heights, where tagged.
-   ``lit`` is true on a street with a lamp and no ``lit`` tag. Everything else stays
-   unobserved: a street without a mapped lamp is *not* evidence of an unlit street (only
+1. **Assignment** (:mod:`nightlights.streets._learn_assign`). Each lamp goes to one street
+   within ``max_distance``, junction-aware (a lamp near a junction goes to the street it
+   stands along, not to a side street ending there). Streets tagged ``lit=no`` take no
+   lamps.
+2. **Evidence per street** (:mod:`nightlights.streets._learn_evidence`). From the lamps'
+   along-street positions and sides: ``arrangement``, ``spacing``, ``occupancy`` and
+   ``mounting_height`` where the lamps suffice, each with its agreement (how far the
+   street's own lamps support the value). ``lit`` is true on a street with a lamp and no
+   ``lit`` tag; a street without a mapped lamp is *not* evidence of an unlit street (only
    ``lit=no`` is).
-3. **Fit.** The network binds ``spacing_ratio = spacing / mounting_height``, and the
-   ratio's parents (arrangement, and through the width ratio the width and the mounting
-   height) are rarely all observed. Each street's unobserved fields are therefore imputed
-   by :data:`IMPUTATION_DRAWS` draws from the network given the street's evidence
-   (likelihood weighting, as ``streets sample``; the imputing network's tables floored at
-   :data:`IMPUTATION_FLOOR`), ``spacing_ratio`` is the observed spacing over the tagged or
-   mean imputed mounting height, and each table is fitted (:func:`bayesnets.fit_network`,
-   a Dirichlet prior centred on the base) from the streets where *its own* variable is
-   observed, with the parents as observed or imputed. :data:`DEFAULT_ITERATIONS` rounds,
-   the first imputing with the base, each further one with the network of the round
-   before (stochastic EM). Tables of variables never observed (e.g. mounting height where
-   no lamp is tagged) come out as the base's. The spacing ratio's states are widened to
-   cover the evidence (:func:`spacing_ratio_states`): the base's design-guide states
-   (2.5-4) would clip a city whose lamps stand closer. A base without an occupancy
-   variable gets one (:func:`with_occupancy`, given the street class, prior at 1: the
-   design guides' pole at every position).
+3. **Fit** (:mod:`nightlights.streets._learn_fit`). The unobserved fields are imputed from
+   the network given each street's evidence and every table is fitted from the streets where
+   its own variable is observed, in rounds (stochastic EM).
 
-Agreement (how far a street's own lamps support its derived value): the share of its lamps
-on the majority side (single-sided), paired (opposite), unpaired (staggered) or on the
-centreline (central); the share of its position gaps within :data:`SPACING_AGREEMENT` of
-the spacing (spacing, and occupancy, which rests on it); the share of tagged heights within
-:data:`SPACING_AGREEMENT` of their median (mounting height). The report gives, per field,
-the number of streets with evidence and the share of them whose agreement is at least
-:data:`AGREEMENT_THRESHOLD`.
-
-Length: about 1250 lines, because the assignment, the evidence, the agreement and the
-iterated fit share one street table and its column names; each step is a function of it.
+Lamps are the layer's points (for OpenStreetMap layers, ``highway=street_lamp`` only), their
+tagged heights read from :data:`HEIGHT_FIELDS` or GDAL's ``other_tags``. The report gives,
+per derived field, the number of streets with evidence and the share of them whose
+agreement is at least :data:`AGREEMENT_THRESHOLD`.
 """
 
 from __future__ import annotations
@@ -76,9 +42,8 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from bayesnets import BayesNet, fit_network, write_network
-from bayesnets.binding import Binding
-from bayesnets.errors import BayesNetError, BayesNetWarning
+from bayesnets import BayesNet, write_network
+from bayesnets.errors import BayesNetError
 from bayesnets.network import CONFIG_NAME
 from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
@@ -86,17 +51,31 @@ from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
-from nightlights.streets._mapping import parse_length, parse_packed_tags
-from nightlights.streets._sample import (
-    fill_lighting,
-    network_by_location,
-    network_for_streets,
-    resolve_network,
+from nightlights.streets._learn_assign import (
+    CENTRE_TOLERANCE,
+    DEFAULT_MAX_DISTANCE,
+    LampAssignment,
+    assign_lamps,
 )
+from nightlights.streets._learn_evidence import (
+    DERIVED_FIELDS,
+    street_lamp_evidence,
+)
+
+# the rules' constants, read here by the tests and the benchmarks
+from nightlights.streets._learn_evidence import MIN_GAP as MIN_GAP
+from nightlights.streets._learn_evidence import PAIRING_FRACTION as PAIRING_FRACTION
+from nightlights.streets._learn_fit import (
+    DEFAULT_ITERATIONS,
+    learn_lighting_network,
+    spacing_ratio_states,
+    with_occupancy,
+)
+from nightlights.streets._mapping import parse_length, parse_packed_tags
+from nightlights.streets._sample import network_by_location, resolve_network
 from nightlights.streets.schema import (
     ARRANGEMENTS,
     STREET_CLASSES,
-    STREET_FIELDS,
     VALUE_RANGES,
     observed_field,
 )
@@ -116,35 +95,8 @@ __all__ = [
     "with_occupancy",
 ]
 
-#: Default reach of a lamp [m]: half a wide carriageway plus a pavement and a setback.
-DEFAULT_MAX_DISTANCE = 25.0
-#: Lamps closer than this to the centreline stand on it [m]: span-wire lamps over the
-#: carriageway, mapped on the way, and twin-arm poles on a median.
-CENTRE_TOLERANCE = 1.5
-#: Successive lamps on one side closer than this are one pole mapped twice [m].
-MIN_GAP = 1.0
-#: A lamp is paired when a lamp across the street stands within this fraction of the
-#: same-side gap along the street [1]: 0 for opposite pairs, 0.5 for a staggered row.
-PAIRING_FRACTION = 0.25
-#: Largest share of lamps on the minority side of a single-sided street [1]: one stray
-#: lamp among ten (a lamp of a side street or a path) does not make a street two-sided.
-STRAY_SHARE = 0.1
-#: A gap (a tagged height) agrees with its street's value within this relative distance [1].
-SPACING_AGREEMENT = 0.25
 #: A street's evidence agrees when at least this share of its lamps (gaps) agree [1].
 AGREEMENT_THRESHOLD = 0.75
-#: Rounds of imputation and fitting (stochastic EM) [1].
-DEFAULT_ITERATIONS = 5
-#: Likelihood-weighting candidates per street when imputing unobserved fields [1].
-IMPUTATION_CANDIDATES = 64
-#: Imputations per street and round (Monte Carlo E-step) [1]; the mounting height that
-#: turns a spacing into a spacing ratio is their mean.
-IMPUTATION_DRAWS = 8
-#: Floor of every bound table of the imputing network [1]: the base's zeros are design
-#: rules (e.g. never single-sided when the road is wider than 1.5 mounting heights), not
-#: observations; without a floor, a street that breaks a rule could never be imputed into
-#: the parent state the rule forbids, and the fit could never learn that it happens.
-IMPUTATION_FLOOR = 0.01
 #: Fields of a lamp layer holding the mounting height, in order of preference (OSM
 #: ``height`` on a ``highway=street_lamp`` node, in a column or GDAL's ``other_tags``).
 HEIGHT_FIELDS = ("mounting_height", "height")
@@ -156,17 +108,6 @@ LAMPS_FILE = "evidence_lamps.gpkg"
 REPORT_FILE = "learn_report.json"
 
 #: Fields of the per-street evidence layer and their types.
-#: Lighting fields derived from the lamps, in report order.
-DERIVED_FIELDS = ("arrangement", "spacing", "occupancy", "mounting_height")
-
-#: Variable a learned network adds when its base binds no ``occupancy`` field, its parent,
-#: and its states [1]: the share of the pole positions at the street's spacing that hold a
-#: pole, in tenths. The prior puts every street class at 1, the design guides' assumption
-#: of a pole at every position.
-OCCUPANCY_VARIABLE = "OCCUPANCY"
-OCCUPANCY_PARENT = "STREET_CLASS"
-OCCUPANCY_STATES = tuple(round(0.1 * k, 1) for k in range(1, 11))
-
 EVIDENCE_SCHEMA: dict[str, FieldType] = {
     "source_id": "str",
     "street_class": "str",
@@ -200,606 +141,6 @@ LAMP_SCHEMA: dict[str, FieldType] = {
     "interior": "bool",
     "height": "float",
 }
-
-
-# --- assignment ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class LampAssignment:
-    """Where each lamp stands relative to the street it was assigned to.
-
-    Attributes
-    ----------
-    street
-        Row of the assigned street in the street layer, -1 for a lamp out of reach; shape
-        ``(n_lamps,)``.
-    distance
-        Distance from the lamp to the street [m] (NaN when unassigned).
-    along
-        Position of the lamp's projection along the street from its first vertex [m].
-    offset
-        Signed distance from the centreline, positive left of the line direction [m].
-    side
-        +1 left, -1 right, 0 on the centreline (within the centre tolerance).
-    interior
-        Whether the lamp projects onto the street's interior (not onto an end point).
-    """
-
-    street: np.ndarray
-    distance: np.ndarray
-    along: np.ndarray
-    offset: np.ndarray
-    side: np.ndarray
-    interior: np.ndarray
-
-    @property
-    def assigned(self) -> np.ndarray:
-        """``bool`` per lamp: assigned to a street."""
-        return self.street >= 0
-
-
-def assign_lamps(
-    lamps: np.ndarray,
-    streets: np.ndarray,
-    *,
-    max_distance: float = DEFAULT_MAX_DISTANCE,
-    street_rank: np.ndarray | None = None,
-    allowed: np.ndarray | None = None,
-    centre_tolerance: float = CENTRE_TOLERANCE,
-) -> LampAssignment:
-    """Assign each lamp to one street within ``max_distance``, junction-aware.
-
-    Among the streets within reach, a street onto whose interior the lamp projects beats
-    one whose nearest point is an end point; then the smaller distance wins; then the
-    lower ``street_rank`` (the higher street class); then the first street.
-
-    Parameters
-    ----------
-    lamps
-        Point geometries, shape ``(n_lamps,)``, in a projected CRS [m].
-    streets
-        LineString geometries, shape ``(n_streets,)``, same CRS [m].
-    max_distance
-        Largest lamp-to-street distance [m].
-    street_rank
-        Rank per street, lower first at equal distance (e.g. the index of its class in
-        :data:`~nightlights.streets.schema.STREET_CLASSES`); default all equal.
-    allowed
-        ``bool`` per street: whether it may take lamps (default all).
-    centre_tolerance
-        Lamps closer than this to the centreline get side 0 [m].
-
-    Returns
-    -------
-    LampAssignment
-        Street, distance, along-street position, signed offset and side per lamp.
-
-    Examples
-    --------
-    >>> from shapely import LineString, Point
-    >>> # a through street (0) and a side street (1) ending at it; the lamp stands beside
-    >>> # the through street, 4 m from the side street's end point
-    >>> streets = np.array([LineString([(0, 0), (100, 0)]), LineString([(50, 0), (50, 80)])])
-    >>> result = assign_lamps(np.array([Point(53, -3)]), streets)
-    >>> int(result.street[0]), int(result.side[0])
-    (0, -1)
-    """
-    lamps = np.asarray(lamps, dtype=object)
-    streets = np.asarray(streets, dtype=object)
-    n = len(lamps)
-    street = np.full(n, -1, dtype=np.int64)
-    distance = np.full(n, np.nan)
-    along = np.full(n, np.nan)
-    offset = np.full(n, np.nan)
-    side = np.zeros(n, dtype=np.int64)
-    interior = np.zeros(n, dtype=bool)
-    if n == 0 or len(streets) == 0:
-        return LampAssignment(street, distance, along, offset, side, interior)
-    tree = shapely.STRtree(streets)
-    lamp_index, street_index = tree.query(lamps, predicate="dwithin", distance=max_distance)
-    if allowed is not None:
-        keep = np.asarray(allowed, dtype=bool)[street_index]
-        lamp_index, street_index = lamp_index[keep], street_index[keep]
-    if lamp_index.size:
-        lines = streets[street_index]
-        points = lamps[lamp_index]
-        pair_distance = shapely.distance(points, lines)
-        pair_along = shapely.line_locate_point(lines, points)
-        length = shapely.length(lines)
-        end_tolerance = 1e-6 * np.maximum(length, 1.0)
-        pair_interior = (pair_along > end_tolerance) & (pair_along < length - end_tolerance)
-        rank = (
-            np.zeros(len(streets)) if street_rank is None else np.asarray(street_rank, dtype=float)
-        )[street_index]
-        order = np.lexsort((street_index, rank, pair_distance, ~pair_interior, lamp_index))
-        first = order[np.r_[True, lamp_index[order][1:] != lamp_index[order][:-1]]]
-        chosen = lamp_index[first]
-        street[chosen] = street_index[first]
-        distance[chosen] = pair_distance[first]
-        along[chosen] = pair_along[first]
-        interior[chosen] = pair_interior[first]
-        signed = _signed_offset(streets[street_index[first]], lamps[chosen], pair_along[first])
-        offset[chosen] = signed
-        side[chosen] = np.where(np.abs(signed) < centre_tolerance, 0, np.sign(signed)).astype(
-            np.int64
-        )
-    return LampAssignment(street, distance, along, offset, side, interior)
-
-
-#: Half-length of the chord giving the local street direction at a lamp's projection [m].
-_TANGENT_STEP = 1.0
-
-
-def _signed_offset(lines: np.ndarray, points: np.ndarray, along: np.ndarray) -> np.ndarray:
-    """Distance of ``points`` from ``lines``, positive left of the line direction [m]."""
-    length = shapely.length(lines)
-    ahead = shapely.line_interpolate_point(lines, np.minimum(along + _TANGENT_STEP, length))
-    behind = shapely.line_interpolate_point(lines, np.maximum(along - _TANGENT_STEP, 0.0))
-    tangent = shapely.get_coordinates(ahead) - shapely.get_coordinates(behind)
-    foot = shapely.get_coordinates(shapely.line_interpolate_point(lines, along))
-    relative = shapely.get_coordinates(points)[:, :2] - foot[:, :2]
-    cross = tangent[:, 0] * relative[:, 1] - tangent[:, 1] * relative[:, 0]
-    norm = np.hypot(tangent[:, 0], tangent[:, 1])
-    norm[norm == 0] = 1.0
-    return cross / norm
-
-
-# --- evidence per street ---------------------------------------------------------------------
-
-
-def street_lamp_evidence(
-    assignment: LampAssignment,
-    n_streets: int,
-    *,
-    heights: np.ndarray | None = None,
-    lengths: np.ndarray | None = None,
-) -> pd.DataFrame:
-    """Lighting evidence of each street from its assigned lamps.
-
-    Parameters
-    ----------
-    assignment
-        Lamps assigned to streets (:func:`assign_lamps`).
-    n_streets
-        Number of streets in the layer [1].
-    heights
-        Tagged mounting height per lamp [m], NaN where untagged; default none tagged.
-    lengths
-        Length of each street [m]; without them no occupancy is derived.
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per street (index ``0 .. n_streets - 1``) with the lamp counts
-        (``lamps``, ``lamps_left``, ``lamps_right``, ``lamps_centre``), ``same_side_gaps``
-        [1], ``median_gap`` (same-side) [m], ``arrangement``, ``spacing`` [m], ``positions``
-        (pole positions the spacing was measured on) [1], ``occupancy`` [1],
-        ``mounting_height`` [m] (None/NaN without evidence), their ``<field>_observed`` flags
-        and ``<field>_agreement`` [1] (see the module notes); ``unusual_spacing`` [m], a
-        spacing outside the usual range that was not taken as evidence.
-    """
-    frame = pd.DataFrame(index=pd.RangeIndex(n_streets))
-    for column in (
-        "lamps",
-        "lamps_left",
-        "lamps_right",
-        "lamps_centre",
-        "same_side_gaps",
-        "positions",
-    ):
-        frame[column] = 0
-    for column in ("median_gap", "spacing", "unusual_spacing", "occupancy", "mounting_height"):
-        frame[column] = np.nan
-    for name in DERIVED_FIELDS:
-        frame[f"{name}_agreement"] = np.nan
-    frame["arrangement"] = pd.Series([None] * n_streets, dtype=object)
-    lamp_heights = np.full(len(assignment.street), np.nan) if heights is None else heights
-    table = pd.DataFrame(
-        {
-            "street": assignment.street,
-            "along": assignment.along,
-            "side": assignment.side,
-            "height": np.asarray(lamp_heights, dtype=float),
-        }
-    ).loc[assignment.assigned]
-    rows: list[dict[str, Any]] = []
-    for street, group in table.groupby("street", sort=True):
-        rows.append({"street": int(street), **_one_street(group)})
-    if rows:
-        found = pd.DataFrame(rows).set_index("street")
-        for column in found.columns:
-            frame.loc[found.index, column] = found[column].to_numpy()
-    if lengths is not None:
-        # expected positions on a street of length L at spacing s are L / s (as placed)
-        length = np.asarray(lengths, dtype=float)
-        spacing = frame["spacing"].to_numpy(float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            occupancy = np.minimum(frame["positions"].to_numpy(float) * spacing / length, 1.0)
-        seen = np.isfinite(occupancy) & (length > 0)
-        frame["occupancy"] = np.where(seen, occupancy, np.nan)
-        frame["occupancy_agreement"] = np.where(seen, frame["spacing_agreement"], np.nan)
-    for name in DERIVED_FIELDS:
-        frame[observed_field(name)] = frame[name].notna()
-    return frame
-
-
-def _one_street(group: pd.DataFrame) -> dict[str, Any]:
-    """Counts, gaps, arrangement, spacing and height of one street's lamps."""
-    side = group["side"].to_numpy()
-    along = group["along"].to_numpy(float)
-    result: dict[str, Any] = {
-        "lamps": len(group),
-        "lamps_left": int((side == 1).sum()),
-        "lamps_right": int((side == -1).sum()),
-        "lamps_centre": int((side == 0).sum()),
-    }
-    tagged = group["height"].to_numpy(float)
-    tagged = tagged[np.isfinite(tagged)]
-    if tagged.size:
-        median_height = float(np.median(tagged))
-        result["mounting_height"] = median_height
-        result["mounting_height_agreement"] = float(
-            np.mean(np.abs(tagged - median_height) <= SPACING_AGREEMENT * median_height)
-        )
-    positions = {s: np.sort(along[side == s]) for s in (-1, 0, 1)}
-    gaps = np.concatenate([np.diff(p) for p in positions.values()])
-    gaps = gaps[gaps >= MIN_GAP]
-    result["same_side_gaps"] = int(gaps.size)
-    if not gaps.size:
-        return result
-    median_gap = float(np.median(gaps))
-    result["median_gap"] = median_gap
-    arrangement, agreement = _arrangement(positions, median_gap)
-    result["arrangement"] = arrangement
-    result["arrangement_agreement"] = agreement
-    steps = _position_gaps(np.sort(along), max(MIN_GAP, PAIRING_FRACTION * median_gap))
-    limits = VALUE_RANGES["spacing"]
-    if steps.size:
-        spacing = float(np.median(steps))
-        if limits.impossible([spacing])[0] or limits.unusual([spacing])[0]:
-            result["unusual_spacing"] = spacing
-            return result
-        result["spacing"] = spacing
-        result["positions"] = int(steps.size + 1)
-        result["spacing_agreement"] = float(
-            np.mean(np.abs(steps - spacing) <= SPACING_AGREEMENT * spacing)
-        )
-    return result
-
-
-def _position_gaps(along: np.ndarray, tolerance: float) -> np.ndarray:
-    """Gaps between successive pole positions [m]: sorted lamps closer than ``tolerance``
-    to the first lamp of the current position share it (a pair across the street, or one
-    pole mapped twice)."""
-    starts: list[float] = []
-    for value in along:
-        if not starts or value - starts[-1] >= tolerance:
-            starts.append(float(value))
-    return np.diff(np.asarray(starts))
-
-
-def _arrangement(positions: dict[int, np.ndarray], median_gap: float) -> tuple[str, float]:
-    """Arrangement of one street's lamps and the share of lamps that agree with it."""
-    left, centre, right = positions[1], positions[0], positions[-1]
-    total = left.size + centre.size + right.size
-    if centre.size * 2 > total:
-        return "central", centre.size / total
-    sided = left.size + right.size
-    minority = min(left.size, right.size)
-    if minority <= STRAY_SHARE * sided:
-        return "single_sided", 1.0 - minority / sided
-    tolerance = PAIRING_FRACTION * median_gap
-    paired = np.concatenate(
-        [_nearest_distance(left, right) <= tolerance, _nearest_distance(right, left) <= tolerance]
-    )
-    share = float(paired.mean())
-    return ("opposite", share) if share >= 0.5 else ("staggered", 1.0 - share)
-
-
-def _nearest_distance(points: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """Along-street distance from each of ``points`` to the nearest of sorted ``others``."""
-    index = np.clip(np.searchsorted(others, points), 1, others.size - 1)
-    if others.size == 1:
-        return np.abs(points - others[0])
-    return np.minimum(np.abs(points - others[index - 1]), np.abs(points - others[index]))
-
-
-# --- fitting ---------------------------------------------------------------------------------
-
-
-#: Steps of the widened spacing-ratio grid: (upper end of the range, step) [1]; about 10 %
-#: of the ratio, finer than the base's 0.5 so that rounding moves a spacing by at most ~6 %.
-_RATIO_STEPS = ((4.0, 0.25), (8.0, 0.5), (16.0, 1.0), (50.0, 2.0))
-
-
-def spacing_ratio_states(base_states: tuple[float, ...], ratios: np.ndarray) -> tuple[float, ...]:
-    """States of the spacing ratio that cover the base's states and the evidence.
-
-    Parameters
-    ----------
-    base_states
-        The base network's spacing-ratio states [1].
-    ratios
-        Observed spacing ratios [1] (NaN ignored).
-
-    Returns
-    -------
-    tuple of float
-        Sorted states: the base's plus a grid from the smallest to the largest observed
-        ratio (step 0.25 up to 4, 0.5 up to 8, 1 up to 16, 2 beyond), within the allowed
-        range of :data:`~nightlights.streets.schema.VALUE_RANGES`.
-
-    Examples
-    --------
-    >>> spacing_ratio_states((2.5, 3.0), np.array([1.6, 2.2, 4.4]))
-    (1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 3.75, 4.0, 4.5)
-    """
-    values = np.asarray(ratios, dtype=float)
-    values = values[np.isfinite(values)]
-    states = set(base_states)
-    if values.size:
-        low, high = float(values.min()), float(values.max())
-        limits = VALUE_RANGES["spacing_ratio"]
-        start = 0.0
-        for end, step in _RATIO_STEPS:
-            grid = np.arange(start, end + step / 2, step)
-            lower = np.floor(low / step) * step
-            upper = np.ceil(high / step) * step
-            grid = grid[(grid >= lower) & (grid <= upper) & (grid >= start)]
-            states.update(float(g) for g in grid if not limits.impossible(np.array([g]))[0])
-            start = end
-    return tuple(sorted(states))
-
-
-def _widen_spacing_ratio(base: BayesNet, ratios: np.ndarray) -> BayesNet:
-    """``base`` with the spacing ratio's states widened (new states with prior weight 0)."""
-    variable = next((v for v, b in base.bindings.items() if b.field == "spacing_ratio"), None)
-    if variable is None:
-        raise BayesNetError(f"network {base.name!r} binds no variable to field 'spacing_ratio'")
-    binding = base.bindings[variable]
-    if binding.kind not in ("float", "int") or base.children[variable]:
-        raise BayesNetError(
-            f"network {base.name!r}: variable {variable} (spacing_ratio) must be a numeric "
-            "leaf to learn spacing from lamps"
-        )
-    old = tuple(float(n) for n in binding.numbers)
-    numbers = spacing_ratio_states(old, ratios)
-    if numbers == tuple(sorted(old)):
-        return base
-    labels = tuple(f"{n:g}" for n in numbers)
-    table = base.tables[variable]
-    widened = np.zeros((len(numbers), *table.shape[1:]))
-    for row, number in enumerate(old):
-        widened[numbers.index(number)] = table[row]
-    states = dict(base.states)
-    states[variable] = labels
-    tables = dict(base.tables)
-    tables[variable] = widened
-    bindings = dict(base.bindings)
-    bindings[variable] = Binding(
-        variable, binding.field, "float", labels, numbers, (), nearest=True
-    )
-    return replace(base, states=states, tables=tables, bindings=bindings)
-
-
-def with_occupancy(network: BayesNet) -> BayesNet:
-    """``network`` with an occupancy variable, if it binds none.
-
-    Parameters
-    ----------
-    network
-        A street-lighting network.
-
-    Returns
-    -------
-    bayesnets.BayesNet
-        ``network`` itself when a variable is bound to the ``occupancy`` field; otherwise a
-        copy with :data:`OCCUPANCY_VARIABLE` (states :data:`OCCUPANCY_STATES`, parent
-        :data:`OCCUPANCY_PARENT` where the network has it) whose table puts every parent
-        state at occupancy 1: the design guides' pole at every position, the prior that
-        lamp evidence moves.
-
-    Examples
-    --------
-    >>> from bayesnets import load_network
-    >>> net = with_occupancy(load_network("europe"))
-    >>> net.bindings["OCCUPANCY"].field, net.parents["OCCUPANCY"]
-    ('occupancy', ('STREET_CLASS',))
-    >>> float(net.tables["OCCUPANCY"][-1].min())
-    1.0
-    """
-    if any(binding.field == "occupancy" for binding in network.bindings.values()):
-        return network
-    if OCCUPANCY_VARIABLE in network.variables:
-        raise BayesNetError(
-            f"network {network.name!r} has a variable {OCCUPANCY_VARIABLE} not bound to the "
-            "occupancy field"
-        )
-    parents = (OCCUPANCY_PARENT,) if OCCUPANCY_PARENT in network.variables else ()
-    labels = tuple(f"{n:g}" for n in OCCUPANCY_STATES)
-    table = np.zeros((len(labels), *(len(network.states[p]) for p in parents)))
-    table[-1] = 1.0
-    return replace(
-        network,
-        variables=(*network.variables, OCCUPANCY_VARIABLE),
-        states={**network.states, OCCUPANCY_VARIABLE: labels},
-        parents={**network.parents, OCCUPANCY_VARIABLE: parents},
-        tables={**network.tables, OCCUPANCY_VARIABLE: table},
-        bindings={
-            **network.bindings,
-            OCCUPANCY_VARIABLE: Binding(
-                OCCUPANCY_VARIABLE, "occupancy", "float", labels, OCCUPANCY_STATES, (), nearest=True
-            ),
-        },
-    )
-
-
-def learn_lighting_network(
-    streets: gpd.GeoDataFrame | pd.DataFrame,
-    evidence: pd.DataFrame,
-    base: str | os.PathLike[str] | BayesNet | None = None,
-    *,
-    prior: float = 1.0,
-    iterations: int = DEFAULT_ITERATIONS,
-    rng: np.random.Generator,
-    name: str | None = None,
-) -> BayesNet:
-    """Fit ``base`` to streets with lamp evidence, imputing unobserved parents.
-
-    Parameters
-    ----------
-    streets
-        Normalised streets: canonical street fields with ``<field>_observed`` flags.
-    evidence
-        Per-street evidence, same row order (:func:`street_lamp_evidence`, with ``lit``
-        and ``lit_observed`` set from the lamps where the layer has no ``lit`` value).
-    base
-        Base network: structure, states, bindings and prior; None for the catalogue
-        network for where the streets lie (the catalogue default for a table without a
-        CRS).
-    prior
-        Prior strength in pseudo-observations per parent combination [1].
-    iterations
-        Rounds of imputation and fitting [1]: the first imputes with ``base``, each
-        further one with the network fitted in the round before (stochastic EM).
-    rng
-        Random generator for the imputation.
-    name
-        Name of the learned network (default ``<base>_learned``).
-
-    Returns
-    -------
-    bayesnets.BayesNet
-        The learned network: the base's structure and bindings, the spacing ratio's states
-        widened to the evidence.
-    """
-    net = network_for_streets(streets, base)
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise InputError(f"iterations={iterations!r}; expected an integer >= 1")
-    if isinstance(streets, gpd.GeoDataFrame):
-        streets = pd.DataFrame(streets.drop(columns=streets.geometry.name))
-    layer = streets.reset_index(drop=True)
-    known = _known_fields(layer, evidence)
-    spacing = pd.to_numeric(evidence["spacing"], errors="coerce").to_numpy(float)
-    draw_input = layer.copy()
-    for field_name in ("arrangement", "mounting_height", "lit"):
-        draw_input[field_name] = known[field_name]
-        draw_input[observed_field(field_name)] = known[field_name].notna().to_numpy()
-    tagged_height = known["mounting_height"].astype(float).to_numpy()
-    draws = IMPUTATION_DRAWS
-    stacked_input = pd.concat([draw_input] * draws, ignore_index=True)
-    stacked_known = pd.concat([known] * draws, ignore_index=True)
-    model, widened = net, None
-    for _ in range(iterations):
-        with warnings.catch_warnings():
-            # evidence impossible under the imputing network is relaxed for the
-            # imputation only; the fit still counts the observed value
-            warnings.simplefilter("ignore", BayesNetWarning)
-            drawn = fill_lighting(
-                stacked_input,
-                _floored(model),
-                candidates=IMPUTATION_CANDIDATES,
-                rng=rng,
-                on_conflict="relax",
-            ).reset_index(drop=True)
-        drawn_height = drawn["mounting_height"].to_numpy(float).reshape(draws, -1)
-        height = np.where(np.isfinite(tagged_height), tagged_height, drawn_height.mean(axis=0))
-        ratio = spacing / height
-        stacked_known["spacing_ratio"] = pd.Series(np.tile(ratio, draws), dtype=object).where(
-            np.isfinite(np.tile(ratio, draws)), None
-        )
-        if widened is None:
-            widened = with_occupancy(_widen_spacing_ratio(net, ratio))
-        # Monte Carlo E-step: every draw is a record; the prior is scaled by the number of
-        # draws so that it weighs as much against the data as with one record per street
-        model = replace(widened, tables=_fit_tables(stacked_known, drawn, widened, prior * draws))
-    assert widened is not None
-    return replace(
-        model,
-        name=name or f"{net.name}_learned",
-        description=(
-            f"Learned from mapped street lamps on {len(layer)} streets "
-            f"({int(evidence['spacing_observed'].sum())} with spacing evidence) with network "
-            f"{net.name!r} as prior ({prior:g} pseudo-observations per parent combination)."
-        ),
-        default=False,
-        source=None,
-    )
-
-
-def _floored(network: BayesNet) -> BayesNet:
-    """``network`` with each bound variable's table floored at :data:`IMPUTATION_FLOOR`."""
-    tables = dict(network.tables)
-    for variable in network.bindings:
-        table = network.tables[variable] + IMPUTATION_FLOOR
-        tables[variable] = table / table.sum(axis=0, keepdims=True)
-    return replace(network, tables=tables)
-
-
-def _fit_tables(
-    known: pd.DataFrame, drawn: pd.DataFrame, network: BayesNet, prior: float
-) -> dict[str, np.ndarray]:
-    """Each bound variable's table from the records where it is observed, its parents
-    observed or imputed; the prior is ``network`` (tables of unobserved variables kept)."""
-    complete = pd.DataFrame(index=known.index)
-    for binding in network.bindings.values():
-        imputed = drawn[binding.field].astype(object) if binding.field in drawn else None
-        values = known[binding.field] if binding.field in known else None
-        if values is None:
-            complete[binding.field] = imputed
-        elif imputed is None:
-            complete[binding.field] = values
-        else:
-            complete[binding.field] = values.where(values.notna(), imputed)
-    tables = dict(network.tables)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BayesNetWarning)  # tables outside the family kept
-        for variable, binding in network.bindings.items():
-            observed = known[binding.field] if binding.field in known else None
-            if observed is None or observed.notna().sum() == 0:
-                continue
-            fields = _family_fields(network, variable)
-            frame = complete[fields].copy()
-            frame[binding.field] = observed
-            tables[variable] = fit_network(frame, network, prior=prior).tables[variable]
-    return tables
-
-
-def _family_fields(network: BayesNet, variable: str) -> list[str]:
-    """Fields that give ``variable`` and its parents (a hidden parent through its own)."""
-    fields: list[str] = []
-    for member in (variable, *network.parents[variable]):
-        bound = network.field_of(member)
-        members = [bound] if bound else [network.field_of(p) for p in network.parents[member]]
-        fields.extend(f for f in members if f and f not in fields)
-    return fields
-
-
-def _known_fields(layer: pd.DataFrame, evidence: pd.DataFrame) -> pd.DataFrame:
-    """Observed values of every street and lighting field (object dtype, None unknown)."""
-    known = pd.DataFrame(index=layer.index)
-    for name in STREET_FIELDS:
-        if name not in layer:
-            known[name] = pd.Series([None] * len(layer), dtype=object)
-            continue
-        flag = observed_field(name)
-        seen = layer[name].notna().to_numpy().copy()
-        if flag in layer:
-            seen &= layer[flag].astype("boolean").fillna(False).to_numpy(bool)
-        known[name] = layer[name].astype(object).where(seen, None)
-    lamp_lit = evidence["lamps"].to_numpy() > 0
-    known["lit"] = known["lit"].where(known["lit"].notna() | ~lamp_lit, True)
-    for name in ("arrangement", "mounting_height", "occupancy"):
-        if name not in evidence:
-            known[name] = pd.Series([None] * len(layer), dtype=object)
-            continue
-        values = evidence[name].astype(object).reset_index(drop=True)
-        known[name] = values.where(evidence[observed_field(name)].to_numpy(bool), None)
-    return known
-
-
-# --- the stage -------------------------------------------------------------------------------
 
 
 @dataclass

@@ -23,6 +23,7 @@ from starlette.testclient import TestClient
 
 from nightlights.explore._app import (
     LOOPBACK_NAMES,
+    STATIC_DIR,
     browser_url,
     create_app,
     is_loopback,
@@ -473,6 +474,37 @@ def test_no_page_folder_is_a_one_line_404(shared_session: Any, tmp_path: Path) -
     with TestClient(app) as test_client:
         error_of(test_client.get("/"), 404, "page is not installed")
         assert test_client.get("/api/info").status_code == 200
+
+
+#: A static import or re-export of one of the page's own modules: ``... from "./name.js";``.
+MODULE_IMPORT = re.compile(
+    r'^(?:import|export)\s*(?:\{[^}]*\}|\*(?:\s+as\s+\w+)?|\w+)\s*from\s*"\./([^"]+)";', re.M
+)
+
+
+def test_the_shipped_page_serves_its_module_graph_as_javascript(
+    shared_session: Any, tmp_path: Path
+) -> None:
+    # The page is one graph of ES modules rooted at explore.js. A browser runs a module only
+    # when it comes with a JavaScript type, and the whitelist holds the folder's plain files.
+    app = create_app(shared_session, export_dir=tmp_path)
+    with TestClient(app) as test_client:
+        page = test_client.get("/")
+        assert '<script type="module" src="static/explore.js"></script>' in page.text
+        reached: set[str] = set()
+        waiting = ["explore.js"]
+        while waiting:
+            name = waiting.pop()
+            if name in reached:
+                continue
+            reached.add(name)
+            response = test_client.get(f"/static/{name}")
+            assert response.status_code == 200, name
+            assert response.headers["content-type"].startswith("text/javascript"), name
+            waiting.extend(MODULE_IMPORT.findall(response.text))
+    # every module ships and is reached from the entry
+    assert reached == {path.name for path in STATIC_DIR.glob("*.js")}
+    assert {"api.js", "map.js", "sky.js", "inverse.js"} <= reached
 
 
 # --- bad requests --------------------------------------------------------------------------
