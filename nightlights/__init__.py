@@ -12,7 +12,8 @@ if any)::
     lights = nl.place(streets, seed=1).lights             # light points
     ground = nl.irradiance(lights, resolution=1.0).raster  # Raster [lx]
     upward = nl.emission(ground, lights=lights, resolution=50.0, albedo=0.15).raster
-    sky = nl.skyglow(upward, observer=(x, y))             # panorama Dataset
+    scene = nl.Scene(upward, turbidity=2.0)               # emission, terrain, atmosphere
+    sky = nl.skyglow(scene, nl.Observer(x, y))            # panorama Dataset
 
 The stages are imported on first use, so ``import nightlights`` stays fast.
 """
@@ -57,6 +58,9 @@ _LAZY: dict[str, str] = {
     "emission_from_viirs": "nightlights.ground",
     "IrradianceResult": "nightlights.ground",
     "EmissionResult": "nightlights.ground",
+    # what a sky computation is about: the scene and who looks at it
+    "Scene": "nightlights.sky",
+    "Observer": "nightlights.sky",
     # the sky
     "KernelSpec": "nightlights.sky",
     "build_kernel": "nightlights.sky",
@@ -115,6 +119,8 @@ if TYPE_CHECKING:
     from nightlights.sky import (
         KernelResult,
         KernelSpec,
+        Observer,
+        Scene,
         SkyglowResult,
         build_kernel,
         skyglow,
@@ -164,6 +170,7 @@ __all__ = [
     "NightlightsError",
     "NightlightsWarning",
     "NormalizeResult",
+    "Observer",
     "ObserversResult",
     "OutputError",
     "PlaceResult",
@@ -171,6 +178,7 @@ __all__ = [
     "Raster",
     "ReduceResult",
     "SampleResult",
+    "Scene",
     "SkyRegion",
     "SkyRenderResult",
     "SkyglowResult",

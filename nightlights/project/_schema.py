@@ -15,7 +15,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -289,6 +289,10 @@ class ProjectFile(_Table):
     stages: StagesTable
 
 
+if TYPE_CHECKING:
+    from nightlights.sky.observer import Observer as SkyObserver
+
+
 @dataclass(frozen=True)
 class Observer:
     """An observer of the project: its name and position in its CRS.
@@ -314,6 +318,12 @@ class Observer:
     def key(self) -> dict[str, Any]:
         """What a cached stage of this observer depends on."""
         return {"name": self.name, "x": self.x, "y": self.y, "crs": self.crs, "h": self.height}
+
+    def sky(self) -> SkyObserver:
+        """The observer as the sky stages take it (:class:`nightlights.sky.Observer`)."""
+        from nightlights.sky.observer import Observer as SkyObserver
+
+        return SkyObserver(self.x, self.y, self.crs, self.height, self.name)
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,12 @@ import numpy as np
 
 from nightlights.project._schema import Observer, Project
 from nightlights.project._tasks import Builder, Context, Task, dem_needs, kernel_spec, one
+from nightlights.sky.observer import OBSERVER_HEIGHT
 
 if TYPE_CHECKING:
     import geopandas as gpd
+
+    from nightlights.sky.scene import Scene
 
 #: The highest share of lit cells a finding about an inverse map counts [1].
 FINDING_CELLS = 10
@@ -27,8 +30,11 @@ def _sky_options(project: Project, options: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _scene_arguments(ctx: Context, stage: str, observer: Observer) -> dict[str, Any]:
-    """The observer, kernel, terrain and atmosphere arguments every sky stage takes."""
+def _scene(ctx: Context, stage: str, src: dict[str, Path]) -> Scene:
+    """The project's scene for a sky stage: its emission and DEM, the project's kernel (or the
+    stage's grid of a scene kernel) and its atmosphere."""
+    from nightlights.sky.scene import Scene
+
     kernel = ctx.kernel()
     o = ctx.project.options(stage)
     grid = (
@@ -36,15 +42,13 @@ def _scene_arguments(ctx: Context, stage: str, observer: Observer) -> dict[str, 
         if kernel is not None
         else {"n_azimuth": o.n_azimuth, "n_elevation": o.n_elevation, "n_distance": o.n_distance}
     )
-    return {
-        "observer": (observer.x, observer.y),
-        "observer_crs": observer.crs,
-        "observer_height": observer.height,
-        "kernel": kernel,
-        "turbidity": None if kernel is not None else ctx.project.file.atmosphere.turbidity,
-        "progress": ctx.progress,
+    return Scene(
+        src["emission"],
+        dem=src.get("inputs.dem"),
+        kernel=kernel,
+        turbidity=None if kernel is not None else ctx.project.file.atmosphere.turbidity,
         **grid,
-    }
+    )
 
 
 def _per_observer(
@@ -87,7 +91,8 @@ def _skyglow(project: Project, options: dict[str, Any]) -> list[Task]:
 
         key = f"skyglow_{observer.name}"
         sky = nl.skyglow(
-            src["emission"],
+            _scene(ctx, "skyglow", src),
+            observer.sky(),
             out[key],
             mode=o.mode,
             components=o.components,
@@ -98,10 +103,9 @@ def _skyglow(project: Project, options: dict[str, Any]) -> list[Task]:
                 else o.projection.get(observer.name, "equirectangular")
             ),
             polar_output=out.get(f"{key}_polar"),
-            dem=src.get("inputs.dem"),
             bands=o.bands,
             spectrum=o.spectrum,
-            **_scene_arguments(ctx, "skyglow", observer),
+            progress=ctx.progress,
         )
         return {"zenith": [sky.zenith_magnitude, sky.bortle]}
 
@@ -121,22 +125,23 @@ def _observers(project: Project, options: dict[str, Any]) -> list[Task]:
 
     def compute(ctx: Context, out: dict[str, Path], src: dict[str, Path]) -> dict[str, Any]:
         from nightlights.sky.observers import observers
+        from nightlights.sky.scene import Scene
 
         points = ctx.project.observers
         panoramas = out.get("observers_panoramas")
         if panoramas is not None:
             panoramas.mkdir()
         kernel = ctx.kernel()
-        result = observers(
+        scene = Scene(
             src["emission"],
-            out["observers"],
-            observers=np.array([[p.x, p.y] for p in points], dtype=float),
-            observer_crs=points[0].crs,
-            names=[p.name for p in points],
-            kernel=kernel,
             dem=src.get("inputs.dem"),
-            observer_height=points[0].height,
+            kernel=kernel,
             turbidity=None if kernel is not None else ctx.project.file.atmosphere.turbidity,
+        )
+        result = observers(
+            scene,
+            [p.sky() for p in points],
+            out["observers"],
             panoramas=panoramas,
             top_cells=o.top_cells,
             scheduler=o.scheduler,
@@ -199,11 +204,11 @@ def _inverse_q(project: Project, options: dict[str, Any]) -> list[Task]:
 
         key = f"inverse_q_{observer.name}"
         q = nl.inverse_q(
-            src["emission"],
+            _scene(ctx, "inverse-q", src),
+            observer.sky(),
             out[key],
-            dem=src.get("inputs.dem"),
             metric=o.metric,
-            **_scene_arguments(ctx, "inverse-q", observer),
+            progress=ctx.progress,
         )
         title = f"Q ({o.metric}): each cell's part at {observer.name}"
         what = {"zenith": "the zenith", "hemisphere": "the sky's mean luminance"}.get(
@@ -226,14 +231,14 @@ def _inverse_s(project: Project, options: dict[str, Any]) -> list[Task]:
 
         key = f"inverse_s_{observer.name}"
         s = nl.inverse_s(
-            src["emission"],
+            _scene(ctx, "inverse-s", src),
+            observer.sky(),
             out[key],
             region=o.region,
             weight=o.weight,
             method=o.method,
             components=o.components,
-            dem=src.get("inputs.dem"),
-            **_scene_arguments(ctx, "inverse-s", observer),
+            progress=ctx.progress,
         )
         title = f"S: each cell's part of the sky {o.region} from {observer.name}"
         what = f"the sky {o.region}"
@@ -291,16 +296,15 @@ def _inverse_reduce(project: Project, options: dict[str, Any]) -> list[Task]:
             data = raster.read(1)
         lit = data[np.isfinite(data)]
         qa, qb = _threshold(o.qa, lit), _threshold(o.qb, lit)
-        kernel = ctx.kernel()
+        # the scene the Q or S map recorded (its turbidity and grid) completes this one
+        scene = nl.Scene(src["emission"], dem=src.get("inputs.dem"), kernel=ctx.kernel())
         reduced = nl.inverse_reduce(
-            src["emission"],
+            scene,
             out[f"emission_dimmed_{name}"],
             by=src[by],
             qa=qa,
             qb=qb,
             gamma=o.gamma,
-            dem=src.get("inputs.dem"),
-            kernel=kernel,
             dimming_output=out[f"dimming_{name}"],
             summary_output=out[f"dimming_{name}_summary"],
             png=out.get(f"dimming_{name}_png"),
@@ -342,32 +346,18 @@ def _darkness(project: Project, options: dict[str, Any]) -> list[Task]:
     def compute(ctx: Context, out: dict[str, Path], src: dict[str, Path]) -> dict[str, Any]:
         import nightlights as nl
 
-        kernel = ctx.kernel()
-        grid = (
-            {}
-            if kernel is not None
-            else {
-                "n_azimuth": o.n_azimuth,
-                "n_elevation": o.n_elevation,
-                "n_distance": o.n_distance,
-            }
-        )
-        heights = sorted({p.height for p in ctx.project.observers}) or [1.7]
+        heights = sorted({p.height for p in ctx.project.observers}) or [OBSERVER_HEIGHT]
         nl.darkness(
-            src["emission"],
+            _scene(ctx, "darkness", src),
             out["darkness"],
-            observer_height=heights[0],
-            dem=src.get("inputs.dem"),
-            kernel=kernel,
-            turbidity=None if kernel is not None else ctx.project.file.atmosphere.turbidity,
+            height=heights[0],
             chunk_size=o.chunk_size,
             progress=ctx.progress,
-            **grid,
         )
         return {}
 
     options = _sky_options(project, options)
-    options["height"] = sorted({p.height for p in project.observers}) or [1.7]
+    options["height"] = sorted({p.height for p in project.observers}) or [OBSERVER_HEIGHT]
     return one(
         "darkness",
         {"darkness": "darkness.tif"},

@@ -95,7 +95,7 @@ def test_help_shows_the_stage() -> None:
         check=True,
         env={**os.environ, "PAGER": "cat"},
     ).stdout
-    assert "skyglow(emission" in out
+    assert "skyglow(scene" in out
     assert "observer" in out
 
 

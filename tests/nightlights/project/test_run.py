@@ -89,7 +89,7 @@ def test_an_interrupted_stage_leaves_no_output_that_looks_complete(
     out = ran_once.parent / "out"
     _edit(ran_once, "a = [385500.0, 6671500.0]", "a = [385450.0, 6671500.0]")
 
-    def interrupted(emission: Any, output: Path, **kwargs: Any) -> None:
+    def interrupted(scene: Any, observer: Any, output: Path, **kwargs: Any) -> None:
         Path(output).write_bytes(b"half a panorama")
         raise KeyboardInterrupt
 
