@@ -48,16 +48,15 @@ def main() -> None:
     lit_cells = int(np.sum(np.nansum(upward.data, axis=0) > 0))
 
     # each lit cell's part of the observatory's zenith luminance; the parts add up to it
-    where = {"observer_crs": "EPSG:4326", "progress": False}
-    parts = nl.inverse_q(upward, observer=OBSERVATORY, metric="zenith", **where).raster
+    scene = nl.Scene(upward)
+    observatory = nl.Observer.from_lonlat(*OBSERVATORY, name="observatory")
+    parts = nl.inverse_q(scene, observatory, metric="zenith", progress=False).raster
     before = float(np.nansum(parts.data[0]))  # [cd m-2]
 
     # A: every light dimmed alike; the zenith falls in proportion (skyglow is linear)
     after_a = (1.0 - args.dimming) * before
     # B: the same zenith at the observatory, the least flux removed
-    plan = nl.least_dimming(
-        upward, observers=[OBSERVATORY], target_zenith=magnitude(after_a), **where
-    )
+    plan = nl.least_dimming(scene, [observatory], target_zenith=magnitude(after_a), progress=False)
     after_b = plan.summary["observers"][0]["zenith"]["after_mag_arcsec2"]
     removed_b = plan.summary["flux_removed_percent"]
 

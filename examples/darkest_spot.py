@@ -44,7 +44,7 @@ def main() -> None:
     upward = nl.emission(lux, lights=lights, resolution=50.0, albedo=0.15).raster
 
     # the observer's eye 1.7 m above every cell of the emission grid
-    zenith = nl.darkness(upward, progress=False, **KERNEL_GRID).raster
+    zenith = nl.darkness(nl.Scene(upward, **KERNEL_GRID), progress=False).raster
     bands = list(zenith.descriptions)
     magnitude = zenith.data[bands.index("zenith_sky_brightness")]
     luminance = zenith.data[bands.index("zenith_luminance")]  # [cd m-2]

@@ -53,7 +53,7 @@ def scenario(lights, head: str, bounds: tuple[float, ...]) -> dict[str, float]:
     for band, density in zip(upward.descriptions, upward.data, strict=True):
         figures[f"upward flux, {band} [klm]"] = np.nansum(density) * cell / 1e3
     for name, lonlat in OBSERVERS.items():
-        sky = nl.skyglow(upward, observer=lonlat, observer_crs="EPSG:4326", progress=False)
+        sky = nl.skyglow(nl.Scene(upward), nl.Observer.from_lonlat(*lonlat), progress=False)
         figures[f"zenith at {name} [mag arcsec-2]"] = sky.zenith_magnitude
     return figures
 

@@ -83,12 +83,12 @@ def main() -> None:
 
     # --8<-- [start:skyglow]
     # The artificial sky over Esplanadi park, as a fisheye picture.
+    # The scene: the emission, its atmosphere and the kernel; the observer: where and how high.
+    scene = nl.Scene(upward, kernel=kernel)
+    esplanadi = nl.Observer.from_lonlat(24.9480, 60.1675, height=1.7, name="Esplanadi")
     sky = nl.skyglow(
-        upward,
-        observer=(24.9480, 60.1675),
-        observer_crs="EPSG:4326",
-        observer_height=1.7,
-        kernel=kernel,
+        scene,
+        esplanadi,
         png="skyglow.png",
         projection="fisheye",
         progress=False,
