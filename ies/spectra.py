@@ -26,6 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -67,8 +68,20 @@ class Spectrum:
         return np.interp(wavelengths, self.wavelengths, self.values, left=0.0, right=0.0)
 
 
-def _colour() -> object:
-    with warnings.catch_warnings():
+def colour_science() -> ModuleType:
+    """The ``colour`` package (colour-science), imported without changing the process.
+
+    Importing colour-science sets NumPy's print options to the 1.13 legacy style, adds a
+    warnings filter and warns about optional packages it lacks; here the import is silent and
+    the caller's print options and warnings filters are the same afterwards. Import it through
+    this function only: a plain ``import colour`` that runs first changes them for good.
+
+    Returns
+    -------
+    types.ModuleType
+        The ``colour`` module.
+    """
+    with warnings.catch_warnings(), np.printoptions():
         warnings.simplefilter("ignore")
         import colour
 
@@ -85,11 +98,11 @@ def _from_colour_sd(name: str, sd: Any, description: str) -> Spectrum:
 
 
 def _illuminant(key: str) -> Callable[[], object]:
-    return lambda: _colour().SDS_ILLUMINANTS[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().SDS_ILLUMINANTS[key]
 
 
 def _light_source(key: str) -> Callable[[], object]:
-    return lambda: _colour().SDS_LIGHT_SOURCES[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().SDS_LIGHT_SOURCES[key]
 
 
 #: Named SPDs: name -> (loader, provenance).
@@ -121,12 +134,12 @@ SPDS: tuple[str, ...] = tuple(_SPD_SOURCES)
 
 
 def _lef(key: str) -> Callable[[], object]:
-    return lambda: _colour().colorimetry.SDS_LEFS[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().colorimetry.SDS_LEFS[key]
 
 
 def _cmf(index: int) -> Callable[[], object]:
     def load() -> object:
-        cmfs = _colour().MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]  # type: ignore[attr-defined]
+        cmfs = colour_science().MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
         return cmfs.signals[cmfs.labels[index]]
 
     return load
