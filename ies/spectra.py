@@ -21,6 +21,8 @@ melanopic action spectrum and a MIL-STD-3009-style NVIS goggle model (class A an
 
 from __future__ import annotations
 
+import importlib
+import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -68,23 +70,46 @@ class Spectrum:
         return np.interp(wavelengths, self.wavelengths, self.values, left=0.0, right=0.0)
 
 
-def colour_science() -> ModuleType:
+#: colour-science's plotting subpackage, which imports ``matplotlib.pyplot``.
+_COLOUR_PLOTTING = "colour.plotting"
+
+
+class _DeferredColourPlotting(ModuleType):
+    """Stands in for ``colour.plotting`` and imports the real subpackage on first use."""
+
+    def __getattr__(self, name: str) -> Any:
+        if sys.modules.get(_COLOUR_PLOTTING) is self:  # colour-science is still loading
+            raise AttributeError(f"{_COLOUR_PLOTTING} is not loaded yet; no {name!r}")
+        return getattr(importlib.import_module(_COLOUR_PLOTTING), name)
+
+
+def colour_science() -> Any:
     """The ``colour`` package (colour-science), imported without changing the process.
 
     Importing colour-science sets NumPy's print options to the 1.13 legacy style, adds a
-    warnings filter and warns about optional packages it lacks; here the import is silent and
-    the caller's print options and warnings filters are the same afterwards. Import it through
-    this function only: a plain ``import colour`` that runs first changes them for good.
+    warnings filter, and imports its plotting subpackage and with it ``matplotlib.pyplot``.
+    Here the import is silent, the caller's print options and warnings filters are the same
+    afterwards, and ``colour.plotting`` is a stand-in that imports the real subpackage (and
+    pyplot) when first used. Import colour-science through this function only: a plain
+    ``import colour`` that runs first makes those changes for good.
 
     Returns
     -------
-    types.ModuleType
-        The ``colour`` module.
+    colour
+        The package, as colour-science registers it in ``sys.modules``.
     """
-    with warnings.catch_warnings(), np.printoptions():
-        warnings.simplefilter("ignore")
-        import colour
-
+    loaded = sys.modules.get("colour")
+    if loaded is not None:
+        return loaded
+    deferred = _DeferredColourPlotting(_COLOUR_PLOTTING)
+    sys.modules[_COLOUR_PLOTTING] = deferred
+    try:
+        with warnings.catch_warnings(), np.printoptions():
+            warnings.simplefilter("ignore")
+            import colour
+    finally:
+        if sys.modules.get(_COLOUR_PLOTTING) is deferred:
+            del sys.modules[_COLOUR_PLOTTING]
     return colour
 
 
