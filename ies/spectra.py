@@ -21,11 +21,14 @@ melanopic action spectrum and a MIL-STD-3009-style NVIS goggle model (class A an
 
 from __future__ import annotations
 
+import importlib
+import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -67,11 +70,46 @@ class Spectrum:
         return np.interp(wavelengths, self.wavelengths, self.values, left=0.0, right=0.0)
 
 
-def _colour() -> object:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        import colour
+#: colour-science's plotting subpackage, which imports ``matplotlib.pyplot``.
+_COLOUR_PLOTTING = "colour.plotting"
 
+
+class _DeferredColourPlotting(ModuleType):
+    """Stands in for ``colour.plotting`` and imports the real subpackage on first use."""
+
+    def __getattr__(self, name: str) -> Any:
+        if sys.modules.get(_COLOUR_PLOTTING) is self:  # colour-science is still loading
+            raise AttributeError(f"{_COLOUR_PLOTTING} is not loaded yet; no {name!r}")
+        return getattr(importlib.import_module(_COLOUR_PLOTTING), name)
+
+
+def colour_science() -> Any:
+    """The ``colour`` package (colour-science), imported without changing the process.
+
+    Importing colour-science sets NumPy's print options to the 1.13 legacy style, adds a
+    warnings filter, and imports its plotting subpackage and with it ``matplotlib.pyplot``.
+    Here the import is silent, the caller's print options and warnings filters are the same
+    afterwards, and ``colour.plotting`` is a stand-in that imports the real subpackage (and
+    pyplot) when first used. Import colour-science through this function only: a plain
+    ``import colour`` that runs first makes those changes for good.
+
+    Returns
+    -------
+    colour
+        The package, as colour-science registers it in ``sys.modules``.
+    """
+    loaded = sys.modules.get("colour")
+    if loaded is not None:
+        return loaded
+    deferred = _DeferredColourPlotting(_COLOUR_PLOTTING)
+    sys.modules[_COLOUR_PLOTTING] = deferred
+    try:
+        with warnings.catch_warnings(), np.printoptions():
+            warnings.simplefilter("ignore")
+            import colour
+    finally:
+        if sys.modules.get(_COLOUR_PLOTTING) is deferred:
+            del sys.modules[_COLOUR_PLOTTING]
     return colour
 
 
@@ -85,11 +123,11 @@ def _from_colour_sd(name: str, sd: Any, description: str) -> Spectrum:
 
 
 def _illuminant(key: str) -> Callable[[], object]:
-    return lambda: _colour().SDS_ILLUMINANTS[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().SDS_ILLUMINANTS[key]
 
 
 def _light_source(key: str) -> Callable[[], object]:
-    return lambda: _colour().SDS_LIGHT_SOURCES[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().SDS_LIGHT_SOURCES[key]
 
 
 #: Named SPDs: name -> (loader, provenance).
@@ -121,12 +159,12 @@ SPDS: tuple[str, ...] = tuple(_SPD_SOURCES)
 
 
 def _lef(key: str) -> Callable[[], object]:
-    return lambda: _colour().colorimetry.SDS_LEFS[key]  # type: ignore[attr-defined]
+    return lambda: colour_science().colorimetry.SDS_LEFS[key]
 
 
 def _cmf(index: int) -> Callable[[], object]:
     def load() -> object:
-        cmfs = _colour().MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]  # type: ignore[attr-defined]
+        cmfs = colour_science().MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
         return cmfs.signals[cmfs.labels[index]]
 
     return load

@@ -9,19 +9,17 @@ from typing import TYPE_CHECKING
 
 import geopandas as gpd
 import matplotlib
+import matplotlib.patches
+import numpy as np
 import rasterio
 import rasterio.errors
 import rasterio.windows
 from affine import Affine
+from matplotlib.colors import LogNorm
+from matplotlib.figure import Figure
 from pyproj import CRS
 from rasterio.enums import Resampling
 from rasterio.windows import Window
-
-matplotlib.use("Agg")
-import matplotlib.patches
-import matplotlib.pyplot as plt
-import numpy as np
-from matplotlib.colors import LogNorm
 
 from nightlights.io import Raster, as_raster, atomic_output
 
@@ -91,9 +89,8 @@ def plot_raster_map(
     finite = np.concatenate([values[np.isfinite(values)].ravel() for values, _ in images])
     top = max(float(finite.max()) if finite.size else 1.0, floor * 10)
     panels = 2 if zoom else 1
-    fig, axes = plt.subplots(
-        1, panels, figsize=(6.5 * panels + 1, 7.5), squeeze=False, layout="constrained"
-    )
+    fig = Figure(figsize=(6.5 * panels + 1, 7.5), layout="constrained")
+    axes = fig.subplots(1, panels, squeeze=False)
     norm = LogNorm(vmin=floor, vmax=top)
     for index, ax in enumerate(axes[0]):
         values, extent = images[index]
@@ -101,7 +98,7 @@ def plot_raster_map(
             np.clip(values, floor, None),
             extent=extent,
             norm=norm,
-            cmap="inferno",
+            cmap=matplotlib.colormaps["inferno"],
             interpolation="nearest",
         )
         if points is not None and not points.empty:
@@ -139,7 +136,6 @@ def plot_raster_map(
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.8, label=f"{description} [{unit}]")
     with atomic_output(out_png) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return Path(out_png)
 
 

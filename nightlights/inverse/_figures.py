@@ -5,10 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from nightlights._typing import FloatArray, PathLike
 from nightlights.io import atomic_output
@@ -51,7 +49,8 @@ def render_before_after(
     az_edges = np.linspace(0.0, 360.0, n_az + 1)
     d_el = 90.0 / elevation.size
     el_edges = np.concatenate([elevation + d_el / 2, [elevation[-1] - d_el / 2]])
-    fig, axes = plt.subplots(1, 2, figsize=(13, 3.4), layout="constrained", sharey=True)
+    fig = Figure(figsize=(13, 3.4), layout="constrained")
+    axes = fig.subplots(1, 2, sharey=True)
     mesh = None
     for ax, luminance, name in zip(axes, (before, after), ("before", "after"), strict=True):
         magnitude = luminance_to_magnitude(np.maximum(luminance, 1e-30))
@@ -60,7 +59,7 @@ def render_before_after(
             az_edges,
             el_edges,
             np.clip(magnitude, *magnitude_range),
-            cmap="magma_r",
+            cmap=matplotlib.colormaps["magma_r"],
             vmin=magnitude_range[0],
             vmax=magnitude_range[1],
         )
@@ -77,5 +76,4 @@ def render_before_after(
         fig.suptitle(title)
     with atomic_output(out_png) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return Path(out_png)

@@ -444,7 +444,9 @@ def rayleigh_sunlight_xyz() -> FloatArray:
     numpy.ndarray
         ``(3,)`` tristimulus values with Y = 1 (CIE 1931 2-degree observer, 360-830 nm).
     """
-    import colour
+    from ies.spectra import colour_science
+
+    colour = colour_science()
 
     shape = colour.SpectralShape(360, 830, 5)
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)

@@ -292,7 +292,9 @@ def white_balance(xyz: ArrayLike, source_temperature: float) -> FloatArray:
         ``(..., 3)`` adapted XYZ [cd m-2]: light of the source colour becomes the sRGB white
         (D65) of the same luminance.
     """
-    import colour
+    from ies.spectra import colour_science
+
+    colour = colour_science()
 
     source = blackbody_white(source_temperature)
     d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
@@ -312,7 +314,9 @@ BLACKBODY_TABLE_RANGE = (1000.0, 100000.0)
 @functools.cache
 def _blackbody_table() -> tuple[FloatArray, FloatArray]:
     """log10 T and the XYZ (Y = 1) of blackbodies, CIE 1931 2-degree observer, 360-830 nm."""
-    import colour
+    from ies.spectra import colour_science
+
+    colour = colour_science()
 
     temperatures = np.geomspace(*BLACKBODY_TABLE_RANGE, 241)
     shape = colour.SpectralShape(360, 830, 5)
@@ -402,7 +406,9 @@ def xyz_to_srgb(xyz: ArrayLike) -> FloatArray:
 @functools.cache
 def _srgb_matrix() -> FloatArray:
     """XYZ to linear sRGB (D65) matrix of colour-science."""
-    import colour
+    from ies.spectra import colour_science
+
+    colour = colour_science()
 
     return np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB, dtype=float)
 

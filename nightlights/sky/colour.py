@@ -72,14 +72,15 @@ def render_colour_panorama(
     # Log tone mapping of Y over four decades; chromaticity kept.
     mapped = np.clip(np.log10(np.maximum(y, top * 1e-4) / (top * 1e-4)) / 4.0, 0.0, 1.0)
     scale = np.divide(mapped, y, out=np.zeros_like(y), where=y > 0)
-    import colour  # colour-science and matplotlib load in about a second: only when drawing
-    import matplotlib
+    # colour-science and matplotlib load in about a second: only when drawing
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ies.spectra import colour_science
 
+    colour = colour_science()
     rgb = np.clip(colour.XYZ_to_sRGB(xyz * scale[..., None]), 0.0, 1.0)
-    fig, ax = plt.subplots(figsize=(11, 3.4), layout="constrained")
+    fig = Figure(figsize=(11, 3.4), layout="constrained")
+    ax = fig.subplots()
     ax.imshow(
         rgb,
         extent=(0, 360, float(elevation[-1]) - 0.5 * (90 / elevation.size), 90),
@@ -93,5 +94,4 @@ def render_colour_panorama(
         ax.set_title(title)
     with atomic_output(out_png) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return Path(out_png)

@@ -7,10 +7,8 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from nightlights.errors import InputError
@@ -58,12 +56,13 @@ def render_panorama(
     az_edges = np.concatenate([azimuth - d_az / 2, [azimuth[-1] + d_az / 2]])
     el_edges = np.concatenate([elevation + d_el / 2, [elevation[-1] - d_el / 2]])
     options: dict[str, Any] = {
-        "cmap": "magma_r",
+        "cmap": matplotlib.colormaps["magma_r"],
         "vmin": magnitude_range[0],
         "vmax": magnitude_range[1],
     }
     if projection == "equirectangular":
-        fig, ax = plt.subplots(figsize=(11, 3.6), layout="constrained")
+        fig = Figure(figsize=(11, 3.6), layout="constrained")
+        ax = fig.subplots()
         mesh = ax.pcolormesh(az_edges, el_edges, values, **options)
         ax.set_xlabel("azimuth [deg, clockwise from north]")
         ax.set_ylabel("elevation [deg]")
@@ -71,9 +70,8 @@ def render_panorama(
         ax.set_xlim(0, 360)
         ax.set_ylim(0, 90)
     else:
-        fig, ax = plt.subplots(
-            figsize=(6.5, 6), subplot_kw={"projection": "polar"}, layout="constrained"
-        )
+        fig = Figure(figsize=(6.5, 6), layout="constrained")
+        ax = fig.subplots(subplot_kw={"projection": "polar"})
         ax.set_theta_zero_location("N")  # type: ignore[attr-defined]
         ax.set_theta_direction(-1)  # type: ignore[attr-defined]
         mesh = ax.pcolormesh(np.radians(az_edges), 90.0 - el_edges, values, **options)
@@ -87,5 +85,4 @@ def render_panorama(
         ax.set_title(title)
     with atomic_output(out_png) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return Path(out_png)

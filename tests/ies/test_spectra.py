@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -89,3 +94,33 @@ def test_unknown_names_and_bad_spectra():
         sensor_factor(([500.0, 400.0], [1.0, 1.0]), "photopic")
     with pytest.raises(PhotometryError, match="photopic content"):
         sensor_factor(([900.0, 910.0], [1.0, 1.0]), "photopic")
+
+
+def test_colour_science_loads_without_pyplot_and_keeps_numpy_printing():
+    """colour-science imports ``matplotlib.pyplot`` and sets NumPy's legacy print style on
+    its own import; through :func:`ies.spectra.colour_science` neither happens, and its
+    plotting subpackage still loads when used."""
+    code = """
+import sys, warnings
+import numpy as np
+from ies.spectra import colour_science
+
+options, filters = np.get_printoptions(), list(warnings.filters)
+colour = colour_science()
+assert colour_science() is colour
+print(np.get_printoptions() == options, warnings.filters == filters)
+print("matplotlib.pyplot" in sys.modules)
+print(callable(colour.plotting.plot_single_sd), "matplotlib.pyplot" in sys.modules)
+import colour.plotting
+print(colour.plotting.plot_single_sd is sys.modules["colour.plotting"].plot_single_sd)
+"""
+    root = Path(__file__).resolve().parents[2]
+    path = os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MPLBACKEND": "svg", "PYTHONPATH": path},
+    )
+    assert done.returncode == 0, done.stderr[-4000:]
+    assert done.stdout.split("\n")[:4] == ["True True", "False", "True True", "True"]

@@ -40,8 +40,9 @@ ALBEDO = 0.15
 def test_import_is_light() -> None:
     code = (
         "import sys, nightlights; "
-        "print(sorted(m for m in ('xarray', 'geopandas', 'numba', 'rasterio', 'pgmpy', "
-        "'nightlights.sky', 'nightlights.ground', 'nightlights.streets') if m in sys.modules))"
+        "print(sorted(m for m in ('xarray', 'geopandas', 'numba', 'dask', 'matplotlib', "
+        "'rasterio', 'pgmpy', 'nightlights.sky', 'nightlights.ground', 'nightlights.streets') "
+        "if m in sys.modules))"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
