@@ -65,34 +65,25 @@ flux[0, 5, 15] = 1.0  # [lm m-2], north-east of the observer
 flux[0, 9, 11] = 0.5  # beside the observer
 transform = Affine(100.0, 0.0, 500_000.0, 0.0, -100.0, 6_702_000.0)
 emission = Raster(flux, transform, "EPSG:32635", ("reflected",), ("lm m-2",))
-observer = (501_000.0, 6_701_000.0)
+observer = nl.Observer(501_000.0, 6_701_000.0, height=0.0)
 kernel = build_kernel(
     KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16), progress=False
 )
-sky = nl.skyglow(
-    emission, observer=observer, observer_height=0.0, kernel=kernel, png=out / "skyglow.png"
-)
-nl.skyglow(
-    emission,
-    observer=observer,
-    observer_height=0.0,
-    kernel=kernel,
-    png=out / "fisheye.png",
-    projection="fisheye",
-)
+scene = nl.Scene(emission, kernel=kernel)
+sky = nl.skyglow(scene, observer, png=out / "skyglow.png")
+nl.skyglow(scene, observer, png=out / "fisheye.png", projection="fisheye")
 # the colour picture of skyglow(bands="RGB"), whose scene kernel takes minutes to build
 ratios = tristimulus_flux_ratios("HPS")
 luminance = sky.panorama["luminance"].values
 xyz = np.stack([ratios[band] * luminance for band in "XYZ"], axis=-1)
 render_colour_panorama(xyz, sky.panorama["elevation"].values, out / "colour.png")
-q = nl.inverse_q(emission, observer=observer, kernel=kernel, progress=False).raster
+q = nl.inverse_q(scene, observer, progress=False).raster
 nl.inverse_reduce(
-    emission,
+    scene,
     by=q,
     qa=float(np.nanmin(q.data)),
     qb=float(np.nanmax(q.data)),
     gamma=0.5,
-    kernel=kernel,
     png=out / "reduce.png",
     progress=False,
 )
@@ -100,6 +91,7 @@ plot_raster_map(
     emission, out / "map.png", floor=0.01, zoom=(500_800.0, 6_700_800.0, 501_200.0, 6_701_200.0)
 )
 nl.sky_render(
+    None,
     out / "sky.png",
     time="2026-01-25T20:00:00Z",
     panorama=sky.panorama,
