@@ -544,12 +544,17 @@ def register_emission_shape(
 
     Examples
     --------
-    A sin^2 lobe is the sine-power form with its own exponent:
+    A sin^2 lobe is the sine-power form with its own exponent; it puts 1 lm into the upper
+    hemisphere and equals the uplight lobe of exponent 2:
 
+    >>> from scipy.integrate import quad
     >>> shape = register_emission_shape("sin2_lobe", code=SINE_POWER_FORM, exponent=2.0,
     ...                                 doc="sin^2 lobe about the vertical")
-    >>> round(float(emission_intensity(0.0, "sin2_lobe")) * np.pi * 4 / 3, 6)
+    >>> round(2 * np.pi * quad(lambda mu: float(emission_intensity(mu, "sin2_lobe")), 0, 1)[0], 9)
     1.0
+    >>> lobe = emission_intensity(0.5, "sin2_lobe")
+    >>> bool(lobe == emission_intensity(0.5, "uplight", uplight_exponent=2.0))
+    True
     >>> unregister_emission_shape("sin2_lobe")
     """
     if not (isinstance(name, str) and _NAME.match(name)) or name in _RESERVED:
