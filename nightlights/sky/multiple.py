@@ -73,7 +73,6 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
 from nightlights.sky.emission_shapes import (
-    TABLE_FORM,
     UPLIGHT_EXPONENT,
     emission_shape,
     sampled_shape,
@@ -378,9 +377,9 @@ def nearest_shape(tabulated: str) -> str:
     Parameters
     ----------
     tabulated
-        The function's text (``tabulated:{...}``), or a registered shape of the table form
-        (:data:`~nightlights.sky.emission_shapes.TABLE_FORM`), which the Monte Carlo does not
-        sample.
+        The function's text (``tabulated:{...}``), or a registered shape the Monte Carlo does
+        not sample (one of the table form,
+        :data:`~nightlights.sky.emission_shapes.TABLE_FORM`).
 
     Returns
     -------
@@ -389,7 +388,7 @@ def nearest_shape(tabulated: str) -> str:
     """
     from nightlights.sky.emission_shapes import emission_intensity
 
-    if emission_shape(tabulated).code != TABLE_FORM:
+    if emission_shape(tabulated).sampled:
         raise InputError(f"{tabulated[:40]!r} is not a tabulated emission function")
     mu = np.linspace(0.0, 1.0, 2001)  # cosine of the zenith angle
     low = mu <= np.sin(np.radians(LOW_ANGLE))
@@ -411,16 +410,16 @@ def garstang_clear_night() -> Atmosphere:
 def shape_table(
     atmosphere: Atmosphere, emission: str, uplight_exponent: float = UPLIGHT_EXPONENT
 ) -> MultipleScatteringTable:
-    """The factor table of a kernel emission shape, or, for a tabulated function (a table-form
-    shape), of the shape that stands in for it (:func:`nearest_shape`)."""
+    """The factor table of a kernel emission shape, or, for a tabulated function (a shape the
+    Monte Carlo does not sample), of the shape that stands in for it (:func:`nearest_shape`)."""
     shape = _stand_in(emission)
     return multiple_scattering_table(atmosphere, shape, uplight_exponent=uplight_exponent)
 
 
 def _stand_in(emission: str) -> str:
-    """The shape whose factor table a kernel shape uses: itself, or for a table-form shape
-    (which the Monte Carlo does not sample) :func:`nearest_shape`."""
-    return nearest_shape(emission) if emission_shape(emission).code == TABLE_FORM else emission
+    """The shape whose factor table a kernel shape uses: itself, or for a shape the Monte Carlo
+    does not sample (a table-form shape) :func:`nearest_shape`."""
+    return emission if emission_shape(emission).sampled else nearest_shape(emission)
 
 
 def tables_digest(atmosphere: Atmosphere, shapes: tuple[str, ...], uplight_exponent: float) -> str:

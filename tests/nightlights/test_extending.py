@@ -8,6 +8,7 @@ machinery gives for the same thing, and removed again.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
@@ -224,3 +225,21 @@ def test_a_toy_style_is_written_beside_its_raster(tmp_path: Path) -> None:
     assert style == "<!-- toy style of toy [cd m-2], peak 11 -->\n"
     with rasterio.open(path) as dataset:
         assert dataset.tags()[PRODUCT_TAG] == "toy_product"
+
+
+def test_the_extending_page_runs_as_printed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The code blocks of docs/extending.md, in order, as one script; it removes what it adds."""
+    page = Path(__file__).resolve().parents[2] / "docs" / "extending.md"
+    blocks = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.DOTALL)
+    assert len(blocks) >= 5
+    before = (emission_shape_names(), region_kinds(), raster_styles())
+    monkeypatch.chdir(tmp_path)
+    exec(compile("\n".join(blocks), str(page), "exec"), {"__name__": "extending_page"})
+    printed = capsys.readouterr().out
+    assert "flux 1.0000 lm" in printed
+    assert "['coefficient', 'coefficient_cos2_lobe']" in printed
+    assert "above (30.0,)" in printed and "glow_share.qml written beside glow_share.tif" in printed
+    assert (emission_shape_names(), region_kinds(), raster_styles()) == before
+    assert list(tmp_path.iterdir()) == []
