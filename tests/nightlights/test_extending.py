@@ -11,6 +11,7 @@ import json
 import re
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ import rasterio
 import xarray as xr
 from affine import Affine
 from numpy.typing import ArrayLike
+from pyproj import CRS
 
 from nightlights.errors import InputError
 from nightlights.inverse import (
@@ -53,7 +55,7 @@ ANGLES = np.arange(91.0)
 COS2 = np.cos(np.radians(ANGLES)) ** 2
 #: The same table as a built-in tabulated emission function.
 COS2_TEXT = "tabulated:" + json.dumps({"angles": ANGLES.tolist(), "intensities": COS2.tolist()})
-TINY = {"r_max": 3000.0, "n_distance": 8, "n_elevation": 8, "n_azimuth": 16}
+TINY: dict[str, Any] = {"r_max": 3000.0, "n_distance": 8, "n_elevation": 8, "n_azimuth": 16}
 
 
 @pytest.fixture
@@ -128,7 +130,7 @@ def _emission(tag: str) -> Raster:
     return Raster(
         flux,
         Affine(100, 0, 0, 0, -100, 2000),
-        "EPSG:32635",
+        CRS("EPSG:32635"),
         ("upward",),
         ("lm m-2",),
         band_tags=({"emission_function": tag},),
@@ -163,7 +165,7 @@ def test_a_toy_shape_equals_the_builtin_it_copies() -> None:
 
 @pytest.mark.usefixtures("toy_shapes")
 def test_a_toy_shape_gets_its_kernel_table_and_band_tag() -> None:
-    single = {**TINY, "multiple_scattering": "single"}
+    single: dict[str, Any] = {**TINY, "multiple_scattering": "single"}
     toy_kernel = build_kernel(KernelSpec(**single, emission_shapes=("cos2_lobe",)), progress=False)
     tab_kernel = build_kernel(KernelSpec(**single, tabulated_emission=COS2_TEXT), progress=False)
     toy, tab = toy_kernel.kernel, tab_kernel.kernel
@@ -172,7 +174,7 @@ def test_a_toy_shape_gets_its_kernel_table_and_band_tag() -> None:
         toy["coefficient_cos2_lobe"].values, tab["coefficient_tabulated"].values
     )
     # a band tagged with the toy shape reads its table: the panorama of the same function
-    observer = {"observer": (1000.0, 950.0), "observer_height": 0.0}
+    observer: dict[str, Any] = {"observer": (1000.0, 950.0), "observer_height": 0.0}
     toy_sky = skyglow(_emission("cos2_lobe"), kernel=toy, **observer).panorama
     tab_sky = skyglow(_emission(COS2_TEXT), kernel=tab, **observer).panorama
     assert float(toy_sky["luminance"].max()) > 0
@@ -201,7 +203,7 @@ def test_a_toy_region_kind_masks_and_drives_inverse_s() -> None:
         SkyRegion.parse("above:x")
     # "above:30" is the zenith cap of radius 60: S_i over it is the built-in kind's, exactly
     kernel = build_kernel(KernelSpec(**TINY), progress=False).kernel
-    common = {"observer": (1000.0, 950.0), "kernel": kernel}
+    common: dict[str, Any] = {"observer": (1000.0, 950.0), "kernel": kernel}
     toy = inverse_s(_emission("lambertian"), region="above:30", **common).raster.data
     builtin = inverse_s(_emission("lambertian"), region="zenith:60", **common).raster.data
     assert np.nansum(toy) > 0
@@ -219,7 +221,8 @@ def test_an_unregistered_region_kind_is_refused() -> None:
 def test_a_toy_style_is_written_beside_its_raster(tmp_path: Path) -> None:
     data = np.arange(12.0).reshape(1, 3, 4)
     tags = {PRODUCT_TAG: "toy_product"}
-    raster = Raster(data, Affine(10, 0, 0, 0, -10, 30), "EPSG:32635", ("toy",), ("cd m-2",), tags)
+    transform = Affine(10, 0, 0, 0, -10, 30)
+    raster = Raster(data, transform, CRS("EPSG:32635"), ("toy",), ("cd m-2",), tags)
     path = raster.write(tmp_path / "toy.tif")
     style = sidecar_path(path).read_text(encoding="utf-8")
     assert style == "<!-- toy style of toy [cd m-2], peak 11 -->\n"
