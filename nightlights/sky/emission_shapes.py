@@ -15,7 +15,7 @@ builder read the known names from it, so a shape whose angular function one of t
 forms expresses (a cosine, a sine power, isotropic, the psi^4 lobe, or a table interpolated
 linearly in the angle) is one registration call.
 
-Length: about 620 lines, because the shapes, their compiled forms and the registry that joins
+Length: about 760 lines, because the shapes, their compiled forms and the registry that joins
 them are one vocabulary that the numpy and the compiled integrators must read alike.
 
 References
