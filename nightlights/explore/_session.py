@@ -58,6 +58,7 @@ from nightlights.inverse._influence import (
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster, as_raster
 from nightlights.io.raster import LitCells
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import SCENE_KEYWORDS
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
@@ -827,6 +828,7 @@ class ExploreSession:
         """The edited emission as a raster on the original grid [lm m-2]."""
         tags = dict(self._raster.tags)
         tags["explore_edits"] = str(len(self._edits.ops))
+        tags[PRODUCT_TAG] = "emission"
         return Raster(
             self._data.copy(),
             self.transform,
@@ -874,6 +876,7 @@ class ExploreSession:
         """
         _refuse_existing(path, overwrite)
         tags = {
+            PRODUCT_TAG: "dimming",
             "observer_x": repr(view.panorama.x),
             "observer_y": repr(view.panorama.y),
             "flux_removed_lm": repr(view.flux_removed),

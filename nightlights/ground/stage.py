@@ -54,6 +54,7 @@ from nightlights.io import (
     ensure_projected,
     raster_on_grid,
 )
+from nightlights.io.styles import PRODUCT_TAG
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -318,6 +319,7 @@ def irradiance(
     if dem is not None:
         ground_z, normals = ground_on_grid(dem, grid, layer_crs)
     tags = {
+        PRODUCT_TAG: "irradiance",
         "nightlights_stage": "irradiance",
         "resolution_m": resolution,
         "threshold": f"{threshold.kind}:{threshold.value}",

@@ -62,6 +62,7 @@ from nightlights.io import (
     raster_on_grid,
     source_label,
 )
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky.spec import EMISSION_FUNCTION_TAG, EmissionFunction
 
 if TYPE_CHECKING:
@@ -442,6 +443,7 @@ def emission(
         else source_label(albedo, "albedo raster")
     )
     tags = {
+        PRODUCT_TAG: "emission",
         "nightlights_stage": "emission",
         "source": label,
         "albedo": albedo_text,
@@ -738,6 +740,7 @@ def emission_from_viirs(
     pixel_area = abs(transform.a * transform.e)
     total = float(np.nansum(out) * pixel_area)
     tags = {
+        PRODUCT_TAG: "emission",
         "nightlights_stage": "emission_from_viirs",
         "source": label,
         "spectrum": spectrum,

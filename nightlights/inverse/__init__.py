@@ -32,6 +32,11 @@ _LAZY: dict[str, str] = {
     "least_dimming": "nightlights.inverse.plan",
     "InfluenceResult": "nightlights.inverse.stage",
     "ReduceResult": "nightlights.inverse.plan",
+    "RegionKind": "nightlights.inverse._region",
+    "register_region_kind": "nightlights.inverse._region",
+    "unregister_region_kind": "nightlights.inverse._region",
+    "region_kinds": "nightlights.inverse._region",
+    "region_numbers": "nightlights.inverse._region",
 }
 
 if TYPE_CHECKING:
@@ -42,7 +47,14 @@ if TYPE_CHECKING:
         dimming_fraction,
         least_flux_dimming,
     )
-    from nightlights.inverse._region import SkyRegion
+    from nightlights.inverse._region import (
+        RegionKind,
+        SkyRegion,
+        region_kinds,
+        region_numbers,
+        register_region_kind,
+        unregister_region_kind,
+    )
     from nightlights.inverse.plan import ReduceResult, inverse_reduce, least_dimming
     from nightlights.inverse.stage import InfluenceResult, inverse_q, inverse_s
 
@@ -52,6 +64,7 @@ __all__ = [
     "InfeasibleTargetError",
     "InfluenceResult",
     "ReduceResult",
+    "RegionKind",
     "SkyRegion",
     "darkness",
     "dimming_fraction",
@@ -60,6 +73,10 @@ __all__ = [
     "inverse_s",
     "least_dimming",
     "least_flux_dimming",
+    "region_kinds",
+    "region_numbers",
+    "register_region_kind",
+    "unregister_region_kind",
 ]
 
 

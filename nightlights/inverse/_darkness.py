@@ -66,6 +66,7 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.multiple import scattering_note
@@ -438,6 +439,7 @@ def darkness(
     luminance, n_chunks, used_chunk = _compute(flux, heights, eye, plan, chunk, scheduler, progress)
     seconds = time.perf_counter() - start
     tags = {
+        PRODUCT_TAG: "zenith_brightness",
         "nightlights_stage": "darkness",
         "emission": label,
         "emission_functions": "; ".join(function.tag for function in functions),

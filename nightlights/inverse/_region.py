@@ -19,6 +19,16 @@ winds once round the sky (net change +-360 deg, e.g. ``"0,60 90,60 180,60 270,60
 encloses the zenith: its inside is everything above the curve. A pixel belongs to the region
 when its centre (elevation[i], azimuth[j]) lies inside or on the boundary; all three kinds are
 closed sets.
+
+The kinds are a registry (:class:`RegionKind`): each names the prefix of its text, the parser
+that reads the rest into a :class:`SkyRegion`, the check of a region built directly and the
+builder of its pixel mask. A new kind is one :func:`register_region_kind` call; its parser
+keeps the numbers it reads in :attr:`SkyRegion.parameters` (:func:`region_numbers` reads them
+with the built-in kinds' checks and messages).
+
+Length: about 660 lines, because the region, its three built-in kinds (the polygon's checks on
+the azimuth cylinder are most of it) and the registry whose rows they are form one vocabulary
+that parsing, checking and masking all read.
 """
 
 from __future__ import annotations
@@ -27,6 +37,7 @@ import json
 import math
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -39,12 +50,15 @@ from shapely.geometry import MultiPolygon, Polygon, shape
 
 from nightlights.errors import InputError
 
-__all__ = ["SkyRegion"]
+__all__ = [
+    "RegionKind",
+    "SkyRegion",
+    "region_kinds",
+    "region_numbers",
+    "register_region_kind",
+    "unregister_region_kind",
+]
 
-#: The kinds of region.
-KINDS = ("polygon", "zenith", "horizon")
-#: The shortcut kinds a text may start with (``zenith:R``, ``horizon:AZ1,AZ2,EL``).
-SHORTCUTS = ("zenith", "horizon")
 #: Elevation above the zenith at which a zenith-enclosing ring is closed [deg]; any value over
 #: 90 keeps the closing edge away from the curve, pixel centres never reach it.
 _ABOVE_ZENITH = 180.0
@@ -61,7 +75,8 @@ class SkyRegion:
     Attributes
     ----------
     kind
-        ``"polygon"``, ``"zenith"`` or ``"horizon"``.
+        ``"polygon"``, ``"zenith"``, ``"horizon"`` or a registered kind
+        (:func:`register_region_kind`).
     text
         The region as the user wrote it (recorded in output tags).
     vertices
@@ -72,6 +87,8 @@ class SkyRegion:
         Horizon band (AZ1, AZ2): from AZ1 clockwise to AZ2 [deg].
     top
         Horizon band top elevation EL, 0 < EL <= 90 [deg].
+    parameters
+        The numbers of a registered kind's text, as its parser keeps them [deg].
 
     Examples
     --------
@@ -91,21 +108,10 @@ class SkyRegion:
     radius: float | None = None
     azimuths: tuple[float, float] | None = None
     top: float | None = None
+    parameters: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise InputError(f"sky region kind {self.kind!r}; expected one of {', '.join(KINDS)}")
-        if self.kind == "polygon":
-            self._polygon  # noqa: B018 (checks the ring)
-        elif self.kind == "zenith":
-            radius = self.radius
-            if radius is None or not (math.isfinite(radius) and 0 < radius <= 90):
-                raise InputError(
-                    f"sky region {self.text!r}: zenith radius {radius!r} deg; expected "
-                    "0 < R <= 90 deg"
-                )
-        else:
-            self._check_band()
+        _region_kind(self.kind).check(self)
 
     def __str__(self) -> str:
         return self.text
@@ -158,16 +164,14 @@ class SkyRegion:
 
     @classmethod
     def _from_shortcut(cls, name: str, argument: str, text: str) -> SkyRegion:
-        if name == "zenith":
-            (radius,) = _numbers(argument, 1, text, "zenith:R")
-            return cls("zenith", text, radius=radius)
-        if name == "horizon":
-            az1, az2, top = _numbers(argument, 3, text, "horizon:AZ1,AZ2,EL")
-            return cls("horizon", text, azimuths=(az1, az2), top=top)
-        raise InputError(
-            f"sky region {text!r}: unknown shortcut {name!r}; expected zenith:R, "
-            "horizon:AZ1,AZ2,EL, 'az,el az,el ...' or a GeoJSON/WKT file"
-        )
+        kind = _KINDS.get(name)
+        if kind is None or kind.parse is None:
+            forms = ", ".join(k.form for k in _KINDS.values() if k.parse is not None)
+            raise InputError(
+                f"sky region {text!r}: unknown shortcut {name!r}; expected {forms}, "
+                "'az,el az,el ...' or a GeoJSON/WKT file"
+            )
+        return kind.parse(argument, text)
 
     @classmethod
     def _from_file(cls, path: Path, text: str) -> SkyRegion:
@@ -224,19 +228,7 @@ class SkyRegion:
         el = np.asarray(elevation, dtype=float).reshape(-1)[:, None]
         az = np.asarray(azimuth, dtype=float).reshape(-1)[None, :]
         el, az = np.broadcast_arrays(el, az)
-        if self.kind == "zenith":
-            assert self.radius is not None
-            return np.asarray(el >= 90.0 - self.radius)
-        if self.kind == "horizon":
-            assert self.azimuths is not None and self.top is not None
-            start, span = self._band_span
-            return np.asarray(((az - start) % 360.0 <= span) & (el >= 0.0) & (el <= self.top))
-        polygon, left, right = self._polygon
-        inside = np.zeros(el.shape, dtype=bool)
-        wrapped = az % 360.0
-        for turn in range(math.floor((left - 360.0) / 360.0), math.ceil(right / 360.0) + 1):
-            inside |= shapely.intersects_xy(polygon, wrapped + 360.0 * turn, el)
-        return inside
+        return np.asarray(_region_kind(self.kind).mask(self, el, az), dtype=bool)
 
     # --- checks and geometry ---------------------------------------------------------------
 
@@ -369,8 +361,35 @@ def _pair(token: str, text: str) -> tuple[float, float]:
     return az, el
 
 
-def _numbers(argument: str, count: int, text: str, form: str) -> list[float]:
-    """``count`` comma-separated finite floats of a shortcut [deg]."""
+def region_numbers(argument: str, count: int, text: str, form: str) -> list[float]:
+    """``count`` comma-separated finite numbers of a shortcut's argument, for kind parsers.
+
+    Parameters
+    ----------
+    argument
+        The text after ``kind:`` [deg].
+    count
+        How many numbers the kind takes [1].
+    text
+        The whole region text, for messages.
+    form
+        The kind's form (``zenith:R``), for messages.
+
+    Returns
+    -------
+    list of float
+        The numbers [deg].
+
+    Raises
+    ------
+    nightlights.errors.InputError
+        Not ``count`` finite numbers.
+
+    Examples
+    --------
+    >>> region_numbers("10,20", 2, "band:10,20", "band:EL1,EL2")
+    [10.0, 20.0]
+    """
     parts = argument.split(",")
     try:
         if len(parts) != count:
@@ -419,3 +438,226 @@ def _geojson_geometry(content: str, text: str) -> Any:
 
 def _fmt(vertex: np.ndarray) -> str:
     return f"({vertex[0]:g}, {vertex[1]:g})"
+
+
+# --- the registry of kinds ------------------------------------------------------------------
+
+#: Parser of a kind: (the text after ``kind:``, the whole text) -> the region.
+RegionParser = Callable[[str, str], SkyRegion]
+#: Mask builder of a kind: (region, pixel-centre elevations [deg], azimuths [deg], both of
+#: shape (n_el, n_az)) -> True inside the region or on its boundary.
+RegionMask = Callable[[SkyRegion, NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]
+
+
+def _no_check(region: SkyRegion) -> None:
+    """A kind whose parser checks its numbers needs no further check."""
+
+
+@dataclass(frozen=True)
+class RegionKind:
+    """One kind of sky region: the row of the registry :func:`register_region_kind` fills.
+
+    Attributes
+    ----------
+    name
+        The kind, and the prefix of its text (``zenith`` of ``zenith:R``).
+    form
+        How its text is written, for messages (``zenith:R``).
+    doc
+        One line on the region it marks.
+    parse
+        Parser of the text after ``name:`` (:data:`RegionParser`); None for the polygon,
+        which vertex text and files give.
+    mask
+        Builder of the pixel mask (:data:`RegionMask`).
+    check
+        Check of a region built directly (raises :class:`~nightlights.errors.InputError`).
+    """
+
+    name: str
+    form: str
+    doc: str
+    parse: RegionParser | None
+    mask: RegionMask
+    check: Callable[[SkyRegion], None] = _no_check
+
+
+_KINDS: dict[str, RegionKind] = {}
+_BUILT_IN = ("polygon", "zenith", "horizon")
+
+
+def register_region_kind(
+    name: str,
+    *,
+    form: str,
+    parse: RegionParser,
+    mask: RegionMask,
+    doc: str,
+    check: Callable[[SkyRegion], None] | None = None,
+    replace: bool = False,
+) -> RegionKind:
+    """Add a kind of sky region: ``name:...`` texts then parse into regions of that kind.
+
+    Parameters
+    ----------
+    name
+        The kind and its text's prefix: a letter, then letters, digits, ``_`` or ``-``.
+    form
+        How its text is written, for messages (``ring:EL1,EL2``).
+    parse
+        (argument after ``name:``, whole text) -> :class:`SkyRegion` of this kind, its
+        numbers in :attr:`SkyRegion.parameters` (:func:`region_numbers`).
+    mask
+        (region, elevations, azimuths) -> boolean mask, shapes ``(n_el, n_az)``
+        (:data:`RegionMask`).
+    doc
+        One line on the region it marks.
+    check
+        Check of a region built directly; default none.
+    replace
+        Replace a registered kind of that name (never a built-in one).
+
+    Returns
+    -------
+    RegionKind
+        The registered row.
+
+    Raises
+    ------
+    nightlights.errors.InputError
+        A bad name, or a name already taken.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> kind = register_region_kind(
+    ...     "above",
+    ...     form="above:EL",
+    ...     doc="every direction at or above elevation EL",
+    ...     parse=lambda argument, text: SkyRegion(
+    ...         "above", text, parameters=tuple(region_numbers(argument, 1, text, "above:EL"))
+    ...     ),
+    ...     mask=lambda region, el, az: el >= region.parameters[0],
+    ... )
+    >>> SkyRegion.parse("above:70").mask(np.array([80.0, 60.0]), np.array([0.0])).tolist()
+    [[True], [False]]
+    >>> unregister_region_kind("above")
+    """
+    if not (isinstance(name, str) and _SHORTCUT.match(f"{name}:")):
+        raise InputError(
+            f"sky region kind {name!r}; expected a letter, then letters, digits, _ or -"
+        )
+    if name in _KINDS and (not replace or name in _BUILT_IN):
+        why = "a built-in kind" if name in _BUILT_IN else "registered (replace=True)"
+        raise InputError(f"sky region kind {name!r} is already {why}")
+    kind = RegionKind(name, form, doc, parse, mask, check or _no_check)
+    _KINDS[name] = kind
+    return kind
+
+
+def unregister_region_kind(name: str) -> None:
+    """Remove a kind added by :func:`register_region_kind` (never a built-in one).
+
+    Parameters
+    ----------
+    name
+        The kind.
+
+    Raises
+    ------
+    nightlights.errors.InputError
+        A built-in or unknown kind.
+    """
+    if name in _BUILT_IN or name not in _KINDS:
+        what = "a built-in kind" if name in _BUILT_IN else "not registered"
+        raise InputError(f"sky region kind {name!r} is {what}; cannot unregister it")
+    del _KINDS[name]
+
+
+def region_kinds() -> tuple[str, ...]:
+    """The registered kinds, built-in first (``polygon``, ``zenith``, ``horizon``)."""
+    return tuple(_KINDS)
+
+
+def _region_kind(name: str) -> RegionKind:
+    kind = _KINDS.get(name)
+    if kind is None:
+        raise InputError(f"sky region kind {name!r}; expected one of {', '.join(_KINDS)}")
+    return kind
+
+
+# --- the built-in kinds -----------------------------------------------------------------
+
+
+def _polygon_mask(
+    region: SkyRegion, el: NDArray[np.float64], az: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    polygon, left, right = region._polygon
+    inside = np.zeros(el.shape, dtype=bool)
+    wrapped = az % 360.0
+    for turn in range(math.floor((left - 360.0) / 360.0), math.ceil(right / 360.0) + 1):
+        inside |= shapely.intersects_xy(polygon, wrapped + 360.0 * turn, el)
+    return inside
+
+
+def _check_polygon(region: SkyRegion) -> None:
+    region._polygon  # noqa: B018 (checks the ring)
+
+
+def _zenith(argument: str, text: str) -> SkyRegion:
+    (radius,) = region_numbers(argument, 1, text, "zenith:R")
+    return SkyRegion("zenith", text, radius=radius)
+
+
+def _zenith_mask(
+    region: SkyRegion, el: NDArray[np.float64], az: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    assert region.radius is not None
+    return np.asarray(el >= 90.0 - region.radius)
+
+
+def _check_zenith(region: SkyRegion) -> None:
+    radius = region.radius
+    if radius is None or not (math.isfinite(radius) and 0 < radius <= 90):
+        raise InputError(
+            f"sky region {region.text!r}: zenith radius {radius!r} deg; expected 0 < R <= 90 deg"
+        )
+
+
+def _horizon(argument: str, text: str) -> SkyRegion:
+    az1, az2, top = region_numbers(argument, 3, text, "horizon:AZ1,AZ2,EL")
+    return SkyRegion("horizon", text, azimuths=(az1, az2), top=top)
+
+
+def _horizon_mask(
+    region: SkyRegion, el: NDArray[np.float64], az: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    assert region.azimuths is not None and region.top is not None
+    start, span = region._band_span
+    return np.asarray(((az - start) % 360.0 <= span) & (el >= 0.0) & (el <= region.top))
+
+
+_KINDS["polygon"] = RegionKind(
+    "polygon",
+    "'az,el az,el ...'",
+    "a closed polygon of (azimuth, elevation) vertices, or a GeoJSON/WKT file of one",
+    None,
+    _polygon_mask,
+    _check_polygon,
+)
+_KINDS["zenith"] = RegionKind(
+    "zenith",
+    "zenith:R",
+    "the cap of every direction with elevation >= 90 - R [deg]",
+    _zenith,
+    _zenith_mask,
+    _check_zenith,
+)
+_KINDS["horizon"] = RegionKind(
+    "horizon",
+    "horizon:AZ1,AZ2,EL",
+    "azimuth AZ1 clockwise to AZ2, elevation 0 to EL [deg]",
+    _horizon,
+    _horizon_mask,
+    lambda region: region._check_band(),
+)

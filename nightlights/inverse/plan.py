@@ -41,6 +41,7 @@ from nightlights.inverse.stage import (
 )
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
@@ -475,7 +476,12 @@ def _reduce_outputs(
         raster.crs,
         raster.descriptions,
         raster.units,
-        {**raster.tags, "dimmed": "yes", "flux_removed_lm": f"{summary['flux_removed_lm']!r}"},
+        {
+            **raster.tags,
+            PRODUCT_TAG: "emission",
+            "dimmed": "yes",
+            "flux_removed_lm": f"{summary['flux_removed_lm']!r}",
+        },
         raster.band_tags,
     )
     dimming = Raster(
@@ -484,7 +490,7 @@ def _reduce_outputs(
         raster.crs,
         ("dimming",),
         ("1",),
-        {"meaning": "fraction of each cell's upward flux removed"},
+        {PRODUCT_TAG: "dimming", "meaning": "fraction of each cell's upward flux removed"},
     )
     if dimming_output is not None:  # relative to the summary: both move together
         summary["dimming_raster"] = (

@@ -37,6 +37,7 @@ from nightlights.inverse._influence import (
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.observer import Observer
 from nightlights.sky.panorama import panorama_pca
@@ -312,6 +313,7 @@ def _influence_result(
     grid[cells.rows, cells.cols] = values
     name, meaning = _BAND[metric]
     tags = {
+        PRODUCT_TAG: "influence_s" if metric == "region" else "influence_q",
         "observer_x": f"{setup.xy[0]!r}",
         "observer_y": f"{setup.xy[1]!r}",
         "observer_height_m": f"{setup.observer_height!r}",

@@ -3,21 +3,32 @@
 QGIS opens a raster with the ``.qml`` file of the same name beside it as its default style
 (QGIS User Guide, "Managing Custom Styles"), and a GeoPackage layer with the row of the
 ``layer_styles`` table that names it and is marked ``useAsDefault``. Every raster the toolkit
-writes (:func:`~nightlights.io.write_cog`) gets such a sidecar, chosen from its bands
-(:func:`raster_qml`); the vector writers pass a :class:`LayerStyle` to
-:func:`~nightlights.io.write_gpkg`, which stores it in the GeoPackage (:func:`add_layer_style`).
+writes (:func:`~nightlights.io.write_cog`) gets such a sidecar, chosen by the product the
+raster holds (its dataset tag :data:`PRODUCT_TAG`, through the registry of
+:func:`register_raster_style`; :func:`raster_qml`); the vector writers pass a
+:class:`LayerStyle` to :func:`~nightlights.io.write_gpkg`, which stores it in the GeoPackage
+(:func:`add_layer_style`).
 
-One function per product kind:
+One function per product kind (the registered product tags in brackets):
 
 ============================  ====================================================
 product                       style
 ============================  ====================================================
 illuminance [lx], irradiance  :func:`illuminance_qml`: a log ramp (inferno)
+(``irradiance``)
 emission [lm m-2]             :func:`emission_qml`: a log ramp (viridis)
+(``emission``,
+``polar_emission``)
 sky luminance [cd m-2]        :func:`luminance_qml`: a log ramp (magma)
+(``panorama`` without a
+brightness band)
 sky brightness [mag arcsec-2] :func:`sky_brightness_qml`: the Bortle colour key
+(``panorama``,
+``zenith_brightness``)
 influence Q, S [cd m-2]       :func:`influence_qml`: deciles of the lit cells
-dimming [1]                   :func:`dimming_qml`: a linear ramp over 0-1
+(``influence_q``,
+``influence_s``)
+dimming [1] (``dimming``)     :func:`dimming_qml`: a linear ramp over 0-1
 luminaires (poles)            :func:`poles_style`: arrows turned by heading, one colour
                               per light system
 streets                       :func:`streets_style`: one colour per pole arrangement
@@ -28,8 +39,9 @@ observers (summary points)    :func:`observers_style`: the Bortle colour key of 
 The documents follow the QML format of QGIS 3.22 (the version in Debian 12), which later
 QGIS versions read as well.
 
-Length: the QML documents of eleven product kinds share one set of XML builders; splitting
-them would put the builders in a second module that only this one uses.
+Length: the QML documents of eleven product kinds share one set of XML builders, and the
+registry that chooses among them is keyed by the products they style; splitting them would put
+the builders in a second module that only this one uses.
 
 References
 ----------
@@ -48,7 +60,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -57,10 +70,12 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import ArrayLike
 
-from nightlights.errors import OutputError
+from nightlights.errors import InputError, NightlightsWarning, OutputError
 
 __all__ = [
+    "PRODUCT_TAG",
     "LayerStyle",
+    "StyleBuilder",
     "add_layer_style",
     "dimming_qml",
     "emission_qml",
@@ -70,9 +85,12 @@ __all__ = [
     "observers_style",
     "poles_style",
     "raster_qml",
+    "raster_styles",
+    "register_raster_style",
     "sidecar_path",
     "sky_brightness_qml",
     "streets_style",
+    "unregister_raster_style",
 ]
 
 #: The GeoPackage table of QGIS layer styles (QGIS User Guide, "Storing styles in a database").
@@ -447,15 +465,84 @@ def dimming_qml(*, band: int = 1) -> str:
     )
 
 
+#: Dataset tag naming the product a raster holds (``irradiance``, ``emission``, ...): the key of
+#: the style registry (:func:`register_raster_style`).
+PRODUCT_TAG = "product"
+
+#: Style builder of a product: (band descriptions, band units, band arrays [band unit],
+#: dataset tags) -> the QML document.
+StyleBuilder = Callable[[Sequence[str], Sequence[str], Sequence[ArrayLike], Mapping[str, str]], str]
+
+_STYLES: dict[str, StyleBuilder] = {}
+
+
+def register_raster_style(product: str, builder: StyleBuilder, *, replace: bool = False) -> None:
+    """Style the rasters tagged ``product`` (:data:`PRODUCT_TAG`) with ``builder``.
+
+    Parameters
+    ----------
+    product
+        The product tag a stage writes into its rasters.
+    builder
+        (descriptions, units, bands, tags) -> QML document (:data:`StyleBuilder`).
+    replace
+        Replace the builder registered for ``product``.
+
+    Raises
+    ------
+    nightlights.errors.InputError
+        An empty product name, or one already registered (without ``replace``).
+
+    Examples
+    --------
+    >>> register_raster_style("toy", lambda d, u, b, t: dimming_qml())
+    >>> raster_qml(["x"], ["1"], [[0.5]], {PRODUCT_TAG: "toy"}) == dimming_qml()
+    True
+    >>> unregister_raster_style("toy")
+    """
+    if not (isinstance(product, str) and product.strip()):
+        raise InputError(f"raster product {product!r}; expected a non-empty name")
+    if product in _STYLES and not replace:
+        raise InputError(f"raster product {product!r} already has a style (replace=True)")
+    _STYLES[product] = builder
+
+
+def unregister_raster_style(product: str) -> None:
+    """Remove the style of ``product``.
+
+    Parameters
+    ----------
+    product
+        A product registered by :func:`register_raster_style`.
+
+    Raises
+    ------
+    nightlights.errors.InputError
+        No style is registered for it.
+    """
+    if product not in _STYLES:
+        raise InputError(f"raster product {product!r} has no registered style")
+    del _STYLES[product]
+
+
+def raster_styles() -> tuple[str, ...]:
+    """The products that have a registered style."""
+    return tuple(_STYLES)
+
+
 def raster_qml(
     descriptions: Sequence[str],
     units: Sequence[str],
     bands: Sequence[ArrayLike],
     tags: Mapping[str, str] | None = None,
 ) -> str:
-    """The QML of a raster chosen from its bands: what :func:`~nightlights.io.write_cog` writes.
+    """The QML of a raster: what :func:`~nightlights.io.write_cog` writes beside it.
 
-    The first rule that matches, in this order, sets the style and the band it shows:
+    A raster tagged with its product (:data:`PRODUCT_TAG`, as every stage writes it) is styled
+    by the builder registered for that product (:func:`register_raster_style`; a product
+    without one gets the neutral ramp of rule 7 below, with a warning). A raster without the
+    tag (a file written before the tag existed, or by another program) is styled from its
+    bands by the first rule that matches, in this order:
 
     1. a band in ``mag arcsec-2``: :func:`sky_brightness_qml` on it;
     2. a band described ``dimming``: :func:`dimming_qml`;
@@ -482,9 +569,32 @@ def raster_qml(
     """
     tags = tags or {}
     units = [unit or "" for unit in units]
+    product = tags.get(PRODUCT_TAG)
+    if product is not None:
+        builder = _STYLES.get(product)
+        if builder is not None:
+            return builder(descriptions, units, bands, tags)
+        warnings.warn(
+            f"raster product {product!r} has no registered style "
+            f"({', '.join(_STYLES)}); writing a neutral ramp",
+            NightlightsWarning,
+            stacklevel=2,
+        )
+        return _generic_qml(bands[0], unit=units[0] if units else "")
+    return _style_by_units(descriptions, units, bands, tags)
+
+
+def _style_by_units(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """The style of a raster without a product tag, chosen from its bands (the rules of
+    :func:`raster_qml`)."""
 
     def first(unit: str) -> int | None:
-        return units.index(unit) if unit in units else None
+        return list(units).index(unit) if unit in units else None
 
     if (index := first("mag arcsec-2")) is not None:
         return sky_brightness_qml(band=index + 1)
@@ -500,6 +610,82 @@ def raster_qml(
     if (index := first("cd m-2")) is not None:
         return luminance_qml(bands[index], band=index + 1)
     return _generic_qml(bands[0], unit=units[0] if units else "")
+
+
+def _band_index(values: Sequence[str], *wanted: str) -> int:
+    """The first band whose unit (or description) is one of ``wanted``, else the first band."""
+    for value in wanted:
+        if value in values:
+            return list(values).index(value)
+    return 0
+
+
+def _irradiance_style(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """Ground illuminance or sensor irradiance: the first band in lx, else in W m-2."""
+    index = _band_index(units, "lx", "W m-2")
+    return illuminance_qml(bands[index], band=index + 1, unit=units[index])
+
+
+def _emission_style(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """Upward flux density: the first band in lm m-2."""
+    index = _band_index(units, "lm m-2")
+    return emission_qml(bands[index], band=index + 1)
+
+
+def _brightness_style(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """Sky brightness in the Bortle key; a panorama without a brightness band: its luminance."""
+    if "mag arcsec-2" in units:
+        return sky_brightness_qml(band=_band_index(units, "mag arcsec-2") + 1)
+    index = _band_index(units, "cd m-2")
+    return luminance_qml(bands[index], band=index + 1)
+
+
+def _influence_style(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """An influence map (Q or S): deciles of the lit cells of its one band."""
+    return influence_qml(bands[0], band=1, unit=units[0])
+
+
+def _dimming_style(
+    descriptions: Sequence[str],
+    units: Sequence[str],
+    bands: Sequence[ArrayLike],
+    tags: Mapping[str, str],
+) -> str:
+    """A dimming plan: the band described ``dimming``."""
+    return dimming_qml(band=_band_index(descriptions, "dimming") + 1)
+
+
+for _product, _builder in (
+    ("irradiance", _irradiance_style),
+    ("emission", _emission_style),
+    ("polar_emission", _emission_style),
+    ("panorama", _brightness_style),
+    ("zenith_brightness", _brightness_style),
+    ("influence_q", _influence_style),
+    ("influence_s", _influence_style),
+    ("dimming", _dimming_style),
+):
+    register_raster_style(_product, _builder)
 
 
 def _generic_qml(values: ArrayLike, *, unit: str) -> str:

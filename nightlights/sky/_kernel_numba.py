@@ -26,18 +26,18 @@ from scipy.special import erfcx
 from nightlights._typing import FloatArray
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
 from nightlights.sky.emission_shapes import (
+    COSINE_FORM,
     GARSTANG_LOBE_NORM,
-    TABULATED_PREFIX,
-    parse_tabulated_emission,
-    tabulated_norm,
+    PSI4_LOBE_FORM,
+    SINE_POWER_FORM,
+    TABLE_FORM,
+    emission_shape,
 )
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
 _SQRT_PI = math.sqrt(math.pi)
-_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe": 3}
-_TABULATED_CODE = 4
 
 #: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
@@ -51,20 +51,21 @@ _F_FLAT, _F_EXTINCTION, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2, 3
 
 
 def emission_table(emission: str) -> FloatArray:
-    """Shape (2, m): a tabulated emission function's angles [rad] and intensities
-    [cd lm-1] (normalised), read by the compiled tabulated branch; a dummy for the others."""
-    if not emission.startswith(TABULATED_PREFIX):
-        return np.zeros((2, 2))
-    _, angles, intensities = parse_tabulated_emission(emission)
-    norm = tabulated_norm(angles, intensities)
-    return np.ascontiguousarray(np.stack([np.radians(angles), intensities * norm]))
+    """Shape (2, m): a table-form shape's angles [rad] and intensities [cd lm-1]
+    (normalised), read by the compiled table branch; a dummy for the others
+    (:meth:`~nightlights.sky.emission_shapes.EmissionShape.compiled_table`)."""
+    return emission_shape(emission).compiled_table()
 
 
 def model_parameters(
     atmosphere: Atmosphere, emission: str, core_radius: float, uplight_exponent: float
 ) -> tuple[FloatArray, NDArray[np.int64]]:
     """Pack the model into the float and integer vectors read by :func:`luminance_rays`
-    (a tabulated emission's table: :func:`emission_table`)."""
+    (a table-form emission's table: :func:`emission_table`); the emission's compiled form and
+    sine exponent come from its registry row
+    (:func:`~nightlights.sky.emission_shapes.emission_shape`)."""
+    shape = emission_shape(emission)
+    exponent = shape.sine_exponent(uplight_exponent)
     params = np.zeros(13)
     params[_P_BETA_M] = atmosphere.molecular_extinction
     params[_P_H_M] = atmosphere.molecular_scale_height
@@ -75,15 +76,14 @@ def model_parameters(
     params[_P_RADIUS] = atmosphere.earth_radius
     params[_P_TOP] = atmosphere.top_altitude
     params[_P_CORE] = core_radius
-    params[_P_HALF_N] = uplight_exponent / 2.0
-    params[_P_UP_NORM] = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
+    params[_P_HALF_N] = exponent / 2.0
+    params[_P_UP_NORM] = math.pi * float(beta_function(0.5, exponent / 2.0 + 1.0))
     params[_P_MIN_H] = smallest_scale_height(atmosphere)
     params[_P_LOBE_NORM] = GARSTANG_LOBE_NORM
     flags = np.zeros(4, dtype=np.int64)
     flags[_F_FLAT] = int(atmosphere.flat_earth)
     flags[_F_EXTINCTION] = int(atmosphere.extinction)
-    tabulated = emission.startswith(TABULATED_PREFIX)
-    flags[_F_EMISSION] = _TABULATED_CODE if tabulated else _EMISSION_CODES[emission]
+    flags[_F_EMISSION] = shape.code
     flags[_F_ISOTROPIC_MOLECULES] = int(atmosphere.molecular_phase == "isotropic")
     return params, flags
 
@@ -400,18 +400,18 @@ def _ray(
             cos_emit = (tx * nx + tz * nz) / safe_s
             if cos_emit <= 0.0:
                 continue
-            # emission (kernel.emission_intensity)
-            if emission == 0:
+            # emission (emission_shapes.form_intensity)
+            if emission == COSINE_FORM:
                 intensity = cos_emit / math.pi
-            elif emission == 1:
+            elif emission == SINE_POWER_FORM:
                 sin2 = min(max(1.0 - cos_emit * cos_emit, 0.0), 1.0)
                 powered = sin2 * sin2 if half_n == 2.0 else sin2**half_n
                 intensity = powered / up_norm
-            elif emission == 3:
+            elif emission == PSI4_LOBE_FORM:
                 psi = math.acos(min(cos_emit, 1.0))
                 psi2 = psi * psi
                 intensity = lobe_norm * psi2 * psi2
-            elif emission == 4:
+            elif emission == TABLE_FORM:
                 # linear interpolation in the emission angle (kernel.tabulated_emission_intensity)
                 psi = math.acos(min(cos_emit, 1.0))
                 k = min(max(np.searchsorted(emission_tab[0], psi) - 1, 0), last_tab - 1)
@@ -420,7 +420,7 @@ def _ray(
                 intensity = emission_tab[1, k] + frac * (
                     emission_tab[1, k + 1] - emission_tab[1, k]
                 )
-            else:
+            else:  # ISOTROPIC_FORM
                 intensity = 1.0 / (2.0 * math.pi)
             cos_sc = -(tx * vx + ty * vy + tz * vz) / safe_s
             # altitude of the scattering point (geometry.altitude)

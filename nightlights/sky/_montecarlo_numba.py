@@ -30,13 +30,17 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
-from nightlights.errors import InputError
 from nightlights.sky._kernel_numba import model_parameters as kernel_model_parameters
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.emission_shapes import (
+    COSINE_FORM,
+    ISOTROPIC_FORM,
+    PSI4_LOBE_FORM,
+    SINE_POWER_FORM,
+    sampled_shape,
+)
 
 __all__ = ["model_parameters", "observer_rays", "trace_photon", "transport"]
-
-_EMISSION_CODES = {"lambertian": 0, "uplight": 1, "isotropic": 2, "garstang_lobe": 3}
 
 # layout of the float parameter vector
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
@@ -69,11 +73,9 @@ def model_parameters(
     uplight_exponent: float,
     source_altitude: float,
 ) -> tuple[FloatArray, NDArray[np.int64]]:
-    """The kernel's parameter and flag vectors with the source altitude appended."""
-    if emission not in _EMISSION_CODES:
-        raise InputError(
-            f"emission {emission!r}; the Monte Carlo samples {', '.join(_EMISSION_CODES)}"
-        )
+    """The kernel's parameter and flag vectors with the source altitude appended (shapes of
+    the forms in :data:`~nightlights.sky.emission_shapes.SAMPLED_FORMS` only)."""
+    sampled_shape(emission)
     params, flags = kernel_model_parameters(atmosphere, emission, core_radius, uplight_exponent)
     return np.append(params, float(source_altitude)), flags
 
@@ -286,14 +288,14 @@ def _scattering(h: float, mu: float, p: FloatArray, iso: bool) -> float:  # prag
 
 @njit(cache=True, inline="always")
 def _emission(mu: float, code: int, p: FloatArray) -> float:  # pragma: no cover - compiled
-    """Intensity per lumen at emission cosine mu (kernel.emission_intensity) [cd lm-1]."""
+    """Intensity per lumen at emission cosine mu (emission_shapes.form_intensity) [cd lm-1]."""
     if mu <= 0.0:
         return 0.0
-    if code == 0:
+    if code == COSINE_FORM:
         return mu / math.pi
-    if code == 1:
+    if code == SINE_POWER_FORM:
         return max(1.0 - mu * mu, 0.0) ** p[_P_HALF_N] / p[_P_UP_NORM]
-    if code == 3:  # Garstang's psi^4 lobe, psi the emission zenith angle
+    if code == PSI4_LOBE_FORM:  # Garstang's psi^4 lobe, psi the emission zenith angle
         psi = math.acos(min(mu, 1.0))
         return p[_P_LOBE_NORM] * psi**4 / (2.0 * math.pi)
     return 1.0 / (2.0 * math.pi)
@@ -308,13 +310,13 @@ def _sample_emission(
     state: NDArray[np.uint64], code: int, p: FloatArray
 ) -> float:  # pragma: no cover
     """Cosine of the emission angle from the source's vertical, distributed as I dOmega."""
-    if code == 0:
+    if code == COSINE_FORM:
         return math.sqrt(_next(state))  # Lambertian: mu^2 uniform
-    if code == 2:
+    if code == ISOTROPIC_FORM:
         return _next(state)
     while True:  # uniform mu accepted with the intensity relative to its peak at the horizon
         mu = _next(state)
-        if code == 3:
+        if code == PSI4_LOBE_FORM:
             accept = (math.acos(min(mu, 1.0)) / (0.5 * math.pi)) ** 4
         else:
             accept = max(1.0 - mu * mu, 0.0) ** p[_P_HALF_N]

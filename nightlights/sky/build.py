@@ -20,8 +20,9 @@ Dataset layout (read by :mod:`nightlights.sky.panorama`): coordinates ``observer
 ``source_altitude``, ``distance`` (bin centres; edges in ``distance_edges``), ``elevation``
 (pixel centres 90 - (i + 0.5) 90 / n_elevation), ``azimuth`` (relative to the source,
 k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``,
-``kernel_garstang_lobe``), ``basis``, ``coefficient`` (+ ``coefficient_uplight``,
-``coefficient_garstang_lobe``), ``basis_fft_real``, ``basis_fft_imag``, ``explained_energy``;
+``kernel_garstang_lobe``, ``kernel_tabulated``, ``kernel_<table>`` of a registered shape:
+:func:`~nightlights.sky.emission_shapes.kernel_table_names`), ``basis``, ``coefficient`` (+
+the same ``coefficient_*``), ``basis_fft_real``, ``basis_fft_imag``, ``explained_energy``;
 attributes from :meth:`KernelSpec.to_attrs`. Every emission shape's images go into one PCA per
 observer altitude, so all shapes share the bases and differ only in their coefficients; a band
 whose emission function mixes shapes reads the same mix of coefficient tables (skyglow is
@@ -56,15 +57,15 @@ from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.emission_shapes import emission_shape
 from nightlights.sky.geometry import source_frame
-from nightlights.sky.kernel import TABULATED_PREFIX, sky_luminance_grid
+from nightlights.sky.kernel import sky_luminance_grid
 from nightlights.sky.multiple import apply_multiple_scattering
 from nightlights.sky.pca import LevelDecomposition, compress_kernel
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
 __all__ = [
-    "EMISSION_TABLES",
     "SUPERSAMPLE_DISTANCES",
     "InterpolatedPair",
     "altitude_pairs",
@@ -82,20 +83,15 @@ log = logging.getLogger(__name__)
 #: across the pixel within one bin).
 SUPERSAMPLE_DISTANCES = 4
 
-#: The (image, coefficient) variables of each emission shape a kernel can tabulate
-#: (``tabulated``: the function in the attribute ``tabulated_emission``).
-EMISSION_TABLES = {
-    "lambertian": ("kernel", "coefficient"),
-    "uplight": ("kernel_uplight", "coefficient_uplight"),
-    "garstang_lobe": ("kernel_garstang_lobe", "coefficient_garstang_lobe"),
-    "tabulated": ("kernel_tabulated", "coefficient_tabulated"),
-}
-
 
 def table_names(emission: str) -> tuple[str, str]:
-    """The (image, coefficient) variables of an emission shape (a tabulated function's
+    """The (image, coefficient) variables of an emission shape, from its registry row
+    (:func:`~nightlights.sky.emission_shapes.kernel_table_names`; a tabulated function's
     text: the ``tabulated`` pair)."""
-    return EMISSION_TABLES["tabulated" if emission.startswith(TABULATED_PREFIX) else emission]
+    names = emission_shape(emission).table_names
+    if names is None:
+        raise InputError(f"emission shape {emission[:40]!r} has no kernel table")
+    return names
 
 
 def _sub_distances(edges: FloatArray, n: int) -> tuple[FloatArray, FloatArray]:
@@ -453,6 +449,7 @@ def kernel_dataset(
         "lambertian (kernel); sin^n lobe (kernel_uplight)"
         + ("; Garstang 1986 psi^4 lobe (kernel_garstang_lobe)" if spec.garstang_lobe else "")
         + ("; tabulated_emission (kernel_tabulated)" if spec.tabulated_emission else "")
+        + "".join(f"; {name} ({table_names(name)[0]})" for name in spec.emission_shapes)
     )
     ds.attrs["description"] = (
         "Sky luminance per lumen of upward flux of a ground source: single scattering "

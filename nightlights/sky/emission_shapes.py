@@ -1,11 +1,22 @@
-"""Emission angular distributions of a ground source, per lumen of upward flux.
+"""Emission angular distributions of a ground source, per lumen of upward flux, and their registry.
 
 The shapes the skyglow kernel tabulates (:mod:`nightlights.sky.kernel`): Lambertian reflection,
 the direct-uplight lobe sin^n, Garstang's (1986) low-angle psi^4 lobe, an isotropic emitter (for
 validation) and a tabulated function; each is normalised to 1 lm into the upper hemisphere.
-Kept apart from the line-of-sight integral so that its compiled twin
-(:mod:`nightlights.sky._kernel_numba`) can read the same constants without importing the
-integrator.
+Kept apart from the line-of-sight integral so that its compiled twins
+(:mod:`nightlights.sky._kernel_numba`, :mod:`nightlights.sky._montecarlo_numba`) can read the
+same constants without importing the integrator.
+
+Every shape is one row of a registry (:class:`EmissionShape`, :func:`register_emission_shape`):
+its name, its numpy intensity function, the code of the compiled form both compiled integrators
+evaluate it with (:data:`COMPILED_FORMS`), the name of its kernel table and a line of
+documentation. The parser of band tags, the validators of the integrators and the kernel
+builder read the known names from it, so a shape whose angular function one of the compiled
+forms expresses (a cosine, a sine power, isotropic, the psi^4 lobe, or a table interpolated
+linearly in the angle) is one registration call.
+
+Length: about 760 lines, because the shapes, their compiled forms and the registry that joins
+them are one vocabulary that the numpy and the compiled integrators must read alike.
 
 References
 ----------
@@ -17,6 +28,9 @@ from __future__ import annotations
 import functools
 import json
 import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -27,19 +41,59 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 
 __all__ = [
+    "COMPILED_FORMS",
+    "COSINE_FORM",
     "EMISSION_MODELS",
     "GARSTANG_LOBE_NORM",
+    "ISOTROPIC_FORM",
+    "PSI4_LOBE_FORM",
+    "SAMPLED_FORMS",
+    "SINE_POWER_FORM",
+    "TABLE_FORM",
     "TABULATED_PREFIX",
     "UPLIGHT_EXPONENT",
+    "EmissionShape",
     "emission_intensity",
+    "emission_shape",
+    "emission_shape_names",
+    "form_intensity",
     "garstang_weights",
+    "kernel_table_names",
     "parse_tabulated_emission",
+    "register_emission_shape",
+    "sampled_shape",
     "tabulated_emission_intensity",
     "tabulated_norm",
+    "unregister_emission_shape",
 ]
 
-#: Emission angular distributions, each normalised to 1 lm emitted into the upper hemisphere.
+#: The built-in emission angular distributions, each normalised to 1 lm emitted into the upper
+#: hemisphere (the registry may hold more: :func:`emission_shape_names`).
 EMISSION_MODELS = ("lambertian", "uplight", "isotropic", "garstang_lobe")
+
+# Codes of the compiled angular forms: the branches of both compiled integrators
+# (nightlights.sky._kernel_numba._ray, nightlights.sky._montecarlo_numba._emission and
+# _sample_emission), which are compiled against these values.
+#: I = cos(theta) / pi.
+COSINE_FORM = 0
+#: I = sin^n(theta) / (pi B(1/2, n/2 + 1)).
+SINE_POWER_FORM = 1
+#: I = 1 / (2 pi).
+ISOTROPIC_FORM = 2
+#: I = c theta^4 / (2 pi), c = :data:`GARSTANG_LOBE_NORM`.
+PSI4_LOBE_FORM = 3
+#: I = t(theta), a table interpolated linearly in theta and normalised to 1 lm.
+TABLE_FORM = 4
+#: The compiled forms by name.
+COMPILED_FORMS = {
+    "cosine": COSINE_FORM,
+    "sine_power": SINE_POWER_FORM,
+    "isotropic": ISOTROPIC_FORM,
+    "psi4_lobe": PSI4_LOBE_FORM,
+    "table": TABLE_FORM,
+}
+#: The forms the multiple-scattering Monte Carlo samples (a table it does not).
+SAMPLED_FORMS = frozenset({COSINE_FORM, SINE_POWER_FORM, ISOTROPIC_FORM, PSI4_LOBE_FORM})
 
 
 #: Default exponent n of the direct-uplight lobe sin^n(theta) about the local vertical [1].
@@ -83,8 +137,10 @@ def emission_intensity(
     cos_zenith
         Cosine of the angle between the emission direction and the local vertical [1].
     model
-        One of :data:`EMISSION_MODELS`, or a tabulated function ``tabulated:<json>``
-        (:func:`parse_tabulated_emission`, :func:`tabulated_emission_intensity`).
+        A registered shape (:func:`emission_shape_names`: the built-in
+        :data:`EMISSION_MODELS` and any added by :func:`register_emission_shape`), or a
+        tabulated function ``tabulated:<json>`` (:func:`parse_tabulated_emission`,
+        :func:`tabulated_emission_intensity`).
     uplight_exponent
         Exponent n of the uplight lobe [1].
 
@@ -120,22 +176,7 @@ def emission_intensity(
     0.5
     """
     mu = np.asarray(cos_zenith, dtype=float)
-    up = mu > 0
-    if model == "lambertian":
-        return np.where(up, mu, 0.0) / math.pi
-    if model == "uplight":
-        norm = math.pi * float(beta_function(0.5, uplight_exponent / 2.0 + 1.0))
-        sin2 = np.clip(1.0 - mu * mu, 0.0, 1.0)
-        return np.where(up, sin2 ** (uplight_exponent / 2.0), 0.0) / norm
-    if model == "isotropic":
-        return np.where(up, 1.0 / (2.0 * math.pi), 0.0)
-    if model == "garstang_lobe":
-        psi = np.arccos(np.clip(mu, 0.0, 1.0))
-        return np.where(up, GARSTANG_LOBE_NORM * psi**4, 0.0) / (2.0 * math.pi)
-    if isinstance(model, str) and model.startswith(TABULATED_PREFIX):
-        _, angles, intensities = parse_tabulated_emission(model)
-        return tabulated_emission_intensity(mu, angles, intensities)
-    raise InputError(f"emission model {model!r}; expected one of {EMISSION_MODELS}")
+    return emission_shape(model).intensity(mu, uplight_exponent)
 
 
 @functools.lru_cache(maxsize=64)
@@ -178,6 +219,18 @@ def parse_tabulated_emission(text: str) -> tuple[str, FloatArray, FloatArray]:
             f'emission function {text[:80]!r}; expected tabulated:{{"angles": [deg, 0 to 90], '
             '"intensities": [relative, one per angle]}'
         ) from None
+    _check_table(angles, intensities)
+    canonical = TABULATED_PREFIX + json.dumps(
+        {"angles": angles.tolist(), "intensities": intensities.tolist()}, separators=(",", ":")
+    )
+    angles.flags.writeable = False
+    intensities.flags.writeable = False
+    return canonical, angles, intensities
+
+
+def _check_table(angles: FloatArray, intensities: FloatArray) -> None:
+    """Refuse a table that is not >= 2 increasing angles from 0 to 90 deg with finite
+    intensities >= 0, not all 0."""
     fine = (
         angles.ndim == 1
         and angles.shape == intensities.shape
@@ -193,12 +246,6 @@ def parse_tabulated_emission(text: str) -> tuple[str, FloatArray, FloatArray]:
         raise InputError(
             f"tabulated emission intensities {intensities.tolist()!r}; expected >= 0, not all 0"
         )
-    canonical = TABULATED_PREFIX + json.dumps(
-        {"angles": angles.tolist(), "intensities": intensities.tolist()}, separators=(",", ":")
-    )
-    angles.flags.writeable = False
-    intensities.flags.writeable = False
-    return canonical, angles, intensities
 
 
 def tabulated_emission_intensity(
@@ -300,3 +347,411 @@ def garstang_weights(upward_fraction: float, reflectance: float) -> dict[str, fl
     reflected = g * (1.0 - f)
     lambertian = reflected / (reflected + f)
     return {"lambertian": lambertian, "garstang_lobe": 1.0 - lambertian}
+
+
+# --- the compiled forms and the registry of shapes ---------------------------------------------
+
+
+def form_intensity(
+    code: int,
+    cos_zenith: ArrayLike,
+    *,
+    exponent: float = UPLIGHT_EXPONENT,
+    angles: ArrayLike = (),
+    intensities: ArrayLike = (),
+) -> FloatArray:
+    """The numpy reference of a compiled form: intensity per lumen of upward flux.
+
+    Parameters
+    ----------
+    code
+        One of :data:`COMPILED_FORMS`.
+    cos_zenith
+        Cosine of the emission direction's angle theta from the local vertical [1].
+    exponent
+        n of :data:`SINE_POWER_FORM` [1].
+    angles, intensities
+        The table of :data:`TABLE_FORM`: angles from the vertical, 0 to 90 [deg], and the
+        relative intensity at each [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Intensity [cd lm-1]; 0 below the horizontal (cos theta <= 0).
+
+    Examples
+    --------
+    >>> round(float(form_intensity(COSINE_FORM, 1.0)) * np.pi, 6)
+    1.0
+    """
+    mu = np.asarray(cos_zenith, dtype=float)
+    up = mu > 0
+    if code == COSINE_FORM:
+        return np.where(up, mu, 0.0) / math.pi
+    if code == SINE_POWER_FORM:
+        norm = math.pi * float(beta_function(0.5, exponent / 2.0 + 1.0))
+        sin2 = np.clip(1.0 - mu * mu, 0.0, 1.0)
+        return np.where(up, sin2 ** (exponent / 2.0), 0.0) / norm
+    if code == ISOTROPIC_FORM:
+        return np.where(up, 1.0 / (2.0 * math.pi), 0.0)
+    if code == PSI4_LOBE_FORM:
+        psi = np.arccos(np.clip(mu, 0.0, 1.0))
+        return np.where(up, GARSTANG_LOBE_NORM * psi**4, 0.0) / (2.0 * math.pi)
+    if code == TABLE_FORM:
+        return tabulated_emission_intensity(mu, angles, intensities)
+    raise InputError(f"compiled form {code!r}; expected one of {sorted(COMPILED_FORMS.values())}")
+
+
+#: Intensity function of a shape: (cosine of the emission angle [1], the kernel's uplight
+#: exponent [1]) -> intensity [cd lm-1], 0 where the cosine is <= 0.
+IntensityFunction = Callable[[FloatArray, float], FloatArray]
+
+
+@dataclass(frozen=True)
+class EmissionShape:
+    """One row of the registry of emission shapes.
+
+    Attributes
+    ----------
+    name
+        The shape's name: what band tags, kernel options and ``emission=`` arguments say.
+    code
+        The compiled form both compiled integrators evaluate it with (:data:`COMPILED_FORMS`).
+    table
+        Stem of its kernel variables: ``""`` for ``kernel``/``coefficient``, else
+        ``kernel_<table>``/``coefficient_<table>``; None: no kernel table (validation only).
+    doc
+        One line on what the shape models (units and source).
+    intensity
+        The numpy intensity function (:data:`IntensityFunction`), the reference the compiled
+        form is tested against.
+    exponent
+        n of a :data:`SINE_POWER_FORM` shape; None: the kernel's ``uplight_exponent`` [1].
+    angles, intensities
+        The table of a :data:`TABLE_FORM` shape: angles from the vertical, 0 to 90 [deg],
+        and relative intensities [1].
+    band_tag
+        Whether an emission band's ``emission_function`` tag may name the shape alone.
+    """
+
+    name: str
+    code: int
+    table: str | None
+    doc: str
+    intensity: IntensityFunction = field(compare=False, repr=False)
+    exponent: float | None = None
+    angles: tuple[float, ...] = ()
+    intensities: tuple[float, ...] = ()
+    band_tag: bool = True
+
+    @property
+    def table_names(self) -> tuple[str, str] | None:
+        """The (image, coefficient) variables of the shape in a kernel; None without a table."""
+        if self.table is None:
+            return None
+        if not self.table:
+            return ("kernel", "coefficient")
+        return (f"kernel_{self.table}", f"coefficient_{self.table}")
+
+    @property
+    def sampled(self) -> bool:
+        """Whether the multiple-scattering Monte Carlo samples the shape."""
+        return self.code in SAMPLED_FORMS
+
+    def sine_exponent(self, uplight_exponent: float) -> float:
+        """n of the sine-power form: the shape's own, else the kernel's [1]."""
+        return uplight_exponent if self.exponent is None else self.exponent
+
+    def compiled_table(self) -> FloatArray:
+        """Shape (2, m): the table's angles [rad] and normalised intensities [cd lm-1], read
+        by the compiled table form; a (2, 2) dummy for the other forms."""
+        if self.code != TABLE_FORM:
+            return np.zeros((2, 2))
+        angles = np.asarray(self.angles, dtype=np.float64)
+        intensities = np.asarray(self.intensities, dtype=np.float64)
+        norm = tabulated_norm(angles, intensities)
+        return np.ascontiguousarray(np.stack([np.radians(angles), intensities * norm]))
+
+    def parameters(self) -> dict[str, Any]:
+        """What fixes the compiled numbers (hashed into a kernel's cache key)."""
+        return {
+            "code": self.code,
+            "exponent": self.exponent,
+            "angles": list(self.angles),
+            "intensities": list(self.intensities),
+        }
+
+
+_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+#: Names of the tag forms with an argument (``garstang:F,G``, ``tabulated:<json>``).
+_RESERVED = ("garstang", "tabulated")
+_SHAPES: dict[str, EmissionShape] = {}
+
+
+def register_emission_shape(
+    name: str,
+    *,
+    code: int,
+    doc: str,
+    table: str | None = None,
+    intensity: IntensityFunction | None = None,
+    exponent: float | None = None,
+    angles: ArrayLike | None = None,
+    intensities: ArrayLike | None = None,
+    band_tag: bool = True,
+    replace: bool = False,
+) -> EmissionShape:
+    """Add an emission shape to the registry: the one call a new shape on a compiled form needs.
+
+    The shape then works wherever a shape name does: ``emission=`` of
+    :func:`~nightlights.sky.kernel.sky_luminance` (numpy and numba), the band tag
+    ``emission_function`` (when ``band_tag``), a kernel's ``emission_shapes`` and, for the
+    forms in :data:`SAMPLED_FORMS`, the multiple-scattering Monte Carlo.
+
+    Parameters
+    ----------
+    name
+        Lower-case identifier (letters, digits, ``_``), not ``garstang`` or ``tabulated``.
+    code
+        Compiled form (:data:`COMPILED_FORMS`).
+    doc
+        One line on what the shape models.
+    table
+        Stem of its kernel variables; default the name.
+    intensity
+        numpy intensity function (:data:`IntensityFunction`); default the form's reference,
+        :func:`form_intensity` with ``exponent`` or the table. Give one only for a form added
+        to the compiled integrators.
+    exponent
+        n of a :data:`SINE_POWER_FORM` shape; None: the kernel's ``uplight_exponent`` [1].
+    angles, intensities
+        The table of a :data:`TABLE_FORM` shape: angles from the vertical, increasing from 0
+        to 90 [deg], and the relative intensity at each (>= 0, not all 0) [1].
+    band_tag
+        Whether a band's ``emission_function`` tag may name the shape alone.
+    replace
+        Replace a registered shape of that name (never a built-in one).
+
+    Returns
+    -------
+    EmissionShape
+        The registered row.
+
+    Raises
+    ------
+    InputError
+        A bad name, form, exponent or table; a name or table stem already taken.
+
+    Examples
+    --------
+    A sin^2 lobe is the sine-power form with its own exponent; it puts 1 lm into the upper
+    hemisphere and equals the uplight lobe of exponent 2:
+
+    >>> from scipy.integrate import quad
+    >>> shape = register_emission_shape("sin2_lobe", code=SINE_POWER_FORM, exponent=2.0,
+    ...                                 doc="sin^2 lobe about the vertical")
+    >>> round(2 * np.pi * quad(lambda mu: float(emission_intensity(mu, "sin2_lobe")), 0, 1)[0], 9)
+    1.0
+    >>> lobe = emission_intensity(0.5, "sin2_lobe")
+    >>> bool(lobe == emission_intensity(0.5, "uplight", uplight_exponent=2.0))
+    True
+    >>> unregister_emission_shape("sin2_lobe")
+    """
+    if not (isinstance(name, str) and _NAME.match(name)) or name in _RESERVED:
+        raise InputError(
+            f"emission shape name {name!r}; expected a lower-case identifier (letters, digits, "
+            f"_) other than {' or '.join(_RESERVED)}"
+        )
+    if name in _SHAPES and (not replace or name in EMISSION_MODELS):
+        why = "a built-in shape" if name in EMISSION_MODELS else "registered (replace=True)"
+        raise InputError(f"emission shape {name!r} is already {why}")
+    if code not in COMPILED_FORMS.values():
+        raise InputError(
+            f"emission shape {name!r}: compiled form {code!r}; expected one of "
+            f"{COMPILED_FORMS} (a new form needs branches in both compiled integrators)"
+        )
+    stem = name if table is None and name not in EMISSION_MODELS else table
+    taken = {s.table: s.name for s in _SHAPES.values() if s.name != name and s.table is not None}
+    if stem is not None and (stem in taken or stem == "tabulated" or not _NAME.match(stem or "a")):
+        raise InputError(
+            f"emission shape {name!r}: kernel table {stem!r}; expected an identifier not taken "
+            f"(taken: {', '.join(sorted(taken)) or 'none'}, tabulated)"
+        )
+    if exponent is not None and not (math.isfinite(exponent) and exponent >= 0):
+        raise InputError(f"emission shape {name!r}: exponent {exponent!r}; expected >= 0")
+    table_angles: tuple[float, ...] = ()
+    table_values: tuple[float, ...] = ()
+    if code == TABLE_FORM:
+        a = np.asarray(angles if angles is not None else (), dtype=np.float64)
+        t = np.asarray(intensities if intensities is not None else (), dtype=np.float64)
+        _check_table(a, t)
+        table_angles, table_values = tuple(a.tolist()), tuple(t.tolist())
+    if intensity is None:
+        intensity = functools.partial(_form_reference, code, exponent, table_angles, table_values)
+    shape = EmissionShape(
+        name, code, stem, doc, intensity, exponent, table_angles, table_values, bool(band_tag)
+    )
+    _SHAPES[name] = shape
+    return shape
+
+
+def _form_reference(
+    code: int,
+    exponent: float | None,
+    angles: tuple[float, ...],
+    intensities: tuple[float, ...],
+    cos_zenith: FloatArray,
+    uplight_exponent: float,
+) -> FloatArray:
+    """:func:`form_intensity` with a shape's parameters (the default intensity function)."""
+    n = uplight_exponent if exponent is None else exponent
+    return form_intensity(code, cos_zenith, exponent=n, angles=angles, intensities=intensities)
+
+
+def unregister_emission_shape(name: str) -> None:
+    """Remove a shape added by :func:`register_emission_shape` (never a built-in one).
+
+    Parameters
+    ----------
+    name
+        The shape's name.
+
+    Raises
+    ------
+    InputError
+        A built-in or unknown shape.
+    """
+    if name in EMISSION_MODELS or name not in _SHAPES:
+        what = "a built-in shape" if name in EMISSION_MODELS else "not registered"
+        raise InputError(f"emission shape {name!r} is {what}; cannot unregister it")
+    del _SHAPES[name]
+
+
+def emission_shape_names() -> tuple[str, ...]:
+    """Names of the registered shapes, built-in first, in registration order."""
+    return tuple(_SHAPES)
+
+
+@functools.lru_cache(maxsize=64)
+def _tabulated_shape(text: str) -> EmissionShape:
+    canonical, angles, intensities = parse_tabulated_emission(text)
+    a, t = tuple(angles.tolist()), tuple(intensities.tolist())
+    reference = functools.partial(_form_reference, TABLE_FORM, None, a, t)
+    doc = "tabulated function, interpolated linearly in the emission angle"
+    return EmissionShape(canonical, TABLE_FORM, "tabulated", doc, reference, None, a, t)
+
+
+def emission_shape(name: str) -> EmissionShape:
+    """The registry row of a shape name, or of a tabulated function's text.
+
+    Parameters
+    ----------
+    name
+        A registered name (:func:`emission_shape_names`) or ``tabulated:<json>``
+        (:func:`parse_tabulated_emission`: a :data:`TABLE_FORM` shape of kernel table
+        ``tabulated``, named by its canonical text).
+
+    Returns
+    -------
+    EmissionShape
+        The row.
+
+    Raises
+    ------
+    InputError
+        An unknown name, or a tabulated text of a bad form.
+
+    Examples
+    --------
+    >>> emission_shape("uplight").code == SINE_POWER_FORM, emission_shape("uplight").table_names
+    (True, ('kernel_uplight', 'coefficient_uplight'))
+    """
+    shape = _SHAPES.get(name) if isinstance(name, str) else None
+    if shape is not None:
+        return shape
+    if isinstance(name, str) and name.startswith(TABULATED_PREFIX):
+        return _tabulated_shape(name)
+    raise InputError(
+        f"emission model {name!r}; expected one of {emission_shape_names()} or "
+        f"{TABULATED_PREFIX}<json>"
+    )
+
+
+def sampled_shape(name: str) -> EmissionShape:
+    """The row of a shape the multiple-scattering Monte Carlo samples (:data:`SAMPLED_FORMS`).
+
+    Parameters
+    ----------
+    name
+        A registered shape name.
+
+    Returns
+    -------
+    EmissionShape
+        The row.
+
+    Raises
+    ------
+    InputError
+        A shape of another form, or an unknown name.
+    """
+    sampled = tuple(n for n, s in _SHAPES.items() if s.sampled)
+    shape = _SHAPES.get(name) if isinstance(name, str) else None
+    if shape is None or not shape.sampled:
+        raise InputError(f"emission shape {name!r}; the Monte Carlo samples {', '.join(sampled)}")
+    return shape
+
+
+def kernel_table_names() -> dict[str, tuple[str, str]]:
+    """The (image, coefficient) variables of every shape a kernel can tabulate.
+
+    Returns
+    -------
+    dict
+        Shape name -> (image, coefficient), in table order: the built-in shapes, then
+        ``tabulated`` (the function in the kernel attribute ``tabulated_emission``), then the
+        registered shapes.
+
+    Examples
+    --------
+    >>> list(kernel_table_names())
+    ['lambertian', 'uplight', 'garstang_lobe', 'tabulated']
+    """
+    names: dict[str, tuple[str, str]] = {}
+    for shape in _SHAPES.values():
+        if shape.name in EMISSION_MODELS and shape.table_names is not None:
+            names[shape.name] = shape.table_names
+    names["tabulated"] = ("kernel_tabulated", "coefficient_tabulated")
+    for shape in _SHAPES.values():
+        if shape.name not in EMISSION_MODELS and shape.table_names is not None:
+            names[shape.name] = shape.table_names
+    return names
+
+
+register_emission_shape(
+    "lambertian",
+    code=COSINE_FORM,
+    table="",
+    doc="Lambertian reflection by the ground, I = cos(theta) / pi [cd lm-1]",
+)
+register_emission_shape(
+    "uplight",
+    code=SINE_POWER_FORM,
+    table="uplight",
+    doc="direct uplight of luminaires, I = sin^n(theta) / (pi B(1/2, n/2 + 1)), n the "
+    "kernel's uplight_exponent [cd lm-1]",
+)
+register_emission_shape(
+    "isotropic",
+    code=ISOTROPIC_FORM,
+    table=None,
+    band_tag=False,
+    doc="isotropic emitter, I = 1 / (2 pi) (validation) [cd lm-1]",
+)
+register_emission_shape(
+    "garstang_lobe",
+    code=PSI4_LOBE_FORM,
+    table="garstang_lobe",
+    band_tag=False,
+    doc="low-angle term of Garstang's (1986) emission function, I = c theta^4 / (2 pi) [cd lm-1]",
+)

@@ -45,6 +45,7 @@ from nightlights.sky.emission_shapes import (
     TABULATED_PREFIX,
     UPLIGHT_EXPONENT,
     emission_intensity,
+    emission_shape,
     garstang_weights,
     parse_tabulated_emission,
     tabulated_emission_intensity,
@@ -207,13 +208,7 @@ def _check_options(
     emission: str, nodes: int, leg_nodes: int | None, core_radius: float, backend: str
 ) -> None:
     """Validation shared by :func:`sky_luminance` and :func:`sky_luminance_grid`."""
-    if isinstance(emission, str) and emission.startswith(TABULATED_PREFIX):
-        parse_tabulated_emission(emission)
-    elif emission not in EMISSION_MODELS:
-        raise InputError(
-            f"emission model {emission!r}; expected one of {EMISSION_MODELS} or "
-            f"{TABULATED_PREFIX}<json>"
-        )
+    emission_shape(emission)  # a registered shape or a tabulated function
     if nodes < 1 or (leg_nodes is not None and leg_nodes < 1):
         raise InputError(f"nodes {nodes!r}, leg_nodes {leg_nodes!r}; expected >= 1")
     if not core_radius > 0:
@@ -263,7 +258,10 @@ def sky_luminance(
     atmosphere
         Atmosphere model.
     emission
-        Angular distribution of the source, one of :data:`EMISSION_MODELS` or a tabulated
+        Angular distribution of the source: a registered shape
+        (:func:`~nightlights.sky.emission_shapes.emission_shape_names`; the built-in
+        :data:`EMISSION_MODELS` and those added by
+        :func:`~nightlights.sky.emission_shapes.register_emission_shape`) or a tabulated
         function ``tabulated:<json>`` (:func:`parse_tabulated_emission`).
     nodes
         Gauss-Legendre nodes per panel of the line of sight (three panels: before the closest
@@ -555,7 +553,7 @@ def line_of_sight_integrand(
     atmosphere
         Atmosphere model.
     emission
-        One of :data:`EMISSION_MODELS`.
+        A registered shape or a tabulated function (as :func:`sky_luminance`).
     core_radius
         Softening radius [m].
     uplight_exponent

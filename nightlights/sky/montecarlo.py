@@ -77,9 +77,9 @@ from numpy.typing import ArrayLike
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
+from nightlights.sky.emission_shapes import sampled_shape
 from nightlights.sky.geometry import altitude
 from nightlights.sky.kernel import (
-    EMISSION_MODELS,
     UPLIGHT_EXPONENT,
     optical_depth,
     slant_optical_depth,
@@ -183,8 +183,9 @@ def monte_carlo_luminance(
     atmosphere
         Atmosphere model; ``extinction`` must be on (scattering removes light from the beam).
     emission
-        Angular distribution of the source, one of
-        :data:`~nightlights.sky.kernel.EMISSION_MODELS`.
+        Angular distribution of the source: a registered shape of a form the Monte Carlo
+        samples (:func:`~nightlights.sky.emission_shapes.sampled_shape`; the built-in
+        :data:`~nightlights.sky.kernel.EMISSION_MODELS`).
     photons
         Number of photon histories [1].
     max_order
@@ -224,8 +225,7 @@ def monte_carlo_luminance(
     """
     from nightlights.sky import _montecarlo_numba as compiled
 
-    if emission not in EMISSION_MODELS:
-        raise InputError(f"emission model {emission!r}; expected one of {EMISSION_MODELS}")
+    sampled_shape(emission)
     if not atmosphere.extinction:
         raise InputError("atmosphere.extinction is off; multiple scattering needs extinction")
     if photons < 1 or max_order < 1 or nodes < 1 or event_nodes < 1:

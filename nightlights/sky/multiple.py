@@ -72,7 +72,11 @@ from numpy.typing import ArrayLike
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
-from nightlights.sky.kernel import EMISSION_MODELS, TABULATED_PREFIX, UPLIGHT_EXPONENT
+from nightlights.sky.emission_shapes import (
+    UPLIGHT_EXPONENT,
+    emission_shape,
+    sampled_shape,
+)
 
 __all__ = [
     "BUILD_PHOTONS",
@@ -121,7 +125,7 @@ class MultipleScatteringTable:
     Attributes
     ----------
     emission
-        Emission shape (one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`).
+        Emission shape (a registered shape the Monte Carlo samples).
     factor
         Shape ``(4, 3, 12)`` over :data:`FACTOR_ELEVATIONS`, :data:`FACTOR_AZIMUTHS`,
         :data:`FACTOR_DISTANCES` [1].
@@ -201,9 +205,10 @@ def _shipped() -> dict[str, Any]:
 
 @functools.cache
 def _table(
-    atmosphere: Atmosphere, emission: str, photons: int, uplight_exponent: float
+    atmosphere: Atmosphere, emission: str, photons: int, uplight_exponent: float, definition: str
 ) -> tuple[FloatArray, FloatArray]:
-    """Cached measurement (one per atmosphere, shape and photon count in a process)."""
+    """Cached measurement (one per atmosphere, shape, its definition and photon count in a
+    process)."""
     return _measure(atmosphere, emission, photons, uplight_exponent)
 
 
@@ -221,7 +226,8 @@ def multiple_scattering_table(
     atmosphere
         Atmosphere model; ``extinction`` must be on.
     emission
-        Emission shape, one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`.
+        Emission shape: a registered shape the Monte Carlo samples
+        (:func:`~nightlights.sky.emission_shapes.sampled_shape`).
     photons
         Photon histories; None: the shipped table when there is one for this atmosphere and
         shape, else :data:`BUILD_PHOTONS` [1].
@@ -245,8 +251,7 @@ def multiple_scattering_table(
     >>> t.source, round(float(t(90.0, 0.0, 10e3)), 1)
     ('shipped', 1.6)
     """
-    if emission not in EMISSION_MODELS:
-        raise InputError(f"emission shape {emission!r}; expected one of {EMISSION_MODELS}")
+    shape = sampled_shape(emission)
     if not atmosphere.extinction:
         raise InputError("multiple scattering needs extinction on (Atmosphere(extinction=True))")
     key = _atmosphere_key(atmosphere)
@@ -257,7 +262,7 @@ def multiple_scattering_table(
         error = np.asarray(shipped["standard_error"], dtype=float)
         return MultipleScatteringTable(emission, raw, error, int(shipped["photons"]), "shipped")
     n = BUILD_PHOTONS if photons is None else int(photons)
-    raw, error = _table(atmosphere, emission, n, exponent)
+    raw, error = _table(atmosphere, emission, n, exponent, json.dumps(shape.parameters()))
     return MultipleScatteringTable(emission, raw, error, n, "measured")
 
 
@@ -341,7 +346,8 @@ def multiple_scattering_factor(
     atmosphere
         Atmosphere model.
     emission
-        Emission shape, one of :data:`~nightlights.sky.kernel.EMISSION_MODELS`.
+        Emission shape: a registered shape the Monte Carlo samples
+        (:func:`~nightlights.sky.emission_shapes.sampled_shape`).
     elevation
         Elevation of the view [deg].
     azimuth
@@ -371,7 +377,9 @@ def nearest_shape(tabulated: str) -> str:
     Parameters
     ----------
     tabulated
-        The function's text (``tabulated:{...}``).
+        The function's text (``tabulated:{...}``), or a registered shape the Monte Carlo does
+        not sample (one of the table form,
+        :data:`~nightlights.sky.emission_shapes.TABLE_FORM`).
 
     Returns
     -------
@@ -380,7 +388,7 @@ def nearest_shape(tabulated: str) -> str:
     """
     from nightlights.sky.emission_shapes import emission_intensity
 
-    if not tabulated.startswith(TABULATED_PREFIX):
+    if emission_shape(tabulated).sampled:
         raise InputError(f"{tabulated[:40]!r} is not a tabulated emission function")
     mu = np.linspace(0.0, 1.0, 2001)  # cosine of the zenith angle
     low = mu <= np.sin(np.radians(LOW_ANGLE))
@@ -402,10 +410,16 @@ def garstang_clear_night() -> Atmosphere:
 def shape_table(
     atmosphere: Atmosphere, emission: str, uplight_exponent: float = UPLIGHT_EXPONENT
 ) -> MultipleScatteringTable:
-    """The factor table of a kernel emission shape, or, for a tabulated function, of the shape
-    that stands in for it (:func:`nearest_shape`)."""
-    shape = nearest_shape(emission) if emission.startswith(TABULATED_PREFIX) else emission
+    """The factor table of a kernel emission shape, or, for a tabulated function (a shape the
+    Monte Carlo does not sample), of the shape that stands in for it (:func:`nearest_shape`)."""
+    shape = _stand_in(emission)
     return multiple_scattering_table(atmosphere, shape, uplight_exponent=uplight_exponent)
+
+
+def _stand_in(emission: str) -> str:
+    """The shape whose factor table a kernel shape uses: itself, or for a shape the Monte Carlo
+    does not sample (a table-form shape) :func:`nearest_shape`."""
+    return emission if emission_shape(emission).sampled else nearest_shape(emission)
 
 
 def tables_digest(atmosphere: Atmosphere, shapes: tuple[str, ...], uplight_exponent: float) -> str:
@@ -431,7 +445,7 @@ def tables_digest(atmosphere: Atmosphere, shapes: tuple[str, ...], uplight_expon
     key = _atmosphere_key(atmosphere)
     parts: list[Any] = []
     for emission in shapes:
-        shape = nearest_shape(emission) if emission.startswith(TABULATED_PREFIX) else emission
+        shape = _stand_in(emission)
         entry = _shipped().get(f"{shape}|{float(uplight_exponent):g}|{key}")
         if entry is not None:
             parts.append([shape, entry["photons"], entry["factor"]])
@@ -472,7 +486,7 @@ def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, st
         for k, r in enumerate(np.asarray(spec.distances, dtype=float)):
             table[:, :, k] *= factors(el, az, r).astype(table.dtype)
         shape = factors.emission
-        name = "tabulated" if shape != emission else emission
+        name = "tabulated" if emission_shape(emission).table == "tabulated" else emission
         stand_in = f" (factor of {shape})" if shape != emission else ""
         notes.append(f"{name}: {factors.source}, {factors.photons} photons{stand_in}")
     return {"multiple_scattering_tables": "; ".join(notes)}

@@ -65,7 +65,7 @@ from nightlights.io.styles import observers_style
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
-from nightlights.sky.build import EMISSION_TABLES
+from nightlights.sky.emission_shapes import kernel_table_names
 from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.multiple import scattering_note
@@ -632,7 +632,7 @@ def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> 
     table = None
     if terrain:
         # the PCA tables alone, in memory: what KernelLevels reads for any eye altitude
-        raw = [names[0] for names in EMISSION_TABLES.values() if names[0] in setup.table]
+        raw = [names[0] for names in kernel_table_names().values() if names[0] in setup.table]
         table = setup.table.drop_vars(raw).load()
     return _Engine(
         rows=np.asarray(cells.rows, dtype=np.int64),

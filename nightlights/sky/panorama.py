@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from nightlights._typing import FloatArray
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.build import EMISSION_TABLES
+from nightlights.sky.emission_shapes import kernel_table_names
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.spec import EmissionFunction
@@ -176,9 +176,10 @@ def _level_arrays(
         level = level.isel(source_altitude=0)
     else:
         level = level.interp(source_altitude=source_altitude)
-    present = [e for e, (_, coef) in EMISSION_TABLES.items() if coef in level]
-    names = [EMISSION_TABLES[e][0] for e in present]
-    coefficient_names = [EMISSION_TABLES[e][1] for e in present]
+    variables = kernel_table_names()
+    present = [e for e, (_, coef) in variables.items() if coef in level]
+    names = [variables[e][0] for e in present]
+    coefficient_names = [variables[e][1] for e in present]
     # a tabulated function's row is named by its text, which the bands' tags match
     tabulated = str(kernel.attrs.get("tabulated_emission", ""))
     emissions = tuple(tabulated if e == "tabulated" else e for e in present)

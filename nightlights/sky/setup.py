@@ -31,6 +31,7 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
+from nightlights.sky.emission_shapes import EMISSION_MODELS, emission_shape_names
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
 from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
@@ -294,6 +295,7 @@ class KernelTables(TypedDict):
     uplight: bool
     garstang_lobe: bool
     tabulated_emission: str | None
+    emission_shapes: tuple[str, ...]
 
 
 def kernel_tables(functions: Sequence[EmissionFunction], label: str) -> KernelTables:
@@ -310,14 +312,20 @@ def kernel_tables(functions: Sequence[EmissionFunction], label: str) -> KernelTa
     Returns
     -------
     dict
-        ``uplight``, ``garstang_lobe`` and ``tabulated_emission`` (the one tabulated function,
-        or None; a kernel holds one, more are refused).
+        ``uplight``, ``garstang_lobe``, ``tabulated_emission`` (the one tabulated function,
+        or None; a kernel holds one, more are refused) and ``emission_shapes`` (the other
+        registered shapes, in registration order).
     """
     shapes = {shape for function in functions for shape in function.shapes}
     return KernelTables(
         uplight="uplight" in shapes,
         garstang_lobe="garstang_lobe" in shapes,
         tabulated_emission=_tabulated(shapes, label),
+        emission_shapes=tuple(
+            name
+            for name in emission_shape_names()
+            if name in shapes and name not in EMISSION_MODELS
+        ),
     )
 
 

@@ -35,6 +35,7 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.emission_shapes import EMISSION_MODELS, emission_shape, emission_shape_names
 from nightlights.sky.kernel import (
     TABULATED_PREFIX,
     UPLIGHT_EXPONENT,
@@ -140,7 +141,9 @@ class EmissionFunction:
         Parameters
         ----------
         text
-            ``lambertian``, ``uplight``, ``garstang:F,G`` (F the luminaires' direct
+            ``lambertian``, ``uplight`` (or another registered shape whose ``band_tag`` is
+            set: :func:`~nightlights.sky.emission_shapes.register_emission_shape`),
+            ``garstang:F,G`` (F the luminaires' direct
             upward fraction, G the ground reflectance, both in [0, 1]) or
             ``tabulated:{"angles": [...], "intensities": [...]}`` (angles from the vertical,
             0 to 90 [deg], relative intensities;
@@ -166,7 +169,7 @@ class EmissionFunction:
             return cls(canonical, ((canonical, 1.0),))
         name, _, argument = str(text).strip().partition(":")
         name = name.strip().lower()
-        if name in ("lambertian", "uplight") and not argument:
+        if name in _tag_shapes() and not argument:
             return cls(name, ((name, 1.0),))
         if name == "garstang":
             try:
@@ -181,8 +184,29 @@ class EmissionFunction:
                 raise InputError(f"{source} {text!r}: {exc}") from None
             return cls(f"garstang:{f:g},{g:g}", tuple(weights.items()))
         raise InputError(
-            f"{source} {text!r}; expected lambertian, uplight, garstang:F,G or tabulated:<json>"
+            f"{source} {text!r}; expected {', '.join(_tag_shapes())}, garstang:F,G or "
+            "tabulated:<json>"
         )
+
+
+def _tag_shapes() -> tuple[str, ...]:
+    """The registered shapes a band tag may name alone (``lambertian``, ``uplight``, ...)."""
+    return tuple(name for name in emission_shape_names() if emission_shape(name).band_tag)
+
+
+def _registered_shapes(names: Sequence[str]) -> tuple[str, ...]:
+    """The registered shapes a kernel tabulates besides its built-in and tabulated ones."""
+    shapes = (names,) if isinstance(names, str) else tuple(names)
+    for name in shapes:
+        row = emission_shape(name)  # refuses an unknown name
+        if name in EMISSION_MODELS or row.table is None or row.table == "tabulated":
+            raise InputError(
+                f"emission_shapes {name[:40]!r}; expected a registered shape with its own "
+                "kernel table (uplight, garstang_lobe and tabulated functions have their options)"
+            )
+    if len(set(shapes)) != len(shapes):
+        raise InputError(f"emission_shapes {list(shapes)!r}; expected each shape once")
+    return tuple(str(name) for name in shapes)
 
 
 def panorama_elevations(n_elevation: int) -> FloatArray:
@@ -354,6 +378,10 @@ class KernelSpec:
         of equal height difference h_c - h_o (and both ends) and interpolate the others
         log-linearly in the observer altitude (:mod:`nightlights.sky.build`); 1 computes
         every pair [1].
+    emission_shapes
+        Also tabulate these registered shapes
+        (:func:`~nightlights.sky.emission_shapes.register_emission_shape`), each in its own
+        table ``kernel_<table>``; their definitions go into the content hash.
 
     Examples
     --------
@@ -393,6 +421,7 @@ class KernelSpec:
     precision: str = "float64"
     altitude_step: int = 1
     multiple_scattering: str = "monte-carlo"
+    emission_shapes: Sequence[str] = ()
 
     def __post_init__(self) -> None:
         self._check_size()
@@ -439,6 +468,7 @@ class KernelSpec:
             setattr_(
                 self, "tabulated_emission", parse_tabulated_emission(self.tabulated_emission)[0]
             )
+        setattr_(self, "emission_shapes", _registered_shapes(self.emission_shapes))
         if self.n_components is None and not 0 < self.pca_energy <= 1:
             raise InputError(f"pca_energy {self.pca_energy!r}; expected 0 < energy <= 1")
         if self.n_components is not None and self.n_components < 1:
@@ -480,6 +510,8 @@ class KernelSpec:
         emissions = 1 + sum(
             bool(x) for x in (self.uplight, self.garstang_lobe, self.tabulated_emission)
         )
+        shapes = self.emission_shapes
+        emissions += 1 if isinstance(shapes, str) else len(tuple(shapes))
         check_memory(
             2 * 4.0 * emissions * levels * float(np.prod(sizes, dtype=float)),
             f"the kernel of {n_r} distances x {self.n_elevation} x {self.n_azimuth} pixels",
@@ -512,10 +544,16 @@ class KernelSpec:
     @property
     def emissions(self) -> tuple[str, ...]:
         """The emission shapes tabulated, in table order: ``lambertian`` (then ``uplight``,
-        ``garstang_lobe``, the tabulated function's text)."""
+        ``garstang_lobe``, the tabulated function's text, the registered
+        ``emission_shapes``)."""
         optional = (("uplight", self.uplight), ("garstang_lobe", self.garstang_lobe))
         tabulated = (self.tabulated_emission,) if self.tabulated_emission else ()
-        return ("lambertian", *(name for name, wanted in optional if wanted), *tabulated)
+        return (
+            "lambertian",
+            *(name for name, wanted in optional if wanted),
+            *tabulated,
+            *self.emission_shapes,
+        )
 
     # -- identity ------------------------------------------------------------------------
 
@@ -540,6 +578,10 @@ class KernelSpec:
             optional["precision"] = self.precision
         if self.altitude_step != 1:
             optional["altitude_step"] = self.altitude_step
+        if self.emission_shapes:
+            optional["emission_shapes"] = [
+                {"name": name, **emission_shape(name).parameters()} for name in self.emission_shapes
+            ]
         if self.multiple_scattering != "single":
             from nightlights.sky.multiple import tables_digest
 
@@ -612,6 +654,8 @@ class KernelSpec:
         attrs["precision"] = self.precision
         attrs["altitude_step"] = self.altitude_step
         attrs["multiple_scattering"] = self.multiple_scattering
+        if self.emission_shapes:
+            attrs["emission_shapes"] = ",".join(self.emission_shapes)
         return attrs
 
     @classmethod
@@ -682,6 +726,7 @@ class KernelSpec:
             multiple_scattering=str(attrs.get("multiple_scattering", "single")),
             precision=str(attrs.get("precision", "float64")),
             altitude_step=int(attrs.get("altitude_step", 1)),
+            emission_shapes=tuple(filter(None, str(attrs.get("emission_shapes", "")).split(","))),
         )
 
     @classmethod
@@ -772,6 +817,7 @@ def scene_kernel_spec(
     source_altitudes: ArrayLike = (0.0,),
     garstang_lobe: bool = False,
     tabulated_emission: str | None = None,
+    emission_shapes: Sequence[str] = (),
 ) -> KernelSpec:
     """Kernel sized to the scene: distances from 10 m to the farthest corner of the emission
     (at most :data:`MAX_KERNEL_RANGE`), the observer's altitude and the source-altitude levels.
@@ -796,6 +842,8 @@ def scene_kernel_spec(
         Tabulate Garstang's low-angle lobe too.
     tabulated_emission
         A tabulated emission function to tabulate too (``tabulated:<json>``).
+    emission_shapes
+        Registered shapes to tabulate too (:attr:`KernelSpec.emission_shapes`).
 
     Returns
     -------
@@ -820,4 +868,5 @@ def scene_kernel_spec(
         uplight=uplight,
         garstang_lobe=garstang_lobe,
         tabulated_emission=tabulated_emission,
+        emission_shapes=emission_shapes,
     )

@@ -25,6 +25,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import InputError
 from nightlights.io import Raster, atomic_output
 from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
@@ -314,6 +315,7 @@ def panorama_raster(panorama: xr.Dataset) -> Raster:
     tags = {key: str(value) for key, value in panorama.attrs.items() if key not in ("crs",)}
     tags["observer_crs"] = str(panorama.attrs.get("crs", ""))
     tags["grid"] = "x: azimuth [deg] clockwise from north; y: elevation [deg] above the horizon"
+    tags[PRODUCT_TAG] = "panorama"
     return Raster(
         np.stack([np.asarray(panorama[name].values, dtype=float) for name in names]),
         Affine(column, 0.0, 0.0, 0.0, -row, 90.0),
@@ -387,6 +389,7 @@ def polar_raster(
         tuple(f"flux_density_{k + 1}" for k in range(count)),
         ("lm m-2",) * count,
         {
+            PRODUCT_TAG: "polar_emission",
             "observer_x": f"{x0!r}",
             "observer_y": f"{y0!r}",
             "azimuth_bins": str(polar.n_az),

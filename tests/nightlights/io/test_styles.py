@@ -16,11 +16,12 @@ import pytest
 from affine import Affine
 from shapely.geometry import LineString, Point
 
-from nightlights.errors import OutputError
+from nightlights.errors import InputError, NightlightsWarning, OutputError
 from nightlights.io import OutputSet, Raster, RasterBand, write_cog, write_gpkg
 from nightlights.io.styles import (
     BORTLE_COLOURS,
     FAINTEST_MAGNITUDE,
+    PRODUCT_TAG,
     QUANTILE_CLASSES,
     dimming_qml,
     emission_qml,
@@ -30,9 +31,12 @@ from nightlights.io.styles import (
     observers_style,
     poles_style,
     raster_qml,
+    raster_styles,
+    register_raster_style,
     sidecar_path,
     sky_brightness_qml,
     streets_style,
+    unregister_raster_style,
 )
 from nightlights.sky.brightness import BORTLE_LOWER_EDGES
 from nightlights.streets.schema import ARRANGEMENTS
@@ -147,6 +151,51 @@ def test_raster_qml_chooses_the_style_from_the_bands(
         assert shader.get("classificationMode") == "3"
     else:
         assert kind in labels
+
+
+#: The bands each stage writes, by product tag (descriptions, units, tags besides the product).
+PRODUCTS = {
+    "irradiance": (("photopic", "melanopic"), ("lx", "W m-2"), {}),
+    "emission": (("reflected", "uplight"), ("lm m-2", "lm m-2"), {}),
+    "polar_emission": (("flux_density_1",), ("lm m-2",), {}),
+    "panorama": (("luminance", "sky_brightness"), ("cd m-2", "mag arcsec-2"), {}),
+    "zenith_brightness": (
+        ("zenith_luminance", "zenith_sky_brightness"),
+        ("cd m-2", "mag arcsec-2"),
+        {},
+    ),
+    "influence_q": (("q_pca_norm",), ("cd m-2",), {"metric": "pca-norm"}),
+    "influence_s": (("region_luminance",), ("cd m-2",), {"metric": "region"}),
+    "dimming": (("dimming",), ("1",), {}),
+}
+
+
+@pytest.mark.parametrize("product", sorted(PRODUCTS))
+def test_each_product_tag_keeps_the_style_its_bands_had(product: str) -> None:
+    """The registry's style of every stage's product is byte-identical to the one the unit
+    rules chose before products were tagged (and still choose for untagged files)."""
+    descriptions, units, tags = PRODUCTS[product]
+    rng = np.random.default_rng(3)
+    arrays = [rng.lognormal(0.0, 2.0, (12, 12)) for _ in descriptions]
+    tagged = raster_qml(descriptions, units, arrays, {**tags, PRODUCT_TAG: product})
+    assert tagged == raster_qml(descriptions, units, arrays, tags)
+    assert set(PRODUCTS) <= set(raster_styles())
+
+
+def test_the_product_tag_decides_over_the_units() -> None:
+    """A new product in cd m-2 no longer passes for a luminance map once it has its style."""
+    arrays = [np.linspace(0.0, 1.0, 100).reshape(10, 10)]
+    register_raster_style("fraction_lit", lambda d, u, b, t: dimming_qml())
+    try:
+        qml = raster_qml(("share",), ("cd m-2",), arrays, {PRODUCT_TAG: "fraction_lit"})
+        assert qml == dimming_qml()
+        with pytest.raises(InputError, match="already has a style"):
+            register_raster_style("fraction_lit", lambda d, u, b, t: "")
+    finally:
+        unregister_raster_style("fraction_lit")
+    with pytest.warns(NightlightsWarning, match="'fraction_lit' has no registered style"):
+        neutral = raster_qml(("share",), ("cd m-2",), arrays, {PRODUCT_TAG: "fraction_lit"})
+    assert "values: linear ramp" in neutral
 
 
 # --- the sidecar beside a raster -----------------------------------------------------------

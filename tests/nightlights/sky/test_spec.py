@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,11 @@ import xarray as xr
 from nightlights.errors import InputError, OutputError
 from nightlights.sky import KernelResult, KernelSpec, build_kernel
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.emission_shapes import (
+    SINE_POWER_FORM,
+    register_emission_shape,
+    unregister_emission_shape,
+)
 from nightlights.sky.store import read_kernel
 
 TINY = {"r_min": 20.0, "r_max": 2000.0, "n_distance": 4, "n_elevation": 4, "n_azimuth": 8}
@@ -45,7 +51,18 @@ CHANGES = {
     "precision": "float32",
     "altitude_step": 2,
     "multiple_scattering": "single",
+    "emission_shapes": ("spec_test_lobe",),  # registered by the fixture below
 }
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _registered_shape() -> Iterator[None]:
+    """A registered shape for the ``emission_shapes`` field, removed after the module."""
+    register_emission_shape(
+        "spec_test_lobe", code=SINE_POWER_FORM, exponent=2.0, doc="sin^2 lobe (test)"
+    )
+    yield
+    unregister_emission_shape("spec_test_lobe")
 
 
 def test_every_field_is_covered() -> None:
@@ -83,7 +100,9 @@ def test_hash_is_stable() -> None:
     "spec",
     [
         KernelSpec(**TINY),
-        KernelSpec(**{**TINY, **{k: v for k, v in CHANGES.items() if k not in TINY}}),
+        KernelSpec(
+            **{**TINY, **{k: v for k, v in CHANGES.items() if k not in (*TINY, "emission_shapes")}}
+        ),
         KernelSpec(
             distance_edges=[1.0, 7.5, 100.0],
             atmosphere=Atmosphere(aerosol_optical_depth=0.4, rayleigh_optical_depth=0.0),
@@ -93,6 +112,25 @@ def test_hash_is_stable() -> None:
 def test_attrs_round_trip(spec: KernelSpec) -> None:
     back = KernelSpec.from_attrs(spec.to_attrs())
     assert back == spec and back.content_hash == spec.content_hash
+
+
+def test_attrs_round_trip_with_a_registered_shape() -> None:
+    spec = KernelSpec(**TINY, emission_shapes=("spec_test_lobe",))
+    back = KernelSpec.from_attrs(spec.to_attrs())
+    assert back == spec and back.content_hash == spec.content_hash
+    assert spec.emissions == ("lambertian", "spec_test_lobe")
+    # no attribute without registered shapes: the files of earlier kernels stay as they were
+    assert "emission_shapes" not in KernelSpec(**TINY).to_attrs()
+
+
+def test_emission_shapes_must_be_registered_with_a_table() -> None:
+    for names, words in (
+        (("no_such_shape",), "emission model 'no_such_shape'"),
+        (("uplight",), "registered shape with its own kernel table"),
+        (("spec_test_lobe", "spec_test_lobe"), "each shape once"),
+    ):
+        with pytest.raises(InputError, match=words):
+            KernelSpec(**TINY, emission_shapes=names)
 
 
 def test_from_attrs_without_axes_points_to_from_kernel() -> None:
