@@ -246,6 +246,21 @@ def relative_azimuths(n_azimuth: int) -> FloatArray:
     return np.arange(n_azimuth) * 360.0 / n_azimuth
 
 
+#: Significant digits kept of the atmosphere's derived optical depths in the content hash: they
+#: are integrals whose last bits change with the numerical libraries' versions, and a kernel
+#: must keep its hash (and its cache) when only those change.
+HASH_DIGITS = 10
+
+
+def _derived_rounded(parameters: dict[str, Any]) -> dict[str, Any]:
+    """The atmosphere's parameters with its derived optical depths (``*_used``) rounded to
+    :data:`HASH_DIGITS` significant digits, for :meth:`KernelSpec.parameters`."""
+    return {
+        key: float(f"{value:.{HASH_DIGITS}g}") if key.endswith("_used") else value
+        for key, value in parameters.items()
+    }
+
+
 def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
     """Log-spaced distance bin edges.
 
@@ -597,7 +612,7 @@ class KernelSpec:
             "observer_altitudes": list(self.observer_altitudes),
             "n_el": self.n_elevation,
             "n_az": self.n_azimuth,
-            "atmosphere": self.atmosphere.parameters(),
+            "atmosphere": _derived_rounded(self.atmosphere.parameters()),
             "nodes": self.nodes,
             "leg_nodes": self.leg_nodes,
             "core_radius": self.core_radius,
