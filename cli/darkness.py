@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import (
+from .options import (
     files_argument,
     output_option,
     overwrite_option,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import one_of
+from .options import one_of
 
 #: Options that a session file (``--session``) fixes.
 SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")

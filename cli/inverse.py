@@ -22,14 +22,14 @@ from typing import Any, TypeVar
 
 import click
 
-from cli.options import (
+from .options import (
     check_outputs,
     files_argument,
     output_option,
     overwrite_option,
     resolve_inout,
 )
-from cli.skyglow import parse_pair
+from .skyglow import parse_pair
 
 F = TypeVar("F", bound=Callable[..., Any])
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import (
+from .options import (
     DEFAULT_AREA_HEIGHT,
     catalog_option,
     crs_option,

@@ -6,7 +6,7 @@ import time
 
 import click
 
-from cli.options import (
+from .options import (
     KERNEL_BACKENDS,
     deprecated_option,
     files_argument,

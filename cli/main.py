@@ -26,25 +26,26 @@ from typing import Any
 
 import click
 
-from cli.options import MemorySize, require_finite_floats
 from nightlights import __version__
 
-#: Modules that each expose ``commands``: a list of click commands or groups.
+from .options import MemorySize, require_finite_floats
+
+#: Modules of this package that each expose ``commands``: a list of click commands or groups.
 COMMAND_MODULES = (
-    "cli.streets",
-    "cli.irradiance",
-    "cli.emission",
-    "cli.kernel",
-    "cli.skyglow",
-    "cli.inverse",
-    "cli.darkness",
-    "cli.photometry",
-    "cli.demo",
-    "cli.run",
-    "cli.init",
-    "cli.explore",
-    "cli.sky",
-    "cli.qgis",
+    ".streets",
+    ".irradiance",
+    ".emission",
+    ".kernel",
+    ".skyglow",
+    ".inverse",
+    ".darkness",
+    ".photometry",
+    ".demo",
+    ".run",
+    ".init",
+    ".explore",
+    ".sky",
+    ".qgis",
 )
 
 
@@ -177,7 +178,7 @@ def cli(ctx: click.Context, verbose: int, quiet: bool, max_memory: int | None) -
 
 
 for _module_name in COMMAND_MODULES:
-    for _command in importlib.import_module(_module_name).commands:
+    for _command in importlib.import_module(_module_name, __package__).commands:
         cli.add_command(_command)
 require_finite_floats(cli)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
+from .options import files_argument, output_option, overwrite_option, resolve_inout
 
 # --- mirrors of library constants (checked by tests/cli/test_observers.py) --------------------
 #: nightlights.sky.observers.SCHEDULERS

@@ -7,9 +7,9 @@ An existing output is never replaced unless ``--overwrite`` is given.
 Option values are checked here as far as their type allows, before any work starts: a value
 of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
 :class:`MemorySize`) is a usage error (exit status 2); ``nan`` or ``inf`` for any float option
-(:func:`require_finite_floats`, applied to every command by ``cli.main``) and a ``--crs`` or
-``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the library's
-range checks, with an ``InputError``/``CRSError`` line and exit status 1.
+(:func:`require_finite_floats`, applied to every command by ``nightlights_cli.main``) and a
+``--crs`` or ``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the
+library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
 
 This module imports only click, so that ``nightlights --help`` stays fast: the choices and
 defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they

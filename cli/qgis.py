@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
+from .options import files_argument, output_option, overwrite_option, resolve_inout
 
 #: nightlights.qgis.PLUGIN_FOLDER + ".zip" (mirrored: ``--help`` must not import the library)
 DEFAULT_PLUGIN_ZIP = "nightlights_processing.zip"

@@ -2,7 +2,7 @@
 
 Regenerate it with::
 
-    python -m cli.reference > docs/cli.md
+    python -m nightlights_cli.reference > docs/cli.md
 
 ``tests/cli/test_reference.py`` fails when ``docs/cli.md`` is not what :func:`render` gives.
 """
@@ -15,12 +15,12 @@ from collections.abc import Iterator
 
 import click
 
-from cli.options import DefaultCommandGroup, DeprecatedOption
+from .options import DefaultCommandGroup, DeprecatedOption
 
 #: click's marker of an option without a default (click >= 8.3), else nothing matches it
 _UNSET = getattr(click.core, "UNSET", object())
 
-COMMAND = "python -m cli.reference > docs/cli.md"
+COMMAND = "python -m nightlights_cli.reference > docs/cli.md"
 
 INTRO = f"""\
 # Command reference
@@ -117,7 +117,7 @@ def _help(command: click.Command) -> list[str]:
 def render(root: click.Command | None = None, name: str = "nightlights") -> str:
     """The Markdown command reference of ``root`` (default: the ``nightlights`` group)."""
     if root is None:
-        from cli.main import cli
+        from .main import cli
 
         root = cli
     commands = list(walk(root, name))
@@ -169,7 +169,7 @@ def render(root: click.Command | None = None, name: str = "nightlights") -> str:
 
 
 def main() -> None:
-    """Print the reference (``python -m cli.reference > docs/cli.md``)."""
+    """Print the reference (``python -m nightlights_cli.reference > docs/cli.md``)."""
     sys.stdout.write(render())
 
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from cli.options import files_argument, output_option, resolve_inout
+from .options import files_argument, output_option, resolve_inout
 
 STAGE_NAMES = (
     "normalize",

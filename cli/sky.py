@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
+from .options import files_argument, output_option, overwrite_option, resolve_inout
 
 # --- mirrors of library constants (checked by tests/cli/test_sky_render.py) ------------------
 #: nightlights.nightsky.render.PROJECTIONS
@@ -164,6 +164,6 @@ def render(
 commands = [sky]
 
 
-from cli.observers import observers as _observers  # noqa: E402 (a command of this group)
+from .observers import observers as _observers  # noqa: E402 (a command of this group)
 
 sky.add_command(_observers)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
-from cli.options import (
+from .options import (
     BUILTIN_MAPPINGS,
     DEFAULT_ACROSS_JITTER,
     DEFAULT_ALONG_JITTER,

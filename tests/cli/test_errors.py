@@ -22,11 +22,11 @@ from affine import Affine
 from click.testing import CliRunner, Result
 
 import nightlights as nl
-from cli.main import cli
-from cli.reference import walk
 from nightlights import _parallel
 from nightlights._resources import check_memory, set_memory_limit
 from nightlights.io import RasterBand, write_cog
+from nightlights_cli.main import cli
+from nightlights_cli.reference import walk
 
 DATA = Path(__file__).parents[1] / "data"
 IES = DATA / "ies" / "holg__eulumdat-rs" / "OutdoorRoadway_IES_OS_8988-2022_03_AM01_60W_4000K.ies"
@@ -308,7 +308,7 @@ import json, resource, signal, sys
 from pathlib import Path
 resource.setrlimit(resource.RLIMIT_AS, (4 * 1024**3, resource.RLIM_INFINITY))
 from click.testing import CliRunner
-from cli.main import cli
+from nightlights_cli.main import cli
 
 def expire(signum, frame):
     raise TimeoutError("no refusal within 10 s: the request was not estimated")

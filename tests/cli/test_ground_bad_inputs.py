@@ -21,8 +21,8 @@ from rasterio.transform import from_origin
 from shapely.geometry import Point
 
 import nightlights as nl
-from cli.main import cli
 from nightlights._resources import set_memory_limit
+from nightlights_cli.main import cli
 
 PREVIOUS = b"previous output"
 

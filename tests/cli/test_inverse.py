@@ -17,11 +17,11 @@ from affine import Affine
 from click.testing import CliRunner, Result
 
 import nightlights.inverse
-from cli import inverse as inverse_cli
-from cli.main import cli
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights_cli import inverse as inverse_cli
+from nightlights_cli.main import cli
 
 #: Observer at the centre of the 20 x 20 grid of 100 m cells [m, EPSG:32635].
 OBSERVER = ["--observer", "501000,6699000"]
@@ -409,7 +409,7 @@ def test_mirrored_choices_equal_the_library() -> None:
 
 def test_inverse_help_does_not_import_the_library() -> None:
     code = (
-        "import sys; from click.testing import CliRunner; from cli.main import cli; "
+        "import sys; from click.testing import CliRunner; from nightlights_cli.main import cli; "
         "result = CliRunner().invoke(cli, ['inverse', 'reduce', '--help']); "
         "assert result.exit_code == 0 and '--target-region' in result.output, result.output; "
         "heavy = {'rasterio', 'xarray', 'shapely', 'nightlights.inverse', 'nightlights.sky'} "

@@ -11,7 +11,7 @@ import rasterio
 from click.testing import CliRunner
 from shapely.geometry import box
 
-from cli.main import cli
+from nightlights_cli.main import cli
 
 CRS = "EPSG:3067"
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli.main import cli
 from nightlights.sky.store import read_kernel
+from nightlights_cli.main import cli
 
 SMALL = ["--r-max", "5000", "--n-distance", "4", "--n-elevation", "4", "--n-azimuth", "8"]
 

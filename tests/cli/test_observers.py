@@ -11,11 +11,11 @@ from affine import Affine
 from click.testing import CliRunner
 from shapely.geometry import Point
 
-from cli import observers as command_module
-from cli.main import cli
 from nightlights.io import RasterBand, write_cog
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky import observers as stage_module
+from nightlights_cli import observers as command_module
+from nightlights_cli.main import cli
 
 CRS = "EPSG:32635"
 TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)

@@ -1,5 +1,6 @@
-"""cli.options: INPUT... OUTPUT and -o/--output, --overwrite, deprecated spellings, and the
-library constants the CLI mirrors so that ``nightlights --help`` does not import the library."""
+"""nightlights_cli.options: INPUT... OUTPUT and -o/--output, --overwrite, deprecated spellings,
+and the library constants the CLI mirrors so that ``nightlights --help`` does not import the
+library."""
 
 from __future__ import annotations
 
@@ -11,16 +12,16 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from cli import options
-from cli.main import cli
-from cli.options import (
+from nightlights_cli import options
+from nightlights_cli.main import cli
+from nightlights_cli.options import (
     DefaultCommandGroup,
     OutputExistsError,
     deprecated_option,
     one_of,
     resolve_inout,
 )
-from cli.reference import walk
+from nightlights_cli.reference import walk
 
 # --- the mirrored constants ---------------------------------------------------------------------
 
@@ -52,7 +53,7 @@ def test_mirrored_constants_equal_the_library() -> None:
 
 def test_help_does_not_import_the_library() -> None:
     code = (
-        "import sys; from cli.main import cli; "
+        "import sys; from nightlights_cli.main import cli; "
         "heavy = {'geopandas', 'rasterio', 'xarray', 'numba', 'ies', 'bayesnets', "
         "'nightlights.streets', 'nightlights.ground', 'nightlights.sky'} & set(sys.modules); "
         "assert not heavy, heavy"
@@ -61,7 +62,7 @@ def test_help_does_not_import_the_library() -> None:
 
 
 def test_shared_options_mean_the_same_everywhere() -> None:
-    """An option name defined once in cli.options has one help text in every command."""
+    """An option name defined once in nightlights_cli.options has one help text in every command."""
     helps: dict[str, set[str]] = {}
     for command, _ in walk(cli, "nightlights"):
         for param in command.params:

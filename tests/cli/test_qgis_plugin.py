@@ -14,10 +14,10 @@ from typing import Any
 import pytest
 from click.testing import CliRunner, Result
 
-from cli import qgis
-from cli.main import cli
 from nightlights.qgis import PLUGIN_FOLDER, toolkit_command
 from nightlights.qgis.plugin.messages import parse_zenith
+from nightlights_cli import qgis
+from nightlights_cli.main import cli
 
 
 def _build(*args: str) -> Result:

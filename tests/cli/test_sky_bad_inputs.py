@@ -17,10 +17,10 @@ from affine import Affine
 from click.testing import CliRunner
 
 import nightlights as nl
-from cli.main import cli
 from nightlights._resources import set_memory_limit
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
+from nightlights_cli.main import cli
 
 TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)  # 20 x 20 cells of 100 m
 OBSERVER = ["--observer", "501000,6699000"]

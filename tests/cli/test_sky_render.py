@@ -12,8 +12,8 @@ from click.testing import CliRunner
 from pyproj import Transformer
 
 import nightlights.nightsky
-from cli import sky as sky_cli
-from cli.main import NightlightsGroup
+from nightlights_cli import sky as sky_cli
+from nightlights_cli.main import NightlightsGroup
 
 TIME = "2026-01-20T22:00:00Z"
 #: An observer in Helsinki (ETRS-TM35FIN), for a panorama's attributes.

@@ -9,9 +9,9 @@ import pytest
 from click.testing import CliRunner
 
 from bayesnets import read_network
-from cli import streets as streets_cli
-from cli.main import cli
 from nightlights.streets._learn import DEFAULT_MAX_DISTANCE
+from nightlights_cli import streets as streets_cli
+from nightlights_cli.main import cli
 
 
 @pytest.fixture(scope="module")
