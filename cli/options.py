@@ -11,15 +11,22 @@ of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memo
 ``--crs`` or ``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the
 library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
 
-This module imports only click, so that ``nightlights --help`` stays fast: the choices and
-defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they
-are equal) instead of importing it.
+This module imports only click, so that ``nightlights --help`` stays fast. The choices and
+defaults that are the library's (a stage's modes, a dataclass's default) are not repeated here:
+:class:`FromLibrary` names the library's constant, which is read when a command's help or
+arguments first need it (``tests/cli/test_options.py`` reads every one). Each option is
+declared once, below, with its library parameter's name: the flag is the parameter with dashes
+(``observer_crs=`` is ``--observer-crs``), a repeatable option takes the singular of its list
+parameter (``--sensor`` for ``sensors=``); an older spelling stays as a hidden
+:class:`DeprecatedOption` for one release.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
-from collections.abc import Callable, Sequence
+import typing
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -27,30 +34,121 @@ import click
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-# --- mirrors of library constants (checked by tests/cli/test_options.py) --------------------
-#: nightlights.sky.panorama.MODES
-SKYGLOW_MODES = ("pca", "exact", "naive")
-#: nightlights.sky.render.PROJECTIONS
-PROJECTIONS = ("equirectangular", "fisheye")
-#: nightlights.sky.kernel.BACKENDS
-KERNEL_BACKENDS = ("auto", "numba", "numpy")
-#: nightlights.ground.upward.DEFAULT_VIIRS_SPECTRUM
-DEFAULT_VIIRS_SPECTRUM = "LED_4000K"
-#: nightlights.ground.area_lights.AreaLightOptions.height [m]
-DEFAULT_AREA_HEIGHT = 8.0
-#: nightlights.streets.PlacementOptions.along_jitter [1]
-DEFAULT_ALONG_JITTER = 0.05
-#: nightlights.streets.PlacementOptions.across_jitter [m]
-DEFAULT_ACROSS_JITTER = 0.2
-#: nightlights.streets.PlacementOptions.merge_fraction [1]
-DEFAULT_MERGE_FRACTION = 0.5
-#: nightlights.streets.DEFAULT_CANDIDATES
-DEFAULT_CANDIDATES = 128
-#: nightlights.streets.builtin_mappings()
-BUILTIN_MAPPINGS = ("municipal", "osm")
-#: bayesnets.catalog_names() and bayesnets.default_network_name()
-NETWORK_CATALOG = ("east_asia", "europe", "generic", "helsinki", "north_america")
-DEFAULT_NETWORK = "europe"
+
+# --- values of the library, read when first needed ---------------------------------------------
+
+
+class FromLibrary:
+    """A constant of the library, imported on first use (``--help`` must not load the library).
+
+    Parameters
+    ----------
+    module
+        The module that defines it (``"nightlights.sky.panorama"``).
+    attribute
+        Its name, dotted for an attribute of a class (``"AreaLightOptions.height"``); a trailing
+        ``()`` calls it (``"builtin_mappings()"``); a ``Literal`` type stands for its values.
+
+    Calling the object returns the value; ``str()`` gives it as ``--help`` shows a default.
+    """
+
+    def __init__(self, module: str, attribute: str) -> None:
+        self.module = module
+        self.attribute = attribute
+
+    def __call__(self) -> Any:
+        value: Any = importlib.import_module(self.module)
+        call = self.attribute.endswith("()")
+        for part in self.attribute.removesuffix("()").split("."):
+            value = getattr(value, part)
+        if call:
+            return value()
+        # a Literal type (the library's ``OnConflict``) stands for its values
+        return typing.get_args(value) if typing.get_origin(value) is typing.Literal else value
+
+    def __str__(self) -> str:
+        value = self()
+        return ", ".join(map(str, value)) if isinstance(value, list | tuple) else str(value)
+
+    def __repr__(self) -> str:
+        return f"FromLibrary({self.module!r}, {self.attribute!r})"
+
+
+class LibraryChoice(click.Choice):  # type: ignore[type-arg]
+    """A :class:`click.Choice` whose choices are a constant of the library (:class:`FromLibrary`),
+    read when first needed."""
+
+    def __init__(self, source: FromLibrary, case_sensitive: bool = True) -> None:
+        self.source = source
+        self.case_sensitive = case_sensitive
+
+    @property  # type: ignore[override]
+    def choices(self) -> tuple[Any, ...]:
+        return tuple(self.source())
+
+    @choices.setter
+    def choices(self, value: Any) -> None:
+        raise AttributeError("the choices of a LibraryChoice are the library's")
+
+
+class LibraryHelpOption(click.Option):
+    """An option whose help names values of the library: ``{name}`` fields of the help are
+    filled from ``help_values`` (each a :class:`FromLibrary`) when the help is shown."""
+
+    def __init__(
+        self, *args: Any, help_values: Mapping[str, FromLibrary] | None = None, **kwargs: Any
+    ) -> None:
+        self.help_values = dict(help_values or {})
+        super().__init__(*args, **kwargs)
+
+    @property  # type: ignore[override]
+    def help(self) -> str | None:
+        if self._help is None or not self.help_values:
+            return self._help
+        return self._help.format(**{key: str(v) for key, v in self.help_values.items()})
+
+    @help.setter
+    def help(self, value: str | None) -> None:
+        self._help = value
+
+
+# the library's constants that options use (each read when first needed)
+SKYGLOW_MODES = FromLibrary("nightlights.sky.panorama", "MODES")
+PROJECTIONS = FromLibrary("nightlights.sky.render", "PROJECTIONS")
+KERNEL_BACKENDS = FromLibrary("nightlights.sky.kernel", "BACKENDS")
+KERNEL_PRECISIONS = FromLibrary("nightlights.sky.pca", "PRECISIONS")
+MULTIPLE_SCATTERING_MODELS = FromLibrary("nightlights.sky.multiple", "MULTIPLE_SCATTERING_MODELS")
+IRRADIANCE_BACKENDS = FromLibrary("nightlights.ground.illuminance", "BACKENDS")
+DEFAULT_VIIRS_SPECTRUM = FromLibrary("nightlights.ground.upward", "DEFAULT_VIIRS_SPECTRUM")
+DEFAULT_AREA_HEIGHT = FromLibrary("nightlights.ground.area_lights", "AreaLightOptions.height")
+DEFAULT_MAX_RADIUS = FromLibrary("nightlights.ground.influence", "InfluenceThreshold.max_radius")
+DEFAULT_ALONG_JITTER = FromLibrary("nightlights.streets._place", "PlacementOptions.along_jitter")
+DEFAULT_ACROSS_JITTER = FromLibrary("nightlights.streets._place", "PlacementOptions.across_jitter")
+DEFAULT_MERGE_FRACTION = FromLibrary(
+    "nightlights.streets._place", "PlacementOptions.merge_fraction"
+)
+DEFAULT_CANDIDATES = FromLibrary("nightlights.streets._sample", "DEFAULT_CANDIDATES")
+DEFAULT_MAX_DISTANCE = FromLibrary("nightlights.streets._learn", "DEFAULT_MAX_DISTANCE")
+BUILTIN_MAPPINGS = FromLibrary("nightlights.streets", "builtin_mappings()")
+NETWORK_CATALOG = FromLibrary("bayesnets", "catalog_names()")
+ON_CONFLICT = FromLibrary("bayesnets.sampling", "OnConflict")
+Q_METRICS = FromLibrary("nightlights.inverse._influence", "METRICS")
+S_WEIGHTS = FromLibrary("nightlights.inverse._influence", "WEIGHTS")
+S_METHODS = FromLibrary("nightlights.inverse.stage", "S_METHODS")
+OBSERVER_SCHEDULERS = FromLibrary("nightlights.sky.observers", "SCHEDULERS")
+SKY_PROJECTIONS = FromLibrary("nightlights.nightsky.render", "PROJECTIONS")
+TONE_MODES = FromLibrary("nightlights.nightsky.tonemap", "MODES")
+PROJECT_STAGES = FromLibrary("nightlights.project", "STAGES")
+
+
+def kernel_default(field: str) -> FromLibrary:
+    """The default of a :class:`~nightlights.sky.KernelSpec` field."""
+    return FromLibrary("nightlights.sky.spec", f"KernelSpec.{field}")
+
+
+def atmosphere_default(field: str) -> FromLibrary:
+    """The default of an :class:`~nightlights.sky.atmosphere.Atmosphere` field."""
+    return FromLibrary("nightlights.sky.atmosphere", f"Atmosphere.{field}")
 
 
 class OutputExistsError(click.ClickException):
@@ -270,6 +368,16 @@ def deprecated_option(*decls: str, replacement: str, **kwargs: Any) -> Callable[
     return click.option(*decls, cls=DeprecatedOption, replacement=replacement, **kwargs)
 
 
+class DeprecatedCommand(click.Command):
+    """A hidden command kept for one release; the command reference names ``replacement``
+    (its callback prints the deprecation note, as it knows which command it runs instead)."""
+
+    def __init__(self, *args: Any, replacement: str, **kwargs: Any) -> None:
+        kwargs.setdefault("hidden", True)
+        super().__init__(*args, **kwargs)
+        self.replacement = replacement
+
+
 class DefaultCommandGroup(click.Group):
     """A group that runs ``default_command`` when the first argument names no subcommand.
 
@@ -314,6 +422,12 @@ class DefaultCommandGroup(click.Group):
         return args
 
 
+def given(ctx: click.Context, name: str) -> Any:
+    """The value of option ``name`` when given on the command line, else None."""
+    source = ctx.get_parameter_source(name)
+    return ctx.params[name] if source is click.core.ParameterSource.COMMANDLINE else None
+
+
 def one_of(ctx: click.Context, **values: Any) -> Any:
     """The one value given among ``values`` (keyword = option as typed); both given: error."""
     given = {name: value for name, value in values.items() if value is not None}
@@ -323,6 +437,18 @@ def one_of(ctx: click.Context, **values: Any) -> Any:
 
 
 # --- options of several commands --------------------------------------------------------------
+
+
+def options(*decorators: Callable[[F], F]) -> Callable[[F], F]:
+    """Several option decorators as one, applied in the order given (the help lists them so)."""
+
+    def apply(function: F) -> F:
+        for decorator in reversed(decorators):
+            function = decorator(function)
+        return function
+
+    return apply
+
 
 SEED_HELP = "Random seed; the same seed gives the same output."
 #: Seeds of numpy's random generators are non-negative integers.
@@ -357,4 +483,132 @@ target_crs_option = click.option(
     metavar="CRS",
     help="Projected output CRS in metres (default: the input's if projected, else its local "
     "UTM zone).",
+)
+dem_option = click.option(
+    "--dem",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Terrain heights above sea level [m] (raster): the ground under each light or lit "
+    "cell, the observers' altitude and their horizon.",
+)
+prior_option = click.option(
+    "--prior",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Pseudo-observations per parent combination from the base network (0: maximum "
+    "likelihood).",
+)
+
+
+# --- the scene and its observers (skyglow, inverse, darkness, sky observers, explore) ----------
+
+
+def parse_pair(text: str, option: str = "--observer") -> tuple[float, float]:
+    """``X,Y`` -> two floats."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{text!r}; expected X,Y", param_hint=option) from None
+    return x, y
+
+
+#: One observer's place (the sky commands of one observer).
+observer_option = click.option(
+    "--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs)."
+)
+#: Several observers (``observers=``), each given with its own ``--observer``.
+observers_option = click.option(
+    "--observer",
+    "observers",
+    multiple=True,
+    metavar="X,Y",
+    help="Observer X,Y (in --observer-crs); repeat for several.",
+)
+observer_crs_option = click.option(
+    "--observer-crs",
+    default=None,
+    metavar="CRS",
+    help="CRS of the observers' coordinates (default: the emission raster's).",
+)
+#: Eye height of a standing person; the sky stages' default (``observer_height=``).
+DEFAULT_OBSERVER_HEIGHT = 1.7
+observer_height_option = click.option(
+    "--observer-height",
+    type=float,
+    default=DEFAULT_OBSERVER_HEIGHT,
+    show_default=True,
+    help="Above ground [m].",
+)
+kernel_option = click.option(
+    "--kernel",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel that "
+    "covers the scene's distances and altitudes.",
+)
+turbidity_option = click.option(
+    "--turbidity",
+    cls=LibraryHelpOption,
+    type=float,
+    default=None,
+    help="Turbidity T (default {turbidity}; a given --kernel fixes it).",
+    help_values={"turbidity": atmosphere_default("turbidity")},
+)
+scene_grid_options = options(
+    click.option(
+        "--n-azimuth",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Panorama columns of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_azimuth")},
+    ),
+    click.option(
+        "--n-elevation",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Panorama rows of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_elevation")},
+    ),
+    click.option(
+        "--n-distance",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Distance bins of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_distance")},
+    ),
+)
+#: The scene of one observer's sky: ``skyglow``, ``inverse q`` and ``inverse s``.
+scene_options = options(
+    observer_option,
+    observer_crs_option,
+    observer_height_option,
+    dem_option,
+    kernel_option,
+    turbidity_option,
+    scene_grid_options,
+)
+components_option = click.option(
+    "--components",
+    type=int,
+    default=None,
+    help="PCA bases to use at run time, the first of those the kernel stores (default: all).",
+)
+num_workers_option = options(
+    click.option(
+        "--num-workers",
+        type=click.IntRange(min=1),
+        default=None,
+        help="Workers of the local threads or processes scheduler (default: one per core).",
+    ),
+    deprecated_option(
+        "--workers",
+        "old_workers",
+        type=click.IntRange(min=1),
+        default=None,
+        replacement="--num-workers",
+    ),
 )

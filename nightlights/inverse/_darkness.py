@@ -407,7 +407,7 @@ def darkness(
         given = float(table.attrs.get("turbidity", np.nan))
         if turbidity is not None and not np.isclose(turbidity, given):
             raise InputError(
-                f"turbidity {turbidity} differs from the kernel's ({given}); omit --turbidity "
+                f"turbidity {turbidity} differs from the kernel's ({given}); omit turbidity= "
                 "or build a kernel for it"
             )
     else:
@@ -457,7 +457,7 @@ def darkness(
             observer_levels=observer_levels.size,
         ),
         f"the darkness map of {rows} x {cols} cells",
-        option="--chunk-size (or coarsen the emission raster)",
+        option="lower chunk_size= (or coarsen the emission raster)",
     )
     plan = _Plan(
         stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),

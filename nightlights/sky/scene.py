@@ -160,8 +160,8 @@ def skyglow_panorama(
         raise InputError(f"bands {bands!r}; expected V or RGB")
     if bands == "RGB" and (kernel is not None or mode == "naive"):
         raise InputError(
-            "--bands RGB builds one scene kernel per tristimulus band: give no --kernel and "
-            "use mode pca or exact"
+            "bands='RGB' builds one scene kernel per tristimulus band: give no kernel= and "
+            "use mode='pca' or 'exact'"
         )
     setup = prepare_scene(
         emission,

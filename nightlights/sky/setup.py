@@ -276,7 +276,7 @@ def prepare_scene(
     if turbidity is not None and kernel is not None and not np.isclose(turbidity, kernel_turbidity):
         raise InputError(
             f"turbidity {turbidity} differs from the kernel's ({kernel_turbidity}); "
-            "omit --turbidity or build a kernel for it"
+            "omit turbidity= or build a kernel for it"
         )
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
     offset = level_offset(heights, None, levels)
@@ -297,7 +297,7 @@ def prepare_scene(
         ),
         f"the polar map and panorama of {cells.n_cells} lit cells ({first.elevation.size} x "
         f"{first.n_az} pixels)",
-        option="lower --n-azimuth or --n-elevation, or coarsen the emission raster",
+        option="lower n_azimuth= or n_elevation=, or coarsen the emission raster",
     )
     return SceneSetup(
         label=label,
@@ -556,10 +556,9 @@ def check_kernel_grid(table: xr.Dataset, **given: int | None) -> None:
     }
     for name, value in given.items():
         if value is not None and int(value) != actual[name]:
-            option = "--" + name.replace("_", "-")
             raise InputError(
-                f"{option} {value}: the kernel fixes the grid ({actual[name]}); omit "
-                f"{option} with --kernel, or build a kernel with it"
+                f"{name}={value}: the kernel fixes the grid ({actual[name]}); omit "
+                f"{name}= with kernel=, or build a kernel with it"
             )
 
 
@@ -585,9 +584,9 @@ def _check_reach(
     x, y = xy
     gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
     hint = (
-        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give --observer-crs EPSG:4326"
+        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give observer_crs='EPSG:4326'"
         if observer_crs is None and _looks_like_degrees(x, y)
-        else "; check the coordinates and --observer-crs"
+        else "; check the coordinates and observer_crs="
     )
     if gap >= reach:
         raise InputError(
@@ -601,7 +600,7 @@ def _check_reach(
         warnings.warn(
             f"observer ({x:g}, {y:g}) lies outside {label} ({r_left:.1f}, {r_bottom:.1f}, "
             f"{r_right:.1f}, {r_top:.1f}) and its coordinates look like degrees; if they are "
-            "longitude and latitude, give --observer-crs EPSG:4326",
+            "longitude and latitude, give observer_crs='EPSG:4326'",
             DataQualityWarning,
             stacklevel=4,
         )

@@ -29,9 +29,9 @@ from nightlights_cli.options import (
     FiniteFloatRange,
     MemorySize,
     one_of,
+    parse_pair,
     resolve_inout,
 )
-from nightlights_cli.skyglow import parse_pair
 
 FUZZ = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -20,7 +20,6 @@ import nightlights.inverse
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.brightness import luminance_to_magnitude
-from nightlights_cli import inverse as inverse_cli
 from nightlights_cli.main import cli
 
 #: Observer at the centre of the 20 x 20 grid of 100 m cells [m, EPSG:32635].
@@ -396,15 +395,6 @@ def test_by_mode_reaches_inverse_reduce(
 
 
 # --- import cost and mirrored constants ---------------------------------------------------------
-
-
-def test_mirrored_choices_equal_the_library() -> None:
-    from nightlights.inverse._influence import METRICS, WEIGHTS
-    from nightlights.inverse.stage import S_METHODS
-
-    assert inverse_cli.Q_METRICS == tuple(METRICS)
-    assert inverse_cli.S_WEIGHTS == tuple(WEIGHTS)
-    assert inverse_cli.S_METHODS == tuple(S_METHODS)
 
 
 def test_inverse_help_does_not_import_the_library() -> None:

@@ -13,16 +13,10 @@ from shapely.geometry import Point
 
 from nightlights.io import RasterBand, write_cog
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky import observers as stage_module
-from nightlights_cli import observers as command_module
 from nightlights_cli.main import cli
 
 CRS = "EPSG:32635"
 TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)
-
-
-def test_mirrored_constants_match_the_library() -> None:
-    assert command_module.SCHEDULERS == stage_module.SCHEDULERS
 
 
 @pytest.fixture(scope="module")

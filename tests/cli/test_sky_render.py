@@ -39,14 +39,6 @@ def panorama(tmp_path: Path) -> Path:
     return path
 
 
-def test_mirrored_constants_equal_the_library() -> None:
-    from nightlights.nightsky.render import PROJECTIONS
-    from nightlights.nightsky.tonemap import MODES
-
-    assert sky_cli.SKY_PROJECTIONS == PROJECTIONS
-    assert sky_cli.TONE_MODES == MODES
-
-
 def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[dict] = []
 
