@@ -74,7 +74,7 @@ class FromLibrary:
         return f"FromLibrary({self.module!r}, {self.attribute!r})"
 
 
-class LibraryChoice(click.Choice):  # type: ignore[type-arg]
+class LibraryChoice(click.Choice):
     """A :class:`click.Choice` whose choices are a constant of the library (:class:`FromLibrary`),
     read when first needed."""
 
@@ -82,7 +82,7 @@ class LibraryChoice(click.Choice):  # type: ignore[type-arg]
         self.source = source
         self.case_sensitive = case_sensitive
 
-    @property  # type: ignore[override]
+    @property
     def choices(self) -> tuple[Any, ...]:
         return tuple(self.source())
 
@@ -101,7 +101,7 @@ class LibraryHelpOption(click.Option):
         self.help_values = dict(help_values or {})
         super().__init__(*args, **kwargs)
 
-    @property  # type: ignore[override]
+    @property
     def help(self) -> str | None:
         if self._help is None or not self.help_values:
             return self._help

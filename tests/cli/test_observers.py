@@ -67,7 +67,7 @@ def test_summary_and_panoramas(scene: dict[str, Path], tmp_path: Path) -> None:
     [
         (["--scheduler", "fast"], 2, "'fast'; expected one of threads"),
         (["--top-cells", "-1"], 2, "-1 is not in the range"),
-        (["--layer", "nowhere"], 1, "cannot read vector layer 'nowhere'"),
+        (["--observers-layer", "nowhere"], 1, "cannot read vector layer 'nowhere'"),
         (["--observer-height", "-1"], 1, "observer height -1.0 m"),
     ],
 )

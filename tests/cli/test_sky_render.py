@@ -58,7 +58,7 @@ def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
         "perspective",
         "--view-azimuth",
         "200",
-        "--fov",
+        "--field-of-view",
         "60",
         "--tone",
         "photo",
