@@ -99,7 +99,7 @@ def test_errors_are_one_line(lights: Path, tmp_path: Path) -> None:
         cli, ["irradiance", str(lights), str(tmp_path / "e.tif"), "--resolution", "0"]
     )
     assert result.exit_code != 0
-    assert "InputError: resolution=0.0 m" in result.output
+    assert "InputError: --resolution=0.0 m" in result.output
     assert "Traceback" not in result.output
     result = runner.invoke(
         cli,

@@ -251,7 +251,7 @@ CASES = [
         [*PLACE, "--across-jitter", "1e9"],
         sampled_input,
         1,
-        ["across_jitter=1000000000.0 m", "at most 10 m"],
+        ["--across-jitter=1000000000.0 m", "at most 10 m"],
     ),
     Case(
         "place-unknown-system",
