@@ -306,7 +306,7 @@ def _resolve_conflicts(
             f"network {network.name!r}: impossible evidence (probability 0) in "
             f"{_format_records(all_records, total)}; first conflict: "
             f"{_describe(network, observed)}; dropping {culprit} would make it possible "
-            "(use on_conflict='relax' / --on-conflict relax)"
+            "(use on_conflict='relax')"
         )
     summaries = []
     for index in impossible:

@@ -45,7 +45,7 @@ def _run_demo(out: Path, cache: Path, *extra: str) -> dict[str, Any]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-c", "from cli.main import main; main()", "demo", str(out), *extra],
+        [sys.executable, "-m", "nightlights_cli", "demo", str(out), *extra],
         env={**os.environ, "NIGHTLIGHTS_CACHE": str(cache)},
         capture_output=True,
         text=True,

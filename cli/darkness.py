@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import click
 
-from cli.options import (
+from .options import (
+    dem_option,
     files_argument,
+    kernel_option,
+    observer_height_option,
     output_option,
     overwrite_option,
     resolve_inout,
+    scene_grid_options,
     scheduler_option,
+    turbidity_option,
 )
 
 
@@ -17,22 +22,10 @@ from cli.options import (
 @files_argument("EMISSION OUTPUT")
 @output_option
 @overwrite_option
-@click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
-@click.option(
-    "--dem",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Terrain heights above sea level [m] covering the emission raster: each observer "
-    "stands above its cell, each source at its own height.",
-)
-@click.option(
-    "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel "
-    "covering the region (at most 300 km).",
-)
-@click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
+@observer_height_option
+@dem_option
+@kernel_option
+@turbidity_option
 @click.option(
     "--chunk-size",
     type=click.IntRange(min=1),
@@ -41,25 +34,7 @@ from cli.options import (
     "kernel radius); a raster within one chunk is one FFT.",
 )
 @scheduler_option
-@click.option(
-    "--n-distance",
-    type=int,
-    default=None,
-    help="Distance bins of the scene kernel built when --kernel is not given (default 64; a "
-    "given --kernel fixes it).",
-)
-@click.option(
-    "--n-elevation",
-    type=int,
-    default=None,
-    help="Scene kernel rows (default 64; a given --kernel fixes it).",
-)
-@click.option(
-    "--n-azimuth",
-    type=int,
-    default=None,
-    help="Scene kernel columns (default 256; a given --kernel fixes it).",
-)
+@scene_grid_options
 def darkness(
     files: tuple[str, ...],
     output: str | None,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from cli.options import (
+from .options import (
     SEED_HELP,
     OutputExistsError,
     deprecated_option,
@@ -58,8 +58,9 @@ def demo(
 
     from rich.console import Console
 
-    from cli.run import print_outputs
     from nightlights.demo import run_demo
+
+    from .run import print_outputs
 
     console = Console(stderr=True, emoji=False, highlight=False, soft_wrap=True)
     with console.status("running the Helsinki demo (the bundled project helsinki.toml) ..."):

@@ -15,7 +15,7 @@ from typing import Any
 
 import click
 
-from cli.options import (
+from .options import (
     DEFAULT_VIIRS_SPECTRUM,
     DefaultCommandGroup,
     catalog_option,

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import click
 
-from cli.options import one_of
+from .options import (
+    dem_option,
+    kernel_option,
+    observer_height_option,
+    one_of,
+    turbidity_option,
+)
 
 #: Options that a session file (``--session``) fixes.
 SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
@@ -18,22 +24,10 @@ SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
     default=None,
     help="The light points (nightlights streets place) to show on the map.",
 )
-@click.option(
-    "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel.",
-)
-@click.option(
-    "--dem",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Terrain heights above sea level [m] covering the emission raster.",
-)
-@click.option(
-    "--observer-height", type=float, default=1.7, show_default=True, help="Above ground [m]."
-)
-@click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
+@kernel_option
+@dem_option
+@observer_height_option
+@turbidity_option
 @click.option(
     "--session",
     "session_file",

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from cli.options import OutputExistsError, overwrite_option
+from .options import OutputExistsError, overwrite_option
 
 DEFAULT_PROJECT_FILE = "nightlights.toml"
 

@@ -1,109 +1,61 @@
 """``nightlights inverse``: which lights cause the glow an observer sees, and how to dim them.
 
-Three subcommands over :mod:`nightlights.inverse` (Dobashi et al. 2023, Sec. 4):
+Four subcommands over :mod:`nightlights.inverse` (Dobashi et al. 2023, Sec. 4), one library
+function each:
 
-- ``inverse q EMISSION Q``: each lit cell's light-pollution level Q_i (Eqs. 10-11), or its
-  part of the zenith or hemisphere-mean sky luminance;
-- ``inverse s EMISSION S --region REGION``: each cell's part of the skyglow in a region of the
-  sky (Eqs. 13-14);
-- ``inverse reduce EMISSION REDUCED``: dim the emission, either by a Q or S raster (Eq. 12,
-  ``--by``) or by the least flux that meets sky-brightness targets (``--target-zenith``,
-  ``--target-region``).
+- ``inverse q EMISSION Q`` (``inverse_q``): each lit cell's light-pollution level Q_i
+  (Eqs. 10-11), or its part of the zenith or hemisphere-mean sky luminance;
+- ``inverse s EMISSION S --region REGION`` (``inverse_s``): each cell's part of the skyglow in
+  a region of the sky (Eqs. 13-14);
+- ``inverse dim EMISSION DIMMED --by Q --qa A --qb B`` (``inverse_reduce``): the emission
+  dimmed by the rule of Eq. 12 over a Q or S raster;
+- ``inverse plan EMISSION DIMMED --observer X,Y --target-zenith MAG`` (``least_dimming``):
+  the least flux removed that meets sky-brightness targets (a linear program).
 
-Like every command module this imports only click; the choices below mirror constants of the
-library (``tests/cli/test_inverse.py`` checks that they are equal).
+``inverse reduce`` (both jobs in one command) is kept, hidden, for one release: it dispatches
+to ``dim`` (given ``--by``) or ``plan`` (given targets) with a deprecation note.
+
+Like every command module this imports only click; the choices are the library's
+(:class:`~nightlights_cli.options.FromLibrary`), read when first needed.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import click
 
-from cli.options import (
+from .options import (
+    Q_METRICS,
+    S_METHODS,
+    S_WEIGHTS,
+    DeprecatedCommand,
+    LibraryChoice,
     check_outputs,
+    components_option,
+    dem_option,
+    deprecated_option,
     files_argument,
+    kernel_option,
+    observer_crs_option,
+    observer_height_option,
+    observers_option,
+    one_of,
+    options,
     output_option,
     overwrite_option,
+    parse_pair,
     resolve_inout,
+    scene_options,
+    warn_deprecated,
 )
-from cli.skyglow import parse_pair
-
-F = TypeVar("F", bound=Callable[..., Any])
-
-# --- mirrors of library constants (checked by tests/cli/test_inverse.py) ----------------------
-#: nightlights.inverse._influence.METRICS
-Q_METRICS = ("pca-norm", "zenith", "hemisphere")
-#: nightlights.inverse._influence.WEIGHTS
-S_WEIGHTS = ("solid-angle", "pixel")
-#: nightlights.inverse.stage.S_METHODS
-S_METHODS = ("pca", "brute")
 
 REGION_HELP = (
     "Region of the sky: 'az,el az,el ...' (closed: the first vertex repeated at the end), "
     "zenith:R, horizon:AZ1,AZ2,EL, or a GeoJSON/WKT polygon file (x azimuth, y elevation) [deg]."
 )
-
-
-# --- options shared by the subcommands ----------------------------------------------------------
-
-observer_crs_option = click.option(
-    "--observer-crs", default=None, metavar="CRS", help="CRS of --observer (default: the raster's)."
-)
-observer_height_option = click.option(
-    "--observer-height", default=1.7, show_default=True, help="Above ground [m]."
-)
-dem_option = click.option(
-    "--dem",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Terrain heights above sea level [m] (raster): observer altitude, each lit cell's own "
-    "source altitude, horizon mask.",
-)
-kernel_option = click.option(
-    "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.",
-)
-
-
-def scene_options(function: F) -> F:
-    """The observer and scene options of ``inverse q`` and ``inverse s`` (as ``skyglow``)."""
-    decorators = [
-        click.option(
-            "--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs)."
-        ),
-        observer_crs_option,
-        observer_height_option,
-        dem_option,
-        kernel_option,
-        click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2)."),
-        click.option(
-            "--n-azimuth",
-            type=int,
-            default=None,
-            help="Panorama columns (default 256; a given --kernel fixes it).",
-        ),
-        click.option(
-            "--n-elevation",
-            type=int,
-            default=None,
-            help="Panorama rows (default 64; a given --kernel fixes it).",
-        ),
-        click.option(
-            "--n-distance",
-            type=int,
-            default=None,
-            help="Distance bins of the scene kernel built when --kernel is not given (default "
-            "64; a given --kernel fixes it).",
-        ),
-    ]
-    for decorator in reversed(decorators):
-        function = decorator(function)
-    return function
 
 
 @click.group("inverse")
@@ -113,8 +65,8 @@ def inverse() -> None:
     \b
     nightlights inverse q EMISSION Q --observer X,Y [--metric pca-norm|zenith|hemisphere]
     nightlights inverse s EMISSION S --observer X,Y --region REGION
-    nightlights inverse reduce EMISSION REDUCED --by Q --qa A --qb B [--gamma G]
-    nightlights inverse reduce EMISSION REDUCED --observer X,Y --target-zenith MAG
+    nightlights inverse dim EMISSION DIMMED --by Q --qa A --qb B [--gamma G]
+    nightlights inverse plan EMISSION DIMMED --observer X,Y --target-zenith MAG
 
     REGION is 'az,el az,el ...' (closed polygon), zenith:R, horizon:AZ1,AZ2,EL or a
     GeoJSON/WKT file, angles in degrees (azimuth clockwise from north).
@@ -131,7 +83,7 @@ def inverse() -> None:
 @scene_options
 @click.option(
     "--metric",
-    type=click.Choice(Q_METRICS),
+    type=LibraryChoice(Q_METRICS),
     default="pca-norm",
     show_default=True,
     help="pca-norm: Q_i, the norm of the cell's PCA coefficients (Dobashi Eq. 11); zenith: the "
@@ -186,7 +138,7 @@ def q_command(
 @click.option("--region", required=True, metavar="REGION", help=REGION_HELP)
 @click.option(
     "--weight",
-    type=click.Choice(S_WEIGHTS),
+    type=LibraryChoice(S_WEIGHTS),
     default="solid-angle",
     show_default=True,
     help="solid-angle: the cell's part of the region's solid-angle-weighted mean luminance; "
@@ -194,18 +146,13 @@ def q_command(
 )
 @click.option(
     "--method",
-    type=click.Choice(S_METHODS),
+    type=LibraryChoice(S_METHODS),
     default="pca",
     show_default=True,
     help="pca: FFT cross-correlation with the PCA bases (fast); brute: each cell's raw kernel "
     "image summed over the region (the reference).",
 )
-@click.option(
-    "--components",
-    type=int,
-    default=None,
-    help="PCA bases to use at run time, the first of those the kernel stores (default: all).",
-)
+@components_option
 def s_command(
     files: tuple[str, ...],
     output: str | None,
@@ -252,178 +199,294 @@ def s_command(
     _report_influence(result, out)
 
 
-# --- reduce -------------------------------------------------------------------------------------
+# --- dim and plan -------------------------------------------------------------------------------
+
+#: The options of both dimming commands: the products written besides OUTPUT.
+dimming_products = options(
+    click.option(
+        "--dimming-output",
+        default=None,
+        type=click.Path(dir_okay=False),
+        help="Write the dimming fraction of each cell (COG, band 'dimming') [1].",
+    ),
+    deprecated_option(
+        "--dimming-out",
+        "old_dimming_out",
+        default=None,
+        type=click.Path(dir_okay=False),
+        replacement="--dimming-output",
+    ),
+    click.option(
+        "--summary-output",
+        default=None,
+        type=click.Path(dir_okay=False),
+        help="Write the summary (flux removed, sky before and after) as JSON.",
+    ),
+    deprecated_option(
+        "--summary",
+        "old_summary",
+        default=None,
+        type=click.Path(dir_okay=False),
+        replacement="--summary-output",
+    ),
+    click.option(
+        "--png",
+        default=None,
+        type=click.Path(dir_okay=False),
+        help="Before/after panoramas of the (first) observer side by side.",
+    ),
+)
+rule_options = options(
+    click.option(
+        "--by",
+        type=click.Path(exists=True, dir_okay=False),
+        required=True,
+        help="The Q or S raster (inverse q / inverse s) to dim by.",
+    ),
+    click.option(
+        "--qa", type=float, required=True, help="Q_a: no dimming below it [unit of --by]."
+    ),
+    click.option(
+        "--qb", type=float, required=True, help="Q_b: full --gamma dimming above it [unit of --by]."
+    ),
+    click.option(
+        "--gamma",
+        type=float,
+        default=1.0,
+        show_default=True,
+        help="gamma_usr in [0, 1]: the fraction of flux removed above Q_b [1].",
+    ),
+)
+target_options = options(
+    click.option(
+        "--target-zenith",
+        type=float,
+        default=None,
+        metavar="MAG",
+        help="Zenith sky brightness every --observer must reach [mag arcsec-2].",
+    ),
+    click.option(
+        "--target-region",
+        "target_region",
+        multiple=True,
+        metavar="REGION:MAG",
+        help="A region of the sky and the brightness its mean must reach for every --observer "
+        "[mag arcsec-2]; split at the last colon (zenith:30:21.5); repeat for several.",
+    ),
+    click.option(
+        "--max-dimming",
+        default=None,
+        metavar="FRACTION|RASTER",
+        help="Largest fraction of any cell's flux the targets may remove: a number in [0, 1] or "
+        "a raster on EMISSION's grid [1] (default 1).",
+    ),
+)
 
 
-@inverse.command("reduce")
+@inverse.command("dim")
 @files_argument("EMISSION OUTPUT")
 @output_option
 @overwrite_option
-@click.option(
-    "--by",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Dim by this Q or S raster (inverse q / inverse s) by Dobashi Eq. 12; needs --qa, --qb.",
-)
-@click.option("--qa", type=float, default=None, help="Q_a: no dimming below it [unit of --by].")
-@click.option(
-    "--qb", type=float, default=None, help="Q_b: full --gamma dimming above it [unit of --by]."
-)
-@click.option(
-    "--gamma",
-    type=float,
-    default=1.0,
-    show_default=True,
-    help="gamma_usr in [0, 1]: the fraction of flux removed above Q_b [1].",
-)
-@click.option(
-    "--target-zenith",
-    type=float,
-    default=None,
-    metavar="MAG",
-    help="Zenith sky brightness every --observer must reach [mag arcsec-2]; the least flux is "
-    "removed.",
-)
-@click.option(
-    "--target-region",
-    "target_regions",
-    multiple=True,
-    metavar="REGION:MAG",
-    help="A region of the sky and the brightness its mean must reach for every --observer "
-    "[mag arcsec-2]; split at the last colon (zenith:30:21.5); repeat for several.",
-)
-@click.option(
-    "--observer",
-    "observers",
-    multiple=True,
-    metavar="X,Y",
-    help="Observer X,Y (in --observer-crs) of the targets; repeat for several.",
-)
-@observer_crs_option
-@observer_height_option
+@rule_options
 @dem_option
 @kernel_option
-@click.option(
-    "--max-dimming",
-    default=None,
-    metavar="FRACTION|RASTER",
-    help="Largest fraction of any cell's flux the targets may remove: a number in [0, 1] or a "
-    "raster on EMISSION's grid [1] (default 1).",
-)
-@click.option(
-    "--dimming-out",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Write the dimming fraction of each cell (COG, band 'dimming') [1].",
-)
-@click.option(
-    "--summary",
-    "summary_out",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Write the summary (flux removed, sky before and after) as JSON.",
-)
-@click.option(
-    "--png",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Before/after panoramas of the first observer side by side.",
-)
+@dimming_products
 @click.pass_context
-def reduce_command(
+def dim_command(
     ctx: click.Context,
     files: tuple[str, ...],
     output: str | None,
     overwrite: bool,
-    by: str | None,
-    qa: float | None,
-    qb: float | None,
+    by: str,
+    qa: float,
+    qb: float,
     gamma: float,
-    target_zenith: float | None,
-    target_regions: tuple[str, ...],
+    dem: str | None,
+    kernel: str | None,
+    dimming_output: str | None,
+    old_dimming_out: str | None,
+    summary_output: str | None,
+    old_summary: str | None,
+    png: str | None,
+) -> None:
+    """Dim EMISSION by a Q or S raster (--by) with the rule of Dobashi Eq. 12: no dimming
+    below Q_a, the fraction gamma above Q_b, linear between; write OUTPUT."""
+    dimming_output, summary_output = _products(
+        ctx, dimming_output, old_dimming_out, summary_output, old_summary
+    )
+    (emission,), out = resolve_inout(
+        files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
+    )
+    check_outputs([dimming_output, summary_output, png], overwrite=overwrite)
+    from nightlights import inverse as library
+
+    result = library.inverse_reduce(
+        emission,
+        out,
+        by=by,
+        qa=qa,
+        qb=qb,
+        gamma=gamma,
+        dem=dem,
+        kernel=kernel,
+        dimming_output=dimming_output,
+        summary_output=summary_output,
+        png=png,
+    )
+    _print(_summary_lines(result.summary, out))
+
+
+@inverse.command("plan")
+@files_argument("EMISSION OUTPUT")
+@output_option
+@overwrite_option
+@observers_option
+@target_options
+@observer_crs_option
+@observer_height_option
+@dem_option
+@kernel_option
+@dimming_products
+@click.pass_context
+def plan_command(
+    ctx: click.Context,
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
     observers: tuple[str, ...],
+    target_zenith: float | None,
+    target_region: tuple[str, ...],
+    max_dimming: str | None,
     observer_crs: str | None,
     observer_height: float,
     dem: str | None,
     kernel: str | None,
-    max_dimming: str | None,
-    dimming_out: str | None,
-    summary_out: str | None,
+    dimming_output: str | None,
+    old_dimming_out: str | None,
+    summary_output: str | None,
+    old_summary: str | None,
     png: str | None,
 ) -> None:
-    """Dim EMISSION and write OUTPUT: by a Q/S raster (--by, Dobashi Eq. 12), or by the least
-    flux that meets sky-brightness targets (--target-zenith, --target-region)."""
-    by_mode = by is not None
-    target_mode = target_zenith is not None or bool(target_regions)
-    if by_mode == target_mode:
-        raise click.UsageError(
-            "give either --by Q/S raster with --qa and --qb, or --target-zenith and/or "
-            "--target-region with --observer; " + ("not both" if by_mode else "neither was given"),
-            ctx,
-        )
-    targets = [_region_target(text) for text in target_regions]
-    if by_mode:
-        _refuse(
-            ctx,
-            "apply only to --target-zenith/--target-region (--by names its observer)",
-            **{
-                "--observer": observers or None,
-                "--observer-crs": observer_crs,
-                "--max-dimming": max_dimming,
-                "--observer-height": _changed(ctx, "observer_height"),
-            },
-        )
-        if qa is None or qb is None:
-            raise click.UsageError("--by needs --qa and --qb", ctx)
-    else:
-        _refuse(
-            ctx,
-            "apply only to --by",
-            **{"--qa": qa, "--qb": qb, "--gamma": _changed(ctx, "gamma")},
-        )
-        if not observers:
-            raise click.UsageError("--target-zenith/--target-region need --observer X,Y", ctx)
+    """Dim EMISSION by the least flux that meets sky-brightness targets (--target-zenith,
+    --target-region) for every --observer: a linear program; write OUTPUT."""
+    if target_zenith is None and not target_region:
+        raise click.UsageError("give --target-zenith and/or --target-region", ctx)
+    if not observers:
+        raise click.UsageError("give the targets' --observer X,Y (repeat for several)", ctx)
+    targets = [_region_target(text) for text in target_region]
     observer_xys = [parse_pair(text) for text in observers]
     cap = _max_dimming(max_dimming)
+    dimming_output, summary_output = _products(
+        ctx, dimming_output, old_dimming_out, summary_output, old_summary
+    )
     (emission,), out = resolve_inout(
         files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
     )
-    check_outputs([dimming_out, summary_out, png], overwrite=overwrite)
-
+    check_outputs([dimming_output, summary_output, png], overwrite=overwrite)
     from nightlights import inverse as library
 
-    if by_mode:
-        assert by is not None and qa is not None and qb is not None
-        result = library.inverse_reduce(
-            emission,
-            out,
-            by=by,
-            qa=qa,
-            qb=qb,
-            gamma=gamma,
-            dem=dem,
-            kernel=kernel,
-            dimming_output=dimming_out,
-            summary_output=summary_out,
-            png=png,
-        )
-    else:
-        result = library.least_dimming(
-            emission,
-            out,
-            observers=observer_xys,
-            target_zenith=target_zenith,
-            target_region=targets,
-            max_dimming=cap,
-            observer_crs=observer_crs,
-            observer_height=observer_height,
-            dem=dem,
-            kernel=kernel,
-            dimming_output=dimming_out,
-            summary_output=summary_out,
-            png=png,
-        )
+    result = library.least_dimming(
+        emission,
+        out,
+        observers=observer_xys,
+        target_zenith=target_zenith,
+        target_region=targets,
+        max_dimming=cap,
+        observer_crs=observer_crs,
+        observer_height=observer_height,
+        dem=dem,
+        kernel=kernel,
+        dimming_output=dimming_output,
+        summary_output=summary_output,
+        png=png,
+    )
     _print(_summary_lines(result.summary, out))
+
+
+def _products(
+    ctx: click.Context,
+    dimming_output: str | None,
+    old_dimming_out: str | None,
+    summary_output: str | None,
+    old_summary: str | None,
+) -> tuple[str | None, str | None]:
+    """``--dimming-output`` and ``--summary-output``, or their deprecated spellings."""
+    return (
+        one_of(ctx, **{"--dimming-output": dimming_output, "--dimming-out": old_dimming_out}),
+        one_of(ctx, **{"--summary-output": summary_output, "--summary": old_summary}),
+    )
+
+
+# --- reduce: both, deprecated -------------------------------------------------------------------
+
+
+@inverse.command(
+    "reduce",
+    cls=DeprecatedCommand,
+    replacement="`inverse dim` (`--by`, `--qa`, `--qb`, `--gamma`) or `inverse plan` "
+    "(`--target-zenith`, `--target-region`, `--max-dimming`)",
+)
+@files_argument("EMISSION OUTPUT")
+@output_option
+@overwrite_option
+@click.option("--by", type=click.Path(exists=True, dir_okay=False), default=None)
+@click.option("--qa", type=float, default=None)
+@click.option("--qb", type=float, default=None)
+@click.option("--gamma", type=float, default=1.0)
+@target_options
+@observers_option
+@observer_crs_option
+@observer_height_option
+@dem_option
+@kernel_option
+@dimming_products
+@click.pass_context
+def reduce_command(ctx: click.Context, **params: Any) -> None:
+    """Deprecated: inverse dim (--by) or inverse plan (--target-zenith, --target-region)."""
+    by_mode = params["by"] is not None
+    target_mode = params["target_zenith"] is not None or bool(params["target_region"])
+    if by_mode == target_mode:
+        raise click.UsageError(
+            "give either --by Q/S raster with --qa and --qb (inverse dim), or --target-zenith "
+            "and/or --target-region with --observer (inverse plan); "
+            + ("not both" if by_mode else "neither was given"),
+            ctx,
+        )
+    rule = ("by", "qa", "qb", "gamma")
+    plan = (
+        "observers",
+        "target_zenith",
+        "target_region",
+        "max_dimming",
+        "observer_crs",
+        "observer_height",
+    )
+    command, own, other = (dim_command, rule, plan) if by_mode else (plan_command, plan, rule)
+    flags = {param.name: param.opts[0] for param in ctx.command.params}
+    given = [
+        flags[name]
+        for name in other
+        if ctx.get_parameter_source(name) is click.core.ParameterSource.COMMANDLINE
+    ]
+    if given:
+        raise click.UsageError(f"{', '.join(given)}: not an option of inverse {command.name}", ctx)
+    if by_mode and (params["qa"] is None or params["qb"] is None):
+        raise click.UsageError("--by needs --qa and --qb", ctx)
+    group = ctx.parent.command_path if ctx.parent is not None else "nightlights inverse"
+    warn_deprecated(ctx, f"{ctx.command_path} is deprecated; use {group} {command.name}.")
+    shared = (
+        "files",
+        "output",
+        "overwrite",
+        "dem",
+        "kernel",
+        "dimming_output",
+        "old_dimming_out",
+        "summary_output",
+        "old_summary",
+        "png",
+    )
+    ctx.invoke(command, **{name: params[name] for name in (*shared, *own)})
 
 
 # --- helpers ------------------------------------------------------------------------------------
@@ -455,19 +518,6 @@ def _max_dimming(text: str | None) -> float | str:
     raise click.BadParameter(
         f"{text!r}; expected a number in [0, 1] or an existing raster", param_hint="--max-dimming"
     )
-
-
-def _changed(ctx: click.Context, name: str) -> Any:
-    """The value of option ``name`` when given on the command line, else None."""
-    source = ctx.get_parameter_source(name)
-    return ctx.params[name] if source is click.core.ParameterSource.COMMANDLINE else None
-
-
-def _refuse(ctx: click.Context, why: str, **given: Any) -> None:
-    """Usage error naming the options among ``given`` that were set."""
-    named = [name for name, value in given.items() if value is not None]
-    if named:
-        raise click.UsageError(f"{', '.join(named)}: {why}", ctx)
 
 
 def _magnitude(values: Mapping[str, Any], when: str) -> str:

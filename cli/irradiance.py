@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import click
 
-from cli.options import (
+from .options import (
     DEFAULT_AREA_HEIGHT,
+    DEFAULT_MAX_RADIUS,
+    IRRADIANCE_BACKENDS,
+    LibraryChoice,
     catalog_option,
     crs_option,
+    dem_option,
     files_argument,
     output_option,
     overwrite_option,
@@ -15,10 +19,6 @@ from cli.options import (
     scheduler_option,
     skip_unknown_option,
 )
-
-#: ``--backend`` choices (``nightlights.ground.illuminance.BACKENDS``, repeated so that the
-#: command's help does not import the kernel).
-IRRADIANCE_BACKENDS = ("numba", "numpy")
 
 
 def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
@@ -61,12 +61,7 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
     help="Growth of the default extent [m] (default: the largest region of influence).",
 )
 @catalog_option
-@click.option(
-    "--dem",
-    default=None,
-    type=click.Path(exists=True, dir_okay=False),
-    help="Terrain heights above sea level [m] (raster): ground height and surface normals.",
-)
+@dem_option
 @click.option(
     "--threshold",
     default="floor:0.01",
@@ -76,7 +71,7 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
 @click.option(
     "--max-radius",
     type=float,
-    default=1000.0,
+    default=DEFAULT_MAX_RADIUS,
     show_default=True,
     help="Cap on the region-of-influence radius [m].",
 )
@@ -111,7 +106,7 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
 @click.option("--tile-size", type=int, default=1024, show_default=True, help="Tile edge [px].")
 @click.option(
     "--backend",
-    type=click.Choice(IRRADIANCE_BACKENDS),
+    type=LibraryChoice(IRRADIANCE_BACKENDS),
     default="numba",
     show_default=True,
     help="Illuminance kernel: numba (compiled) or numpy (reference).",

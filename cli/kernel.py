@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import click
 
-from cli.options import (
+from .options import (
     KERNEL_BACKENDS,
+    KERNEL_PRECISIONS,
+    MULTIPLE_SCATTERING_MODELS,
+    LibraryChoice,
+    atmosphere_default,
     deprecated_option,
     files_argument,
+    given,
+    kernel_default,
     one_of,
     output_option,
     overwrite_option,
@@ -26,7 +33,13 @@ def kernel() -> None:
 @files_argument("OUTPUT")
 @output_option
 @overwrite_option
-@click.option("--turbidity", type=float, default=2.0, show_default=True, help="Turbidity T >= 1.")
+@click.option(
+    "--turbidity",
+    type=float,
+    default=atmosphere_default("turbidity"),
+    show_default=True,
+    help="Turbidity T >= 1.",
+)
 @click.option(
     "--aerosol-optical-depth",
     type=float,
@@ -34,24 +47,49 @@ def kernel() -> None:
     help="Vertical aerosol optical depth (overrides --turbidity).",
 )
 @click.option(
-    "--wavelength",
+    "--wavelength-nm",
     type=float,
-    default=550.0,
+    default=atmosphere_default("wavelength_nm"),
     show_default=True,
     help="Wavelength of the single band [nm].",
 )
-@click.option("--r-min", type=float, default=10.0, show_default=True, help="Inner distance [m].")
-@click.option(
-    "--r-max", type=float, default=100_000.0, show_default=True, help="Outer distance [m]."
+@deprecated_option(
+    "--wavelength", "old_wavelength", type=float, default=None, replacement="--wavelength-nm"
 )
 @click.option(
-    "--n-distance", type=int, default=64, show_default=True, help="Log-spaced distance bins."
+    "--r-min",
+    type=float,
+    default=kernel_default("r_min"),
+    show_default=True,
+    help="Inner distance [m].",
 )
 @click.option(
-    "--n-elevation", type=int, default=64, show_default=True, help="Elevation rows (0-90 deg)."
+    "--r-max",
+    type=float,
+    default=kernel_default("r_max"),
+    show_default=True,
+    help="Outer distance [m].",
 )
 @click.option(
-    "--n-azimuth", type=int, default=256, show_default=True, help="Azimuth columns (even)."
+    "--n-distance",
+    type=int,
+    default=kernel_default("n_distance"),
+    show_default=True,
+    help="Log-spaced distance bins.",
+)
+@click.option(
+    "--n-elevation",
+    type=int,
+    default=kernel_default("n_elevation"),
+    show_default=True,
+    help="Elevation rows (0-90 deg).",
+)
+@click.option(
+    "--n-azimuth",
+    type=int,
+    default=kernel_default("n_azimuth"),
+    show_default=True,
+    help="Azimuth columns (even).",
 )
 @click.option(
     "--source-altitude",
@@ -68,29 +106,38 @@ def kernel() -> None:
     help="Observer altitude above sea level [m]; repeat for several levels (default 0).",
 )
 @click.option(
-    "--nodes", type=int, default=12, show_default=True, help="Gauss nodes per line-of-sight panel."
+    "--nodes",
+    type=int,
+    default=kernel_default("nodes"),
+    show_default=True,
+    help="Gauss nodes per line-of-sight panel.",
 )
 @click.option(
-    "--energy", type=float, default=0.999999, show_default=True, help="PCA explained energy."
+    "--pca-energy",
+    type=float,
+    default=kernel_default("pca_energy"),
+    show_default=True,
+    help="PCA explained energy.",
 )
+@deprecated_option("--energy", "old_energy", type=float, default=None, replacement="--pca-energy")
 @click.option(
     "--n-components",
     type=int,
     default=None,
-    help="PCA bases to store, at most the tables' rank (overrides --energy). Not the same as "
+    help="PCA bases to store, at most the tables' rank (overrides --pca-energy). Not the same as "
     "skyglow --components, which uses fewer of the stored bases at run time.",
 )
 @deprecated_option(
     "--components", "old_components", type=int, default=None, replacement="--n-components"
 )
 @click.option(
-    "--error",
-    "pca_error",
+    "--pca-error",
     type=float,
     default=None,
     help="PCA error target: the fewest bases whose reconstruction's mean relative error over "
-    "pixels above 1 % of their image's maximum is at most this (overrides --energy).",
+    "pixels above 1 % of their image's maximum is at most this (overrides --pca-energy).",
 )
+@deprecated_option("--error", "old_error", type=float, default=None, replacement="--pca-error")
 @click.option(
     "--shared-bases/--per-level-bases",
     default=False,
@@ -99,21 +146,25 @@ def kernel() -> None:
 )
 @click.option(
     "--precision",
-    type=click.Choice(["float64", "float32"]),
-    default="float64",
+    type=LibraryChoice(KERNEL_PRECISIONS),
+    default=kernel_default("precision"),
     show_default=True,
     help="Storage precision of the PCA bases and coefficients.",
 )
 @click.option(
     "--altitude-step",
     type=int,
-    default=1,
+    default=kernel_default("altitude_step"),
     show_default=True,
     help="Compute every n-th altitude pair along each line of equal h_c - h_o and "
     "interpolate the others (log-linear in the observer altitude); 1 computes all.",
 )
 @click.option(
-    "--sub-distances", type=int, default=1, show_default=True, help="Distances averaged per bin."
+    "--sub-distances",
+    type=int,
+    default=kernel_default("sub_distances"),
+    show_default=True,
+    help="Distances averaged per bin.",
 )
 @click.option(
     "--uplight/--no-uplight", default=False, show_default=True, help="Also tabulate direct uplight."
@@ -134,23 +185,29 @@ def kernel() -> None:
 @click.option("--flat-earth", is_flag=True, help="Flat Earth instead of a sphere.")
 @click.option(
     "--multiple-scattering",
-    type=click.Choice(["monte-carlo", "single"]),
-    default="monte-carlo",
+    type=LibraryChoice(MULTIPLE_SCATTERING_MODELS),
+    default=kernel_default("multiple_scattering"),
     show_default=True,
     help="monte-carlo: single scattering times the Monte Carlo factor of all scattering "
     "orders (shipped for turbidity 2 and Garstang's K = 1; measured on the first build "
     "otherwise); single: single scattering only (Dobashi et al. 2023).",
 )
 @click.option(
-    "--tables/--no-tables",
+    "--store-tables/--no-store-tables",
     default=False,
     show_default=True,
     help="Keep the raw images next to the PCA bases (needed only by skyglow --mode exact; "
     "most of the file).",
 )
+@deprecated_option(
+    "--tables/--no-tables",
+    "old_tables",
+    default=None,
+    replacement="--store-tables/--no-store-tables",
+)
 @click.option(
     "--backend",
-    type=click.Choice(KERNEL_BACKENDS),
+    type=LibraryChoice(KERNEL_BACKENDS),
     default="auto",
     show_default=True,
     help="Line-of-sight integrator: numba (compiled) or numpy (reference).",
@@ -163,7 +220,8 @@ def build(
     overwrite: bool,
     turbidity: float,
     aerosol_optical_depth: float | None,
-    wavelength: float,
+    wavelength_nm: float,
+    old_wavelength: float | None,
     r_min: float,
     r_max: float,
     n_distance: int,
@@ -172,10 +230,12 @@ def build(
     source_altitudes: tuple[float, ...],
     observer_altitudes: tuple[float, ...],
     nodes: int,
-    energy: float,
+    pca_energy: float,
+    old_energy: float | None,
     n_components: int | None,
     old_components: int | None,
     pca_error: float | None,
+    old_error: float | None,
     shared_bases: bool,
     precision: str,
     altitude_step: int,
@@ -185,7 +245,8 @@ def build(
     tabulated_emission: str | None,
     flat_earth: bool,
     multiple_scattering: str,
-    tables: bool,
+    store_tables: bool,
+    old_tables: bool | None,
     backend: str,
 ) -> None:
     """Build a kernel table and write it to OUTPUT (NetCDF)."""
@@ -194,6 +255,12 @@ def build(
 
     _, out = resolve_inout(files, output, inputs=0, usage="OUTPUT", overwrite=overwrite)
     components = one_of(ctx, **{"--n-components": n_components, "--components": old_components})
+    wavelength_nm = _renamed(
+        ctx, "wavelength_nm", "--wavelength-nm", "--wavelength", old_wavelength
+    )
+    pca_energy = _renamed(ctx, "pca_energy", "--pca-energy", "--energy", old_energy)
+    pca_error = _renamed(ctx, "pca_error", "--pca-error", "--error", old_error)
+    store_tables = _renamed(ctx, "store_tables", "--store-tables", "--tables", old_tables)
     spec = nl.KernelSpec(
         r_min=r_min,
         r_max=r_max,
@@ -205,17 +272,17 @@ def build(
         atmosphere=Atmosphere(
             turbidity=turbidity,
             aerosol_optical_depth=aerosol_optical_depth,
-            wavelength_nm=wavelength,
+            wavelength_nm=wavelength_nm,
             flat_earth=flat_earth,
         ),
         nodes=nodes,
-        pca_energy=energy,
+        pca_energy=pca_energy,
         n_components=components,
         sub_distances=sub_distances,
         uplight=uplight,
         garstang_lobe=garstang_lobe,
         tabulated_emission=tabulated_emission,
-        store_tables=tables,
+        store_tables=store_tables,
         pca_error=pca_error,
         shared_bases=shared_bases,
         precision=precision,
@@ -239,6 +306,14 @@ def build(
         + f") in {time.perf_counter() - start:.1f} s "
         f"-> {out} [{ds.attrs['content_hash'][:12]}]"
     )
+
+
+def _renamed(ctx: click.Context, name: str, new: str, old: str, old_value: Any) -> Any:
+    """The value of option ``name``, or of its deprecated spelling ``old`` when that was given
+    (both given: a usage error)."""
+    if old_value is None:
+        return ctx.params[name]
+    return one_of(ctx, **{new: given(ctx, name), old: old_value})
 
 
 commands = [kernel]

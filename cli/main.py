@@ -5,7 +5,8 @@ this module only builds the group, sets up logging and the memory limit, and rep
 in one line on stderr instead of a traceback:
 
 - usage errors (a bad option value, a missing input): click's message, exit status 2;
-- errors of the toolkit (``NightlightsError``, ``BayesNetError``, ``PhotometryError``) and the
+- errors of the toolkit (``NightlightsError``, ``BayesNetError``, ``PhotometryError``), their
+  Python parameters written as the command's flags (:mod:`nightlights_cli._messages`), and the
   user's mistakes that surface as other libraries' exceptions (a file or folder that cannot be
   read or written, an unknown CRS, too little memory, a dask scheduler that cannot be reached):
   ``Kind: message``, exit status 1;
@@ -26,25 +27,27 @@ from typing import Any
 
 import click
 
-from cli.options import MemorySize, require_finite_floats
 from nightlights import __version__
 
-#: Modules that each expose ``commands``: a list of click commands or groups.
+from ._messages import to_flags
+from .options import MemorySize, require_finite_floats
+
+#: Modules of this package that each expose ``commands``: a list of click commands or groups.
 COMMAND_MODULES = (
-    "cli.streets",
-    "cli.irradiance",
-    "cli.emission",
-    "cli.kernel",
-    "cli.skyglow",
-    "cli.inverse",
-    "cli.darkness",
-    "cli.photometry",
-    "cli.demo",
-    "cli.run",
-    "cli.init",
-    "cli.explore",
-    "cli.sky",
-    "cli.qgis",
+    ".streets",
+    ".irradiance",
+    ".emission",
+    ".kernel",
+    ".skyglow",
+    ".inverse",
+    ".darkness",
+    ".photometry",
+    ".demo",
+    ".run",
+    ".init",
+    ".explore",
+    ".sky",
+    ".qgis",
 )
 
 
@@ -80,8 +83,9 @@ def one_line(text: str) -> str:
     return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
 
 
-def describe(exc: BaseException) -> str:
-    """The one-line report of ``exc`` (a bug's report asks for ``-v``).
+def describe(exc: BaseException, command: click.Command | None = None) -> str:
+    """The one-line report of ``exc`` (a bug's report asks for ``-v``); the toolkit's messages
+    name the flags of ``command`` (and of the others) where the library names its parameters.
 
     Examples
     --------
@@ -92,7 +96,7 @@ def describe(exc: BaseException) -> str:
     """
     kind = type(exc).__name__
     if isinstance(exc, domain_errors()):
-        return f"{kind}: {exc}"
+        return f"{kind}: {to_flags(str(exc), cli, command)}"
     crs_errors = _crs_errors()
     if crs_errors and isinstance(exc, crs_errors):
         return f"CRSError: {one_line(str(exc))}; expected e.g. EPSG:3067 or a WKT/PROJ string"
@@ -107,6 +111,33 @@ def describe(exc: BaseException) -> str:
     )
 
 
+#: Key of ``ctx.meta`` (shared by every context of one run) naming the command that runs.
+RUNNING = "nightlights.command"
+
+
+class NightlightsContext(click.Context):
+    """A context that records its command in ``meta`` (shared by the whole run), so that the
+    group's error report knows the innermost command that ran."""
+
+    def __init__(self, command: click.Command, *args: Any, **kwargs: Any) -> None:
+        super().__init__(command, *args, **kwargs)
+        self.meta[RUNNING] = command
+
+
+def use_context(command: click.Command) -> None:
+    """Give ``command`` and every command under it a :class:`NightlightsContext`."""
+    command.context_class = NightlightsContext
+    if isinstance(command, click.Group):
+        for sub in command.commands.values():
+            use_context(sub)
+
+
+def running_command() -> click.Command | None:
+    """The innermost command of the current run, if one runs."""
+    ctx = click.get_current_context(silent=True)
+    return None if ctx is None else ctx.meta.get(RUNNING)
+
+
 class NightlightsGroup(click.Group):
     """A click group that reports errors in one line (a traceback too with ``-v``)."""
 
@@ -116,7 +147,7 @@ class NightlightsGroup(click.Group):
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
         except Exception as exc:
-            message = describe(exc)
+            message = describe(exc, ctx.meta.get(RUNNING))
             if ctx.params.get("verbose"):
                 import traceback
 
@@ -132,8 +163,10 @@ def _log_warning(
     file: Any = None,
     line: str | None = None,
 ) -> None:
-    """Show a warning as one log line, ``Category: message`` (``-v`` adds where it arose)."""
-    logging.getLogger("py.warnings").warning("%s: %s", category.__name__, message)
+    """Show a warning as one log line, ``Category: message``, the library's parameters written
+    as flags."""
+    text = to_flags(str(message), cli, running_command())
+    logging.getLogger("py.warnings").warning("%s: %s", category.__name__, text)
 
 
 @click.group(cls=NightlightsGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -177,9 +210,10 @@ def cli(ctx: click.Context, verbose: int, quiet: bool, max_memory: int | None) -
 
 
 for _module_name in COMMAND_MODULES:
-    for _command in importlib.import_module(_module_name).commands:
+    for _command in importlib.import_module(_module_name, __package__).commands:
         cli.add_command(_command)
 require_finite_floats(cli)
+use_context(cli)
 
 
 def main() -> None:

@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
-
-# --- mirrors of library constants (checked by tests/cli/test_observers.py) --------------------
-#: nightlights.sky.observers.SCHEDULERS
-SCHEDULERS = ("threads", "processes", "synchronous")
+from .options import (
+    OBSERVER_SCHEDULERS,
+    LibraryHelpOption,
+    dem_option,
+    deprecated_option,
+    files_argument,
+    kernel_option,
+    num_workers_option,
+    observer_crs_option,
+    observer_height_option,
+    one_of,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+    turbidity_option,
+)
 
 
 @click.command("observers")
@@ -16,31 +27,16 @@ SCHEDULERS = ("threads", "processes", "synchronous")
 @output_option
 @overwrite_option
 @click.option(
-    "--layer",
+    "--observers-layer",
     default=None,
     help="Layer of the OBSERVERS file (default: its first); a 'name' field names them.",
 )
-@click.option(
-    "--observer-crs",
-    default=None,
-    metavar="CRS",
-    help="CRS of an OBSERVERS layer that has none.",
-)
-@click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
-@click.option(
-    "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel "
-    "reaching from the farthest observer to the farthest lit cell.",
-)
-@click.option(
-    "--dem",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Terrain heights above sea level [m]: each observer stands on it and sees its horizon.",
-)
-@click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
+@deprecated_option("--layer", "old_layer", default=None, replacement="--observers-layer")
+@observer_crs_option
+@observer_height_option
+@kernel_option
+@dem_option
+@turbidity_option
 @click.option(
     "--panoramas",
     type=click.Path(file_okay=False),
@@ -58,22 +54,22 @@ SCHEDULERS = ("threads", "processes", "synchronous")
 )
 @click.option(
     "--scheduler",
+    cls=LibraryHelpOption,
     default="threads",
     show_default=True,
     metavar="NAME|ADDRESS",
-    help=f"Dask scheduler: {', '.join(SCHEDULERS)}, or a dask.distributed scheduler address.",
+    help="Dask scheduler: {schedulers}, or a dask.distributed scheduler address.",
+    help_values={"schedulers": OBSERVER_SCHEDULERS},
 )
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Workers of the local threads or processes scheduler (default: one per core).",
-)
+@num_workers_option
+@click.pass_context
 def observers(
+    ctx: click.Context,
     files: tuple[str, ...],
     output: str | None,
     overwrite: bool,
-    layer: str | None,
+    observers_layer: str | None,
+    old_layer: str | None,
     observer_crs: str | None,
     observer_height: float,
     kernel: str | None,
@@ -82,7 +78,8 @@ def observers(
     panoramas: str | None,
     top_cells: int,
     scheduler: str,
-    workers: int | None,
+    num_workers: int | None,
+    old_workers: int | None,
 ) -> None:
     """Zenith sky brightness (artificial, natural, total; Bortle class), brightest direction
     and the brightest lit cells of every point of OBSERVERS (any vector file) over EMISSION
@@ -94,9 +91,12 @@ def observers(
     )
     if not out.lower().endswith(".gpkg"):
         raise click.BadParameter(f"{out!r}; expected a .gpkg", param_hint="SUMMARY")
-    if scheduler not in SCHEDULERS and "://" not in scheduler:
+    observers_layer = one_of(ctx, **{"--observers-layer": observers_layer, "--layer": old_layer})
+    num_workers = one_of(ctx, **{"--num-workers": num_workers, "--workers": old_workers})
+    schedulers = OBSERVER_SCHEDULERS()
+    if scheduler not in schedulers and "://" not in scheduler:
         raise click.BadParameter(
-            f"{scheduler!r}; expected one of {', '.join(SCHEDULERS)} or an address such as "
+            f"{scheduler!r}; expected one of {', '.join(schedulers)} or an address such as "
             "tcp://host:8786",
             param_hint="--scheduler",
         )
@@ -108,7 +108,7 @@ def observers(
         emission,
         out,
         observers=points,
-        observers_layer=layer,
+        observers_layer=observers_layer,
         observer_crs=observer_crs,
         observer_height=observer_height,
         kernel=kernel,
@@ -117,7 +117,7 @@ def observers(
         panoramas=panoramas,
         top_cells=top_cells,
         scheduler=scheduler,
-        num_workers=workers,
+        num_workers=num_workers,
         overwrite=overwrite,
     )
     import numpy as np

@@ -7,13 +7,18 @@ An existing output is never replaced unless ``--overwrite`` is given.
 Option values are checked here as far as their type allows, before any work starts: a value
 of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
 :class:`MemorySize`) is a usage error (exit status 2); ``nan`` or ``inf`` for any float option
-(:func:`require_finite_floats`, applied to every command by ``cli.main``) and a ``--crs`` or
-``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the library's
-range checks, with an ``InputError``/``CRSError`` line and exit status 1.
+(:func:`require_finite_floats`, applied to every command by ``nightlights_cli.main``) and a
+``--crs`` or ``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the
+library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
 
-This module imports only click, so that ``nightlights --help`` stays fast: the choices and
-defaults below mirror constants of the library (``tests/cli/test_options.py`` checks that they
-are equal) instead of importing it.
+This module imports only click, so that ``nightlights --help`` stays fast. The choices and
+defaults that are the library's (a stage's modes, a dataclass's default) are not repeated here:
+:class:`~nightlights_cli.library.FromLibrary` names the library's constant, which is read when
+a command's help or arguments first need it (``tests/cli/test_options.py`` reads every one).
+Each option is declared once, below, with its library parameter's name: the flag is the
+parameter with dashes (``observer_crs=`` is ``--observer-crs``), a repeatable option takes the
+singular of its list parameter (``--sensor`` for ``sensors=``); an older spelling stays as a
+hidden :class:`DeprecatedOption` for one release.
 """
 
 from __future__ import annotations
@@ -25,32 +30,95 @@ from typing import Any, TypeVar
 
 import click
 
-F = TypeVar("F", bound=Callable[..., Any])
+from .library import (
+    BUILTIN_MAPPINGS as BUILTIN_MAPPINGS,
+)
+from .library import (
+    DEFAULT_ACROSS_JITTER as DEFAULT_ACROSS_JITTER,
+)
+from .library import (
+    DEFAULT_ALONG_JITTER as DEFAULT_ALONG_JITTER,
+)
+from .library import (
+    DEFAULT_AREA_HEIGHT as DEFAULT_AREA_HEIGHT,
+)
+from .library import (
+    DEFAULT_CANDIDATES as DEFAULT_CANDIDATES,
+)
+from .library import (
+    DEFAULT_MAX_DISTANCE as DEFAULT_MAX_DISTANCE,
+)
+from .library import (
+    DEFAULT_MAX_RADIUS as DEFAULT_MAX_RADIUS,
+)
+from .library import (
+    DEFAULT_MERGE_FRACTION as DEFAULT_MERGE_FRACTION,
+)
+from .library import (
+    DEFAULT_VIIRS_SPECTRUM as DEFAULT_VIIRS_SPECTRUM,
+)
+from .library import (
+    IRRADIANCE_BACKENDS as IRRADIANCE_BACKENDS,
+)
+from .library import (
+    KERNEL_BACKENDS as KERNEL_BACKENDS,
+)
+from .library import (
+    KERNEL_PRECISIONS as KERNEL_PRECISIONS,
+)
+from .library import (
+    MULTIPLE_SCATTERING_MODELS as MULTIPLE_SCATTERING_MODELS,
+)
+from .library import (
+    NETWORK_CATALOG as NETWORK_CATALOG,
+)
+from .library import (
+    OBSERVER_SCHEDULERS as OBSERVER_SCHEDULERS,
+)
+from .library import (
+    ON_CONFLICT as ON_CONFLICT,
+)
+from .library import (
+    PROJECT_STAGES as PROJECT_STAGES,
+)
+from .library import (
+    PROJECTIONS as PROJECTIONS,
+)
+from .library import (
+    Q_METRICS as Q_METRICS,
+)
+from .library import (
+    S_METHODS as S_METHODS,
+)
+from .library import (
+    S_WEIGHTS as S_WEIGHTS,
+)
+from .library import (
+    SKY_PROJECTIONS as SKY_PROJECTIONS,
+)
+from .library import (
+    SKYGLOW_MODES as SKYGLOW_MODES,
+)
+from .library import (
+    TONE_MODES as TONE_MODES,
+)
+from .library import (
+    FromLibrary as FromLibrary,
+)
+from .library import (
+    LibraryChoice as LibraryChoice,
+)
+from .library import (
+    LibraryHelpOption as LibraryHelpOption,
+)
+from .library import (
+    atmosphere_default as atmosphere_default,
+)
+from .library import (
+    kernel_default as kernel_default,
+)
 
-# --- mirrors of library constants (checked by tests/cli/test_options.py) --------------------
-#: nightlights.sky.panorama.MODES
-SKYGLOW_MODES = ("pca", "exact", "naive")
-#: nightlights.sky.render.PROJECTIONS
-PROJECTIONS = ("equirectangular", "fisheye")
-#: nightlights.sky.kernel.BACKENDS
-KERNEL_BACKENDS = ("auto", "numba", "numpy")
-#: nightlights.ground.upward.DEFAULT_VIIRS_SPECTRUM
-DEFAULT_VIIRS_SPECTRUM = "LED_4000K"
-#: nightlights.ground.area_lights.AreaLightOptions.height [m]
-DEFAULT_AREA_HEIGHT = 8.0
-#: nightlights.streets.PlacementOptions.along_jitter [1]
-DEFAULT_ALONG_JITTER = 0.05
-#: nightlights.streets.PlacementOptions.across_jitter [m]
-DEFAULT_ACROSS_JITTER = 0.2
-#: nightlights.streets.PlacementOptions.merge_fraction [1]
-DEFAULT_MERGE_FRACTION = 0.5
-#: nightlights.streets.DEFAULT_CANDIDATES
-DEFAULT_CANDIDATES = 128
-#: nightlights.streets.builtin_mappings()
-BUILTIN_MAPPINGS = ("municipal", "osm")
-#: bayesnets.catalog_names() and bayesnets.default_network_name()
-NETWORK_CATALOG = ("east_asia", "europe", "generic", "helsinki", "north_america")
-DEFAULT_NETWORK = "europe"
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 class OutputExistsError(click.ClickException):
@@ -270,6 +338,16 @@ def deprecated_option(*decls: str, replacement: str, **kwargs: Any) -> Callable[
     return click.option(*decls, cls=DeprecatedOption, replacement=replacement, **kwargs)
 
 
+class DeprecatedCommand(click.Command):
+    """A hidden command kept for one release; the command reference names ``replacement``
+    (its callback prints the deprecation note, as it knows which command it runs instead)."""
+
+    def __init__(self, *args: Any, replacement: str, **kwargs: Any) -> None:
+        kwargs.setdefault("hidden", True)
+        super().__init__(*args, **kwargs)
+        self.replacement = replacement
+
+
 class DefaultCommandGroup(click.Group):
     """A group that runs ``default_command`` when the first argument names no subcommand.
 
@@ -314,6 +392,12 @@ class DefaultCommandGroup(click.Group):
         return args
 
 
+def given(ctx: click.Context, name: str) -> Any:
+    """The value of option ``name`` when given on the command line, else None."""
+    source = ctx.get_parameter_source(name)
+    return ctx.params[name] if source is click.core.ParameterSource.COMMANDLINE else None
+
+
 def one_of(ctx: click.Context, **values: Any) -> Any:
     """The one value given among ``values`` (keyword = option as typed); both given: error."""
     given = {name: value for name, value in values.items() if value is not None}
@@ -323,6 +407,18 @@ def one_of(ctx: click.Context, **values: Any) -> Any:
 
 
 # --- options of several commands --------------------------------------------------------------
+
+
+def options(*decorators: Callable[[F], F]) -> Callable[[F], F]:
+    """Several option decorators as one, applied in the order given (the help lists them so)."""
+
+    def apply(function: F) -> F:
+        for decorator in reversed(decorators):
+            function = decorator(function)
+        return function
+
+    return apply
+
 
 SEED_HELP = "Random seed; the same seed gives the same output."
 #: Seeds of numpy's random generators are non-negative integers.
@@ -357,4 +453,132 @@ target_crs_option = click.option(
     metavar="CRS",
     help="Projected output CRS in metres (default: the input's if projected, else its local "
     "UTM zone).",
+)
+dem_option = click.option(
+    "--dem",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Terrain heights above sea level [m] (raster): the ground under each light or lit "
+    "cell, the observers' altitude and their horizon.",
+)
+prior_option = click.option(
+    "--prior",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Pseudo-observations per parent combination from the base network (0: maximum "
+    "likelihood).",
+)
+
+
+# --- the scene and its observers (skyglow, inverse, darkness, sky observers, explore) ----------
+
+
+def parse_pair(text: str, option: str = "--observer") -> tuple[float, float]:
+    """``X,Y`` -> two floats."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{text!r}; expected X,Y", param_hint=option) from None
+    return x, y
+
+
+#: One observer's place (the sky commands of one observer).
+observer_option = click.option(
+    "--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs)."
+)
+#: Several observers (``observers=``), each given with its own ``--observer``.
+observers_option = click.option(
+    "--observer",
+    "observers",
+    multiple=True,
+    metavar="X,Y",
+    help="Observer X,Y (in --observer-crs); repeat for several.",
+)
+observer_crs_option = click.option(
+    "--observer-crs",
+    default=None,
+    metavar="CRS",
+    help="CRS of the observers' coordinates (default: the emission raster's).",
+)
+#: Eye height of a standing person; the sky stages' default (``observer_height=``).
+DEFAULT_OBSERVER_HEIGHT = 1.7
+observer_height_option = click.option(
+    "--observer-height",
+    type=float,
+    default=DEFAULT_OBSERVER_HEIGHT,
+    show_default=True,
+    help="Above ground [m].",
+)
+kernel_option = click.option(
+    "--kernel",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel that "
+    "covers the scene's distances and altitudes.",
+)
+turbidity_option = click.option(
+    "--turbidity",
+    cls=LibraryHelpOption,
+    type=float,
+    default=None,
+    help="Turbidity T (default {turbidity}; a given --kernel fixes it).",
+    help_values={"turbidity": atmosphere_default("turbidity")},
+)
+scene_grid_options = options(
+    click.option(
+        "--n-azimuth",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Panorama columns of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_azimuth")},
+    ),
+    click.option(
+        "--n-elevation",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Panorama rows of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_elevation")},
+    ),
+    click.option(
+        "--n-distance",
+        cls=LibraryHelpOption,
+        type=int,
+        default=None,
+        help="Distance bins of the scene kernel (default {n}; a given --kernel fixes it).",
+        help_values={"n": kernel_default("n_distance")},
+    ),
+)
+#: The scene of one observer's sky: ``skyglow``, ``inverse q`` and ``inverse s``.
+scene_options = options(
+    observer_option,
+    observer_crs_option,
+    observer_height_option,
+    dem_option,
+    kernel_option,
+    turbidity_option,
+    scene_grid_options,
+)
+components_option = click.option(
+    "--components",
+    type=int,
+    default=None,
+    help="PCA bases to use at run time, the first of those the kernel stores (default: all).",
+)
+num_workers_option = options(
+    click.option(
+        "--num-workers",
+        type=click.IntRange(min=1),
+        default=None,
+        help="Workers of the local threads or processes scheduler (default: one per core).",
+    ),
+    deprecated_option(
+        "--workers",
+        "old_workers",
+        type=click.IntRange(min=1),
+        default=None,
+        replacement="--num-workers",
+    ),
 )

@@ -7,7 +7,7 @@ import warnings
 
 import click
 
-from cli.options import check_outputs, overwrite_option
+from .options import check_outputs, overwrite_option
 
 
 @click.group()

@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
-
-#: nightlights.qgis.PLUGIN_FOLDER + ".zip" (mirrored: ``--help`` must not import the library)
-DEFAULT_PLUGIN_ZIP = "nightlights_processing.zip"
+from .options import files_argument, output_option, overwrite_option, resolve_inout
 
 
 @click.group("qgis-plugin")
@@ -41,7 +38,7 @@ def build_command(
     from nightlights.qgis import build_plugin, toolkit_command
 
     if output is None and not files:
-        output = DEFAULT_PLUGIN_ZIP
+        output = plugin_zip()
     _, out = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=overwrite)
     path = build_plugin(out, command=command, overwrite=overwrite)
     runs = command or toolkit_command()
@@ -51,6 +48,13 @@ def build_command(
         soft_wrap=True,
         highlight=False,
     )
+
+
+def plugin_zip() -> str:
+    """The plugin zip's default name: the plugin's folder name with ``.zip``."""
+    from nightlights.qgis import PLUGIN_FOLDER
+
+    return f"{PLUGIN_FOLDER}.zip"
 
 
 commands = [qgis_plugin]

@@ -2,7 +2,7 @@
 
 Regenerate it with::
 
-    python -m cli.reference > docs/cli.md
+    python -m nightlights_cli.reference > docs/cli.md
 
 ``tests/cli/test_reference.py`` fails when ``docs/cli.md`` is not what :func:`render` gives.
 """
@@ -15,12 +15,12 @@ from collections.abc import Iterator
 
 import click
 
-from cli.options import DefaultCommandGroup, DeprecatedOption
+from .options import DefaultCommandGroup, DeprecatedCommand, DeprecatedOption, FromLibrary
 
 #: click's marker of an option without a default (click >= 8.3), else nothing matches it
 _UNSET = getattr(click.core, "UNSET", object())
 
-COMMAND = "python -m cli.reference > docs/cli.md"
+COMMAND = "python -m nightlights_cli.reference > docs/cli.md"
 
 INTRO = f"""\
 # Command reference
@@ -52,16 +52,21 @@ Conventions, as in rasterio's `rio`:
 
 
 def walk(
-    command: click.Command, name: str, parent: click.Context | None = None
+    command: click.Command,
+    name: str,
+    parent: click.Context | None = None,
+    *,
+    hidden: bool = False,
 ) -> Iterator[tuple[click.Command, click.Context]]:
-    """Every command under ``command`` (itself first), each with its context."""
+    """Every command under ``command`` (itself first), each with its context; hidden ones
+    (deprecated commands) too when ``hidden``."""
     ctx = click.Context(command, info_name=name, parent=parent)
     yield command, ctx
     if isinstance(command, click.Group):
         for sub_name in sorted(command.commands):
             sub = command.commands[sub_name]
-            if not sub.hidden:
-                yield from walk(sub, sub_name, ctx)
+            if hidden or not sub.hidden:
+                yield from walk(sub, sub_name, ctx, hidden=hidden)
 
 
 def _cell(text: str) -> str:
@@ -96,6 +101,8 @@ def _default(option: click.Option) -> str:
         if option.secondary_opts:
             return f"`{option.opts[0] if default else option.secondary_opts[0]}`"
         return ""
+    if isinstance(default, FromLibrary):
+        default = default()
     if default is None or default is _UNSET or callable(default) or default == ():
         return ""
     if isinstance(default, tuple | list):
@@ -117,7 +124,7 @@ def _help(command: click.Command) -> list[str]:
 def render(root: click.Command | None = None, name: str = "nightlights") -> str:
     """The Markdown command reference of ``root`` (default: the ``nightlights`` group)."""
     if root is None:
-        from cli.main import cli
+        from .main import cli
 
         root = cli
     commands = list(walk(root, name))
@@ -126,7 +133,11 @@ def render(root: click.Command | None = None, name: str = "nightlights") -> str:
         summary = inspect.cleandoc(command.help or "").split("\n\n")[0]
         out.append(f"| `{ctx.command_path}` | {_cell(summary)} |")
     out.append("")
-    deprecated: list[tuple[str, str, str]] = []
+    deprecated: list[tuple[str, str, str]] = [
+        (ctx.command_path.rpartition(" ")[0], f"`{ctx.info_name}`", command.replacement)
+        for command, ctx in walk(root, name, hidden=True)
+        if isinstance(command, DeprecatedCommand)
+    ]
     for command, ctx in commands:
         usage = " ".join([ctx.command_path, *command.collect_usage_pieces(ctx)])
         out += [f"## `{ctx.command_path}`", "", f"Usage: `{usage}`", ""]
@@ -169,7 +180,7 @@ def render(root: click.Command | None = None, name: str = "nightlights") -> str:
 
 
 def main() -> None:
-    """Print the reference (``python -m cli.reference > docs/cli.md``)."""
+    """Print the reference (``python -m nightlights_cli.reference > docs/cli.md``)."""
     sys.stdout.write(render())
 
 

@@ -6,22 +6,7 @@ from typing import Any
 
 import click
 
-from cli.options import files_argument, output_option, resolve_inout
-
-STAGE_NAMES = (
-    "normalize",
-    "sample",
-    "place",
-    "irradiance",
-    "emission",
-    "emission-viirs",
-    "skyglow",
-    "observers",
-    "inverse-q",
-    "inverse-s",
-    "inverse-reduce",
-    "darkness",
-)
+from .options import PROJECT_STAGES, LibraryHelpOption, files_argument, output_option, resolve_inout
 
 
 @click.command("run")
@@ -29,10 +14,12 @@ STAGE_NAMES = (
 @output_option
 @click.option(
     "--force",
+    cls=LibraryHelpOption,
     multiple=True,
     metavar="STAGE",
-    help=f"Rerun STAGE and every stage downstream of it even if up to date (repeat). "
-    f"Stages: {', '.join(STAGE_NAMES)}.",
+    help="Rerun STAGE and every stage downstream of it even if up to date (repeat). "
+    "Stages: {stages}.",
+    help_values={"stages": PROJECT_STAGES},
 )
 @click.option(
     "--check",

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import click
 
-from cli.options import files_argument, output_option, overwrite_option, resolve_inout
-
-# --- mirrors of library constants (checked by tests/cli/test_sky_render.py) ------------------
-#: nightlights.nightsky.render.PROJECTIONS
-SKY_PROJECTIONS = ("equirectangular", "fisheye", "perspective")
-#: nightlights.nightsky.tonemap.MODES
-TONE_MODES = ("eye", "photo")
+from .options import (
+    SKY_PROJECTIONS,
+    TONE_MODES,
+    LibraryChoice,
+    deprecated_option,
+    files_argument,
+    given,
+    one_of,
+    output_option,
+    overwrite_option,
+    resolve_inout,
+)
 
 
 def parse_lonlat(text: str) -> tuple[float, float]:
@@ -31,7 +36,7 @@ def sky() -> None:
 @files_argument("OUTPUT")
 @output_option
 @overwrite_option
-@click.option("--time", "when", required=True, metavar="ISO8601", help="Instant (UTC if no zone).")
+@click.option("--time", required=True, metavar="ISO8601", help="Instant (UTC if no zone).")
 @click.option(
     "--lonlat",
     default=None,
@@ -48,11 +53,11 @@ def sky() -> None:
 @click.option("--artificial-only", is_flag=True, help="Only the artificial skyglow.")
 @click.option(
     "--projection",
-    type=click.Choice(SKY_PROJECTIONS),
+    type=LibraryChoice(SKY_PROJECTIONS),
     default="equirectangular",
     show_default=True,
     help="equirectangular (azimuth across, zenith on top), fisheye (zenith in the centre, "
-    "north up, east left) or perspective (--view-azimuth, --view-elevation, --fov).",
+    "north up, east left) or perspective (--view-azimuth, --view-elevation, --field-of-view).",
 )
 @click.option("--width", type=click.IntRange(min=2), default=None, help="Image width [pixel].")
 @click.option(
@@ -68,11 +73,16 @@ def sky() -> None:
     "--view-elevation", type=float, default=30.0, show_default=True, help="Perspective [deg]."
 )
 @click.option(
-    "--fov", type=float, default=90.0, show_default=True, help="Perspective horizontal [deg]."
+    "--field-of-view",
+    type=float,
+    default=90.0,
+    show_default=True,
+    help="Perspective: the horizontal field of view [deg].",
 )
+@deprecated_option("--fov", "old_fov", type=float, default=None, replacement="--field-of-view")
 @click.option(
     "--tone",
-    type=click.Choice(TONE_MODES),
+    type=LibraryChoice(TONE_MODES),
     default="eye",
     show_default=True,
     help="PNG tone mapping: eye (night vision: blue shift, acuity) or photo (camera).",
@@ -84,10 +94,17 @@ def sky() -> None:
     help="Display value per cd m-2 (default from the image's log-average luminance).",
 )
 @click.option(
-    "--white",
+    "--white-temperature",
     type=click.FloatRange(1000.0, 100000.0),
     default=None,
     help="--tone photo: white balance to a light of this colour temperature [K].",
+)
+@deprecated_option(
+    "--white",
+    "old_white",
+    type=click.FloatRange(1000.0, 100000.0),
+    default=None,
+    replacement="--white-temperature",
 )
 @click.option("--no-stars", is_flag=True, help="Leave out the stars.")
 @click.option("--no-moon", is_flag=True, help="Leave out the Moon and its light.")
@@ -103,11 +120,13 @@ def sky() -> None:
     help="Luminaire spectrum that colours a luminance-only panorama.",
 )
 @click.option("--no-legend", is_flag=True, help="No legend strip under the PNG.")
+@click.pass_context
 def render(
+    ctx: click.Context,
     files: tuple[str, ...],
     output: str | None,
     overwrite: bool,
-    when: str,
+    time: str,
     lonlat: str | None,
     panorama: str | None,
     natural_only: bool,
@@ -117,10 +136,12 @@ def render(
     height: int | None,
     view_azimuth: float,
     view_elevation: float,
-    fov: float,
+    field_of_view: float,
+    old_fov: float | None,
     tone: str,
     exposure: float | None,
-    white: float | None,
+    white_temperature: float | None,
+    old_white: float | None,
     no_stars: bool,
     no_moon: bool,
     all_stars: bool,
@@ -130,15 +151,24 @@ def render(
     """Render the night sky at --time from --lonlat (or a --panorama's observer); write
     OUTPUT: .png (tone-mapped, with a legend) or .nc (linear luminance and XYZ [cd m-2])."""
     _, out = resolve_inout(files, output, inputs=0, usage="OUTPUT", overwrite=overwrite)
+    if old_fov is not None:
+        field_of_view = one_of(
+            ctx, **{"--field-of-view": given(ctx, "field_of_view"), "--fov": old_fov}
+        )
+    white_temperature = one_of(
+        ctx, **{"--white-temperature": white_temperature, "--white": old_white}
+    )
     if natural_only and artificial_only:
         raise click.UsageError("--natural-only and --artificial-only exclude each other")
     place = parse_lonlat(lonlat) if lonlat is not None else None
     from nightlights import nightsky
 
-    tone_mapping = nightsky.ToneMapping(mode=tone, exposure=exposure, white_temperature=white)
+    tone_mapping = nightsky.ToneMapping(
+        mode=tone, exposure=exposure, white_temperature=white_temperature
+    )
     result = nightsky.sky_render(
         out,
-        time=when,
+        time=time,
         lonlat=place,
         panorama=panorama,
         natural_only=natural_only,
@@ -148,7 +178,7 @@ def render(
         height=height,
         view_azimuth=view_azimuth,
         view_elevation=view_elevation,
-        field_of_view=fov,
+        field_of_view=field_of_view,
         tone_mapping=tone_mapping,
         stars=not no_stars,
         moon=not no_moon,
@@ -164,6 +194,6 @@ def render(
 commands = [sky]
 
 
-from cli.observers import observers as _observers  # noqa: E402 (a command of this group)
+from .observers import observers as _observers  # noqa: E402 (a command of this group)
 
 sky.add_command(_observers)

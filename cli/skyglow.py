@@ -4,26 +4,21 @@ from __future__ import annotations
 
 import click
 
-from cli.options import (
+from .options import (
     PROJECTIONS,
     SKYGLOW_MODES,
+    LibraryChoice,
     check_outputs,
+    components_option,
     deprecated_option,
     files_argument,
     one_of,
     output_option,
     overwrite_option,
+    parse_pair,
     resolve_inout,
+    scene_options,
 )
-
-
-def parse_pair(text: str) -> tuple[float, float]:
-    """``X,Y`` -> two floats."""
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise click.BadParameter(f"{text!r}; expected X,Y", param_hint="--observer") from None
-    return x, y
 
 
 @click.command("skyglow")
@@ -33,36 +28,20 @@ def parse_pair(text: str) -> tuple[float, float]:
     "--out", "old_out", type=click.Path(dir_okay=False), replacement="OUTPUT or -o/--output"
 )
 @overwrite_option
-@click.option("--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs).")
-@click.option(
-    "--observer-crs", default=None, metavar="CRS", help="CRS of --observer (default: the raster's)."
-)
-@click.option("--observer-height", default=1.7, show_default=True, help="Above ground [m].")
-@click.option("--turbidity", type=float, default=None, help="Turbidity T (default 2).")
-@click.option(
-    "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Precomputed kernel (nightlights kernel build); default: cached scene kernel.",
-)
+@scene_options
 @click.option(
     "--mode",
-    type=click.Choice(SKYGLOW_MODES),
+    type=LibraryChoice(SKYGLOW_MODES),
     default="pca",
     show_default=True,
-    help="pca: fast; exact: the raw tables, no PCA (a kernel built with --tables); naive: "
+    help="pca: fast; exact: the raw tables, no PCA (a kernel built with --store-tables); naive: "
     "direct integration, the slow reference.",
 )
-@click.option(
-    "--components",
-    type=int,
-    default=None,
-    help="PCA bases to use at run time, the first of those the kernel stores (default: all).",
-)
+@components_option
 @click.option("--png", default=None, type=click.Path(dir_okay=False), help="False-colour PNG.")
 @click.option(
     "--projection",
-    type=click.Choice(PROJECTIONS),
+    type=LibraryChoice(PROJECTIONS),
     default="equirectangular",
     show_default=True,
     help="Projection of the --png picture.",
@@ -78,13 +57,6 @@ def parse_pair(text: str) -> tuple[float, float]:
     "--polar-out", "old_polar_out", type=click.Path(dir_okay=False), replacement="--polar-output"
 )
 @click.option(
-    "--dem",
-    type=click.Path(exists=True, dir_okay=False),
-    default=None,
-    help="Terrain heights above sea level [m] (raster): observer altitude, each lit cell's own "
-    "source altitude, horizon mask.",
-)
-@click.option(
     "--bands",
     type=click.Choice(["V", "RGB"]),
     default="V",
@@ -96,25 +68,6 @@ def parse_pair(text: str) -> tuple[float, float]:
     default="LED_4000K",
     show_default=True,
     help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
-)
-@click.option(
-    "--n-azimuth",
-    type=int,
-    default=None,
-    help="Panorama columns (default 256; a given --kernel fixes it).",
-)
-@click.option(
-    "--n-elevation",
-    type=int,
-    default=None,
-    help="Panorama rows (default 64; a given --kernel fixes it).",
-)
-@click.option(
-    "--n-distance",
-    type=int,
-    default=None,
-    help="Distance bins of the scene kernel built when --kernel is not given (default 64; a "
-    "given --kernel fixes it).",
 )
 @click.pass_context
 def skyglow(

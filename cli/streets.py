@@ -13,18 +13,23 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
-from cli.options import (
+from .options import (
     BUILTIN_MAPPINGS,
     DEFAULT_ACROSS_JITTER,
     DEFAULT_ALONG_JITTER,
     DEFAULT_CANDIDATES,
+    DEFAULT_MAX_DISTANCE,
     DEFAULT_MERGE_FRACTION,
     NETWORK_CATALOG,
+    ON_CONFLICT,
+    LibraryChoice,
+    LibraryHelpOption,
     catalog_option,
     crs_option,
     files_argument,
     output_option,
     overwrite_option,
+    prior_option,
     resolve_inout,
     seed_option,
     target_crs_option,
@@ -33,19 +38,17 @@ from cli.options import (
 if TYPE_CHECKING:
     from nightlights.streets import NormalizeReport
 
-#: nightlights.streets._learn.DEFAULT_MAX_DISTANCE [m] (mirrored: ``--help`` must not import the
-#: library; tests/cli/test_streets_learn.py checks that the two agree)
-DEFAULT_MAX_DISTANCE = 25.0
-
 _NETWORK_HELP = (
-    f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: the "
-    "network for where the streets lie, as streets sample chooses it."
+    "Catalogue network ({networks}) or a network folder. Default: the network for where the "
+    "streets lie, as streets sample chooses it."
 )
 _SAMPLE_NETWORK_HELP = (
-    f"Catalogue network ({', '.join(NETWORK_CATALOG)}) or a network folder. Default: chosen "
-    "from where INPUT lies: north_america in North America, europe in Europe, east_asia in "
-    "China, Japan, Korea and Taiwan, generic elsewhere (with a warning)."
+    "Catalogue network ({networks}) or a network folder. Default: chosen from where INPUT lies: "
+    "north_america in North America, europe in Europe, east_asia in China, Japan, Korea and "
+    "Taiwan, generic elsewhere (with a warning)."
 )
+#: The ``{networks}`` of the two helps above.
+_NETWORKS = {"networks": NETWORK_CATALOG}
 
 
 @click.group()
@@ -59,9 +62,11 @@ def streets() -> None:
 @overwrite_option
 @click.option(
     "--mapping",
+    cls=LibraryHelpOption,
     default="osm",
     show_default=True,
-    help=f"Built-in mapping ({', '.join(BUILTIN_MAPPINGS)}) or a TOML file.",
+    help="Built-in mapping ({mappings}) or a TOML file.",
+    help_values={"mappings": BUILTIN_MAPPINGS},
 )
 @click.option("--layer", default=None, help="Input layer (default: first; 'lines' for OSM).")
 @crs_option
@@ -118,7 +123,14 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 @files_argument("INPUT OUTPUT")
 @output_option
 @overwrite_option
-@click.option("--network", default=None, metavar="NAME|DIR", help=_SAMPLE_NETWORK_HELP)
+@click.option(
+    "--network",
+    cls=LibraryHelpOption,
+    default=None,
+    metavar="NAME|DIR",
+    help=_SAMPLE_NETWORK_HELP,
+    help_values=_NETWORKS,
+)
 @seed_option
 @click.option(
     "--candidates",
@@ -129,7 +141,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 )
 @click.option(
     "--on-conflict",
-    type=click.Choice(["error", "relax"]),
+    type=LibraryChoice(ON_CONFLICT),
     default="error",
     show_default=True,
     help="Impossible evidence: stop, or drop the least likely observations with a warning.",
@@ -198,15 +210,15 @@ def print_lighting_summary(streets: Any, dst: str) -> None:
 @streets.command("fit")
 @files_argument("INPUT OUTPUT")
 @output_option
-@click.option("--network", default=None, metavar="BASE", help="Base network: " + _NETWORK_HELP)
 @click.option(
-    "--prior",
-    default=1.0,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Pseudo-observations per parent combination from the base network (0: maximum "
-    "likelihood).",
+    "--network",
+    cls=LibraryHelpOption,
+    default=None,
+    metavar="BASE",
+    help="Base network: " + _NETWORK_HELP,
+    help_values=_NETWORKS,
 )
+@prior_option
 def fit_command(
     files: tuple[str, ...], output: str | None, network: str | None, prior: float
 ) -> None:
@@ -233,7 +245,14 @@ def fit_command(
 @files_argument("STREETS LAMPS OUT_DIR")
 @output_option
 @overwrite_option
-@click.option("--network", default=None, metavar="BASE", help="Base network: " + _NETWORK_HELP)
+@click.option(
+    "--network",
+    cls=LibraryHelpOption,
+    default=None,
+    metavar="BASE",
+    help="Base network: " + _NETWORK_HELP,
+    help_values=_NETWORKS,
+)
 @click.option(
     "--max-distance",
     default=DEFAULT_MAX_DISTANCE,
@@ -241,14 +260,7 @@ def fit_command(
     type=click.FloatRange(min=0, min_open=True),
     help="Largest lamp-to-street distance [m].",
 )
-@click.option(
-    "--prior",
-    default=1.0,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Pseudo-observations per parent combination from the base network (0: maximum "
-    "likelihood).",
-)
+@prior_option
 @click.option(
     "--lamps-layer",
     default=None,
@@ -328,18 +340,21 @@ def print_learn_report(report: Any, dst: str) -> None:
 @seed_option
 @click.option(
     "--along-jitter",
+    type=float,
     default=DEFAULT_ALONG_JITTER,
     show_default=True,
     help="Along-street jitter, fraction of the spacing [1].",
 )
 @click.option(
     "--across-jitter",
+    type=float,
     default=DEFAULT_ACROSS_JITTER,
     show_default=True,
     help="Across-street jitter [m].",
 )
 @click.option(
     "--merge-fraction",
+    type=float,
     default=DEFAULT_MERGE_FRACTION,
     show_default=True,
     help="Merge poles of different streets closer than this fraction of the spacing [1].",

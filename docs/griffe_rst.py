@@ -24,7 +24,7 @@ ROLE = re.compile(
 )
 DIRECTIVE = re.compile(r"^(?P<indent>[ \t]*)\.\. math::[ \t]*(?P<rest>.*)$")
 #: Top-level packages whose dotted names are used as written.
-PACKAGES = ("nightlights", "ies", "bayesnets", "cli")
+PACKAGES = ("nightlights", "ies", "bayesnets", "nightlights_cli")
 
 
 class ReStructuredTextToMarkdown(griffe.Extension):

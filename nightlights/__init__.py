@@ -34,8 +34,8 @@ from nightlights.errors import (
     OutputError,
 )
 
-try:
-    __version__ = version("nightlights")
+try:  # the distribution's name: "nightlights" on the package index is another project
+    __version__ = version("nightlights-gis")
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 

@@ -103,6 +103,6 @@ def _connect(address: str) -> Any:
         return Client(address, set_as_default=False, timeout=SCHEDULER_TIMEOUT)
     except (OSError, ValueError, TypeError) as exc:
         raise InputError(
-            f"--scheduler {address!r}: cannot connect to a dask scheduler: {exc}; expected "
+            f"scheduler={address!r}: cannot connect to a dask scheduler: {exc}; expected "
             "the address of a running scheduler, e.g. tcp://host:8786"
         ) from None

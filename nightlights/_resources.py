@@ -50,6 +50,9 @@ _CGROUP_LIMITS = (
     Path("/sys/fs/cgroup/memory/memory.limit_in_bytes"),  # cgroup v1
 )
 
+#: A parameter named in a hint (``n_distance=``), as opposed to a phrase.
+_PARAMETER = re.compile(r"[a-z_][a-z0-9_]*=")
+
 _override: int | None = None
 
 
@@ -62,7 +65,7 @@ def parse_size(text: str | int | float, *, source: str = "size") -> int:
         Plain bytes, or a number followed by K, M, G, T, P or E (powers of 1024), optionally
         followed by ``B`` or ``iB``.
     source
-        Where the value came from, for the error message (``"--max-memory"``).
+        Where the value came from, for the error message (``"memory limit"``).
 
     Returns
     -------
@@ -206,7 +209,7 @@ def set_memory_limit(value: int | str | None) -> None:
         ``value`` is not a size.
     """
     global _override
-    _override = None if value is None else parse_size(value, source="--max-memory")
+    _override = None if value is None else parse_size(value, source="memory limit")
 
 
 def check_memory(estimate: float, what: str, *, option: str | None = None) -> None:
@@ -220,8 +223,8 @@ def check_memory(estimate: float, what: str, *, option: str | None = None) -> No
         What needs it, to start the message (``"the irradiance raster of 80000 x 80000
         cells"``).
     option
-        How the user lowers the need: an option name (``"--n-distance"``, shown as "lower
-        --n-distance") or a phrase used as it is (``"use a coarser --resolution"``).
+        How the user lowers the need: a parameter (``"n_distance="``, shown as "lower
+        n_distance=") or a phrase used as it is (``"use a coarser resolution="``).
 
     Raises
     ------
@@ -233,12 +236,11 @@ def check_memory(estimate: float, what: str, *, option: str | None = None) -> No
     --------
     >>> set_memory_limit("4G")
     >>> check_memory(1e9, "a small table")
-    >>> check_memory(7.4e9, "the kernel table", option="--n-distance")
+    >>> check_memory(7.4e9, "the kernel table", option="n_distance=")
     Traceback (most recent call last):
     ...
     nightlights.errors.ResourceError: the kernel table needs about 6.9 GiB, more than the \
-4.0 GiB allowed; lower --n-distance or raise the limit with --max-memory / \
-NIGHTLIGHTS_MAX_MEMORY
+4.0 GiB allowed; lower n_distance= or raise the limit with NIGHTLIGHTS_MAX_MEMORY
     >>> set_memory_limit(None)
     """
     if math.isfinite(estimate) and estimate <= 0:
@@ -253,8 +255,8 @@ NIGHTLIGHTS_MAX_MEMORY
     )
     hint = ""
     if option:
-        hint = f"lower {option} or " if option.startswith("-") else f"{option} or "
+        hint = f"lower {option} or " if _PARAMETER.fullmatch(option) else f"{option} or "
     raise ResourceError(
         f"{what} needs {need}, more than the {format_bytes(limit)} allowed; "
-        f"{hint}raise the limit with --max-memory / {ENVIRONMENT_VARIABLE}"
+        f"{hint}raise the limit with {ENVIRONMENT_VARIABLE}"
     )

@@ -14,6 +14,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("nightlights", "bayesnets", "ies", "cli")
+#: Folders installed under another import name (``pyproject.toml``'s package-dir).
+IMPORT_NAMES = {"cli": "nightlights_cli"}
 #: Longest module without a stated reason [lines].
 MAX_LINES = 600
 #: What a longer module must say at the top of its docstring to explain its length.
@@ -24,6 +26,7 @@ def _module_name(path: Path) -> str:
     parts = list(path.relative_to(ROOT).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
+    parts[0] = IMPORT_NAMES.get(parts[0], parts[0])
     return ".".join(parts)
 
 
@@ -128,9 +131,9 @@ def test_no_import_circles() -> None:
 @pytest.mark.parametrize(
     ("package", "forbidden"),
     [
-        ("ies", ("nightlights", "bayesnets", "cli")),
-        ("bayesnets", ("nightlights", "ies", "cli")),
-        ("nightlights", ("cli",)),
+        ("ies", ("nightlights", "bayesnets", "nightlights_cli")),
+        ("bayesnets", ("nightlights", "ies", "nightlights_cli")),
+        ("nightlights", ("nightlights_cli",)),
     ],
 )
 def test_dependency_direction(package: str, forbidden: tuple[str, ...]) -> None:
@@ -188,3 +191,22 @@ def test_code_cites_papers_not_issues_or_outside_files() -> None:
         if CITATION.search(line)
     ]
     assert hits == []
+
+
+def test_cli_modules_import_each_other_relatively() -> None:
+    """The folder ``cli/`` is installed as ``nightlights_cli``: an absolute ``cli.x`` import
+    would fail once installed, and ``nightlights_cli.x`` would read another installed copy."""
+    absolute = []
+    for path in sorted((ROOT / "cli").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names: list[str] = []
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            absolute += [
+                f"{path.name}: {name}"
+                for name in names
+                if name.split(".")[0] in ("cli", *IMPORT_NAMES.values())
+            ]
+    assert absolute == []

@@ -75,9 +75,9 @@ class AreaLightOptions:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.height) and self.height > 0):
-            raise InputError(f"area-source height={self.height!r} m; expected > 0")
+            raise InputError(f"area_options.height={self.height!r} m; expected > 0")
         if self.spacing is not None and not (math.isfinite(self.spacing) and self.spacing > 0):
-            raise InputError(f"area-source spacing={self.spacing!r} m; expected > 0")
+            raise InputError(f"area_options.spacing={self.spacing!r} m; expected > 0")
 
     @property
     def grid_spacing(self) -> float:
@@ -272,7 +272,7 @@ def read_area_lights(
     if exitance_field not in frame:
         raise InputError(
             f"{path}: no field {exitance_field!r} (fields: {', '.join(map(str, frame.columns))});"
-            " name the luminous-exitance field with --exitance-field"
+            " name the luminous-exitance field with exitance_field="
         )
     exitance = pd.to_numeric(frame[exitance_field], errors="coerce").to_numpy(float)
     bad = ~(np.isfinite(exitance) & (exitance >= 0))

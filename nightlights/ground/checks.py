@@ -84,7 +84,7 @@ def parse_crs(value: str | CRS | None, *, option: str) -> CRS | None:
     value
         Anything PROJ reads (``EPSG:3067``, WKT, a PROJ string) or a CRS.
     option
-        Name of the option in the message (``--crs``).
+        Name of the parameter in the message (``crs``).
 
     Raises
     ------
@@ -93,12 +93,12 @@ def parse_crs(value: str | CRS | None, *, option: str) -> CRS | None:
 
     Examples
     --------
-    >>> parse_crs("EPSG:3067", option="--crs").to_epsg()
+    >>> parse_crs("EPSG:3067", option="crs").to_epsg()
     3067
-    >>> parse_crs("garbage", option="--crs")
+    >>> parse_crs("garbage", option="crs")
     Traceback (most recent call last):
     ...
-    nightlights.errors.CRSError: --crs='garbage' is not a coordinate reference system; \
+    nightlights.errors.CRSError: crs='garbage' is not a coordinate reference system; \
 expected e.g. EPSG:3067, a WKT or a PROJ string
     """
     if value is None or isinstance(value, CRS):
@@ -128,7 +128,7 @@ def check_number(
     value
         The number.
     name
-        Option name for the message (``--margin``).
+        Parameter name for the message (``margin``).
     unit
         Unit for the message (``m``).
     minimum
@@ -145,12 +145,12 @@ def check_number(
 
     Examples
     --------
-    >>> check_number(5, "--margin", "m", minimum=0.0)
+    >>> check_number(5, "margin", "m", minimum=0.0)
     5.0
-    >>> check_number(float("nan"), "--margin", "m", minimum=0.0)
+    >>> check_number(float("nan"), "margin", "m", minimum=0.0)
     Traceback (most recent call last):
     ...
-    nightlights.errors.InputError: --margin=nan m; expected a finite number >= 0 m
+    nightlights.errors.InputError: margin=nan m; expected a finite number >= 0 m
     """
     expected = "a finite number" if not allow_inf else "a number"
     if positive:

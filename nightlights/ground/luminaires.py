@@ -345,7 +345,7 @@ def resolve_luminaires(
             f"({sorted({str(s) for s in system_ids[unknown]})})"
         )
         if not skip_unknown:
-            raise InputError(message + "; fix them or pass --skip-unknown to drop them")
+            raise InputError(message + "; fix them or pass skip_unknown=True to drop them")
         warnings.warn(message + "; dropped", DataQualityWarning, stacklevel=2)
         frame = frame.loc[~unknown].reset_index(drop=True)
         ids = ids[~unknown]
@@ -501,7 +501,7 @@ def sensor_factors(
         for i, spectrum in enumerate(spectra):
             if spectrum is None:
                 who = names[i] if names is not None else f"number {i}"
-                hint = " (name one with --area-spectrum)" if who == "area_source" else ""
+                hint = " (name one with area_options.spectrum=)" if who == "area_source" else ""
                 raise InputError(
                     f"sensor {sensor!r} needs a spectrum, but light system {who} has none{hint}"
                 )

@@ -295,7 +295,7 @@ def irradiance(
     if bounds is None:
         reach = float(np.max(radius)) if margin is None else float(margin)
         if not math.isfinite(reach):
-            raise InputError("threshold 'none' gives unbounded regions: name --bounds or --margin")
+            raise InputError("threshold 'none' gives unbounded regions: name bounds= or margin=")
         x, y = luminaires.light_point[:, 0], luminaires.light_point[:, 1]
         bounds = (x.min() - reach, y.min() - reach, x.max() + reach, y.max() + reach)
         bounds = (
@@ -436,11 +436,11 @@ def _check_memory(
     grid_part = pixels * (raster_part + (DEM_BYTES_PER_PIXEL if dem else 0))
     n_tiles = math.ceil(grid.rows / tile_size) * math.ceil(grid.cols / tile_size)
     if n_tiles * BYTES_PER_TILE > estimate / 2:
-        hint = "use a larger --tile-size"
+        hint = "use a larger tile_size="
     elif grid_part < estimate / 2:
-        hint = "use a smaller --tile-size"
+        hint = "use a smaller tile_size="
     else:
-        hint = "use a coarser --resolution (or smaller --bounds)"
+        hint = "use a coarser resolution= (or smaller bounds=)"
     check_memory(
         estimate,
         f"the irradiance raster of {grid.rows} x {grid.cols} pixels x {bands} "
@@ -460,7 +460,7 @@ def _coarse_pixels(radius: FloatArray, resolution: float) -> str | None:
     return (
         f"pixels of {resolution:g} m are larger than the lights' regions of influence "
         f"(largest radius {largest:.3g} m): pixel centres miss most of the light; expected "
-        f"--resolution below {largest:.3g} m"
+        f"resolution= below {largest:.3g} m"
     )
 
 
@@ -476,14 +476,14 @@ def _zero_reason(
         highest = float(np.max(luminaires.mounting_height))
         if threshold.kind == "floor":
             return (
-                f"no light puts the {threshold.value:g} lx of --threshold on the ground "
+                f"no light puts the {threshold.value:g} lx of threshold= on the ground "
                 f"(mounting heights up to {highest:.4g} m): the lights are too high or too dim"
             )
         return "no light sends light down to the ground"
     if coarse:
         return coarse
     if n_lit == 0:
-        return "no light's region of influence reaches the raster; check --bounds"
+        return "no light's region of influence reaches the raster; check bounds="
     return "no pixel centre falls inside a light's region of influence"
 
 

@@ -482,7 +482,7 @@ def _photopic_band(
             return index
     raise InputError(
         f"{label}: no photopic band (band descriptions {list(descriptions)}); "
-        "run irradiance with --sensor photopic"
+        "run irradiance with 'photopic' among sensors="
     )
 
 
@@ -735,7 +735,7 @@ def emission_from_viirs(
     if not np.isfinite(out).any():
         raise InputError(
             f"{label}: no output cell of {abs(transform.a):.4g} m gets a value from the raster "
-            f"({height} x {width} pixels); expected a --resolution finer than the raster's extent"
+            f"({height} x {width} pixels); expected a resolution= finer than the raster's extent"
         )
     pixel_area = abs(transform.a * transform.e)
     total = float(np.nansum(out) * pixel_area)
@@ -801,7 +801,7 @@ def _viirs_grid(
         if resolution > extent:
             raise InputError(
                 f"resolution={resolution:g} m is larger than the raster's extent (about "
-                f"{width:.4g} x {height:.4g} m); expected a --resolution below {extent:.4g} m"
+                f"{width:.4g} x {height:.4g} m); expected a resolution= below {extent:.4g} m"
             )
     kwargs = {} if resolution is None else {"resolution": resolution}
     transform, cols, rows = calculate_default_transform(
@@ -823,7 +823,7 @@ def _check_viirs_memory(
     check_memory(
         viirs_memory(header.rows, header.cols, header.count, rows, cols),
         f"the emission raster of {rows} x {cols} cells from {label}",
-        option="use a coarser --resolution",
+        option="use a coarser resolution=",
     )
 
 

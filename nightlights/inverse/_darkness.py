@@ -422,7 +422,7 @@ def darkness(
             observer_levels=observer_levels.size,
         ),
         f"the darkness map of {rows} x {cols} cells",
-        option="--chunk-size (or coarsen the emission raster)",
+        option="lower chunk_size= (or coarsen the emission raster)",
     )
     plan = _Plan(
         stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),

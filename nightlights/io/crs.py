@@ -42,7 +42,7 @@ def ensure_projected(
         if assume_crs is None:
             raise CRSError(
                 f"{source}: the layer has no coordinate reference system; "
-                "name one (e.g. --crs EPSG:4326)"
+                "name one (e.g. crs='EPSG:4326')"
             )
         frame = frame.set_crs(CRS.from_user_input(assume_crs))
     if target_crs is not None:

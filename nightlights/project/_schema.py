@@ -237,7 +237,7 @@ class InverseSStage(_SceneGrid):
 
 
 class InverseReduceStage(_Table):
-    """``[stages.inverse-reduce]``: ``inverse reduce --by`` the map of a stage."""
+    """``[stages.inverse-reduce]``: ``inverse dim --by`` the map of a stage."""
 
     by: Literal["inverse-q", "inverse-s"]
     observer: str | None = None

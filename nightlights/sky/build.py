@@ -389,7 +389,7 @@ def compute_kernel(
         f"the kernel of {len(spec.observer_altitudes)} observer x {len(spec.source_altitudes)} "
         f"source levels x {spec.n_distance} distances x {spec.n_elevation} x {spec.n_azimuth} "
         "pixels",
-        option="lower --n-distance, --n-elevation or --n-azimuth (or give fewer altitude levels)",
+        option="lower n_distance=, n_elevation= or n_azimuth= (or give fewer altitude levels)",
     )
     tables = kernel_tables(spec, backend=backend, progress=progress)
     _check_tables(tables, spec)

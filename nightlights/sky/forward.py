@@ -140,7 +140,7 @@ def skyglow_panorama(
     if bands == "RGB" and (scene.kernel is not None or mode == "naive"):
         raise InputError(
             "bands='RGB' builds one scene kernel per tristimulus band: give a scene without "
-            "kernel= and use mode pca or exact"
+            "kernel= and use mode='pca' or 'exact'"
         )
     setup = prepare_scene(scene, observer, progress=progress)
     xy, table, levels = setup.xy, setup.table, setup.levels

@@ -456,8 +456,7 @@ def panorama_exact(
     polars, slices = _pairs(polar, tables)
     if not slices[0].has_tables:
         raise InputError(
-            "the kernel stores no raw images (built with store_tables=False / --no-tables); "
-            "use mode pca"
+            "the kernel stores no raw images (built with store_tables=False); use mode='pca'"
         )
     spectrum = 0.0
     for p, t in zip(polars, slices, strict=True):

@@ -268,7 +268,7 @@ def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) ->
         ),
         f"the polar map and panorama of {cells.n_cells} lit cells ({first.elevation.size} x "
         f"{first.n_az} pixels)",
-        option="lower n_azimuth or n_elevation, or coarsen the emission raster",
+        option="lower n_azimuth= or n_elevation=, or coarsen the emission raster",
     )
     return SceneSetup(
         label=label,
@@ -535,10 +535,9 @@ def check_kernel_grid(table: xr.Dataset, **given: int | None) -> None:
     }
     for name, value in given.items():
         if value is not None and int(value) != actual[name]:
-            option = "--" + name.replace("_", "-")
             raise InputError(
-                f"{option} {value}: the kernel fixes the grid ({actual[name]}); omit "
-                f"{option} with --kernel, or build a kernel with it"
+                f"{name}={value}: the kernel fixes the grid ({actual[name]}); omit "
+                f"{name}= with kernel=, or build a kernel with it"
             )
 
 
@@ -564,9 +563,9 @@ def _check_reach(
     x, y = xy
     gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
     hint = (
-        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give --observer-crs EPSG:4326"
+        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give observer_crs='EPSG:4326'"
         if observer_crs is None and _looks_like_degrees(x, y)
-        else "; check the coordinates and --observer-crs"
+        else "; check the coordinates and observer_crs="
     )
     if gap >= reach:
         raise InputError(
@@ -580,7 +579,7 @@ def _check_reach(
         warnings.warn(
             f"observer ({x:g}, {y:g}) lies outside {label} ({r_left:.1f}, {r_bottom:.1f}, "
             f"{r_right:.1f}, {r_top:.1f}) and its coordinates look like degrees; if they are "
-            "longitude and latitude, give --observer-crs EPSG:4326",
+            "longitude and latitude, give observer_crs='EPSG:4326'",
             DataQualityWarning,
             stacklevel=4,
         )

@@ -530,7 +530,7 @@ class KernelSpec:
         check_memory(
             2 * 4.0 * emissions * levels * float(np.prod(sizes, dtype=float)),
             f"the kernel of {n_r} distances x {self.n_elevation} x {self.n_azimuth} pixels",
-            option="lower --n-distance, --n-elevation or --n-azimuth",
+            option="lower n_distance=, n_elevation= or n_azimuth=",
         )
 
     # -- derived axes --------------------------------------------------------------------

@@ -451,10 +451,10 @@ def _check_target(target: Path, overwrite: bool) -> None:
     if not target.is_dir():
         raise OutputError(f"{target}: exists and is not a folder")
     if not overwrite:
-        raise OutputError(f"{target}: exists and is not an empty folder; give --overwrite")
+        raise OutputError(f"{target}: exists and is not an empty folder; give overwrite=True")
     if not (target / CONFIG_NAME).exists():
         raise OutputError(
-            f"{target}: not a network folder (no {CONFIG_NAME}); --overwrite replaces only those"
+            f"{target}: not a network folder (no {CONFIG_NAME}); overwrite=True replaces only those"
         )
 
 

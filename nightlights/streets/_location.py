@@ -123,7 +123,7 @@ def layer_location(frame: gpd.GeoDataFrame, *, source: str = "streets") -> tuple
         The layer has no CRS.
     """
     if frame.crs is None:
-        raise InputError(f"{source}: the layer has no CRS; give one (--crs) to locate it")
+        raise InputError(f"{source}: the layer has no CRS; give one (crs=) to locate it")
     if frame.empty or frame.geometry.is_empty.all():
         return math.nan, math.nan
     west, south, east, north = (float(v) for v in frame.total_bounds)

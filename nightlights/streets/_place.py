@@ -548,7 +548,7 @@ def _check_system_ids(
         from ies.library import load_library
     except ImportError:  # the photometry package has no luminaire database yet
         if catalog is not None:
-            raise InputError("--catalog needs the ies luminaire database, not installed") from None
+            raise InputError("catalog= needs the ies luminaire database, not installed") from None
         return
     database = load_library(catalog)
     unknown = sorted(set(lights["system_id"]) - set(database.systems))

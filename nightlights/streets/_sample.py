@@ -211,7 +211,7 @@ def fill_lighting(
     check_memory(
         sampling_memory(net, len(out), candidates),
         f"sampling {len(out)} street segments with {candidates} candidates each",
-        option="--candidates",
+        option="candidates=",
     )
     sampled = sample_frame(
         net,
@@ -330,7 +330,7 @@ def network_by_location(
             f"{source}: the layer lies at ({longitude:.2f}, {latitude:.2f}) deg (lon, lat), "
             f"outside the regions with a sourced network ({', '.join(REGION_BOXES)}); "
             f"sampling with the {FALLBACK_NETWORK!r} network (a blend of europe and "
-            "north_america); choose another with --network (network= in the API)",
+            "north_america); choose another with network=",
             DataQualityWarning,
             stacklevel=3,
         )

@@ -12,10 +12,10 @@ from affine import Affine
 from click.testing import CliRunner
 
 import nightlights
-from cli.darkness import darkness as darkness_command
-from cli.main import NightlightsGroup, cli
 from nightlights.io import Raster, RasterBand, write_cog
 from nightlights.sky import KernelSpec, build_kernel
+from nightlights_cli.darkness import darkness as darkness_command
+from nightlights_cli.main import NightlightsGroup, cli
 
 TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)
 

@@ -11,8 +11,8 @@ import pytest
 import rasterio
 from click.testing import CliRunner
 
-from cli.main import cli
 from nightlights.demo import mapped_street_lamps
+from nightlights_cli.main import cli
 
 
 @pytest.fixture(scope="module")

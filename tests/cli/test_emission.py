@@ -11,7 +11,7 @@ import rasterio
 from affine import Affine
 from click.testing import CliRunner
 
-from cli.main import cli
+from nightlights_cli.main import cli
 
 
 @pytest.fixture

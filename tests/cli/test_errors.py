@@ -22,11 +22,11 @@ from affine import Affine
 from click.testing import CliRunner, Result
 
 import nightlights as nl
-from cli.main import cli
-from cli.reference import walk
 from nightlights import _parallel
 from nightlights._resources import check_memory, set_memory_limit
 from nightlights.io import RasterBand, write_cog
+from nightlights_cli.main import cli
+from nightlights_cli.reference import walk
 
 DATA = Path(__file__).parents[1] / "data"
 IES = DATA / "ies" / "holg__eulumdat-rs" / "OutdoorRoadway_IES_OS_8988-2022_03_AM01_60W_4000K.ies"
@@ -47,7 +47,7 @@ def _invoke(args: list[str], **kwargs) -> Result:
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     """Small inputs of every stage: streets, lights, an irradiance and an emission raster, a
-    kernel, and a Q raster (``inverse reduce --by``)."""
+    kernel, and a Q raster (``inverse dim --by``)."""
     folder = tmp_path_factory.mktemp("inputs")
     import geopandas as gpd
     from shapely.geometry import Point
@@ -165,8 +165,8 @@ READ_ONLY: dict[str, Callable[[SimpleNamespace, Path], list]] = {
         *("inverse", "s", i.emission, d / "s.tif", *OBSERVER, "--kernel", i.kernel),
         *("--region", "horizon:0,90,30"),
     ],
-    "inverse reduce": lambda i, d: [
-        *("inverse", "reduce", i.emission, d / "r.tif", "--by", i.q, "--qa", "0", "--qb", "1"),
+    "inverse dim": lambda i, d: [
+        *("inverse", "dim", i.emission, d / "r.tif", "--by", i.q, "--qa", "0", "--qb", "1"),
     ],
     "darkness": lambda i, d: ["darkness", i.emission, d / "d.tif", "--kernel", i.kernel],
     "photometry info --plot": lambda i, d: ["photometry", "info", IES, "--plot", d / "x.png"],
@@ -203,9 +203,9 @@ EXTRA_OUTPUTS: dict[str, Case] = {
         previous=["p.nc"],
     ),
     **{
-        f"inverse reduce {option}": Case(
+        f"inverse dim {option}": Case(
             lambda i, d, option=option, name=name: [
-                *("inverse", "reduce", i.emission, d / "r.tif", "--by", i.q, "--qa", "0"),
+                *("inverse", "dim", i.emission, d / "r.tif", "--by", i.q, "--qa", "0"),
                 *("--qb", "1", option, d / "nodir" / name, "--overwrite"),
             ],
             1,
@@ -213,8 +213,8 @@ EXTRA_OUTPUTS: dict[str, Case] = {
             previous=["r.tif"],
         )
         for option, name in (
-            ("--dimming-out", "d.tif"),
-            ("--summary", "s.json"),
+            ("--dimming-output", "d.tif"),
+            ("--summary-output", "s.json"),
             ("--png", "p.png"),
         )
     },
@@ -308,7 +308,7 @@ import json, resource, signal, sys
 from pathlib import Path
 resource.setrlimit(resource.RLIMIT_AS, (4 * 1024**3, resource.RLIM_INFINITY))
 from click.testing import CliRunner
-from cli.main import cli
+from nightlights_cli.main import cli
 
 def expire(signum, frame):
     raise TimeoutError("no refusal within 10 s: the request was not estimated")

@@ -20,8 +20,8 @@ import pytest
 from affine import Affine
 from click.testing import CliRunner, Result
 
-from cli.main import cli
 from nightlights.explore import _app
+from nightlights_cli.main import cli
 
 from .conftest import Recorder
 
@@ -174,7 +174,7 @@ def test_errors_are_one_line(files: SimpleNamespace, fake_serve: Recorder, args,
 
 def test_serves_until_interrupted(files: SimpleNamespace, tmp_path: Path) -> None:
     """A real run: the URL on stdout answers, Ctrl-C ends it with status 0."""
-    command = [sys.executable, "-c", "from cli.main import main; main()", "explore"]
+    command = [sys.executable, "-m", "nightlights_cli", "explore"]
     args = [str(files.emission), "--kernel", str(files.kernel), "--port", "0", "--no-browser"]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     process = subprocess.Popen(

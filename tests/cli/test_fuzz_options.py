@@ -17,14 +17,21 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from cli.emission import parse_albedo
-from cli.inverse import _max_dimming, _region_target
-from cli.irradiance import parse_bounds
-from cli.options import CRSText, FiniteFloat, FiniteFloatRange, MemorySize, one_of, resolve_inout
-from cli.skyglow import parse_pair
 from nightlights._resources import format_bytes, parse_size
 from nightlights.errors import InputError, NightlightsError
 from nightlights.inverse import SkyRegion
+from nightlights_cli.emission import parse_albedo
+from nightlights_cli.inverse import _max_dimming, _region_target
+from nightlights_cli.irradiance import parse_bounds
+from nightlights_cli.options import (
+    CRSText,
+    FiniteFloat,
+    FiniteFloatRange,
+    MemorySize,
+    one_of,
+    parse_pair,
+    resolve_inout,
+)
 
 FUZZ = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

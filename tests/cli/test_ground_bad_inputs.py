@@ -21,8 +21,8 @@ from rasterio.transform import from_origin
 from shapely.geometry import Point
 
 import nightlights as nl
-from cli.main import cli
 from nightlights._resources import set_memory_limit
+from nightlights_cli.main import cli
 
 PREVIOUS = b"previous output"
 
@@ -130,7 +130,7 @@ CASES = [
     Case("bounds nan", (*IRR, "--bounds", "0,0,nan,1"), 1, ("bounds=", "finite")),
     Case("bounds three", (*IRR, "--bounds", "0,0,1"), 2, ("four numbers",)),
     Case("bounds inverted", (*IRR, "--bounds", "10,10,0,0"), 1, ("xmin < xmax",)),
-    Case("tile size 0", (*IRR, "--tile-size", "0"), 1, ("tile_size=0",)),
+    Case("tile size 0", (*IRR, "--tile-size", "0"), 1, ("--tile-size=0",)),
     Case("area height nan", (*IRR, "--area-height", "nan"), 1, (),
          pattern=r"(area-source height|area-height)=nan"),
     Case("area spacing -1", (*IRR, "--area-spacing", "-1"), 1, ("spacing=-1",)),

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from cli.main import cli
 from nightlights.demo import example_path
 from nightlights.io import read_vector
 from nightlights.project import load_project
+from nightlights_cli.main import cli
 
 
 def test_init_writes_a_template_that_loads_once_its_input_exists(

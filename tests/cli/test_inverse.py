@@ -1,6 +1,6 @@
-"""``nightlights inverse q | s | reduce`` on a tiny two-band emission raster and a tiny kernel:
-the outputs and their bands, refusal to replace outputs, usage errors (exit status 2) and domain
-errors (exit status 1, one line, no traceback)."""
+"""``nightlights inverse q | s | dim | plan`` (and the deprecated ``reduce``) on a tiny two-band
+emission raster and a tiny kernel: the outputs and their bands, refusal to replace outputs, usage
+errors (exit status 2) and domain errors (exit status 1, one line, no traceback)."""
 
 from __future__ import annotations
 
@@ -17,11 +17,10 @@ from affine import Affine
 from click.testing import CliRunner, Result
 
 import nightlights.inverse
-from cli import inverse as inverse_cli
-from cli.main import cli
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
 from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights_cli.main import cli
 
 #: Observer at the centre of the 20 x 20 grid of 100 m cells [m, EPSG:32635].
 OBSERVER = ["--observer", "501000,6699000"]
@@ -119,8 +118,9 @@ def test_reduce_by_q_writes_every_output(files: SimpleNamespace, tmp_path: Path)
     out, dimming = tmp_path / "reduced.tif", tmp_path / "dimming.tif"
     summary, png = tmp_path / "summary.json", tmp_path / "before_after.png"
     result = _invoke(
-        "reduce", files.emission, out, "--by", q, "--qa", 0, "--qb", highest, "--gamma", 0.5,
-        "--kernel", files.kernel, "--dimming-out", dimming, "--summary", summary, "--png", png,
+        "dim", files.emission, out, "--by", q, "--qa", 0, "--qb", highest, "--gamma", 0.5,
+        "--kernel", files.kernel, "--dimming-output", dimming, "--summary-output", summary,
+        "--png", png,
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "flux removed" in result.output and "zenith" in result.output
@@ -149,8 +149,8 @@ def test_reduce_to_a_zenith_target(files: SimpleNamespace, tmp_path: Path) -> No
     target = _zenith_before(files, tmp_path) + 0.3  # 0.3 mag darker than now
     out, summary = tmp_path / "reduced.tif", tmp_path / "summary.json"
     result = _invoke(
-        "reduce", files.emission, out, *OBSERVER, "--target-zenith", target,
-        "--kernel", files.kernel, "--summary", summary,
+        "plan", files.emission, out, *OBSERVER, "--target-zenith", target,
+        "--kernel", files.kernel, "--summary-output", summary,
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "flux removed" in result.output and "least-flux plan" in result.output
@@ -163,9 +163,9 @@ def test_reduce_to_region_targets_for_two_observers(files: SimpleNamespace, tmp_
     target = _zenith_before(files, tmp_path) + 0.2
     out, summary = tmp_path / "reduced.tif", tmp_path / "summary.json"
     result = _invoke(
-        "reduce", files.emission, "-o", out, *OBSERVER, *SECOND_OBSERVER,
+        "plan", files.emission, "-o", out, *OBSERVER, *SECOND_OBSERVER,
         "--target-region", f"zenith:30:{target}", "--max-dimming", 0.9,
-        "--kernel", files.kernel, "--summary", summary,
+        "--kernel", files.kernel, "--summary-output", summary,
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "observer 2" in result.output and "region zenith:30" in result.output
@@ -180,19 +180,19 @@ def test_reduce_to_region_targets_for_two_observers(files: SimpleNamespace, tmp_
 # --- refusal to replace outputs ----------------------------------------------------------------
 
 
-@pytest.mark.parametrize("which", ["output", "--dimming-out", "--summary", "--png"])
+@pytest.mark.parametrize("which", ["output", "--dimming-output", "--summary-output", "--png"])
 def test_reduce_refuses_any_existing_output_before_computing(
     files: SimpleNamespace, tmp_path: Path, which: str
 ) -> None:
     paths = {
         "output": tmp_path / "r.tif",
-        "--dimming-out": tmp_path / "d.tif",
-        "--summary": tmp_path / "s.json",
+        "--dimming-output": tmp_path / "d.tif",
+        "--summary-output": tmp_path / "s.json",
         "--png": tmp_path / "p.png",
     }
     paths[which].write_bytes(b"keep")
-    args = ["reduce", files.emission, paths["output"], *OBSERVER, "--target-zenith", 25]
-    for option in ("--dimming-out", "--summary", "--png"):
+    args = ["plan", files.emission, paths["output"], *OBSERVER, "--target-zenith", 25]
+    for option in ("--dimming-output", "--summary-output", "--png"):
         args += [option, paths[option]]
     result = _invoke(*args, "--kernel", files.kernel)
     assert result.exit_code == 1
@@ -228,8 +228,8 @@ def test_q_and_s_refuse_an_existing_output(
         (["--by", "{emission}", "--qa", "0"], "--by needs --qa and --qb"),
         (["--by", "{emission}", "--qa", "0", "--qb", "1", *OBSERVER], "--observer"),
         (["--by", "{emission}", "--qa", "0", "--qb", "1", "--max-dimming", "0.5"], "--max-dim"),
-        (["--target-zenith", "22"], "need --observer"),
-        (["--target-zenith", "22", *OBSERVER, "--qa", "1"], "--qa: apply only to --by"),
+        (["--target-zenith", "22"], "--observer"),
+        (["--target-zenith", "22", *OBSERVER, "--qa", "1"], "--qa: not an option of inverse plan"),
         (["--target-zenith", "22", *OBSERVER, "--gamma", "0.5"], "--gamma"),
         (["--target-region", "zenith30", *OBSERVER], "expected REGION:MAG"),
         (["--target-region", "zenith:30:dark", *OBSERVER], "expected REGION:MAG"),
@@ -239,9 +239,10 @@ def test_q_and_s_refuse_an_existing_output(
         (["--by", "missing.tif", "--qa", "0", "--qb", "1"], "does not exist"),
     ],
 )
-def test_reduce_usage_errors(
+def test_deprecated_reduce_usage_errors(
     files: SimpleNamespace, tmp_path: Path, options: list[str], words: str
 ) -> None:
+    """``inverse reduce`` chooses dim or plan by the options given, and refuses a mixture."""
     options = [o.format(emission=files.emission) for o in options]
     out = tmp_path / "r.tif"
     result = _invoke("reduce", files.emission, out, *options)
@@ -279,7 +280,7 @@ def test_bad_region_is_one_line(files: SimpleNamespace, tmp_path: Path) -> None:
     _one_line_error(result, "InputError", "crosses")
     assert not out.exists()
     result = _invoke(
-        "reduce", files.emission, out, *OBSERVER, "--target-region", "moon:3:22",
+        "plan", files.emission, out, *OBSERVER, "--target-region", "moon:3:22",
         "--kernel", files.kernel,
     )  # fmt: skip
     _one_line_error(result, "unknown shortcut 'moon'")
@@ -296,17 +297,18 @@ def test_bad_dimming_values_are_one_line(files: SimpleNamespace, tmp_path: Path)
     q = tmp_path / "q.tif"
     assert _q(files, q).exit_code == 0
     out = tmp_path / "r.tif"
-    base = ["reduce", files.emission, out, "--kernel", files.kernel]
+    base = ["dim", files.emission, out, "--kernel", files.kernel]
     _one_line_error(_invoke(*base, "--by", q, "--qa", 2, "--qb", 1), "InputError")
     _one_line_error(_invoke(*base, "--by", q, "--qa", 0, "--qb", 1, "--gamma", 2), "InputError")
-    _one_line_error(_invoke(*base, *OBSERVER, "--target-zenith", 22, "--max-dimming", 1.5), "1.5")
+    plan = ["plan", files.emission, out, "--kernel", files.kernel]
+    _one_line_error(_invoke(*plan, *OBSERVER, "--target-zenith", 22, "--max-dimming", 1.5), "1.5")
     assert not out.exists()
 
 
 def test_unreachable_target_is_one_line(files: SimpleNamespace, tmp_path: Path) -> None:
     out = tmp_path / "r.tif"
     result = _invoke(
-        "reduce", files.emission, out, *OBSERVER, "--target-zenith", 30, "--max-dimming", 0.1,
+        "plan", files.emission, out, *OBSERVER, "--target-zenith", 30, "--max-dimming", 0.1,
         "--kernel", files.kernel,
     )  # fmt: skip
     _one_line_error(result, "InfeasibleTargetError", "mag arcsec-2")
@@ -379,6 +381,9 @@ def test_target_regions_split_at_the_last_colon(
     assert kwargs["observers"] == [(501000.0, 6699000.0), (500550.0, 6698450.0)]
     assert kwargs["max_dimming"] == str(files.emission)
     assert "inverse_reduce" not in fake_inverse
+    assert "DeprecationWarning: cli inverse reduce is deprecated; use cli inverse plan." in (
+        result.stderr
+    )
 
 
 def test_by_mode_reaches_inverse_reduce(
@@ -393,24 +398,73 @@ def test_by_mode_reaches_inverse_reduce(
     assert (kwargs["by"], kwargs["qa"], kwargs["qb"]) == (str(files.emission), 1e-6, 2e-6)
     assert kwargs["gamma"] == 1.0 and kwargs["png"] is None
     assert "least_dimming" not in fake_inverse
+    assert "DeprecationWarning: cli inverse reduce is deprecated; use cli inverse dim." in (
+        result.stderr
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["dim", "{emission}", "{out}", "--by", "{emission}", "--qa", "0"], "--qb"),
+        (["dim", "{emission}", "{out}", "--qa", "0", "--qb", "1"], "--by"),
+        (
+            [
+                "dim",
+                "{emission}",
+                "{out}",
+                "--by",
+                "{emission}",
+                "--qa",
+                "0",
+                "--qb",
+                "1",
+                "--target-zenith",
+                "22",
+            ],
+            "No such option '--target-zenith'",
+        ),
+        (["plan", "{emission}", "{out}", *OBSERVER], "give --target-zenith and/or --target-region"),
+        (["plan", "{emission}", "{out}", "--target-zenith", "22"], "--observer X,Y"),
+        (
+            ["plan", "{emission}", "{out}", *OBSERVER, "--target-zenith", "22", "--qa", "1"],
+            "No such option '--qa'",
+        ),
+    ],
+)
+def test_dim_and_plan_usage_errors(
+    files: SimpleNamespace, tmp_path: Path, args: list[str], words: str
+) -> None:
+    """Each job has its own options: the rule's are unknown to plan, the targets' to dim."""
+    out = tmp_path / "r.tif"
+    result = _invoke(*(a.format(emission=files.emission, out=out) for a in args))
+    assert result.exit_code == 2, result.output
+    assert words in result.output and "Traceback" not in result.output
+    assert not out.exists()
+
+
+def test_deprecated_output_spellings_still_work(
+    fake_inverse: dict[str, Any], files: SimpleNamespace, tmp_path: Path
+) -> None:
+    dimming, summary = tmp_path / "d.tif", tmp_path / "s.json"
+    result = _invoke(
+        "dim", files.emission, tmp_path / "r.tif", "--by", files.emission, "--qa", "1e-6",
+        "--qb", "2e-6", "--dimming-out", dimming, "--summary", summary,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    ((_, kwargs),) = fake_inverse["inverse_reduce"]
+    assert (kwargs["dimming_output"], kwargs["summary_output"]) == (str(dimming), str(summary))
+    assert "--dimming-out is deprecated; use --dimming-output." in result.stderr
+    assert "--summary is deprecated; use --summary-output." in result.stderr
 
 
 # --- import cost and mirrored constants ---------------------------------------------------------
 
 
-def test_mirrored_choices_equal_the_library() -> None:
-    from nightlights.inverse._influence import METRICS, WEIGHTS
-    from nightlights.inverse.stage import S_METHODS
-
-    assert inverse_cli.Q_METRICS == tuple(METRICS)
-    assert inverse_cli.S_WEIGHTS == tuple(WEIGHTS)
-    assert inverse_cli.S_METHODS == tuple(S_METHODS)
-
-
 def test_inverse_help_does_not_import_the_library() -> None:
     code = (
-        "import sys; from click.testing import CliRunner; from cli.main import cli; "
-        "result = CliRunner().invoke(cli, ['inverse', 'reduce', '--help']); "
+        "import sys; from click.testing import CliRunner; from nightlights_cli.main import cli; "
+        "result = CliRunner().invoke(cli, ['inverse', 'plan', '--help']); "
         "assert result.exit_code == 0 and '--target-region' in result.output, result.output; "
         "heavy = {'rasterio', 'xarray', 'shapely', 'nightlights.inverse', 'nightlights.sky'} "
         "& set(sys.modules); assert not heavy, heavy"

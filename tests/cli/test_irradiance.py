@@ -11,7 +11,7 @@ import rasterio
 from click.testing import CliRunner
 from shapely.geometry import box
 
-from cli.main import cli
+from nightlights_cli.main import cli
 
 CRS = "EPSG:3067"
 
@@ -99,7 +99,7 @@ def test_errors_are_one_line(lights: Path, tmp_path: Path) -> None:
         cli, ["irradiance", str(lights), str(tmp_path / "e.tif"), "--resolution", "0"]
     )
     assert result.exit_code != 0
-    assert "InputError: resolution=0.0 m" in result.output
+    assert "InputError: --resolution=0.0 m" in result.output
     assert "Traceback" not in result.output
     result = runner.invoke(
         cli,

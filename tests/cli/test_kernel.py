@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli.main import cli
 from nightlights.sky.store import read_kernel
+from nightlights_cli.main import cli
 
 SMALL = ["--r-max", "5000", "--n-distance", "4", "--n-elevation", "4", "--n-azimuth", "8"]
 
@@ -39,7 +39,7 @@ def test_kernel_build_writes_a_kernel(tmp_path: Path) -> None:
             "300",
             "--nodes",
             "12",
-            "--energy",
+            "--pca-energy",
             "0.999",
             "--tables",
         ],
@@ -82,7 +82,7 @@ def test_kernel_build_without_tables(tmp_path: Path) -> None:
     ds = read_kernel(out)
     assert "kernel" not in ds and "coefficient" in ds and ds.attrs["store_tables"] == 0
     shared = tmp_path / "shared.nc"
-    args = [*SMALL, "--error", "0.01", "--shared-bases", "--precision", "float32"]
+    args = [*SMALL, "--pca-error", "0.01", "--shared-bases", "--precision", "float32"]
     result = CliRunner().invoke(cli, ["kernel", "build", "-o", str(shared), *args])
     assert result.exit_code == 0, result.output
     assert "mean error" in result.output
@@ -114,14 +114,14 @@ def test_kernel_build_defaults_are_skyglows_grid(fake_build, tmp_path: Path) -> 
 
 
 def test_kernel_build_storage_and_precompute_options(fake_build, tmp_path: Path) -> None:
-    args = ["--error", "0.01", "--shared-bases", "--precision", "float32"]
+    args = ["--pca-error", "0.01", "--shared-bases", "--precision", "float32"]
     args += ["--altitude-step", "15", "--tables"]
     result = CliRunner().invoke(cli, ["kernel", "build", str(tmp_path / "k.nc"), *args])
     assert result.exit_code == 0, result.output
     spec = fake_build.args[0]
     assert (spec.pca_error, spec.shared_bases, spec.precision) == (0.01, True, "float32")
     assert (spec.altitude_step, spec.store_tables) == (15, True)
-    bad = ["kernel", "build", str(tmp_path / "b.nc"), "--error", "2"]
+    bad = ["kernel", "build", str(tmp_path / "b.nc"), "--pca-error", "2"]
     result = CliRunner().invoke(cli, bad)
     assert result.exit_code != 0 and "pca_error" in result.output
     assert "Traceback" not in result.output

@@ -11,18 +11,12 @@ from affine import Affine
 from click.testing import CliRunner
 from shapely.geometry import Point
 
-from cli import observers as command_module
-from cli.main import cli
 from nightlights.io import RasterBand, write_cog
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky import observers as stage_module
+from nightlights_cli.main import cli
 
 CRS = "EPSG:32635"
 TRANSFORM = Affine(100, 0, 500_000, 0, -100, 6_700_000)
-
-
-def test_mirrored_constants_match_the_library() -> None:
-    assert command_module.SCHEDULERS == stage_module.SCHEDULERS
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +67,7 @@ def test_summary_and_panoramas(scene: dict[str, Path], tmp_path: Path) -> None:
     [
         (["--scheduler", "fast"], 2, "'fast'; expected one of threads"),
         (["--top-cells", "-1"], 2, "-1 is not in the range"),
-        (["--layer", "nowhere"], 1, "cannot read vector layer 'nowhere'"),
+        (["--observers-layer", "nowhere"], 1, "cannot read vector layer 'nowhere'"),
         (["--observer-height", "-1"], 1, "observer height -1.0 m"),
     ],
 )

@@ -1,5 +1,6 @@
-"""cli.options: INPUT... OUTPUT and -o/--output, --overwrite, deprecated spellings, and the
-library constants the CLI mirrors so that ``nightlights --help`` does not import the library."""
+"""nightlights_cli.options: INPUT... OUTPUT and -o/--output, --overwrite, deprecated spellings,
+and the library constants the CLI mirrors so that ``nightlights --help`` does not import the
+library."""
 
 from __future__ import annotations
 
@@ -11,48 +12,69 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from cli import options
-from cli.main import cli
-from cli.options import (
+from nightlights_cli import options
+from nightlights_cli.main import cli
+from nightlights_cli.options import (
     DefaultCommandGroup,
     OutputExistsError,
     deprecated_option,
     one_of,
     resolve_inout,
 )
-from cli.reference import walk
+from nightlights_cli.reference import walk
 
 # --- the mirrored constants ---------------------------------------------------------------------
 
 
-def test_mirrored_constants_equal_the_library() -> None:
-    from bayesnets import catalog_names, default_network_name
-    from nightlights.ground.area_lights import AreaLightOptions
-    from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
-    from nightlights.sky.kernel import BACKENDS
-    from nightlights.sky.panorama import MODES
-    from nightlights.sky.render import PROJECTIONS
-    from nightlights.streets import builtin_mappings
-    from nightlights.streets._place import PlacementOptions
-    from nightlights.streets._sample import DEFAULT_CANDIDATES
+def _library_values() -> list[tuple[str, options.FromLibrary]]:
+    """Every library value an option reads: choices, defaults and help values."""
+    found = []
+    for command, ctx in walk(cli, "nightlights", hidden=True):
+        for param in command.params:
+            where = f"{ctx.command_path} {param.name}"
+            if isinstance(param.type, options.LibraryChoice):
+                found.append((where, param.type.source))
+            if isinstance(param.default, options.FromLibrary):
+                found.append((where, param.default))
+            for value in getattr(param, "help_values", {}).values():
+                found.append((where, value))
+    return found
 
-    assert tuple(options.SKYGLOW_MODES) == tuple(MODES)
-    assert tuple(options.PROJECTIONS) == tuple(PROJECTIONS)
-    assert tuple(options.KERNEL_BACKENDS) == tuple(BACKENDS)
-    assert options.DEFAULT_VIIRS_SPECTRUM == DEFAULT_VIIRS_SPECTRUM
-    assert options.DEFAULT_AREA_HEIGHT == AreaLightOptions.height
-    assert options.DEFAULT_ALONG_JITTER == PlacementOptions.along_jitter
-    assert options.DEFAULT_ACROSS_JITTER == PlacementOptions.across_jitter
-    assert options.DEFAULT_MERGE_FRACTION == PlacementOptions.merge_fraction
-    assert options.DEFAULT_CANDIDATES == DEFAULT_CANDIDATES
-    assert list(options.BUILTIN_MAPPINGS) == builtin_mappings()
-    assert list(options.NETWORK_CATALOG) == catalog_names()
-    assert options.DEFAULT_NETWORK == default_network_name()
+
+def test_choices_and_defaults_are_the_library_constants() -> None:
+    """The CLI reads its choices and defaults from the library: each reference resolves (a
+    moved or renamed constant fails here), and the kernel's defaults are KernelSpec's."""
+    from nightlights.sky import KernelSpec
+    from nightlights.sky.panorama import MODES
+
+    values = _library_values()
+    assert len(values) > 30
+    for where, value in values:
+        assert value() is not None, where
+        assert str(value), where
+    build = cli.commands["kernel"].commands["build"]  # type: ignore[attr-defined]
+    defaults = {param.name: param.default for param in build.params}
+    for name in ("r_min", "r_max", "n_distance", "n_elevation", "n_azimuth", "nodes"):
+        assert defaults[name]() == getattr(KernelSpec, name)
+    mode = next(p for p in cli.commands["skyglow"].params if p.name == "mode")
+    assert mode.type.choices == tuple(MODES)  # type: ignore[attr-defined]
+
+
+def test_no_option_retypes_a_library_choice() -> None:
+    """A plain click.Choice holds choices that the library has no constant for."""
+    plain = sorted(
+        f"{ctx.command_path} {param.name}"
+        for command, ctx in walk(cli, "nightlights", hidden=True)
+        for param in command.params
+        if isinstance(param.type, click.Choice)
+        and not isinstance(param.type, options.LibraryChoice)
+    )
+    assert plain == ["nightlights skyglow bands"]
 
 
 def test_help_does_not_import_the_library() -> None:
     code = (
-        "import sys; from cli.main import cli; "
+        "import sys; from nightlights_cli.main import cli; "
         "heavy = {'geopandas', 'rasterio', 'xarray', 'numba', 'ies', 'bayesnets', "
         "'nightlights.streets', 'nightlights.ground', 'nightlights.sky'} & set(sys.modules); "
         "assert not heavy, heavy"
@@ -61,13 +83,16 @@ def test_help_does_not_import_the_library() -> None:
 
 
 def test_shared_options_mean_the_same_everywhere() -> None:
-    """An option name defined once in cli.options has one help text in every command."""
+    """An option name defined once in nightlights_cli.options has one help text in every command."""
     helps: dict[str, set[str]] = {}
     for command, _ in walk(cli, "nightlights"):
         for param in command.params:
             if isinstance(param, click.Option) and not param.hidden:
                 helps.setdefault(param.opts[-1], set()).add(param.help or "")
-    for name in ("--output", "--overwrite", "--crs", "--target-crs", "--seed", "--catalog"):
+    shared = ("--output", "--overwrite", "--crs", "--target-crs", "--seed", "--catalog")
+    scene = ("--observer-crs", "--observer-height", "--kernel", "--dem")
+    grid = ("--components", "--prior", "--num-workers")
+    for name in (*shared, *scene, *grid):
         assert len(helps[name]) == 1, (name, helps[name])
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from cli.main import cli
+from nightlights_cli.main import cli
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "ies"
 ROADWAY = DATA / "holg__eulumdat-rs" / "OutdoorRoadway_IES_OS_8988-2022_03_AM01_60W_4000K.ies"

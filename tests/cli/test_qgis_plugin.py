@@ -14,10 +14,10 @@ from typing import Any
 import pytest
 from click.testing import CliRunner, Result
 
-from cli import qgis
-from cli.main import cli
 from nightlights.qgis import PLUGIN_FOLDER, toolkit_command
 from nightlights.qgis.plugin.messages import parse_zenith
+from nightlights_cli import qgis
+from nightlights_cli.main import cli
 
 
 def _build(*args: str) -> Result:
@@ -28,12 +28,12 @@ def test_build_writes_the_default_zip(tmp_path: Path, monkeypatch: pytest.Monkey
     monkeypatch.chdir(tmp_path)
     result = _build()
     assert result.exit_code == 0, result.output
-    path = tmp_path / qgis.DEFAULT_PLUGIN_ZIP
+    path = tmp_path / qgis.plugin_zip()
     assert path.name == f"{PLUGIN_FOLDER}.zip"
     with zipfile.ZipFile(path) as archive:
         record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
     assert record["command"] == str(toolkit_command().absolute())
-    assert f"-> {qgis.DEFAULT_PLUGIN_ZIP}" in result.output
+    assert f"-> {qgis.plugin_zip()}" in result.output
     assert "Install from ZIP" in result.output
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cli.reference import COMMAND, render
+from nightlights_cli.reference import COMMAND, render
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "cli.md"
 

@@ -46,7 +46,7 @@ def test_ctrl_c_leaves_no_output_that_looks_complete(tmp_path: Path) -> None:
     project.write_text(PROJECT.format(streets=example_path().as_posix()))
     records = tmp_path / "out" / ".nightlights"
     process = subprocess.Popen(
-        [sys.executable, "-c", "from cli.main import main; main()", "run", str(project)],
+        [sys.executable, "-m", "nightlights_cli", "run", str(project)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -12,8 +12,8 @@ from click.testing import CliRunner
 from pyproj import Transformer
 
 import nightlights.nightsky
-from cli import sky as sky_cli
-from cli.main import NightlightsGroup
+from nightlights_cli import sky as sky_cli
+from nightlights_cli.main import NightlightsGroup
 
 TIME = "2026-01-20T22:00:00Z"
 #: An observer in Helsinki (ETRS-TM35FIN), for a panorama's attributes.
@@ -39,14 +39,6 @@ def panorama(tmp_path: Path) -> Path:
     return path
 
 
-def test_mirrored_constants_equal_the_library() -> None:
-    from nightlights.nightsky.render import PROJECTIONS
-    from nightlights.nightsky.tonemap import MODES
-
-    assert sky_cli.SKY_PROJECTIONS == PROJECTIONS
-    assert sky_cli.TONE_MODES == MODES
-
-
 def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[dict] = []
 
@@ -66,7 +58,7 @@ def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
         "perspective",
         "--view-azimuth",
         "200",
-        "--fov",
+        "--field-of-view",
         "60",
         "--tone",
         "photo",

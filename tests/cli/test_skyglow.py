@@ -12,8 +12,8 @@ from affine import Affine
 from click.testing import CliRunner
 
 import nightlights as nl
-from cli.main import cli
 from nightlights.io import RasterBand, write_cog
+from nightlights_cli.main import cli
 
 OBSERVER = ["--observer", "501500,6698500"]
 

@@ -12,10 +12,10 @@ import shapely
 from click.testing import CliRunner
 
 from bayesnets.errors import EvidenceRelaxedWarning
-from cli.main import cli
 from nightlights.io import write_gpkg
 from nightlights.streets import NormalizeReport
 from nightlights.streets.schema import STREET_FIELDS, observed_field
+from nightlights_cli.main import cli
 
 
 def test_version_and_help() -> None:

@@ -16,8 +16,8 @@ import pytest
 import shapely
 from click.testing import CliRunner
 
-from cli.main import cli
 from nightlights.io import write_gpkg
+from nightlights_cli.main import cli
 
 PREVIOUS = b"previous output"
 
@@ -251,7 +251,7 @@ CASES = [
         [*PLACE, "--across-jitter", "1e9"],
         sampled_input,
         1,
-        ["across_jitter=1000000000.0 m", "at most 10 m"],
+        ["--across-jitter=1000000000.0 m", "at most 10 m"],
     ),
     Case(
         "place-unknown-system",
@@ -394,7 +394,7 @@ def test_sigterm_during_the_write_leaves_the_previous_output(tmp_path: Path) -> 
     out = tmp_path / "out"
     out.mkdir()
     (out / "lights.gpkg").write_bytes(PREVIOUS)
-    command = [sys.executable, "-c", "from cli.main import main; main()", "streets", "place"]
+    command = [sys.executable, "-m", "nightlights_cli", "streets", "place"]
     command += [str(source), str(out / "lights.gpkg"), "--overwrite", "--seed", "1"]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
     signalled = False

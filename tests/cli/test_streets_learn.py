@@ -9,9 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from bayesnets import read_network
-from cli import streets as streets_cli
-from cli.main import cli
-from nightlights.streets._learn import DEFAULT_MAX_DISTANCE
+from nightlights_cli.main import cli
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +69,3 @@ def test_learn_usage_errors(berlin_streets: tuple[Path, Path], tmp_path: Path) -
     )  # the street layer holds no points
     assert result.exit_code == 1 and "no lamp points" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "n2").exists()
-
-
-def test_mirrored_default_distance() -> None:
-    assert streets_cli.DEFAULT_MAX_DISTANCE == DEFAULT_MAX_DISTANCE

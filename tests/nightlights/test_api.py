@@ -17,8 +17,8 @@ import xarray as xr
 from click.testing import CliRunner
 
 import nightlights as nl
-from cli.main import cli
 from nightlights.demo import example_path
+from nightlights_cli.main import cli
 
 SEED = 2011
 #: A small kernel for the test scene (Lambertian and uplight, eye height 1.7 m).

@@ -56,8 +56,8 @@ def test_parse_size(text, expected: int) -> None:
     "text", ["", "lots", "8X", "-1G", "0", "0.1", "nan", "inf", "1e30", "8 G B", True, float("nan")]
 )
 def test_parse_size_refuses_what_is_not_a_size(text) -> None:
-    with pytest.raises(InputError, match=r"--max-memory .*expected"):
-        parse_size(text, source="--max-memory")
+    with pytest.raises(InputError, match=r"memory limit .*expected"):
+        parse_size(text, source="memory limit")
 
 
 @pytest.mark.parametrize(
@@ -92,15 +92,14 @@ def test_check_memory_states_estimate_limit_and_options() -> None:
     set_memory_limit("4G")
     check_memory(4 * GIB, "exactly the limit")
     with pytest.raises(ResourceError) as info:
-        check_memory(7.4e9, "the kernel table of 1000000 distances", option="--n-distance")
+        check_memory(7.4e9, "the kernel table of 1000000 distances", option="n_distance=")
     assert str(info.value) == (
         "the kernel table of 1000000 distances needs about 6.9 GiB, more than the 4.0 GiB "
-        "allowed; lower --n-distance or raise the limit with --max-memory / "
-        "NIGHTLIGHTS_MAX_MEMORY"
+        "allowed; lower n_distance= or raise the limit with NIGHTLIGHTS_MAX_MEMORY"
     )
     assert isinstance(info.value, MemoryError) and isinstance(info.value, NightlightsError)
-    with pytest.raises(ResourceError, match="; use a coarser --resolution or raise the limit"):
-        check_memory(5 * GIB, "the raster", option="use a coarser --resolution")
+    with pytest.raises(ResourceError, match="; use a coarser resolution= or raise the limit"):
+        check_memory(5 * GIB, "the raster", option="use a coarser resolution=")
 
 
 @pytest.mark.parametrize("estimate", [float("inf"), float("nan")])

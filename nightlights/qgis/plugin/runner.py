@@ -147,7 +147,8 @@ def find_command(
     raise CommandError(
         "the nightlights command was not found; tried "
         + ", ".join(tried)
-        + ". Install the toolkit (pip install nightlights) and set its path in Processing > "
+        + ". Install the toolkit (pip install . in its checkout; the distribution is "
+        "nightlights-gis) and set its path in Processing > "
         "Options > Providers > nightlights, or rebuild the plugin with "
         "`nightlights qgis-plugin build` from the toolkit's environment"
     )

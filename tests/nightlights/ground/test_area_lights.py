@@ -157,7 +157,7 @@ def test_area_sources_need_a_spectrum_for_sensor_bands(tmp_path: Path) -> None:
         "exitance_field": "lux_out",
         "progress": False,
     }
-    with pytest.raises(InputError, match=r"area_source has none.*--area-spectrum"):
+    with pytest.raises(InputError, match=r"area_source has none.*area_options\.spectrum="):
         irradiance(lights, tmp_path / "e.tif", **kwargs)
     irradiance(
         lights, tmp_path / "e.tif", area_options=AreaLightOptions(spectrum="LED_4000K"), **kwargs

@@ -66,11 +66,11 @@ def _dnb(values: np.ndarray) -> Raster:
 
 
 def test_parse_crs_names_the_option() -> None:
-    assert parse_crs(None, option="--crs") is None
-    parsed = parse_crs("EPSG:4326", option="--crs")
+    assert parse_crs(None, option="crs") is None
+    parsed = parse_crs("EPSG:4326", option="crs")
     assert parsed is not None and parsed.to_epsg() == 4326
-    with pytest.raises(CRSError, match=r"--target-crs='EPSG:99999999' is not a coordinate"):
-        parse_crs("EPSG:99999999", option="--target-crs")
+    with pytest.raises(CRSError, match=r"target_crs='EPSG:99999999' is not a coordinate"):
+        parse_crs("EPSG:99999999", option="target_crs")
 
 
 @pytest.mark.parametrize("value", [math.nan, math.inf, -1.0, "x"])
@@ -205,10 +205,10 @@ def test_irradiance_refuses_infinite_light_fields(field: str) -> None:
 def test_irradiance_refuses_a_raster_over_the_memory_limit(limit, tmp_path: Path) -> None:
     limit("64M")
     out = tmp_path / "e.tif"
-    with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a coarser --resolution"):
+    with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a coarser resolution="):
         irradiance(_lights(), resolution=0.01, progress=False)
     # written to a file the raster is streamed, never held: its tiles are what is too large
-    with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a smaller --tile-size"):
+    with pytest.raises(ResourceError, match=r"x 1 band needs about .* use a smaller tile_size="):
         irradiance(_lights(), out, resolution=0.01, progress=False)
     assert list(tmp_path.iterdir()) == []
 

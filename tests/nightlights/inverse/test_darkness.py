@@ -297,7 +297,7 @@ def test_infinite_emission_is_refused_with_its_count(kernel: xr.Dataset) -> None
 
 
 def test_grid_options_that_the_kernel_fixes_are_refused(kernel: xr.Dataset) -> None:
-    with pytest.raises(InputError, match="--n-azimuth 2: the kernel fixes the grid"):
+    with pytest.raises(InputError, match="n_azimuth=2: the kernel fixes the grid"):
         darkness(emission(), kernel=kernel, n_azimuth=2, progress=False)
 
 

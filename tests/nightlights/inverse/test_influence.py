@@ -362,7 +362,7 @@ def test_dimming_refuses_a_raster_larger_than_the_memory_limit(kernel, tmp_path:
     try:
         with pytest.raises(ResourceError, match="dimming the 40 x 40 emission raster"):
             inverse_reduce(city, tmp_path / "r.tif", by=q.raster, qa=0.0, qb=1.0, kernel=kernel)
-        with pytest.raises(ResourceError, match="--max-memory"):
+        with pytest.raises(ResourceError, match="NIGHTLIGHTS_MAX_MEMORY"):
             least_dimming(city, observers=[OBSERVER], target_zenith=25.0, kernel=kernel)
     finally:
         set_memory_limit(None)

@@ -63,7 +63,7 @@ _RUN = textwrap.dedent(
     """
     import resource, sys
     resource.setrlimit(resource.RLIMIT_AS, ({limit}, {limit}))
-    from cli.main import cli
+    from nightlights_cli.main import cli
     try:
         cli.main(sys.argv[1:], standalone_mode=False)
     finally:

@@ -228,13 +228,13 @@ def test_place_refuses_before_allocating(memory_limit) -> None:
         place_lights(streets, rng=np.random.default_rng(0))
     message = str(info.value)
     assert "placing about 1e+06 luminaires" in message and "spacing" in message
-    assert "--max-memory" in message
+    assert "NIGHTLIGHTS_MAX_MEMORY" in message
 
 
 def test_sample_refuses_huge_candidates(memory_limit) -> None:
     memory_limit("1G")
     streets = _lit(2).drop(columns=["arrangement", "spacing", "mounting_height", "system_id"])
-    with pytest.raises(ResourceError, match="--candidates"):
+    with pytest.raises(ResourceError, match="lower candidates="):
         fill_lighting(streets, "europe", candidates=10**9, rng=np.random.default_rng(0))
     with pytest.raises(InputError, match="candidates=0"):
         sample(streets, candidates=0)

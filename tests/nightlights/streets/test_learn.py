@@ -316,7 +316,7 @@ def test_same_seed_same_network() -> None:
 def test_output_folder_rules(learned, tmp_path: Path) -> None:
     streets, lamps, result = learned
     assert result.path is not None
-    with pytest.raises(OutputError, match="give --overwrite"):
+    with pytest.raises(OutputError, match="give overwrite=True"):
         learn(streets, lamps, result.path, seed=1)
     other = tmp_path / "other"
     other.mkdir()

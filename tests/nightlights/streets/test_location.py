@@ -82,7 +82,7 @@ def test_network_from_layer_location(
     assert latitude == pytest.approx(lat + 0.0005, abs=0.01), place
     assert network_for_location(longitude, latitude) == expected, place
     if expected == FALLBACK_NETWORK:
-        with pytest.warns(DataQualityWarning, match=r"'generic' network.*--network"):
+        with pytest.warns(DataQualityWarning, match=r"'generic' network.*network="):
             assert network_by_location(layer, source=place)[0] == expected
     else:
         with warnings.catch_warnings():
@@ -136,7 +136,7 @@ def test_east_asia_boxes(place: str, lon: float, lat: float, expected: str) -> N
 def test_sample_records_the_network_chosen_by_location(tmp_path: Path) -> None:
     src, dst = tmp_path / "sydney.gpkg", tmp_path / "lit.gpkg"
     write_normalized(layer_at(151.21, -33.87, "EPSG:28356"), src)
-    with pytest.warns(DataQualityWarning, match=r"sydney\.gpkg.*151\.21, -33\.87.*--network"):
+    with pytest.warns(DataQualityWarning, match=r"sydney\.gpkg.*151\.21, -33\.87.*network="):
         result = sample(src, dst, seed=1)
     assert result.network == "generic"
     assert result.location == pytest.approx((151.211, -33.8695), abs=0.01)
