@@ -26,6 +26,7 @@ import numpy as np
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import InputError
 from nightlights.ground.checks import raster_header
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
@@ -43,7 +44,6 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
-from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.polar import PolarCells
 from nightlights.sky.scene import Scene

@@ -41,8 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nightlights.brightness import magnitude_to_luminance
 from nightlights.errors import InputError
-from nightlights.sky.brightness import magnitude_to_luminance
 
 FloatArray = NDArray[np.float64]
 
@@ -365,7 +365,7 @@ def schaefer_twilight(
     Examples
     --------
     >>> # zenith, Sun 6 deg below the horizon (end of civil twilight) [mag arcsec-2]
-    >>> from nightlights.sky.brightness import luminance_to_magnitude
+    >>> from nightlights.brightness import luminance_to_magnitude
     >>> m = luminance_to_magnitude(schaefer_twilight([90.0], [0.0], -6.0, 180.0))
     >>> round(float(m[0]), 1)
     13.8

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nightlights.brightness import ZERO_POINT_LUMINANCE, bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.nightsky.background import (
     EXTINCTION_COEFFICIENT,
@@ -49,7 +50,6 @@ from nightlights.nightsky.background import (
     twilight_phase,
 )
 from nightlights.nightsky.tonemap import blackbody_white
-from nightlights.sky.brightness import ZERO_POINT_LUMINANCE, bortle_class, luminance_to_magnitude
 
 FloatArray = NDArray[np.float64]
 

@@ -19,9 +19,9 @@ from click.testing import CliRunner, Result
 import nightlights.inverse
 from cli import inverse as inverse_cli
 from cli.main import cli
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.brightness import luminance_to_magnitude
 
 #: Observer at the centre of the 20 x 20 grid of 100 m cells [m, EPSG:32635].
 OBSERVER = ["--observer", "501000,6699000"]
