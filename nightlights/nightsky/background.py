@@ -41,14 +41,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nightlights.brightness import magnitude_to_luminance
+from nightlights.brightness import NATURAL_ZENITH_MAGNITUDE, magnitude_to_luminance
 from nightlights.errors import InputError
 
 FloatArray = NDArray[np.float64]
 
-#: Zenith brightness of the moonless natural sky at a dark site [mag arcsec-2] (the dark end
-#: of Bortle class 1 is 21.99; the same 22.0 is the convention of the DESIGN's magnitude scale).
-NATURAL_ZENITH_MAGNITUDE = 22.0
 #: Airglow share of the zenith's natural light [1] (Schaefer 1998, VISLIMIT line 2150: 0.6 of
 #: the dark sky brightens by van Rhijn's factor, 0.4 does not).
 AIRGLOW_FRACTION = 0.6

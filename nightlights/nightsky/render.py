@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nightlights import brightness
 from nightlights.brightness import ZERO_POINT_LUMINANCE, bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.nightsky.background import (
@@ -950,7 +951,8 @@ def zenith_summary(
     dict
         ``zenith_natural_cd_m2``, ``zenith_artificial_cd_m2``, ``zenith_sky_brightness``
         [mag arcsec-2] of their sum, ``zenith_natural_sky_brightness`` and
-        ``bortle_class_zenith``.
+        ``bortle_class_zenith`` (:func:`nightlights.brightness.zenith_summary` with this
+        natural sky).
 
     Examples
     --------
@@ -970,12 +972,4 @@ def zenith_summary(
         natural = render_sky(
             time, lon, lat, view=tiny, options=replace(options, artificial=False, stars=False)
         ).summary["zenith_natural_cd_m2"]
-    total = natural + float(artificial_luminance)
-    magnitude = float(luminance_to_magnitude(total))
-    return {
-        "zenith_natural_cd_m2": natural,
-        "zenith_artificial_cd_m2": float(artificial_luminance),
-        "zenith_natural_sky_brightness": float(luminance_to_magnitude(natural)),
-        "zenith_sky_brightness": magnitude,
-        "bortle_class_zenith": int(bortle_class(magnitude)),
-    }
+    return brightness.zenith_summary(artificial_luminance, natural_luminance=natural)

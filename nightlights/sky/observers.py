@@ -625,7 +625,7 @@ def _scene_kernel(
 
 
 def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:
-    from nightlights.nightsky.render import zenith_summary
+    from nightlights.brightness import zenith_summary
 
     cells = setup.emission
     first = setup.slices[0]
@@ -764,7 +764,7 @@ def _panorama(
     engine: _Engine,
 ) -> xr.Dataset:
     """An observer's panorama as the ``skyglow`` stage writes it, natural sky attributes too."""
-    from nightlights.nightsky.render import zenith_summary
+    from nightlights.brightness import zenith_summary
 
     luminance = sky["luminance"]
     below = sky["below"]
