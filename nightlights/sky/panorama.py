@@ -30,9 +30,9 @@ from affine import Affine
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import kernel_table_names
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import kernel_table_names
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.spec import EmissionFunction

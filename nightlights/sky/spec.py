@@ -32,10 +32,10 @@ from numpy.typing import ArrayLike
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import EMISSION_MODELS, emission_shape, emission_shape_names
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import EMISSION_MODELS, emission_shape, emission_shape_names
 from nightlights.sky.kernel import (
     TABULATED_PREFIX,
     UPLIGHT_EXPONENT,
@@ -142,7 +142,7 @@ class EmissionFunction:
         ----------
         text
             ``lambertian``, ``uplight`` (or another registered shape whose ``band_tag`` is
-            set: :func:`~nightlights.sky.emission_shapes.register_emission_shape`),
+            set: :func:`~nightlights.emission_functions.register_emission_shape`),
             ``garstang:F,G`` (F the luminaires' direct
             upward fraction, G the ground reflectance, both in [0, 1]) or
             ``tabulated:{"angles": [...], "intensities": [...]}`` (angles from the vertical,
@@ -395,7 +395,7 @@ class KernelSpec:
         every pair [1].
     emission_shapes
         Also tabulate these registered shapes
-        (:func:`~nightlights.sky.emission_shapes.register_emission_shape`), each in its own
+        (:func:`~nightlights.emission_functions.register_emission_shape`), each in its own
         table ``kernel_<table>``; their definitions go into the content hash.
 
     Examples
