@@ -1,4 +1,4 @@
-"""Emission angular distributions of a ground source, per lumen of upward flux, and their registry.
+"""Emission angular functions of a ground source: the shapes, their registry and a band's mix.
 
 The shapes the skyglow kernel tabulates (:mod:`nightlights.sky.kernel`): Lambertian reflection,
 the direct-uplight lobe sin^n, Garstang's (1986) low-angle psi^4 lobe, an isotropic emitter (for
@@ -15,8 +15,15 @@ builder read the known names from it, so a shape whose angular function one of t
 forms expresses (a cosine, a sine power, isotropic, the psi^4 lobe, or a table interpolated
 linearly in the angle) is one registration call.
 
-Length: about 760 lines, because the shapes, their compiled forms and the registry that joins
-them are one vocabulary that the numpy and the compiled integrators must read alike.
+An emission band's angular function (:class:`EmissionFunction`) is a weighted mix of the
+shapes, written in the band tag ``emission_function`` (:data:`EMISSION_FUNCTION_TAG`) by the
+stages that make emission rasters (:mod:`nightlights.ground.upward`) and read by the skyglow
+stages. A leaf of the package (it imports no other layer), so that the ground stages that write
+the tag and the sky stages that read it both import it.
+
+Length: about 900 lines, because the shapes, their compiled forms, the registry that joins them
+and the band tag's mixes of them are one vocabulary that the ground stages, the numpy and the
+compiled integrators must read alike.
 
 References
 ----------
@@ -43,6 +50,8 @@ from nightlights.errors import InputError
 __all__ = [
     "COMPILED_FORMS",
     "COSINE_FORM",
+    "DEFAULT_EMISSION_FUNCTION",
+    "EMISSION_FUNCTION_TAG",
     "EMISSION_MODELS",
     "GARSTANG_LOBE_NORM",
     "ISOTROPIC_FORM",
@@ -52,6 +61,7 @@ __all__ = [
     "TABLE_FORM",
     "TABULATED_PREFIX",
     "UPLIGHT_EXPONENT",
+    "EmissionFunction",
     "EmissionShape",
     "emission_intensity",
     "emission_shape",
@@ -755,3 +765,133 @@ register_emission_shape(
     band_tag=False,
     doc="low-angle term of Garstang's (1986) emission function, I = c theta^4 / (2 pi) [cd lm-1]",
 )
+
+
+#: Band tag naming an emission band's angular function (:meth:`EmissionFunction.parse`).
+EMISSION_FUNCTION_TAG = "emission_function"
+
+#: Emission function of a single-band raster without the tag (a satellite night-lights
+#: raster, any user raster): Garstang's (1986) function with F = G = 0.15 [1].
+DEFAULT_EMISSION_FUNCTION = "garstang:0.15,0.15"
+
+
+@dataclass(frozen=True)
+class EmissionFunction:
+    """The angular emission function of one emission band, as a mix of kernel shapes.
+
+    Skyglow is linear in the emission function, so a band whose function is a weighted sum
+    of the unit-flux shapes a kernel tabulates (:func:`emission_intensity`) reads the same
+    weighted sum of their coefficient tables.
+
+    Attributes
+    ----------
+    tag
+        Canonical text of the band tag ``emission_function``: ``lambertian``, ``uplight``,
+        ``garstang:F,G`` or ``tabulated:<json>``.
+    weights
+        ``(shape, weight)`` pairs: kernel shapes (``lambertian``, ``uplight``,
+        ``garstang_lobe``, or the canonical text of a tabulated function, which has its own
+        kernel table) and their weights per lumen of the band's upward flux [1].
+
+    Examples
+    --------
+    >>> f = EmissionFunction.parse("garstang:0.15,0.15")
+    >>> f.tag, [(shape, round(w, 3)) for shape, w in f.weights]
+    ('garstang:0.15,0.15', [('lambertian', 0.459), ('garstang_lobe', 0.541)])
+    >>> EmissionFunction.parse("lambertian").shapes
+    ('lambertian',)
+    """
+
+    tag: str
+    weights: tuple[tuple[str, float], ...]
+
+    @property
+    def shapes(self) -> tuple[str, ...]:
+        """The kernel shapes the function reads (weight > 0)."""
+        return tuple(shape for shape, weight in self.weights if weight > 0)
+
+    def intensity(self, cos_zenith: ArrayLike) -> FloatArray:
+        """Intensity per lumen of upward flux: the weighted shapes of
+        :func:`emission_intensity`.
+
+        Parameters
+        ----------
+        cos_zenith
+            Cosine of the emission direction's angle from the local vertical [1].
+
+        Returns
+        -------
+        numpy.ndarray
+            Intensity [cd lm-1].
+
+        Examples
+        --------
+        >>> f = EmissionFunction.parse("garstang:0.15,0.15")
+        >>> round(float(f.intensity(1.0)) * np.pi, 3)  # straight up: the Lambertian part
+        0.459
+        """
+        mu = np.asarray(cos_zenith, dtype=float)
+        total = np.zeros(mu.shape)
+        for shape, weight in self.weights:
+            if weight > 0:
+                total = total + weight * emission_intensity(mu, shape)
+        return total
+
+    @classmethod
+    def parse(cls, text: str, *, source: str = "emission_function") -> EmissionFunction:
+        """The function a band tag names.
+
+        Parameters
+        ----------
+        text
+            ``lambertian``, ``uplight`` (or another registered shape whose ``band_tag`` is
+            set: :func:`register_emission_shape`),
+            ``garstang:F,G`` (F the luminaires' direct
+            upward fraction, G the ground reflectance, both in [0, 1]) or
+            ``tabulated:{"angles": [...], "intensities": [...]}`` (angles from the vertical,
+            0 to 90 [deg], relative intensities;
+            :func:`parse_tabulated_emission`).
+        source
+            Where the text came from, for messages.
+
+        Returns
+        -------
+        EmissionFunction
+            The function.
+
+        Raises
+        ------
+        InputError
+            Text of no known form.
+        """
+        if str(text).strip().startswith(TABULATED_PREFIX):
+            try:
+                canonical = parse_tabulated_emission(str(text).strip())[0]
+            except InputError as exc:
+                raise InputError(f"{source}: {exc}") from None
+            return cls(canonical, ((canonical, 1.0),))
+        name, _, argument = str(text).strip().partition(":")
+        name = name.strip().lower()
+        if name in _tag_shapes() and not argument:
+            return cls(name, ((name, 1.0),))
+        if name == "garstang":
+            try:
+                f, g = (float(x) for x in argument.split(","))
+            except ValueError:
+                raise InputError(
+                    f"{source} {text!r}; expected garstang:F,G with two numbers"
+                ) from None
+            try:
+                weights = garstang_weights(f, g)
+            except InputError as exc:
+                raise InputError(f"{source} {text!r}: {exc}") from None
+            return cls(f"garstang:{f:g},{g:g}", tuple(weights.items()))
+        raise InputError(
+            f"{source} {text!r}; expected {', '.join(_tag_shapes())}, garstang:F,G or "
+            "tabulated:<json>"
+        )
+
+
+def _tag_shapes() -> tuple[str, ...]:
+    """The registered shapes a band tag may name alone (``lambertian``, ``uplight``, ...)."""
+    return tuple(name for name in emission_shape_names() if emission_shape(name).band_tag)
