@@ -34,9 +34,9 @@ from cli.skyglow import parse_pair
 F = TypeVar("F", bound=Callable[..., Any])
 
 # --- mirrors of library constants (checked by tests/cli/test_inverse.py) ----------------------
-#: nightlights.inverse._influence.METRICS
+#: nightlights.sky.influence.METRICS
 Q_METRICS = ("pca-norm", "zenith", "hemisphere")
-#: nightlights.inverse._influence.WEIGHTS
+#: nightlights.sky.influence.WEIGHTS
 S_WEIGHTS = ("solid-angle", "pixel")
 #: nightlights.inverse.stage.S_METHODS
 S_METHODS = ("pca", "brute")

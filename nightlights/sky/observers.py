@@ -60,7 +60,6 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import bortle_class, luminance_to_magnitude
 from nightlights.emission_functions import kernel_table_names
 from nightlights.errors import CRSError, InputError, OutputExistsError
-from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.io import OutputSet, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
@@ -68,6 +67,7 @@ from nightlights.sky._flat import flat_keywords
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
 from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import Observer, positions
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca

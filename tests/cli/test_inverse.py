@@ -399,8 +399,8 @@ def test_by_mode_reaches_inverse_reduce(
 
 
 def test_mirrored_choices_equal_the_library() -> None:
-    from nightlights.inverse._influence import METRICS, WEIGHTS
     from nightlights.inverse.stage import S_METHODS
+    from nightlights.sky.influence import METRICS, WEIGHTS
 
     assert inverse_cli.Q_METRICS == tuple(METRICS)
     assert inverse_cli.S_WEIGHTS == tuple(WEIGHTS)
