@@ -13,7 +13,7 @@ Each band of an emission raster carries its angular emission function
 both from the leaf :mod:`nightlights.emission_functions` and handed on here); it names the mix
 of the kernel's tabulated shapes that band reads.
 
-Length: about 740 lines, because the specification and its axes are one description of what a
+Length: about 760 lines, because the specification and its axes are one description of what a
 kernel holds, and the scene-sized specification is made from them.
 """
 
