@@ -33,9 +33,9 @@ import numpy as np
 from affine import Affine
 
 from nightlights.errors import DataQualityWarning
-from nightlights.inverse._darkness import darkness
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec
+from nightlights.sky.darkness import darkness
 from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import get_or_build_kernel, kernel_cache_path, read_kernel

@@ -45,14 +45,14 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights.inverse import InfluenceResult, SkyRegion, inverse_q, inverse_s
-from nightlights.inverse._influence import (
+from nightlights.io import Raster
+from nightlights.sky import KernelSpec, Observer, Scene
+from nightlights.sky.influence import (
     cell_values,
     cell_values_brute,
     region_table,
     region_weights,
 )
-from nightlights.io import Raster
-from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky.polar import polar_cells
 from nightlights.sky.setup import prepare_scene
 from nightlights.sky.store import get_or_build_kernel

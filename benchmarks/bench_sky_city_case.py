@@ -47,9 +47,9 @@ from collections.abc import Callable
 import _harness as harness
 import numpy as np
 
+from nightlights.brightness import luminance_to_magnitude, magnitude_to_luminance
+from nightlights.emission_functions import garstang_weights
 from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
-from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
-from nightlights.sky.emission_shapes import garstang_weights
 from nightlights.sky.garstang import garstang_sky_luminance, garstang_upward_flux
 from nightlights.sky.kernel import sky_luminance
 from nightlights.sky.montecarlo import monte_carlo_luminance

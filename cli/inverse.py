@@ -566,7 +566,7 @@ def _report_influence(result: Any, out: str) -> None:
             f"{panorama:.4g} cd m-2"
         )
         if result.metric == "zenith":
-            from nightlights.sky.brightness import luminance_to_magnitude
+            from nightlights.brightness import luminance_to_magnitude
 
             line += f" = {float(luminance_to_magnitude(panorama)):.2f} mag arcsec-2"
     _print([f"{line}; {1000 * float(result.seconds):.1f} ms -> {out}"])

@@ -135,7 +135,7 @@ def skyglow(
         f"{out}",
         soft_wrap=True,
     )
-    from nightlights.nightsky.render import zenith_summary
+    from nightlights.brightness import zenith_summary
 
     total = zenith_summary(result.zenith_luminance)
     Console(stderr=True).print(

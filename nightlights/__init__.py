@@ -72,11 +72,12 @@ _LAZY: dict[str, str] = {
     "inverse_s": "nightlights.inverse",
     "inverse_reduce": "nightlights.inverse",
     "least_dimming": "nightlights.inverse",
-    "darkness": "nightlights.inverse",
     "SkyRegion": "nightlights.inverse",
     "InfluenceResult": "nightlights.inverse",
     "ReduceResult": "nightlights.inverse",
-    "DarknessResult": "nightlights.inverse",
+    # many observers: the zenith darkness map of a whole region
+    "darkness": "nightlights.sky",
+    "DarknessResult": "nightlights.sky",
     # interactive: any observer, edits and dimming in memory (and in the browser)
     "ExploreSession": "nightlights.explore",
     # the whole night sky: stars, Moon, natural background, the eye
@@ -103,11 +104,9 @@ if TYPE_CHECKING:
         irradiance,
     )
     from nightlights.inverse import (
-        DarknessResult,
         InfluenceResult,
         ReduceResult,
         SkyRegion,
-        darkness,
         inverse_q,
         inverse_reduce,
         inverse_s,
@@ -117,12 +116,14 @@ if TYPE_CHECKING:
     from nightlights.nightsky import SkyRenderResult, sky_render
     from nightlights.project import ProjectResult, load_project, run
     from nightlights.sky import (
+        DarknessResult,
         KernelResult,
         KernelSpec,
         Observer,
         Scene,
         SkyglowResult,
         build_kernel,
+        darkness,
         skyglow,
     )
     from nightlights.sky.observers import ObserversResult, observers

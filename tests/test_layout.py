@@ -1,14 +1,45 @@
-"""The shape of the code base: dependency direction, no import circles, modules of a readable size.
+"""The shape of the code base: dependency direction, floors, no import circles, readable modules.
 
 Imports are read statically (module level and inside functions alike), so a circle dodged by a
-function-level import counts as a circle.
+function-level import counts as a circle, and an import that runs up the floors counts wherever
+it stands.
+
+The floors of ``nightlights``, lowest first (:data:`FLOORS`). A module may import modules of
+its own floor and of the floors below it, never of a floor above; rooms (packages or modules)
+that share a floor stand side by side and import each other not at all:
+
+1. base: ``errors`` (the exception root) and ``_typing`` (array and path types).
+2. leaves: ``_validate`` (checks of user input), ``_resources`` (memory bounds), ``_parallel``
+   (Dask helpers), ``brightness`` (sky-brightness units, Bortle, the zenith summary) and
+   ``emission_functions`` (the angular emission shapes and the band tag naming them, the
+   vocabulary the ground writes and the sky reads).
+3. io: files in and out (rasters, vectors, styles, terrain).
+4. ground: ``streets`` (street layers to light points) and ``ground`` (light on the ground
+   and what goes up).
+5. sky: skyglow kernels, panoramas, many observers (``observers``, ``darkness``) and the per-cell
+   splits of panorama sums (``influence``).
+6. inverse and night sky: ``inverse`` (which lights cause the glow, how to dim them) and
+   ``nightsky`` (stars, Moon, natural sky, the eye), both reading the sky.
+7. explore: the interactive investigation.
+8. maps: quick-look map figures.
+9. project: one TOML file that runs every stage.
+10. front: ``qgis`` (the QGIS provider) and ``demo`` (the bundled example).
+
+The package face ``nightlights/__init__.py`` stands on no floor: it hands every stage on lazily
+(its ``_LAZY`` table). An import of it is read as an import of the module each name taken from
+it comes from (``nl.darkness`` or ``from nightlights import darkness``: ``nightlights.sky``); a
+name the face holds itself (the errors, ``__version__``) counts as ``nightlights.errors``, the
+only module the face imports when it loads. The lazy tables of the subpackages' faces count as
+imports too. ``ies`` and ``bayesnets`` stand below every floor (:func:`test_dependency_direction`).
 """
 
 from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Iterator
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 
@@ -39,32 +70,52 @@ def _modules() -> dict[str, Path]:
     }
 
 
+def _import_nodes(tree: ast.Module) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    """Every import statement of a module and whether it stands inside a function."""
+
+    def visit(node: ast.AST, deferred: bool) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.Import | ast.ImportFrom):
+                yield child, deferred
+            inside = deferred or isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef)
+            yield from visit(child, inside)
+
+    yield from visit(tree, False)
+
+
+def _candidates(node: ast.Import | ast.ImportFrom, name: str, is_package: bool) -> list[str]:
+    """Dotted names an import statement may load: one per alias (``module.alias`` for a
+    from-import), then, for a from-import, the module it names."""
+    if isinstance(node, ast.Import):
+        return [alias.name for alias in node.names]
+    if node.level:
+        base = name.split(".")
+        base = base[: len(base) - node.level + (1 if is_package else 0)]
+        module = ".".join([*base, node.module] if node.module else base)
+    else:
+        module = node.module or ""
+    return [f"{module}.{alias.name}" for alias in node.names] + [module]
+
+
+def _deepest_known(candidate: str, known: set[str]) -> str | None:
+    parts = candidate.split(".")
+    for end in range(len(parts), 0, -1):
+        prefix = ".".join(parts[:end])
+        if prefix in known:
+            return prefix
+    return None
+
+
 def _imports(name: str, path: Path, known: set[str]) -> set[str]:
     """Project modules imported by ``name`` (the deepest known module of each import)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     is_package = path.name == "__init__.py"
     targets: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            candidates = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".")
-                base = base[: len(base) - node.level + (1 if is_package else 0)]
-                module = ".".join([*base, node.module] if node.module else base)
-            else:
-                module = node.module or ""
-            candidates = [f"{module}.{alias.name}" for alias in node.names] + [module]
-        else:
-            continue
-        for candidate in candidates:
-            parts = candidate.split(".")
-            for end in range(len(parts), 0, -1):
-                prefix = ".".join(parts[:end])
-                if prefix in known:
-                    if prefix != name:
-                        targets.add(prefix)
-                    break
+    for node, _ in _import_nodes(tree):
+        for candidate in _candidates(node, name, is_package):
+            target = _deepest_known(candidate, known)
+            if target is not None and target != name:
+                targets.add(target)
     return targets
 
 
@@ -146,6 +197,288 @@ def test_dependency_direction(package: str, forbidden: tuple[str, ...]) -> None:
         if target.split(".")[0] in forbidden
     )
     assert wrong == []
+
+
+#: The floors of ``nightlights``, lowest first: (name, rooms). A room is a package or a module;
+#: a module stands on the floor of its longest room prefix. See the module docstring.
+FLOORS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("base", ("nightlights.errors", "nightlights._typing")),
+    (
+        "leaves",
+        (
+            "nightlights._validate",
+            "nightlights._resources",
+            "nightlights._parallel",
+            "nightlights.brightness",
+            "nightlights.emission_functions",
+        ),
+    ),
+    ("io", ("nightlights.io",)),
+    ("ground", ("nightlights.streets", "nightlights.ground")),
+    ("sky", ("nightlights.sky",)),
+    ("inverse and night sky", ("nightlights.inverse", "nightlights.nightsky")),
+    ("explore", ("nightlights.explore",)),
+    ("maps", ("nightlights.maps",)),
+    ("project", ("nightlights.project",)),
+    ("front", ("nightlights.qgis", "nightlights.demo")),
+)
+#: The package face: on no floor; imports of it are read through its lazy table.
+FACE = "nightlights"
+#: Where a name the face holds itself comes from (the face loads this module alone).
+FACE_OWN = "nightlights.errors"
+#: The name of a package face's table of lazily imported names (public name -> module).
+LAZY_TABLE = "_LAZY"
+
+
+class ImportSite(NamedTuple):
+    """One project module that one statement of a module loads."""
+
+    module: str
+    line: int
+    #: ``at module level``, ``inside a function`` or ``in the lazy table``.
+    where: str
+    target: str
+
+    def __str__(self) -> str:
+        return f"{self.module}:{self.line} ({self.where}) imports {self.target}"
+
+
+def _lazy_table(tree: ast.Module) -> dict[str, tuple[str, int]]:
+    """A face's lazy table: public name -> (module, line of the entry)."""
+    for node in tree.body:
+        target: ast.expr
+        if isinstance(node, ast.AnnAssign):
+            target = node.target
+        elif isinstance(node, ast.Assign) and len(node.targets) == 1:
+            target = node.targets[0]
+        else:
+            continue
+        if isinstance(target, ast.Name) and target.id == LAZY_TABLE:
+            assert isinstance(node.value, ast.Dict), f"{LAZY_TABLE} is not a dict literal"
+            return {
+                ast.literal_eval(key): (ast.literal_eval(value), value.lineno)
+                for key, value in zip(node.value.keys, node.value.values, strict=True)
+                if key is not None
+            }
+    return {}
+
+
+def _face_names() -> dict[str, str]:
+    """The face's lazy table: public name -> the module that defines it."""
+    tree = ast.parse((ROOT / FACE / "__init__.py").read_text(encoding="utf-8"))
+    return {key: module for key, (module, _) in _lazy_table(tree).items()}
+
+
+def _through_face(attribute: str, face: dict[str, str], known: set[str]) -> str:
+    """The module a name taken from the face comes from."""
+    if f"{FACE}.{attribute}" in known:
+        return f"{FACE}.{attribute}"
+    return face.get(attribute, FACE_OWN)
+
+
+def _attributes_of(tree: ast.Module, bound: str) -> set[str]:
+    """Attributes read from the name ``bound`` anywhere in a module (``nl.skyglow``)."""
+    return {
+        node.attr
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Attribute)
+        and isinstance(node.value, ast.Name)
+        and node.value.id == bound
+    }
+
+
+def _import_sites(
+    name: str, source: str, *, is_package: bool, known: set[str], face: dict[str, str]
+) -> list[ImportSite]:
+    """Every project module that the source of module ``name`` loads, statement by statement."""
+    tree = ast.parse(source)
+    sites: list[ImportSite] = []
+
+    def add(line: int, where: str, target: str | None) -> None:
+        site = ImportSite(name, line, where, target or "")
+        if target is not None and target != name and site not in sites:
+            sites.append(site)
+
+    for node, deferred in _import_nodes(tree):
+        where = "inside a function" if deferred else "at module level"
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name == FACE:  # import nightlights as nl: what nl.NAME reads
+                    for attribute in sorted(_attributes_of(tree, alias.asname or FACE)):
+                        add(node.lineno, where, _through_face(attribute, face, known))
+                else:
+                    add(node.lineno, where, _deepest_known(alias.name, known))
+            continue
+        candidates = _candidates(node, name, is_package)
+        for alias, candidate in zip(node.names, candidates, strict=False):
+            target = _deepest_known(candidate, known)
+            if target == FACE:  # from nightlights import NAME
+                target = _through_face(alias.name, face, known)
+            add(node.lineno, where, target)
+    for module, line in _lazy_table(tree).values():
+        add(line, "in the lazy table", _deepest_known(module, known))
+    return sites
+
+
+def _room(module: str) -> str | None:
+    """The room (longest prefix in :data:`FLOORS`) a module belongs to; None: none."""
+    matches = [
+        room
+        for _, rooms in FLOORS
+        for room in rooms
+        if module == room or module.startswith(room + ".")
+    ]
+    return max(matches, key=len, default=None)
+
+
+def _floor(module: str) -> int | None:
+    """Index in :data:`FLOORS` of the floor a module stands on; None: on no floor."""
+    room = _room(module)
+    return next((i for i, (_, rooms) in enumerate(FLOORS) if room in rooms), None)
+
+
+def _floor_name(index: int) -> str:
+    return f"floor {index + 1} ({FLOORS[index][0]})"
+
+
+def _upward(sites: list[ImportSite]) -> list[str]:
+    """The imports that run from a lower floor to a higher one."""
+    wrong = []
+    for site in sites:
+        low, high = _floor(site.module), _floor(site.target)
+        if low is not None and high is not None and high > low:
+            wrong.append(f"{site}: {_floor_name(low)} up to {_floor_name(high)}")
+    return wrong
+
+
+def _sideways(sites: list[ImportSite]) -> list[str]:
+    """The imports between two rooms that share a floor."""
+    wrong = []
+    for site in sites:
+        floor = _floor(site.module)
+        if floor is not None and floor == _floor(site.target):
+            if _room(site.module) != _room(site.target):
+                wrong.append(f"{site}: sideways on {_floor_name(floor)}")
+    return wrong
+
+
+def _floored_modules() -> dict[str, Path]:
+    """The modules of ``nightlights`` but its face."""
+    return {
+        name: path
+        for name, path in _modules().items()
+        if name.split(".")[0] == FACE and name != FACE
+    }
+
+
+def _nightlights_sites() -> list[ImportSite]:
+    known, face = set(_modules()), _face_names()
+    return [
+        site
+        for name, path in _floored_modules().items()
+        for site in _import_sites(
+            name,
+            path.read_text(encoding="utf-8"),
+            is_package=path.name == "__init__.py",
+            known=known,
+            face=face,
+        )
+    ]
+
+
+def test_every_module_stands_on_a_floor() -> None:
+    homeless = sorted(name for name in _floored_modules() if _floor(name) is None)
+    assert homeless == [], f"modules on no floor of FLOORS: {homeless}"
+    rooms = [room for _, floor in FLOORS for room in floor]
+    assert len(rooms) == len(set(rooms)), "a room on two floors"
+    missing = sorted(room for room in rooms if room not in _modules())
+    assert missing == [], f"rooms of FLOORS that are no module: {missing}"
+
+
+def test_no_import_runs_up_the_floors() -> None:
+    wrong = _upward(_nightlights_sites())
+    assert wrong == [], "imports that run up the floors:\n" + "\n".join(wrong)
+
+
+def test_rooms_on_one_floor_stand_apart() -> None:
+    wrong = _sideways(_nightlights_sites())
+    assert wrong == [], "imports between rooms of one floor:\n" + "\n".join(wrong)
+
+
+def _sites_of(module: str, source: str) -> list[ImportSite]:
+    """The import sites of a module that would have ``source`` (the checks' own tests)."""
+    is_package = (ROOT / module.replace(".", "/") / "__init__.py").exists()
+    return _import_sites(
+        module, source, is_package=is_package, known=set(_modules()), face=_face_names()
+    )
+
+
+@pytest.mark.parametrize(
+    ("module", "source", "expected"),
+    [
+        (
+            "nightlights.io.styles",
+            "def qml():\n    from nightlights.sky.spec import KernelSpec\n",
+            "nightlights.io.styles:2 (inside a function) imports nightlights.sky.spec: "
+            "floor 3 (io) up to floor 5 (sky)",
+        ),
+        (
+            "nightlights.sky.stage",
+            "import nightlights as nl\n\ndef run():\n    return nl.inverse_q\n",
+            "nightlights.sky.stage:1 (at module level) imports nightlights.inverse: "
+            "floor 5 (sky) up to floor 6 (inverse and night sky)",
+        ),
+        (
+            "nightlights.ground.upward",
+            "from nightlights import skyglow\n",
+            "nightlights.ground.upward:1 (at module level) imports nightlights.sky: "
+            "floor 4 (ground) up to floor 5 (sky)",
+        ),
+        (
+            "nightlights.sky",
+            "_LAZY: dict[str, str] = {\n    'zenith_summary': 'nightlights.nightsky.render',\n}\n",
+            "nightlights.sky:2 (in the lazy table) imports nightlights.nightsky.render: "
+            "floor 5 (sky) up to floor 6 (inverse and night sky)",
+        ),
+        (
+            "nightlights.brightness",
+            "from .io import styles\n",
+            "nightlights.brightness:1 (at module level) imports nightlights.io.styles: "
+            "floor 2 (leaves) up to floor 3 (io)",
+        ),
+    ],
+)
+def test_the_floor_check_sees_every_kind_of_import(module: str, source: str, expected: str) -> None:
+    assert _upward(_sites_of(module, source)) == [expected]
+
+
+def test_the_floor_check_sees_sideways_imports() -> None:
+    sites = _sites_of("nightlights.inverse.stage", "from ..nightsky import render\n")
+    assert _upward(sites) == []
+    assert _sideways(sites) == [
+        "nightlights.inverse.stage:1 (at module level) imports nightlights.nightsky.render: "
+        "sideways on floor 6 (inverse and night sky)"
+    ]
+
+
+def test_the_floor_check_lets_imports_go_down() -> None:
+    source = (
+        "import nightlights as nl\n"
+        "from nightlights import __version__, brightness\n"
+        "from nightlights.sky.influence import cell_values\n"
+        "def run():\n"
+        "    from nightlights.io import Raster\n"
+        "    return nl.darkness, nl.NightlightsError\n"
+    )
+    sites = _sites_of("nightlights.inverse.stage", source)
+    assert {site.target for site in sites} == {
+        "nightlights.brightness",
+        "nightlights.errors",
+        "nightlights.io",
+        "nightlights.sky",
+        "nightlights.sky.influence",
+    }
+    assert _upward(sites) == [] and _sideways(sites) == []
 
 
 def test_modules_of_readable_size() -> None:

@@ -43,11 +43,19 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import InputError, OutputExistsError
 from nightlights.explore._edits import EmissionEdits, band_share
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
-from nightlights.inverse._influence import (
+from nightlights.inverse._region import SkyRegion
+from nightlights.io import Raster, as_raster
+from nightlights.io.raster import LitCells
+from nightlights.io.styles import PRODUCT_TAG
+from nightlights.sky._flat import SCENE_KEYWORDS
+from nightlights.sky._polar_numba import polar_flux_levels
+from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.influence import (
     cell_values,
     hemisphere_weights,
     pca_norm_table,
@@ -55,14 +63,6 @@ from nightlights.inverse._influence import (
     region_weights,
     zenith_weights,
 )
-from nightlights.inverse._region import SkyRegion
-from nightlights.io import Raster, as_raster
-from nightlights.io.raster import LitCells
-from nightlights.io.styles import PRODUCT_TAG
-from nightlights.sky._flat import SCENE_KEYWORDS
-from nightlights.sky._polar_numba import polar_flux_levels
-from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
-from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import PolarMap, lit_mask, lit_polar_cells, source_level_weights

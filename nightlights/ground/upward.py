@@ -42,6 +42,7 @@ from ies import spectra
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
+from nightlights.emission_functions import EMISSION_FUNCTION_TAG, EmissionFunction
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
 from nightlights.ground.checks import (
     RasterHeader,
@@ -63,7 +64,6 @@ from nightlights.io import (
     source_label,
 )
 from nightlights.io.styles import PRODUCT_TAG
-from nightlights.sky.spec import EMISSION_FUNCTION_TAG, EmissionFunction
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -636,7 +636,7 @@ def emission_from_viirs(
         Flat DNB pass band [nm].
     emission_function
         Angular emission function of the city's light (``lambertian`` or ``garstang:F,G``,
-        :class:`~nightlights.sky.spec.EmissionFunction`): it sets the flux the nadir
+        :class:`~nightlights.emission_functions.EmissionFunction`): it sets the flux the nadir
         radiance implies (:func:`viirs_radiance_to_flux_density`) and is written as the
         band's ``emission_function`` tag, which the skyglow stage reads. Garstang's
         F = G = 0.15 gives 1 / 0.459 = 2.18 times the Lambertian flux: its low-angle lobe is

@@ -5,7 +5,9 @@ Dobashi et al. (2023, Sec. 4) map, for an observer, each lit cell's share of the
 by those maps (Eq. 12). This package computes them as rasters on the emission grid, with
 physical variants (each cell's part of the zenith or hemispherical sky luminance), the dimming
 that meets sky-brightness targets while removing the least flux (a linear program: skyglow is
-linear in the emission), and the region-wide zenith darkness map.
+linear in the emission). The region-wide zenith darkness map, a forward map of many observers,
+lives beside them in :mod:`nightlights.sky.darkness`; :func:`darkness` and
+:class:`DarknessResult` are handed on here too.
 
 References
 ----------
@@ -24,8 +26,8 @@ _LAZY: dict[str, str] = {
     "least_flux_dimming": "nightlights.inverse._dimming",
     "DimmingPlan": "nightlights.inverse._dimming",
     "InfeasibleTargetError": "nightlights.inverse._dimming",
-    "darkness": "nightlights.inverse._darkness",
-    "DarknessResult": "nightlights.inverse._darkness",
+    "darkness": "nightlights.sky.darkness",
+    "DarknessResult": "nightlights.sky.darkness",
     "inverse_q": "nightlights.inverse.stage",
     "inverse_s": "nightlights.inverse.stage",
     "inverse_reduce": "nightlights.inverse.plan",
@@ -40,7 +42,6 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:
-    from nightlights.inverse._darkness import DarknessResult, darkness
     from nightlights.inverse._dimming import (
         DimmingPlan,
         InfeasibleTargetError,
@@ -57,6 +58,7 @@ if TYPE_CHECKING:
     )
     from nightlights.inverse.plan import ReduceResult, inverse_reduce, least_dimming
     from nightlights.inverse.stage import InfluenceResult, inverse_q, inverse_s
+    from nightlights.sky.darkness import DarknessResult, darkness
 
 __all__ = [
     "DarknessResult",

@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError, NightlightsError
-from nightlights.sky.brightness import luminance_to_magnitude
 
 #: Methods of :func:`least_flux_dimming`.
 METHODS = ("auto", "greedy", "lp")

@@ -9,8 +9,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.io import atomic_output
-from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.render import MAGNITUDE_RANGE
 
 __all__ = ["render_before_after"]

@@ -26,10 +26,10 @@ import numpy as np
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import InputError
 from nightlights.ground.checks import raster_header
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
-from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.inverse._region import SkyRegion
 from nightlights.inverse.stage import (
     _check_outputs,
@@ -43,7 +43,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
-from nightlights.sky.brightness import luminance_to_magnitude, magnitude_to_luminance
+from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.polar import PolarCells
 from nightlights.sky.scene import Scene

@@ -24,7 +24,12 @@ import xarray as xr
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
-from nightlights.inverse._influence import (
+from nightlights.inverse._region import SkyRegion
+from nightlights.io import Raster
+from nightlights.io.outputs import OutputSet
+from nightlights.io.styles import PRODUCT_TAG
+from nightlights.sky._flat import flat_keywords
+from nightlights.sky.influence import (
     METRICS,
     cell_values,
     cell_values_brute,
@@ -34,11 +39,6 @@ from nightlights.inverse._influence import (
     region_weights,
     zenith_weights,
 )
-from nightlights.inverse._region import SkyRegion
-from nightlights.io import Raster
-from nightlights.io.outputs import OutputSet
-from nightlights.io.styles import PRODUCT_TAG
-from nightlights.sky._flat import flat_keywords
 from nightlights.sky.observer import Observer
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask

@@ -70,6 +70,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import ArrayLike
 
+from nightlights.brightness import BORTLE_LOWER_EDGES
 from nightlights.errors import InputError, NightlightsWarning, OutputError
 
 __all__ = [
@@ -369,7 +370,7 @@ def sky_brightness_qml(*, band: int = 1) -> str:
     """QML of a sky brightness raster [mag arcsec-2]: the Bortle classes in their colour key.
 
     A cell darker than 21.99 mag arcsec-2 is black (class 1), one brighter than 18.00 white
-    (class 9); the class edges are :data:`nightlights.sky.brightness.BORTLE_LOWER_EDGES`
+    (class 9); the class edges are :data:`nightlights.brightness.BORTLE_LOWER_EDGES`
     (Bortle 2001) and the colours :data:`BORTLE_COLOURS` (Falchi et al. 2016).
 
     Parameters
@@ -394,8 +395,6 @@ def sky_brightness_qml(*, band: int = 1) -> str:
 
 def _bortle_upper_edges() -> list[float]:
     """Upper (fainter) edge of each class, brightest class first [mag arcsec-2]."""
-    from nightlights.sky.brightness import BORTLE_LOWER_EDGES
-
     return [*sorted(BORTLE_LOWER_EDGES), FAINTEST_MAGNITUDE]
 
 

@@ -41,14 +41,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nightlights.brightness import NATURAL_ZENITH_MAGNITUDE, magnitude_to_luminance
 from nightlights.errors import InputError
-from nightlights.sky.brightness import magnitude_to_luminance
 
 FloatArray = NDArray[np.float64]
 
-#: Zenith brightness of the moonless natural sky at a dark site [mag arcsec-2] (the dark end
-#: of Bortle class 1 is 21.99; the same 22.0 is the convention of the DESIGN's magnitude scale).
-NATURAL_ZENITH_MAGNITUDE = 22.0
 #: Airglow share of the zenith's natural light [1] (Schaefer 1998, VISLIMIT line 2150: 0.6 of
 #: the dark sky brightens by van Rhijn's factor, 0.4 does not).
 AIRGLOW_FRACTION = 0.6
@@ -365,7 +362,7 @@ def schaefer_twilight(
     Examples
     --------
     >>> # zenith, Sun 6 deg below the horizon (end of civil twilight) [mag arcsec-2]
-    >>> from nightlights.sky.brightness import luminance_to_magnitude
+    >>> from nightlights.brightness import luminance_to_magnitude
     >>> m = luminance_to_magnitude(schaefer_twilight([90.0], [0.0], -6.0, 180.0))
     >>> round(float(m[0]), 1)
     13.8

@@ -1,30 +1,20 @@
 """The night sky as an image: natural and artificial light composed in linear CIE XYZ.
 
-A :class:`View` (equirectangular, fisheye or perspective) gives every pixel a direction and a
-solid angle (:func:`view_pixels`). The diffuse sky (natural background, twilight, moonlight,
-artificial skyglow) is evaluated at the pixel directions as luminance [cd m-2]; point sources
-(stars, a Moon smaller than a pixel) are splatted with a pixel-integrated Gaussian whose weights
-sum to one, so that a star's illuminance [lx] equals the sum over its pixels of luminance times
-solid angle at any resolution (:func:`splat_points`). Star colours come from B-V through
-Ballesteros's (2012) temperature and a blackbody; stars fainter than the eye's limiting
-magnitude against the local sky (Schaefer 1990) are left out.
-
-Length: 600+ lines because the three projections, the splatting and the composition share the
-pixel geometry; split they would pass the same five arrays back and forth.
+The diffuse sky (natural background, twilight, moonlight, artificial skyglow) is evaluated on a
+grid of directions as luminance [cd m-2] and interpolated to the pixels of a :class:`View`; the
+Moon and the stars the eye can see against the local sky are drawn into it with their flux
+kept exactly (:func:`render_sky`). The pieces live beside it and are handed on here: the view
+geometry (:mod:`nightlights.nightsky._view`: :class:`View`, :func:`view_pixels`), star and Moon
+photometry (:mod:`nightlights.nightsky._photometry`: :func:`ballesteros_temperature`,
+:func:`star_xyz`, :func:`schaefer_limiting_magnitude`, :func:`moon_v_magnitude`) and the
+splatting (:mod:`nightlights.nightsky._splat`: :func:`splat_points`, :func:`splat_disc`).
 
 References
 ----------
-1. Ballesteros, F. J. (2012). New insights into black bodies. EPL 97, 34008, Eq. 14:
-   T = 4600 K (1 / (0.92 (B-V) + 1.7) + 1 / (0.92 (B-V) + 0.62)).
-2. Schaefer, B. E. (1990). Telescopic limiting magnitudes. PASP 102, 212-229; the visual
-   threshold of Hecht (1947) as in Schaefer (1998), VISLIMIT.BAS lines 260-320.
-3. Cinzano, P. (2005). Night sky photometry with Sky Quality Meter, ISTIL Internal Report 9:
-   0 mag arcsec-2 = 1.08e5 cd m-2, so a 0 mag star gives 1.08e5 cd m-2 x 1 arcsec^2 =
-   2.54e-6 lx.
-4. Krisciunas, K. & Schaefer, B. E. (1991). A model of the brightness of moonlight. PASP 103,
-   1033-1039, Eq. 9 (the Moon's V magnitude by phase angle).
-5. Snyder, J. P. (1987). Map Projections: A Working Manual. USGS PP 1395: azimuthal
-   equidistant (p. 191) and gnomonic (p. 164) projections.
+1. Schaefer, B. E. (1993). Astronomy and the limits of vision. Vistas in Astronomy 36, 311-361
+   (twilight brightness, the cutoff of :data:`TWILIGHT_CUTOFF`).
+2. Cinzano, P. (2005). Night sky photometry with Sky Quality Meter, ISTIL Internal Report 9
+   (the magnitude scale of the zenith summary).
 """
 
 from __future__ import annotations
@@ -34,9 +24,24 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nightlights import brightness
+from nightlights._typing import FloatArray
+from nightlights.brightness import bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
+from nightlights.nightsky._photometry import (
+    ARCSEC2_SR,
+    BV_RANGE,
+    NANOLAMBERT,
+    ZERO_MAGNITUDE_ILLUMINANCE,
+    ballesteros_temperature,
+    moon_v_magnitude,
+    schaefer_limiting_magnitude,
+    star_xyz,
+)
+from nightlights.nightsky._splat import PSF_RADIUS, PSF_SIGMA, splat_disc, splat_points
+from nightlights.nightsky._view import PROJECTIONS, Pixels, View, view_pixels
 from nightlights.nightsky.background import (
     EXTINCTION_COEFFICIENT,
     STARLIGHT_FAINT_LIMIT,
@@ -49,564 +54,39 @@ from nightlights.nightsky.background import (
     twilight_phase,
 )
 from nightlights.nightsky.tonemap import blackbody_white
-from nightlights.sky.brightness import ZERO_POINT_LUMINANCE, bortle_class, luminance_to_magnitude
 
-FloatArray = NDArray[np.float64]
+__all__ = [
+    "ARCSEC2_SR",
+    "BV_RANGE",
+    "DIFFUSE_STEP",
+    "NANOLAMBERT",
+    "PROJECTIONS",
+    "PSF_RADIUS",
+    "PSF_SIGMA",
+    "TWILIGHT_CUTOFF",
+    "ZERO_MAGNITUDE_ILLUMINANCE",
+    "Pixels",
+    "SkyImage",
+    "SkyOptions",
+    "View",
+    "ballesteros_temperature",
+    "moon_v_magnitude",
+    "panorama_lookup",
+    "render_sky",
+    "schaefer_limiting_magnitude",
+    "splat_disc",
+    "splat_points",
+    "star_xyz",
+    "view_pixels",
+    "zenith_summary",
+]
 
-PROJECTIONS = ("equirectangular", "fisheye", "perspective")
-#: Solid angle of one square arcsecond [sr].
-ARCSEC2_SR = (math.pi / (180.0 * 3600.0)) ** 2
-#: Illuminance of a star of V = 0 [lx]: the zero point of the sky-brightness scale
-#: (1.08e5 cd m-2 at 0 mag arcsec-2, Cinzano 2005) times one square arcsecond.
-ZERO_MAGNITUDE_ILLUMINANCE = ZERO_POINT_LUMINANCE * ARCSEC2_SR
-#: One nanolambert [cd m-2]: 1 L = 1e4 / pi cd m-2.
-NANOLAMBERT = 1e-9 * 1e4 / math.pi
-#: Standard deviation of the star point-spread function [pixel]. In the sweep of
-#: benchmarks/bench_sky_render.py, 0.7 is the smallest sigma that keeps a star's flux-weighted
-#: centroid within 1e-4 pixel of its true position (0.35 is off by up to 0.04 pixel), and the
-#: largest share of a star's flux in one pixel then varies by a factor 1.5 with its sub-pixel
-#: position (3.3 at 0.25).
-PSF_SIGMA = 0.7
-#: Half-width of the splatting stencil [sigma]: the Gaussian beyond 3 sigma holds 0.27 % of the
-#: flux in each axis; the weights are renormalised, so the flux is kept exactly.
-PSF_RADIUS = 3.0
 #: Sun elevation below which the twilight is left out [deg]: at -24 deg Schaefer's twilight is
 #: 10 magnitudes below the 22 mag arcsec-2 dark sky at the zenith (one magnitude per degree).
 TWILIGHT_CUTOFF = -24.0
 #: Spacing of the diffuse sky's evaluation grid [deg]: the natural background, twilight and
 #: moonlight vary over degrees (the Moon's aureole within a few degrees of it is the steepest).
 DIFFUSE_STEP = 0.5
-#: B-V range of Ballesteros's formula [mag]: it diverges at B-V = -0.67.
-BV_RANGE = (-0.4, 2.0)
-
-
-# ---------------------------------------------------------------------------------------------
-# Views
-
-
-@dataclass(frozen=True)
-class View:
-    """What part of the sky is drawn and how.
-
-    Attributes
-    ----------
-    projection
-        ``equirectangular`` (azimuth across, 0-360 deg from north through east; elevation
-        down, zenith in the first row, horizon in the last), ``fisheye`` (azimuthal
-        equidistant, zenith in the centre, north up, east left as seen from below) or
-        ``perspective`` (gnomonic, looking toward ``azimuth``, ``elevation``).
-    width, height
-        Image size [pixel]; a fisheye is ``width`` square.
-    azimuth, elevation
-        Perspective view direction [deg].
-    field_of_view
-        Perspective horizontal field of view [deg], below 180.
-    """
-
-    projection: str = "equirectangular"
-    width: int = 1024
-    height: int = 512
-    azimuth: float = 180.0
-    elevation: float = 30.0
-    field_of_view: float = 90.0
-
-    def __post_init__(self) -> None:
-        if self.projection not in PROJECTIONS:
-            raise InputError(
-                f"projection {self.projection!r}; expected one of {', '.join(PROJECTIONS)}"
-            )
-        if self.width < 2 or self.height < 2:
-            raise InputError(f"image {self.width} x {self.height}: expected at least 2 x 2 pixels")
-        if not 0.0 < self.field_of_view < 180.0:
-            raise InputError(f"field of view {self.field_of_view}: expected 0-180 deg")
-        if not -90.0 <= self.elevation <= 90.0:
-            raise InputError(f"view elevation {self.elevation}: expected -90 to 90 deg")
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """(rows, columns) of the image."""
-        if self.projection == "fisheye":
-            return (self.width, self.width)
-        return (self.height, self.width)
-
-
-@dataclass(frozen=True)
-class Pixels:
-    """Directions and solid angles of a view's pixels.
-
-    Attributes
-    ----------
-    view
-        The view.
-    elevation, azimuth
-        ``(rows, cols)`` direction of each pixel centre [deg].
-    solid_angle
-        ``(rows, cols)`` solid angle of each pixel [sr].
-    sky
-        ``(rows, cols)`` True where the pixel shows the sky (at or above the horizon).
-    pixel_size
-        Nominal angular size of a pixel [deg].
-    """
-
-    view: View
-    elevation: FloatArray
-    azimuth: FloatArray
-    solid_angle: FloatArray
-    sky: NDArray[np.bool_]
-    pixel_size: float
-
-    def locate(
-        self, elevation: ArrayLike, azimuth: ArrayLike
-    ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-        """Fractional (row, column) of directions, pixel (0, 0) centred on (0.0, 0.0).
-
-        Parameters
-        ----------
-        elevation, azimuth
-            Directions [deg].
-
-        Returns
-        -------
-        tuple
-            rows, columns and a mask of the directions inside the image and above the horizon.
-        """
-        return _locate(self.view, np.asarray(elevation, float), np.asarray(azimuth, float))
-
-
-def view_pixels(view: View) -> Pixels:
-    """Pixel directions and solid angles of a view.
-
-    Parameters
-    ----------
-    view
-        The view.
-
-    Returns
-    -------
-    Pixels
-        Geometry of the image; the solid angles of the sky pixels of an equirectangular view
-        sum to 2 pi sr exactly.
-
-    References
-    ----------
-    Snyder 1987 (azimuthal equidistant, gnomonic).
-    """
-    rows, cols = view.shape
-    if view.projection == "equirectangular":
-        d_el = 90.0 / rows
-        d_az = 360.0 / cols
-        el = 90.0 - (np.arange(rows) + 0.5) * d_el
-        az = (np.arange(cols) + 0.5) * d_az
-        band = np.radians(d_az) * (
-            np.sin(np.radians(el + d_el / 2.0)) - np.sin(np.radians(el - d_el / 2.0))
-        )
-        # read-only broadcast views: every row shares its elevation, every column its azimuth
-        elevation = np.broadcast_to(el[:, None], (rows, cols))
-        azimuth = np.broadcast_to(az[None, :], (rows, cols))
-        solid = np.broadcast_to(band[:, None], (rows, cols))
-        sky = np.broadcast_to(np.True_, (rows, cols))
-        return Pixels(view, elevation, azimuth, solid, sky, d_az)
-    if view.projection == "fisheye":
-        step = 180.0 / rows  # zenith angle per pixel [deg]
-        dx, dy = np.meshgrid(np.arange(cols) + 0.5 - cols / 2, np.arange(rows) + 0.5 - rows / 2)
-        zenith = np.hypot(dx, dy) * step
-        # north up (-dy), east left (-dx): the sky seen from below
-        azimuth = np.mod(np.degrees(np.arctan2(-dx, -dy)), 360.0)
-        z_rad = np.radians(zenith)
-        ratio = np.where(z_rad > 0, np.sin(z_rad) / np.where(z_rad > 0, z_rad, 1.0), 1.0)
-        solid = ratio * np.radians(step) ** 2
-        sky = zenith <= 90.0
-        return Pixels(view, 90.0 - zenith, azimuth, solid, sky, step)
-    forward, right, up, focal = _camera(view)
-    u, w = np.meshgrid(np.arange(cols) + 0.5 - cols / 2, rows / 2 - (np.arange(rows) + 0.5))
-    rays = focal * forward + u[..., None] * right + w[..., None] * up
-    norm = np.linalg.norm(rays, axis=-1)
-    direction = rays / norm[..., None]
-    elevation = np.degrees(np.arcsin(np.clip(direction[..., 2], -1.0, 1.0)))
-    azimuth = np.mod(np.degrees(np.arctan2(direction[..., 0], direction[..., 1])), 360.0)
-    solid = (focal / norm) ** 3 / focal**2
-    return Pixels(view, elevation, azimuth, solid, elevation >= 0.0, view.field_of_view / cols)
-
-
-def _camera(view: View) -> tuple[FloatArray, FloatArray, FloatArray, float]:
-    """Forward, right and up unit vectors (east, north, up) and the focal length [pixel]."""
-    el, az = np.radians(view.elevation), np.radians(view.azimuth)
-    forward = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)])
-    right = np.array([np.cos(az), -np.sin(az), 0.0])
-    up = np.cross(right, forward)
-    focal = (view.width / 2.0) / math.tan(math.radians(view.field_of_view) / 2.0)
-    return forward, right, up, focal
-
-
-def _locate(
-    view: View, elevation: FloatArray, azimuth: FloatArray
-) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-    rows, cols = view.shape
-    above = elevation >= 0.0
-    if view.projection == "equirectangular":
-        row = (90.0 - elevation) / (90.0 / rows) - 0.5
-        col = np.mod(azimuth, 360.0) / (360.0 / cols) - 0.5
-        return row, col, above
-    if view.projection == "fisheye":
-        radius = (90.0 - elevation) / (180.0 / rows)
-        az = np.radians(azimuth)
-        col = cols / 2 - radius * np.sin(az) - 0.5
-        row = rows / 2 - radius * np.cos(az) - 0.5
-        return row, col, above
-    forward, right, up, focal = _camera(view)
-    el, az = np.radians(elevation), np.radians(azimuth)
-    vec = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=-1)
-    depth = vec @ forward
-    safe = np.where(depth > 1e-9, depth, 1.0)
-    col = cols / 2 + focal * (vec @ right) / safe - 0.5
-    row = rows / 2 - focal * (vec @ up) / safe - 0.5
-    inside = (depth > 1e-9) & (col > -0.5) & (col < cols - 0.5) & (row > -0.5) & (row < rows - 0.5)
-    return row, col, above & inside
-
-
-# ---------------------------------------------------------------------------------------------
-# Point sources
-
-
-def ballesteros_temperature(bv: ArrayLike) -> FloatArray:
-    """Effective temperature of a star from its B-V colour index.
-
-    .. math:: T = 4600\\,\\mathrm{K}\\left(\\frac{1}{0.92 (B-V) + 1.7}
-        + \\frac{1}{0.92 (B-V) + 0.62}\\right)
-
-    Parameters
-    ----------
-    bv
-        B-V [mag]; clipped to -0.4 .. 2.0 where the formula holds.
-
-    Returns
-    -------
-    numpy.ndarray
-        Temperature [K].
-
-    References
-    ----------
-    Ballesteros 2012, Eq. 14.
-
-    Examples
-    --------
-    >>> [round(float(t)) for t in ballesteros_temperature([0.0, 0.65, 1.5])]
-    [10125, 5778, 3794]
-    """
-    b = np.clip(np.asarray(bv, dtype=float), *BV_RANGE)
-    return 4600.0 * (1.0 / (0.92 * b + 1.7) + 1.0 / (0.92 * b + 0.62))
-
-
-def star_xyz(vmag: ArrayLike, bv: ArrayLike) -> FloatArray:
-    """Tristimulus illuminance of stars [lx]: Y from V, chromaticity of a blackbody.
-
-    Parameters
-    ----------
-    vmag
-        Apparent V magnitude after extinction [mag].
-    bv
-        B-V [mag]; NaN gives the equal-energy white (x = y = 1/3).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n, 3)`` X, Y, Z illuminance [lx]; Y = 2.54e-6 lx x 10^(-0.4 V).
-
-    References
-    ----------
-    Ballesteros 2012; Cinzano 2005 (zero point).
-    """
-    y = ZERO_MAGNITUDE_ILLUMINANCE * 10.0 ** (-0.4 * np.asarray(vmag, dtype=float))
-    b = np.asarray(bv, dtype=float)
-    colour = np.ones((b.size, 3))
-    known = np.isfinite(b)
-    if known.any():
-        colour[known] = blackbody_white(ballesteros_temperature(b[known]))
-    return colour * y[:, None]
-
-
-def schaefer_limiting_magnitude(
-    sky_luminance: ArrayLike, *, snellen_ratio: float = 1.0
-) -> FloatArray:
-    """Faintest star the dark-adapted eye sees against a sky, outside the atmosphere's loss.
-
-    .. math::
-        I = c_1 \\left(1 + \\sqrt{c_2 B}\\right)^2,\\quad
-        m = -16.57 - 2.5 \\log_{10} I + 5 \\log_{10} S
-
-    with B the sky brightness [nL], I the threshold illuminance [foot-candle] and
-    (c_1, c_2) = (10^-9.8, 10^-1.9) for B <= 1500 nL (rods), (10^-8.35, 10^-5.9) above (cones).
-
-    Parameters
-    ----------
-    sky_luminance
-        Luminance of the sky around the star [cd m-2].
-    snellen_ratio
-        Observer's acuity (1 = 20/20, 2 = 20/10) [1].
-
-    Returns
-    -------
-    numpy.ndarray
-        Limiting magnitude [mag], to compare with the star's magnitude after extinction.
-
-    References
-    ----------
-    Schaefer 1990; Schaefer 1998 (VISLIMIT lines 260-320), after Hecht 1947.
-
-    Examples
-    --------
-    >>> round(float(schaefer_limiting_magnitude(171e-6)), 2)  # 22.0 mag arcsec-2
-    6.63
-    """
-    if not snellen_ratio > 0:
-        raise InputError(f"Snellen ratio {snellen_ratio}: expected > 0")
-    nl = np.maximum(np.asarray(sky_luminance, dtype=float), 0.0) / NANOLAMBERT
-    rods = nl <= 1500.0
-    c1 = np.where(rods, 10.0**-9.8, 10.0**-8.35)
-    c2 = np.where(rods, 10.0**-1.9, 10.0**-5.9)
-    threshold = c1 * (1.0 + np.sqrt(c2 * nl)) ** 2
-    return -16.57 - 2.5 * np.log10(threshold) + 5.0 * math.log10(snellen_ratio)
-
-
-def splat_points(
-    pixels: Pixels,
-    elevation: ArrayLike,
-    azimuth: ArrayLike,
-    flux: ArrayLike,
-    *,
-    sigma: float = PSF_SIGMA,
-    radius: float = PSF_RADIUS,
-    normalise: bool = True,
-    out: FloatArray | None = None,
-) -> FloatArray:
-    """Luminance image of point sources spread by a pixel-integrated Gaussian.
-
-    Each source's weights are the Gaussian of standard deviation ``sigma`` integrated over the
-    pixels of a square stencil (error functions, separable), zero on pixels that show no sky,
-    and divided by their sum; the pixel's luminance is flux x weight / solid angle, so the sum
-    of luminance x solid angle over the image is the source's flux at any resolution.
-
-    Parameters
-    ----------
-    pixels
-        Geometry of the image (:func:`view_pixels`).
-    elevation, azimuth
-        ``(n,)`` directions of the sources [deg].
-    flux
-        ``(n,)`` or ``(n, c)`` illuminance of each source, per channel [lx].
-    sigma
-        Point-spread standard deviation [pixel].
-    radius
-        Stencil half-width [sigma].
-    normalise
-        Divide the weights by their sum (exact flux); False keeps the Gaussian's own integral
-        over the stencil (for the benchmark of the truncation error).
-    out
-        C-contiguous ``(rows, cols, c)`` float64 image to add the sources to in place (the sky
-        they are drawn on) [cd m-2]; None starts from a black image.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(rows, cols, c)`` luminance [cd m-2] (``out`` when given); sources outside the view
-        are dropped.
-    """
-    from scipy.special import erf
-
-    if not sigma > 0 or not radius > 0:
-        raise InputError(f"PSF sigma {sigma}, radius {radius}: expected > 0")
-    values = np.asarray(flux, dtype=float)
-    values = values[:, None] if values.ndim == 1 else values
-    rows, cols = pixels.view.shape
-    channels = values.shape[1]
-    if out is None:
-        image = np.zeros((rows, cols, channels))
-    else:
-        if out.shape != (rows, cols, channels) or not out.flags.c_contiguous:
-            raise InputError(
-                f"splat output {out.shape}: expected a C-contiguous {(rows, cols, channels)} image"
-            )
-        image = out
-    row, col, keep = pixels.locate(elevation, azimuth)
-    if not np.any(keep):
-        return image
-    row, col, values = row[keep], col[keep], values[keep]
-    half = max(1, math.ceil(radius * sigma))
-    offsets = np.arange(-half, half + 1)
-    centre_r = np.floor(row + 0.5).astype(int)
-    centre_c = np.floor(col + 0.5).astype(int)
-    scale = 1.0 / (math.sqrt(2.0) * sigma)
-
-    def weights_1d(position: FloatArray, centre: NDArray[np.int_]) -> FloatArray:
-        lower = (centre[:, None] + offsets[None, :] - 0.5 - position[:, None]) * scale
-        return 0.5 * (erf(lower + scale) - erf(lower))
-
-    w_r = weights_1d(row, centre_r)
-    w_c = weights_1d(col, centre_c)
-    weight = w_r[:, :, None] * w_c[:, None, :]
-    rr = centre_r[:, None, None] + offsets[None, :, None]
-    cc = centre_c[:, None, None] + offsets[None, None, :]
-    if pixels.view.projection == "equirectangular":
-        cc = np.mod(cc, cols)
-        rr_in = (rr >= 0) & (rr < rows)
-    else:
-        rr_in = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
-    rr, cc = np.broadcast_arrays(rr, cc)
-    inside = np.broadcast_to(rr_in, weight.shape)
-    rr = np.where(inside, np.clip(rr, 0, rows - 1), 0)
-    cc = np.where(inside, np.clip(cc, 0, cols - 1), 0)
-    weight = np.where(inside & pixels.sky[rr, cc], weight, 0.0)
-    if normalise:
-        total = weight.sum(axis=(1, 2))
-        weight = np.divide(
-            weight, total[:, None, None], out=np.zeros_like(weight), where=total[:, None, None] > 0
-        )
-    lum_weight = (weight / pixels.solid_angle[rr, cc]).reshape(weight.shape[0], -1)
-    flat = (rr * cols + cc).reshape(weight.shape[0], -1)
-    # one scatter-add over all channels: index pixel x channels + channel of the flat image
-    target = (flat[:, :, None] * channels + np.arange(channels)).ravel()
-    from nightlights.nightsky._render_numba import scatter_add
-
-    scatter_add(image.reshape(-1), target, (lum_weight[:, :, None] * values[:, None, :]).ravel())
-    return image
-
-
-def splat_disc(
-    pixels: Pixels,
-    elevation: float,
-    azimuth: float,
-    angular_radius: float,
-    flux: ArrayLike,
-    *,
-    sun: tuple[float, float] | None = None,
-    phase_angle: float = 0.0,
-    out: FloatArray | None = None,
-) -> FloatArray:
-    """Luminance image of a uniform disc (the Moon), optionally in phase, carrying a flux.
-
-    Pixels are weighted by the fraction of them the disc covers (a linear ramp one pixel wide
-    across the rim) times their solid angle, and the weights normalised, so the image holds the
-    flux exactly; a disc smaller than two pixels is drawn as a point (:func:`splat_points`).
-    With ``sun``, only the lit part is drawn: in the disc's own frame, x toward the Sun along
-    the great circle and y across, both in disc radii, a point is lit where
-    x >= -cos(phase angle) sqrt(1 - y^2) (the terminator, an ellipse; the same one-pixel ramp).
-
-    Parameters
-    ----------
-    pixels
-        Geometry of the image.
-    elevation, azimuth
-        Centre of the disc [deg].
-    angular_radius
-        Radius of the disc [deg].
-    flux
-        ``(c,)`` illuminance per channel [lx].
-    sun
-        (azimuth, elevation) of the Sun [deg]; None draws the full disc.
-    phase_angle
-        Sun-Moon-observer angle [deg]: 0 full, 90 quarter, 180 new.
-    out
-        C-contiguous ``(rows, cols, c)`` image to add the disc to in place [cd m-2]; None
-        starts from a black image.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(rows, cols, c)`` luminance [cd m-2] (``out`` when given).
-    """
-    values = np.atleast_1d(np.asarray(flux, dtype=float))
-    shape = (*pixels.view.shape, values.size)
-    if out is None:
-        out = np.zeros(shape)
-    elif out.shape != shape:
-        raise InputError(f"disc output {out.shape}: expected {shape}")
-    if angular_radius < pixels.pixel_size:
-        return splat_points(
-            pixels,
-            np.array([elevation]),
-            np.array([azimuth]),
-            values[None, :],
-            sigma=PSF_SIGMA,
-            out=out,
-        )
-    # only pixels within the disc's elevation band (plus two pixels) can be covered; an
-    # equirectangular image's rows share their elevation: the band is a block of rows
-    block = slice(None)
-    if pixels.view.projection == "equirectangular":
-        row_size = np.degrees(np.sqrt(pixels.solid_angle[:, 0]))
-        band = np.flatnonzero(
-            np.abs(pixels.elevation[:, 0] - elevation) <= angular_radius + 2.0 * row_size
-        )
-        if band.size == 0:
-            return out
-        block = slice(int(band[0]), int(band[-1]) + 1)
-    sky, pixel_el = pixels.sky[block], pixels.elevation[block]
-    solid = pixels.solid_angle[block]
-    size = np.degrees(np.sqrt(solid))
-    near = sky & (np.abs(pixel_el - elevation) <= angular_radius + 2.0 * size)
-    centre = _direction(np.array(elevation), np.array(azimuth))
-    points = _direction(pixel_el[near], pixels.azimuth[block][near])
-    separation = np.degrees(np.arccos(np.clip(points @ centre, -1.0, 1.0)))
-    ramp = size[near] / angular_radius  # one pixel in disc radii
-    cover = np.clip((angular_radius - separation) / size[near] + 0.5, 0.0, 1.0)
-    if sun is not None:
-        toward = _direction(np.array(sun[1]), np.array(sun[0]))
-        toward = toward - (toward @ centre) * centre
-        norm = np.linalg.norm(toward)
-        if norm > 0:
-            toward /= norm
-            across = np.cross(centre, toward)
-            scale = math.radians(angular_radius)
-            x = points @ toward / scale
-            y = points @ across / scale
-            edge = -math.cos(math.radians(phase_angle)) * np.sqrt(np.clip(1.0 - y * y, 0.0, 1.0))
-            cover = cover * np.clip((x - edge) / ramp + 0.5, 0.0, 1.0)
-    total = (cover * solid[near]).sum()
-    if total <= 0:
-        return out
-    # flux x weight / solid angle, weight / solid angle = cover / total
-    luminance = np.zeros(near.shape)
-    luminance[near] = cover / total
-    out[block] += luminance[..., None] * values[None, None, :]
-    return out
-
-
-def _direction(elevation: FloatArray, azimuth: FloatArray) -> FloatArray:
-    """(..., 3) unit vectors (east, north, up) of directions in degrees."""
-    el, az = np.radians(elevation), np.radians(azimuth)
-    return np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=-1)
-
-
-def moon_v_magnitude(phase_angle: float) -> float:
-    """V magnitude of the Moon at mean distance by phase angle (0 = full).
-
-    .. math:: m = -12.73 + 0.026 |\\alpha| + 4\\times10^{-9} \\alpha^4
-
-    Parameters
-    ----------
-    phase_angle
-        Sun-Moon-Earth angle alpha [deg].
-
-    Returns
-    -------
-    float
-        V magnitude [mag].
-
-    References
-    ----------
-    Krisciunas & Schaefer 1991, Eq. 9.
-
-    Examples
-    --------
-    >>> round(moon_v_magnitude(0.0), 2), round(moon_v_magnitude(90.0), 2)
-    (-12.73, -10.13)
-    """
-    alpha = abs(float(phase_angle))
-    return -12.73 + 0.026 * alpha + 4e-9 * alpha**4
-
-
-# ---------------------------------------------------------------------------------------------
-# Composition
 
 
 @dataclass(frozen=True)
@@ -950,7 +430,8 @@ def zenith_summary(
     dict
         ``zenith_natural_cd_m2``, ``zenith_artificial_cd_m2``, ``zenith_sky_brightness``
         [mag arcsec-2] of their sum, ``zenith_natural_sky_brightness`` and
-        ``bortle_class_zenith``.
+        ``bortle_class_zenith`` (:func:`nightlights.brightness.zenith_summary` with this
+        natural sky).
 
     Examples
     --------
@@ -970,12 +451,4 @@ def zenith_summary(
         natural = render_sky(
             time, lon, lat, view=tiny, options=replace(options, artificial=False, stars=False)
         ).summary["zenith_natural_cd_m2"]
-    total = natural + float(artificial_luminance)
-    magnitude = float(luminance_to_magnitude(total))
-    return {
-        "zenith_natural_cd_m2": natural,
-        "zenith_artificial_cd_m2": float(artificial_luminance),
-        "zenith_natural_sky_brightness": float(luminance_to_magnitude(natural)),
-        "zenith_sky_brightness": magnitude,
-        "bortle_class_zenith": int(bortle_class(magnitude)),
-    }
+    return brightness.zenith_summary(artificial_luminance, natural_luminance=natural)

@@ -20,12 +20,12 @@ import numpy as np
 import xarray as xr
 
 from nightlights._typing import PathLike
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.io import atomic_output
 from nightlights.io.outputs import OutputSet
 from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
 from nightlights.nightsky.tonemap import ToneMapping, tone_map
-from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.forward import panorama_coords
 from nightlights.sky.observer import Observer
 

@@ -5,11 +5,14 @@ The kernel side (``atmosphere``, ``geometry``, ``quadrature``, ``kernel``; ``spe
 source and tabulates it, compressed by PCA and Fourier-transformed in azimuth, following
 Dobashi, Ishikawa & Iwasaki 2023, Sec. 3. The runtime side (``polar``, ``panorama``, ``scene``)
 turns an emission raster into panoramas with those tables; ``stage`` holds the file stages.
+Many observers at once: ``observers`` (a summary point per observer) and ``darkness`` (the
+zenith at every cell of a region); ``influence`` splits a weighted panorama sum per lit cell.
 
 Units: flux [lm] in, luminance [cd m-2] out; angles in degrees, azimuth clockwise from north,
 elevation above the horizon.
 """
 
+from nightlights.sky.darkness import DarknessResult, darkness
 from nightlights.sky.forward import SkyglowScene, skyglow_panorama
 from nightlights.sky.observer import Observer
 from nightlights.sky.scene import Scene
@@ -18,6 +21,7 @@ from nightlights.sky.stage import SkyglowResult, build_kernel, skyglow
 from nightlights.sky.store import KernelResult
 
 __all__ = [
+    "DarknessResult",
     "KernelResult",
     "KernelSpec",
     "Observer",
@@ -25,6 +29,7 @@ __all__ = [
     "SkyglowResult",
     "SkyglowScene",
     "build_kernel",
+    "darkness",
     "skyglow",
     "skyglow_panorama",
 ]

@@ -24,8 +24,7 @@ from scipy.special import beta as beta_function
 from scipy.special import erfcx
 
 from nightlights._typing import FloatArray
-from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
-from nightlights.sky.emission_shapes import (
+from nightlights.emission_functions import (
     COSINE_FORM,
     GARSTANG_LOBE_NORM,
     PSI4_LOBE_FORM,
@@ -33,6 +32,7 @@ from nightlights.sky.emission_shapes import (
     TABLE_FORM,
     emission_shape,
 )
+from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
@@ -53,7 +53,7 @@ _F_FLAT, _F_EXTINCTION, _F_EMISSION, _F_ISOTROPIC_MOLECULES = 0, 1, 2, 3
 def emission_table(emission: str) -> FloatArray:
     """Shape (2, m): a table-form shape's angles [rad] and intensities [cd lm-1]
     (normalised), read by the compiled table branch; a dummy for the others
-    (:meth:`~nightlights.sky.emission_shapes.EmissionShape.compiled_table`)."""
+    (:meth:`~nightlights.emission_functions.EmissionShape.compiled_table`)."""
     return emission_shape(emission).compiled_table()
 
 
@@ -63,7 +63,7 @@ def model_parameters(
     """Pack the model into the float and integer vectors read by :func:`luminance_rays`
     (a table-form emission's table: :func:`emission_table`); the emission's compiled form and
     sine exponent come from its registry row
-    (:func:`~nightlights.sky.emission_shapes.emission_shape`)."""
+    (:func:`~nightlights.emission_functions.emission_shape`)."""
     shape = emission_shape(emission)
     exponent = shape.sine_exponent(uplight_exponent)
     params = np.zeros(13)

@@ -30,15 +30,15 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
-from nightlights.sky._kernel_numba import model_parameters as kernel_model_parameters
-from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import (
+from nightlights.emission_functions import (
     COSINE_FORM,
     ISOTROPIC_FORM,
     PSI4_LOBE_FORM,
     SINE_POWER_FORM,
     sampled_shape,
 )
+from nightlights.sky._kernel_numba import model_parameters as kernel_model_parameters
+from nightlights.sky.atmosphere import Atmosphere
 
 __all__ = ["model_parameters", "observer_rays", "trace_photon", "transport"]
 
@@ -74,7 +74,7 @@ def model_parameters(
     source_altitude: float,
 ) -> tuple[FloatArray, NDArray[np.int64]]:
     """The kernel's parameter and flag vectors with the source altitude appended (shapes of
-    the forms in :data:`~nightlights.sky.emission_shapes.SAMPLED_FORMS` only)."""
+    the forms in :data:`~nightlights.emission_functions.SAMPLED_FORMS` only)."""
     sampled_shape(emission)
     params, flags = kernel_model_parameters(atmosphere, emission, core_radius, uplight_exponent)
     return np.append(params, float(source_altitude)), flags

@@ -21,7 +21,7 @@ Dataset layout (read by :mod:`nightlights.sky.panorama`): coordinates ``observer
 (pixel centres 90 - (i + 0.5) 90 / n_elevation), ``azimuth`` (relative to the source,
 k 360 / n_azimuth), ``component``, ``frequency``; variables ``kernel`` (+ ``kernel_uplight``,
 ``kernel_garstang_lobe``, ``kernel_tabulated``, ``kernel_<table>`` of a registered shape:
-:func:`~nightlights.sky.emission_shapes.kernel_table_names`), ``basis``, ``coefficient`` (+
+:func:`~nightlights.emission_functions.kernel_table_names`), ``basis``, ``coefficient`` (+
 the same ``coefficient_*``), ``basis_fft_real``, ``basis_fft_imag``, ``explained_energy``;
 attributes from :meth:`KernelSpec.to_attrs`. Every emission shape's images go into one PCA per
 observer altitude, so all shapes share the bases and differ only in their coefficients; a band
@@ -55,9 +55,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import emission_shape
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import emission_shape
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import sky_luminance_grid
 from nightlights.sky.multiple import apply_multiple_scattering
@@ -86,7 +86,7 @@ SUPERSAMPLE_DISTANCES = 4
 
 def table_names(emission: str) -> tuple[str, str]:
     """The (image, coefficient) variables of an emission shape, from its registry row
-    (:func:`~nightlights.sky.emission_shapes.kernel_table_names`; a tabulated function's
+    (:func:`~nightlights.emission_functions.kernel_table_names`; a tabulated function's
     text: the ``tabulated`` pair)."""
     names = emission_shape(emission).table_names
     if names is None:

@@ -23,10 +23,10 @@ import numpy as np
 import xarray as xr
 
 from nightlights._typing import FloatArray
+from nightlights.brightness import bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.multiple import scattering_note

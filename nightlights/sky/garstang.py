@@ -77,6 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import GARSTANG_LOBE_NORM
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import (
     GARSTANG_AEROSOL_EXTINCTION_RATIO,
@@ -87,7 +88,6 @@ from nightlights.sky.atmosphere import (
     garstang_aerosol_phase,
     rayleigh_phase,
 )
-from nightlights.sky.emission_shapes import GARSTANG_LOBE_NORM
 
 __all__ = [
     "GARSTANG_EARTH_RADIUS",

@@ -37,9 +37,7 @@ from numpy.typing import ArrayLike
 from scipy.special import erfcx
 
 from nightlights._typing import FloatArray
-from nightlights.errors import InputError
-from nightlights.sky.atmosphere import Atmosphere, scattering_species, smallest_scale_height
-from nightlights.sky.emission_shapes import (
+from nightlights.emission_functions import (
     EMISSION_MODELS,
     GARSTANG_LOBE_NORM,
     TABULATED_PREFIX,
@@ -51,6 +49,8 @@ from nightlights.sky.emission_shapes import (
     tabulated_emission_intensity,
     tabulated_norm,
 )
+from nightlights.errors import InputError
+from nightlights.sky.atmosphere import Atmosphere, scattering_species, smallest_scale_height
 from nightlights.sky.geometry import altitude, ray_exit_distance, source_frame, view_direction
 from nightlights.sky.quadrature import gauss_legendre, tangent_panel_nodes
 
@@ -259,9 +259,9 @@ def sky_luminance(
         Atmosphere model.
     emission
         Angular distribution of the source: a registered shape
-        (:func:`~nightlights.sky.emission_shapes.emission_shape_names`; the built-in
+        (:func:`~nightlights.emission_functions.emission_shape_names`; the built-in
         :data:`EMISSION_MODELS` and those added by
-        :func:`~nightlights.sky.emission_shapes.register_emission_shape`) or a tabulated
+        :func:`~nightlights.emission_functions.register_emission_shape`) or a tabulated
         function ``tabulated:<json>`` (:func:`parse_tabulated_emission`).
     nodes
         Gauss-Legendre nodes per panel of the line of sight (three panels: before the closest

@@ -75,9 +75,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import sampled_shape
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere, smallest_scale_height
-from nightlights.sky.emission_shapes import sampled_shape
 from nightlights.sky.geometry import altitude
 from nightlights.sky.kernel import (
     UPLIGHT_EXPONENT,
@@ -184,7 +184,7 @@ def monte_carlo_luminance(
         Atmosphere model; ``extinction`` must be on (scattering removes light from the beam).
     emission
         Angular distribution of the source: a registered shape of a form the Monte Carlo
-        samples (:func:`~nightlights.sky.emission_shapes.sampled_shape`; the built-in
+        samples (:func:`~nightlights.emission_functions.sampled_shape`; the built-in
         :data:`~nightlights.sky.kernel.EMISSION_MODELS`).
     photons
         Number of photon histories [1].

@@ -70,13 +70,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
-from nightlights.errors import InputError
-from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
-from nightlights.sky.emission_shapes import (
+from nightlights.emission_functions import (
     UPLIGHT_EXPONENT,
     emission_shape,
     sampled_shape,
 )
+from nightlights.errors import InputError
+from nightlights.sky.atmosphere import Atmosphere, garstang_atmosphere
 
 __all__ = [
     "BUILD_PHOTONS",
@@ -227,7 +227,7 @@ def multiple_scattering_table(
         Atmosphere model; ``extinction`` must be on.
     emission
         Emission shape: a registered shape the Monte Carlo samples
-        (:func:`~nightlights.sky.emission_shapes.sampled_shape`).
+        (:func:`~nightlights.emission_functions.sampled_shape`).
     photons
         Photon histories; None: the shipped table when there is one for this atmosphere and
         shape, else :data:`BUILD_PHOTONS` [1].
@@ -347,7 +347,7 @@ def multiple_scattering_factor(
         Atmosphere model.
     emission
         Emission shape: a registered shape the Monte Carlo samples
-        (:func:`~nightlights.sky.emission_shapes.sampled_shape`).
+        (:func:`~nightlights.emission_functions.sampled_shape`).
     elevation
         Elevation of the view [deg].
     azimuth
@@ -379,14 +379,14 @@ def nearest_shape(tabulated: str) -> str:
     tabulated
         The function's text (``tabulated:{...}``), or a registered shape the Monte Carlo does
         not sample (one of the table form,
-        :data:`~nightlights.sky.emission_shapes.TABLE_FORM`).
+        :data:`~nightlights.emission_functions.TABLE_FORM`).
 
     Returns
     -------
     str
         ``lambertian``, ``uplight`` or ``garstang_lobe``.
     """
-    from nightlights.sky.emission_shapes import emission_intensity
+    from nightlights.emission_functions import emission_intensity
 
     if emission_shape(tabulated).sampled:
         raise InputError(f"{tabulated[:40]!r} is not a tabulated emission function")

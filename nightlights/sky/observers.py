@@ -57,17 +57,17 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import bortle_class, luminance_to_magnitude
+from nightlights.emission_functions import kernel_table_names
 from nightlights.errors import CRSError, InputError, OutputExistsError
-from nightlights.inverse._influence import cell_values, region_table, zenith_weights
 from nightlights.io import OutputSet, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
-from nightlights.sky.brightness import bortle_class, luminance_to_magnitude
-from nightlights.sky.emission_shapes import kernel_table_names
 from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import Observer, positions
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
@@ -625,7 +625,7 @@ def _scene_kernel(
 
 
 def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:
-    from nightlights.nightsky.render import zenith_summary
+    from nightlights.brightness import zenith_summary
 
     cells = setup.emission
     first = setup.slices[0]
@@ -764,7 +764,7 @@ def _panorama(
     engine: _Engine,
 ) -> xr.Dataset:
     """An observer's panorama as the ``skyglow`` stage writes it, natural sky attributes too."""
-    from nightlights.nightsky.render import zenith_summary
+    from nightlights.brightness import zenith_summary
 
     luminance = sky["luminance"]
     below = sky["below"]

@@ -12,8 +12,9 @@ convolution in azimuth of the polar flux map with the kernel images, done with F
 
 A kernel slice's rows are the emission shapes the kernel tabulates (``lambertian``, then
 ``uplight``, ``garstang_lobe`` when present); :func:`band_slice` turns them into one row per
-emission band, each the mix of shapes of the band's :class:`~nightlights.sky.spec.
-EmissionFunction`. Without it, band 0 reads the Lambertian row and band 1 the uplight row.
+emission band, each the mix of shapes of the band's
+:class:`~nightlights.emission_functions.EmissionFunction`. Without it, band 0 reads the
+Lambertian row and band 1 the uplight row.
 """
 
 from __future__ import annotations
@@ -30,12 +31,11 @@ from affine import Affine
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import EmissionFunction, kernel_table_names
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import kernel_table_names
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.polar import PolarMap
-from nightlights.sky.spec import EmissionFunction
 
 MODES = ("pca", "exact", "naive")
 

@@ -32,11 +32,12 @@ import numpy as np
 import xarray as xr
 
 from nightlights._typing import FloatArray, PathLike
+from nightlights.emission_functions import EmissionFunction
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells
 from nightlights.sky.setup import EmissionInput, RasterInput, check_kernel_grid, kernel_tables
-from nightlights.sky.spec import EmissionFunction, KernelSpec, scene_kernel_spec
+from nightlights.sky.spec import KernelSpec, scene_kernel_spec
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
 __all__ = ["DEFAULT_GRID", "DEFAULT_TURBIDITY", "KernelInput", "Scene"]

@@ -28,10 +28,10 @@ from pyproj import CRS
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
+from nightlights.emission_functions import EMISSION_MODELS, emission_shape_names
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
-from nightlights.sky.emission_shapes import EMISSION_MODELS, emission_shape_names
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
 from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels

@@ -9,12 +9,12 @@ kernel cache; :meth:`KernelSpec.to_attrs` and :meth:`KernelSpec.from_attrs` carr
 NetCDF attributes.
 
 Each band of an emission raster carries its angular emission function
-(:class:`EmissionFunction`, the band tag ``emission_function``); it names the mix of the
-kernel's tabulated shapes that band reads.
+(:class:`~nightlights.emission_functions.EmissionFunction`, the band tag ``emission_function``,
+both from the leaf :mod:`nightlights.emission_functions` and handed on here); it names the mix
+of the kernel's tabulated shapes that band reads.
 
-Length: about 820 lines, because the specification, its axes and the emission functions that
-choose among its tables are one description of what a kernel holds, and the scene-sized
-specification is made from them.
+Length: about 760 lines, because the specification and its axes are one description of what a
+kernel holds, and the scene-sized specification is made from them.
 """
 
 from __future__ import annotations
@@ -32,17 +32,17 @@ from numpy.typing import ArrayLike
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
+from nightlights.emission_functions import (
+    DEFAULT_EMISSION_FUNCTION,
+    EMISSION_FUNCTION_TAG,
+    EMISSION_MODELS,
+    EmissionFunction,
+    emission_shape,
+)
 from nightlights.errors import InputError
 from nightlights.io.raster import LitCells, Raster
 from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import EMISSION_MODELS, emission_shape, emission_shape_names
-from nightlights.sky.kernel import (
-    TABULATED_PREFIX,
-    UPLIGHT_EXPONENT,
-    emission_intensity,
-    garstang_weights,
-    parse_tabulated_emission,
-)
+from nightlights.sky.kernel import UPLIGHT_EXPONENT, parse_tabulated_emission
 
 __all__ = [
     "DEFAULT_EMISSION_FUNCTION",
@@ -62,136 +62,6 @@ __all__ = [
 
 #: Bumped whenever the physics or the file layout changes, so that caches are rebuilt.
 KERNEL_FORMAT_VERSION = 2
-
-
-#: Band tag naming an emission band's angular function (:meth:`EmissionFunction.parse`).
-EMISSION_FUNCTION_TAG = "emission_function"
-
-#: Emission function of a single-band raster without the tag (a satellite night-lights
-#: raster, any user raster): Garstang's (1986) function with F = G = 0.15 [1].
-DEFAULT_EMISSION_FUNCTION = "garstang:0.15,0.15"
-
-
-@dataclass(frozen=True)
-class EmissionFunction:
-    """The angular emission function of one emission band, as a mix of kernel shapes.
-
-    Skyglow is linear in the emission function, so a band whose function is a weighted sum
-    of the unit-flux shapes a kernel tabulates (:func:`~nightlights.sky.kernel.
-    emission_intensity`) reads the same weighted sum of their coefficient tables.
-
-    Attributes
-    ----------
-    tag
-        Canonical text of the band tag ``emission_function``: ``lambertian``, ``uplight``,
-        ``garstang:F,G`` or ``tabulated:<json>``.
-    weights
-        ``(shape, weight)`` pairs: kernel shapes (``lambertian``, ``uplight``,
-        ``garstang_lobe``, or the canonical text of a tabulated function, which has its own
-        kernel table) and their weights per lumen of the band's upward flux [1].
-
-    Examples
-    --------
-    >>> f = EmissionFunction.parse("garstang:0.15,0.15")
-    >>> f.tag, [(shape, round(w, 3)) for shape, w in f.weights]
-    ('garstang:0.15,0.15', [('lambertian', 0.459), ('garstang_lobe', 0.541)])
-    >>> EmissionFunction.parse("lambertian").shapes
-    ('lambertian',)
-    """
-
-    tag: str
-    weights: tuple[tuple[str, float], ...]
-
-    @property
-    def shapes(self) -> tuple[str, ...]:
-        """The kernel shapes the function reads (weight > 0)."""
-        return tuple(shape for shape, weight in self.weights if weight > 0)
-
-    def intensity(self, cos_zenith: ArrayLike) -> FloatArray:
-        """Intensity per lumen of upward flux: the weighted shapes of
-        :func:`~nightlights.sky.kernel.emission_intensity`.
-
-        Parameters
-        ----------
-        cos_zenith
-            Cosine of the emission direction's angle from the local vertical [1].
-
-        Returns
-        -------
-        numpy.ndarray
-            Intensity [cd lm-1].
-
-        Examples
-        --------
-        >>> f = EmissionFunction.parse("garstang:0.15,0.15")
-        >>> round(float(f.intensity(1.0)) * np.pi, 3)  # straight up: the Lambertian part
-        0.459
-        """
-        mu = np.asarray(cos_zenith, dtype=float)
-        total = np.zeros(mu.shape)
-        for shape, weight in self.weights:
-            if weight > 0:
-                total = total + weight * emission_intensity(mu, shape)
-        return total
-
-    @classmethod
-    def parse(cls, text: str, *, source: str = "emission_function") -> EmissionFunction:
-        """The function a band tag names.
-
-        Parameters
-        ----------
-        text
-            ``lambertian``, ``uplight`` (or another registered shape whose ``band_tag`` is
-            set: :func:`~nightlights.sky.emission_shapes.register_emission_shape`),
-            ``garstang:F,G`` (F the luminaires' direct
-            upward fraction, G the ground reflectance, both in [0, 1]) or
-            ``tabulated:{"angles": [...], "intensities": [...]}`` (angles from the vertical,
-            0 to 90 [deg], relative intensities;
-            :func:`~nightlights.sky.kernel.parse_tabulated_emission`).
-        source
-            Where the text came from, for messages.
-
-        Returns
-        -------
-        EmissionFunction
-            The function.
-
-        Raises
-        ------
-        InputError
-            Text of no known form.
-        """
-        if str(text).strip().startswith(TABULATED_PREFIX):
-            try:
-                canonical = parse_tabulated_emission(str(text).strip())[0]
-            except InputError as exc:
-                raise InputError(f"{source}: {exc}") from None
-            return cls(canonical, ((canonical, 1.0),))
-        name, _, argument = str(text).strip().partition(":")
-        name = name.strip().lower()
-        if name in _tag_shapes() and not argument:
-            return cls(name, ((name, 1.0),))
-        if name == "garstang":
-            try:
-                f, g = (float(x) for x in argument.split(","))
-            except ValueError:
-                raise InputError(
-                    f"{source} {text!r}; expected garstang:F,G with two numbers"
-                ) from None
-            try:
-                weights = garstang_weights(f, g)
-            except InputError as exc:
-                raise InputError(f"{source} {text!r}: {exc}") from None
-            return cls(f"garstang:{f:g},{g:g}", tuple(weights.items()))
-        raise InputError(
-            f"{source} {text!r}; expected {', '.join(_tag_shapes())}, garstang:F,G or "
-            "tabulated:<json>"
-        )
-
-
-def _tag_shapes() -> tuple[str, ...]:
-    """The registered shapes a band tag may name alone (``lambertian``, ``uplight``, ...)."""
-    return tuple(name for name in emission_shape_names() if emission_shape(name).band_tag)
 
 
 def _registered_shapes(names: Sequence[str]) -> tuple[str, ...]:
@@ -395,7 +265,7 @@ class KernelSpec:
         every pair [1].
     emission_shapes
         Also tabulate these registered shapes
-        (:func:`~nightlights.sky.emission_shapes.register_emission_shape`), each in its own
+        (:func:`~nightlights.emission_functions.register_emission_shape`), each in its own
         table ``kernel_<table>``; their definitions go into the content hash.
 
     Examples

@@ -22,6 +22,7 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights._typing import PathLike
+from nightlights.brightness import zenith_summary
 from nightlights.errors import InputError
 from nightlights.io import Raster, atomic_output
 from nightlights.io.outputs import OutputSet
@@ -404,8 +405,6 @@ def polar_raster(
 def _with_natural_sky(artificial: float) -> dict[str, float | int]:
     """The zenith with a moonless natural sky added (airglow, zodiacal light, starlight:
     22.0 mag arcsec-2), beside the artificial figures, which stay as they are."""
-    from nightlights.nightsky.render import zenith_summary
-
     summary = zenith_summary(artificial)
     return {
         "zenith_natural_cd_m2": float(summary["zenith_natural_cd_m2"]),

@@ -21,6 +21,14 @@ from affine import Affine
 from numpy.typing import ArrayLike
 from pyproj import CRS
 
+from nightlights.emission_functions import (
+    SINE_POWER_FORM,
+    TABLE_FORM,
+    emission_intensity,
+    emission_shape_names,
+    register_emission_shape,
+    unregister_emission_shape,
+)
 from nightlights.errors import InputError
 from nightlights.inverse import (
     SkyRegion,
@@ -39,14 +47,6 @@ from nightlights.io.styles import (
     unregister_raster_style,
 )
 from nightlights.sky import KernelSpec, build_kernel, skyglow
-from nightlights.sky.emission_shapes import (
-    SINE_POWER_FORM,
-    TABLE_FORM,
-    emission_intensity,
-    emission_shape_names,
-    register_emission_shape,
-    unregister_emission_shape,
-)
 from nightlights.sky.kernel import sky_luminance, sky_luminance_grid
 from nightlights.sky.montecarlo import monte_carlo_luminance
 

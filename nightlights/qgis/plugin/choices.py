@@ -23,7 +23,7 @@ SENSORS = (
 )
 #: ``nightlights.sky.render.PROJECTIONS``: pictures of ``skyglow --png``.
 PROJECTIONS = ("equirectangular", "fisheye")
-#: ``nightlights.inverse._influence.METRICS``: what ``inverse q`` maps per lit cell.
+#: ``nightlights.sky.influence.METRICS``: what ``inverse q`` maps per lit cell.
 Q_METRICS = ("pca-norm", "zenith", "hemisphere")
 #: ``nightlights.ground.upward.DEFAULT_VIIRS_SPECTRUM``: spectrum of ``emission viirs``.
 DEFAULT_VIIRS_SPECTRUM = "LED_4000K"

@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pytest
 
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.inverse import (
     DimmingPlan,
@@ -15,7 +16,6 @@ from nightlights.inverse import (
     dimming_fraction,
     least_flux_dimming,
 )
-from nightlights.sky.brightness import luminance_to_magnitude
 
 # --------------------------------------------------------------------------------------------
 # Eq. 12

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from affine import Affine
 
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.inverse import (
     InfeasibleTargetError,
@@ -19,7 +20,6 @@ from nightlights.inverse import (
 )
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel, skyglow
-from nightlights.sky.brightness import luminance_to_magnitude
 
 CELL = 100.0
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, 4000.0)

@@ -16,6 +16,7 @@ import pytest
 from affine import Affine
 from shapely.geometry import LineString, Point
 
+from nightlights.brightness import BORTLE_LOWER_EDGES
 from nightlights.errors import InputError, NightlightsWarning, OutputError
 from nightlights.io import OutputSet, Raster, RasterBand, write_cog, write_gpkg
 from nightlights.io.styles import (
@@ -38,7 +39,6 @@ from nightlights.io.styles import (
     streets_style,
     unregister_raster_style,
 )
-from nightlights.sky.brightness import BORTLE_LOWER_EDGES
 from nightlights.streets.schema import ARRANGEMENTS
 
 TRANSFORM = Affine(10.0, 0.0, 385_000.0, 0.0, -10.0, 6_672_000.0)

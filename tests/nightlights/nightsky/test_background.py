@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.nightsky.background import (
     NaturalSky,
@@ -15,7 +16,6 @@ from nightlights.nightsky.background import (
     twilight_phase,
     van_rhijn_factor,
 )
-from nightlights.sky.brightness import luminance_to_magnitude
 
 
 def fibonacci_sphere(n: int) -> tuple[np.ndarray, np.ndarray]:

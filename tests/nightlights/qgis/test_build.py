@@ -17,9 +17,9 @@ import ies.spectra
 from nightlights import __version__
 from nightlights.errors import InputError, OutputError
 from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
-from nightlights.inverse._influence import METRICS
 from nightlights.qgis import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
 from nightlights.qgis.plugin import choices
+from nightlights.sky.influence import METRICS
 from nightlights.sky.render import PROJECTIONS
 from nightlights.streets import builtin_mappings
 

@@ -16,6 +16,11 @@ import xarray as xr
 from affine import Affine
 from scipy.integrate import quad
 
+from nightlights.emission_functions import (
+    DEFAULT_EMISSION_FUNCTION,
+    EMISSION_FUNCTION_TAG,
+    EmissionFunction,
+)
 from nightlights.errors import InputError
 from nightlights.ground.upward import (
     emission_from_viirs,
@@ -43,12 +48,7 @@ from nightlights.sky.panorama import (
 )
 from nightlights.sky.polar import polar_map
 from nightlights.sky.setup import band_emission_functions
-from nightlights.sky.spec import (
-    DEFAULT_EMISSION_FUNCTION,
-    EMISSION_FUNCTION_TAG,
-    EmissionFunction,
-    KernelSpec,
-)
+from nightlights.sky.spec import KernelSpec
 
 
 def test_garstang_lobe_normalisation_is_garstangs_0554() -> None:

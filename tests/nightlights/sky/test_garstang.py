@@ -16,13 +16,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
+from nightlights.emission_functions import garstang_weights
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import (
     GARSTANG_MOLECULAR_INVERSE_SCALE_HEIGHT,
     GARSTANG_MOLECULAR_SCATTERING,
     garstang_atmosphere,
 )
-from nightlights.sky.emission_shapes import garstang_weights
 from nightlights.sky.garstang import (
     GARSTANG_EARTH_RADIUS,
     garstang_emission_function,

@@ -16,11 +16,11 @@ from shapely.geometry import LineString, Point
 
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputExistsError
 from nightlights.inverse import inverse_q
-from nightlights.inverse._influence import cell_values
 from nightlights.io import Raster, RasterBand, write_cog
 from nightlights.nightsky.render import zenith_summary
 from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 from nightlights.sky import observers as module
+from nightlights.sky.influence import cell_values
 from nightlights.sky.observers import SUMMARY_FIELDS, SUMMARY_LAYER, observers
 from nightlights.sky.polar import lit_polar_cells
 from nightlights.sky.setup import prepare_scene

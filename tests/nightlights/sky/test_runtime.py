@@ -11,10 +11,10 @@ from affine import Affine
 from hypothesis import given
 from hypothesis import strategies as st
 
+from nightlights.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import RasterBand, write_cog
 from nightlights.sky import skyglow
-from nightlights.sky.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.sky.panorama import (
     kernel_slice,
     panorama_exact,

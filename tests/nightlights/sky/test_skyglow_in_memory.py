@@ -97,7 +97,7 @@ def test_png_and_polar_written_only_when_asked(tmp_path: Path, small_kernel: xr.
 
 
 def test_summary_adds_the_natural_sky_beside_the_artificial(small_kernel: xr.Dataset) -> None:
-    from nightlights.sky.brightness import luminance_to_magnitude
+    from nightlights.brightness import luminance_to_magnitude
 
     attrs = skyglow(
         _raster(), observer=OBSERVER, observer_height=0.0, kernel=small_kernel

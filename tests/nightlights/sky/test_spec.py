@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nightlights.errors import InputError, OutputError
-from nightlights.sky import KernelResult, KernelSpec, build_kernel
-from nightlights.sky.atmosphere import Atmosphere
-from nightlights.sky.emission_shapes import (
+from nightlights.emission_functions import (
     SINE_POWER_FORM,
     register_emission_shape,
     unregister_emission_shape,
 )
+from nightlights.errors import InputError, OutputError
+from nightlights.sky import KernelResult, KernelSpec, build_kernel
+from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.store import read_kernel
 
 TINY = {"r_min": 20.0, "r_max": 2000.0, "n_distance": 4, "n_elevation": 4, "n_azimuth": 8}

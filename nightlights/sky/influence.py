@@ -12,7 +12,8 @@ and G_k is the cross-correlation in azimuth of the weights with basis k, one FFT
 sub-points (:class:`nightlights.sky.polar.PolarCells`: the same split as the forward polar
 map), weighted by its flux and by its share of each source-altitude level, so the values of
 all cells add up to the forward panorama's M. The whole raster costs one panorama-sized FFT
-per basis plus a table lookup per sub-point.
+per basis plus a table lookup per sub-point. These splits are sky algebra, shared by the inverse
+stages (:mod:`nightlights.inverse`) and the many-observer stage (:mod:`nightlights.sky.observers`).
 
 The weights W make the metrics:
 

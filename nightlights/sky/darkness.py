@@ -63,12 +63,12 @@ from scipy.ndimage import map_coordinates
 from nightlights._parallel import TaskProgress, compute_distributed
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
-from nightlights.sky.brightness import luminance_to_magnitude
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels

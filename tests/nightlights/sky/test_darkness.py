@@ -13,11 +13,11 @@ import xarray as xr
 from affine import Affine
 from distributed import Client, LocalCluster
 
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError
-from nightlights.inverse._darkness import DarknessResult, darkness, zenith_per_lumen
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, build_kernel
-from nightlights.sky.brightness import luminance_to_magnitude
+from nightlights.sky.darkness import DarknessResult, darkness, zenith_per_lumen
 from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.panorama import kernel_slice
 from nightlights.sky.spec import MAX_KERNEL_RANGE
