@@ -26,21 +26,112 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import xarray as xr
 
 from nightlights._typing import FloatArray, PathLike
-from nightlights.emission_functions import EmissionFunction
+from nightlights.emission_functions import EMISSION_MODELS, EmissionFunction, emission_shape_names
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells
-from nightlights.sky.setup import EmissionInput, RasterInput, check_kernel_grid, kernel_tables
+from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.spec import KernelSpec, scene_kernel_spec
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
-__all__ = ["DEFAULT_GRID", "DEFAULT_TURBIDITY", "KernelInput", "Scene"]
+__all__ = [
+    "DEFAULT_GRID",
+    "DEFAULT_TURBIDITY",
+    "EmissionInput",
+    "KernelInput",
+    "KernelTables",
+    "RasterInput",
+    "Scene",
+    "check_kernel_grid",
+    "kernel_tables",
+]
+
+#: What a stage accepts as a raster input (an emission may also be given as its lit cells).
+RasterInput = Raster | xr.DataArray | PathLike
+EmissionInput = Raster | xr.DataArray | PathLike | LitCells
+
+
+class KernelTables(TypedDict):
+    """Which shape tables a scene kernel tabulates (arguments of ``scene_kernel_spec``)."""
+
+    uplight: bool
+    garstang_lobe: bool
+    tabulated_emission: str | None
+    emission_shapes: tuple[str, ...]
+
+
+def kernel_tables(functions: Sequence[EmissionFunction], label: str) -> KernelTables:
+    """The :func:`~nightlights.sky.spec.scene_kernel_spec` arguments that tabulate the
+    shapes the bands' emission functions need.
+
+    Parameters
+    ----------
+    functions
+        One emission function per band (:func:`~nightlights.sky.setup.band_emission_functions`).
+    label
+        How the emission is named in messages.
+
+    Returns
+    -------
+    dict
+        ``uplight``, ``garstang_lobe``, ``tabulated_emission`` (the one tabulated function,
+        or None; a kernel holds one, more are refused) and ``emission_shapes`` (the other
+        registered shapes, in registration order).
+    """
+    shapes = {shape for function in functions for shape in function.shapes}
+    return KernelTables(
+        uplight="uplight" in shapes,
+        garstang_lobe="garstang_lobe" in shapes,
+        tabulated_emission=_tabulated(shapes, label),
+        emission_shapes=tuple(
+            name
+            for name in emission_shape_names()
+            if name in shapes and name not in EMISSION_MODELS
+        ),
+    )
+
+
+def _tabulated(shapes: set[str], label: str) -> str | None:
+    """The one tabulated function of the bands, None without; a scene kernel holds one."""
+    tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
+    if len(tabulated) > 1:
+        raise InputError(
+            f"{label}: {len(tabulated)} different tabulated emission functions; a kernel "
+            "tabulates one (give them one table, or compute the bands separately)"
+        )
+    return tabulated[0] if tabulated else None
+
+
+def check_kernel_grid(table: xr.Dataset, **given: int | None) -> None:
+    """Refuse grid options (``n_elevation``, ``n_azimuth``, ``n_distance``) that differ from
+    a given kernel's: the kernel fixes the grid, so they cannot be honoured.
+
+    Parameters
+    ----------
+    table
+        The kernel dataset.
+    **given
+        Each option's value, None when not given [1].
+    """
+    n_frequency = int(table.sizes.get("frequency", 0))
+    actual = {
+        "n_elevation": int(table.sizes["elevation"]),
+        "n_azimuth": int(table.sizes.get("azimuth", 2 * (n_frequency - 1))),
+        "n_distance": int(table.sizes["distance"]),
+    }
+    for name, value in given.items():
+        if value is not None and int(value) != actual[name]:
+            raise InputError(
+                f"{name}={value}: the kernel fixes the grid ({actual[name]}); omit "
+                f"{name}= with kernel=, or build a kernel with it"
+            )
+
 
 #: What a scene's kernel may be: a built kernel, its dataset or its NetCDF file.
 KernelInput = KernelResult | xr.Dataset | PathLike

@@ -17,9 +17,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import xarray as xr
@@ -27,19 +25,25 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights._resources import check_memory
-from nightlights._typing import FloatArray, PathLike
-from nightlights.emission_functions import EMISSION_MODELS, emission_shape_names
+from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells, as_lit_cells
 from nightlights.sky.horizon import SceneTerrain, horizon_elevation, scene_terrain
-from nightlights.sky.kernel import TABULATED_PREFIX
+from nightlights.sky.observer import Observer
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
 from nightlights.sky.polar import (
     PolarCells,
     lit_polar_cells,
     source_level_weights,
     supersampling,
+)
+from nightlights.sky.scene import (
+    EmissionInput,
+    RasterInput,
+    Scene,
+    check_kernel_grid,
+    kernel_tables,
 )
 from nightlights.sky.spec import (
     DEFAULT_EMISSION_FUNCTION,
@@ -49,10 +53,6 @@ from nightlights.sky.spec import (
     KernelSpec,
     source_levels,
 )
-
-if TYPE_CHECKING:
-    from nightlights.sky.observer import Observer
-    from nightlights.sky.scene import Scene
 
 __all__ = [
     "EmissionInput",
@@ -69,9 +69,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: What a stage accepts as a raster input (an emission may also be given as its lit cells).
-RasterInput = Raster | xr.DataArray | PathLike
-EmissionInput = Raster | xr.DataArray | PathLike | LitCells
 
 #: Largest absolute coordinates that look like degrees (longitude, latitude) [deg].
 _DEGREE_LIKE = (360.0, 90.0)
@@ -289,57 +286,6 @@ def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) ->
     )
 
 
-class KernelTables(TypedDict):
-    """Which shape tables a scene kernel tabulates (arguments of ``scene_kernel_spec``)."""
-
-    uplight: bool
-    garstang_lobe: bool
-    tabulated_emission: str | None
-    emission_shapes: tuple[str, ...]
-
-
-def kernel_tables(functions: Sequence[EmissionFunction], label: str) -> KernelTables:
-    """The :func:`~nightlights.sky.spec.scene_kernel_spec` arguments that tabulate the
-    shapes the bands' emission functions need.
-
-    Parameters
-    ----------
-    functions
-        One emission function per band (:func:`band_emission_functions`).
-    label
-        How the emission is named in messages.
-
-    Returns
-    -------
-    dict
-        ``uplight``, ``garstang_lobe``, ``tabulated_emission`` (the one tabulated function,
-        or None; a kernel holds one, more are refused) and ``emission_shapes`` (the other
-        registered shapes, in registration order).
-    """
-    shapes = {shape for function in functions for shape in function.shapes}
-    return KernelTables(
-        uplight="uplight" in shapes,
-        garstang_lobe="garstang_lobe" in shapes,
-        tabulated_emission=_tabulated(shapes, label),
-        emission_shapes=tuple(
-            name
-            for name in emission_shape_names()
-            if name in shapes and name not in EMISSION_MODELS
-        ),
-    )
-
-
-def _tabulated(shapes: set[str], label: str) -> str | None:
-    """The one tabulated function of the bands, None without; a scene kernel holds one."""
-    tabulated = sorted(shape for shape in shapes if shape.startswith(TABULATED_PREFIX))
-    if len(tabulated) > 1:
-        raise InputError(
-            f"{label}: {len(tabulated)} different tabulated emission functions; a kernel "
-            "tabulates one (give them one table, or compute the bands separately)"
-        )
-    return tabulated[0] if tabulated else None
-
-
 #: Emission functions of the bands of an untagged two-band raster (the emission stage's
 #: layout: reflected light, then the luminaires' direct uplight).
 TWO_BAND_FUNCTIONS = ("lambertian", "uplight")
@@ -514,31 +460,6 @@ def _check_flux(cells: LitCells, label: str) -> None:
         raise InputError(
             f"{label}: no lit cell (all {rows} x {cols} cells are {what}); nothing lights the sky"
         )
-
-
-def check_kernel_grid(table: xr.Dataset, **given: int | None) -> None:
-    """Refuse grid options (``n_elevation``, ``n_azimuth``, ``n_distance``) that differ from
-    a given kernel's: the kernel fixes the grid, so they cannot be honoured.
-
-    Parameters
-    ----------
-    table
-        The kernel dataset.
-    **given
-        Each option's value, None when not given [1].
-    """
-    n_frequency = int(table.sizes.get("frequency", 0))
-    actual = {
-        "n_elevation": int(table.sizes["elevation"]),
-        "n_azimuth": int(table.sizes.get("azimuth", 2 * (n_frequency - 1))),
-        "n_distance": int(table.sizes["distance"]),
-    }
-    for name, value in given.items():
-        if value is not None and int(value) != actual[name]:
-            raise InputError(
-                f"{name}={value}: the kernel fixes the grid ({actual[name]}); omit "
-                f"{name}= with kernel=, or build a kernel with it"
-            )
 
 
 def _looks_like_degrees(x: float, y: float) -> bool:
