@@ -163,7 +163,7 @@ class ExploreSession:
         emission, kernel, dem = scene.emission, scene.kernel, scene.dem
         self.scene = scene
         self.label = scene.label
-        raster = as_raster(emission)
+        raster = as_raster(scene.raster_input("ExploreSession"))
         self._sources: dict[str, Any] = {
             "emission": _path_or_none(emission),
             "kernel": _path_or_none(kernel),

@@ -147,8 +147,9 @@ def inverse_reduce(
     25.0
     """
     outputs = _check_outputs(output, dimming_output, summary_output, png)
-    _check_dense(scene.emission)
-    raster = as_raster(scene.emission)
+    emission = scene.raster_input("inverse_reduce")
+    _check_dense(emission)
+    raster = as_raster(emission)
     label = source_label(by, "influence raster")
     influence = as_raster(by)
     _same_grid(raster, influence, label)
@@ -268,8 +269,9 @@ def least_dimming(
     if not observers:
         raise InputError("no observer: the targets are for at least one observer")
     outputs = _check_outputs(output, dimming_output, summary_output, png)
-    _check_dense(scene.emission)
-    raster = as_raster(scene.emission)
+    emission = scene.raster_input("least_dimming")
+    _check_dense(emission)
+    raster = as_raster(emission)
     dense = scene.replace(emission=raster)
     regions = [(SkyRegion.parse(region), float(mag)) for region, mag in target_region]
     targets: list[tuple[str, SkyRegion | None, float]] = []

@@ -14,7 +14,7 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import xarray as xr
@@ -255,7 +255,7 @@ def sky_render(
     if flat:  # the former call: sky_render(output, time=, lonlat=)
         if output is not None:
             raise InputError(f"observer {observer!r}; expected an Observer")
-        output, observer = observer, None
+        output, observer = cast("PathLike", observer), None
     if lonlat is not None:
         if observer is not None:
             raise InputError("give observer or lonlat (deprecated), not both")

@@ -81,7 +81,7 @@ def flat_keywords(
             )
             return func(*new_args, **kwargs)
 
-        return stage  # type: ignore[return-value]
+        return stage
 
     return decorate
 

@@ -367,7 +367,7 @@ def darkness(
     (True, True)
     """
     target = _check_output(output)
-    emission, dem, observer_height = scene.emission, scene.dem, height
+    emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
     raster = as_raster(emission)
     data = _check_emission(raster, label)

@@ -85,7 +85,7 @@ class Observer:
 
     x: float
     y: float
-    crs: CRS | None = None
+    crs: Any = None  # a pyproj CRS (or None) once made; anything CRS.from_user_input reads
     height: float = OBSERVER_HEIGHT
     name: str | None = None
 

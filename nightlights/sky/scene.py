@@ -225,6 +225,22 @@ class Scene:
             return "in-memory emission raster"
         return source_label(self.emission, "emission raster")
 
+    def raster_input(self, stage: str) -> RasterInput:
+        """The emission as a raster input (a stage that needs the whole grid cannot take the
+        lit cells alone).
+
+        Raises
+        ------
+        InputError
+            The emission was given as its lit cells.
+        """
+        if isinstance(self.emission, LitCells):
+            raise InputError(
+                f"{stage} needs the emission raster on its grid, not its lit cells; give the "
+                "scene a Raster, DataArray or path"
+            )
+        return self.emission
+
     @property
     def grid(self) -> dict[str, int | None]:
         """The grid options as given (None where the default or the kernel's applies)."""

@@ -18,6 +18,7 @@ import logging
 import math
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -472,7 +473,7 @@ def _check_reach(
     reach: float,
     label: str,
     observer: tuple[float, float],
-    observer_crs: str | None,
+    observer_crs: Any,
     whose: str = "the kernel's",
 ) -> None:
     """Refuse an observer farther from every lit cell than ``reach``; warn about one outside
