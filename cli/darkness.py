@@ -13,6 +13,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
     scene_grid_options,
+    scene_of,
     scheduler_option,
     turbidity_option,
 )
@@ -56,18 +57,17 @@ def darkness(
     (emission,), out = resolve_inout(
         files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
     )
-    result = nl.darkness(
+    scene = scene_of(
         emission,
-        out,
-        observer_height=observer_height,
         dem=dem,
         kernel=kernel,
         turbidity=turbidity,
-        chunk_size=chunk_size,
-        scheduler=scheduler,
-        n_distance=n_distance,
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
+        n_distance=n_distance,
+    )
+    result = nl.darkness(
+        scene, out, height=observer_height, chunk_size=chunk_size, scheduler=scheduler
     )
     import numpy as np
     from rich.console import Console

@@ -9,6 +9,7 @@ from .options import (
     kernel_option,
     observer_height_option,
     one_of,
+    scene_of,
     turbidity_option,
 )
 
@@ -104,12 +105,9 @@ def explore(
         else:
             assert emission is not None  # one of the two, checked above
             session = ExploreSession(
-                emission,
+                scene_of(emission, dem=dem, kernel=kernel, turbidity=turbidity),
                 lights=lights,
-                kernel=kernel,
-                dem=dem,
-                observer_height=observer_height,
-                turbidity=turbidity,
+                height=observer_height,
             )
         url = _app.browser_url(host, sock.getsockname()[1])
         if not _app.is_loopback(host):

@@ -41,6 +41,7 @@ from .options import (
     kernel_option,
     observer_crs_option,
     observer_height_option,
+    observer_of,
     observers_option,
     one_of,
     options,
@@ -48,6 +49,7 @@ from .options import (
     overwrite_option,
     parse_pair,
     resolve_inout,
+    scene_of,
     scene_options,
     warn_deprecated,
 )
@@ -109,23 +111,21 @@ def q_command(
     EMISSION's grid, NaN where unlit)."""
     from nightlights import inverse as library
 
-    observer_xy = parse_pair(observer)
+    parse_pair(observer)  # the syntax checked before any work
     (emission,), out = resolve_inout(
         files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
     )
-    result = library.inverse_q(
+    scene = scene_of(
         emission,
-        out,
-        observer=observer_xy,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
         dem=dem,
         kernel=kernel,
-        metric=metric,
         turbidity=turbidity,
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
         n_distance=n_distance,
+    )
+    result = library.inverse_q(
+        scene, observer_of(observer, observer_crs, observer_height), out, metric=metric
     )
     _report_influence(result, out)
 
@@ -175,26 +175,27 @@ def s_command(
     on EMISSION's grid [cd m-2], NaN where unlit)."""
     from nightlights import inverse as library
 
-    observer_xy = parse_pair(observer)
+    parse_pair(observer)  # the syntax checked before any work
     (emission,), out = resolve_inout(
         files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
     )
-    result = library.inverse_s(
+    scene = scene_of(
         emission,
-        out,
-        observer=observer_xy,
-        region=region,
-        weight=weight,
-        method=method,
-        components=components,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
         dem=dem,
         kernel=kernel,
         turbidity=turbidity,
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
         n_distance=n_distance,
+    )
+    result = library.inverse_s(
+        scene,
+        observer_of(observer, observer_crs, observer_height),
+        out,
+        region=region,
+        weight=weight,
+        method=method,
+        components=components,
     )
     _report_influence(result, out)
 
@@ -321,14 +322,12 @@ def dim_command(
     from nightlights import inverse as library
 
     result = library.inverse_reduce(
-        emission,
+        scene_of(emission, dem=dem, kernel=kernel),
         out,
         by=by,
         qa=qa,
         qb=qb,
         gamma=gamma,
-        dem=dem,
-        kernel=kernel,
         dimming_output=dimming_output,
         summary_output=summary_output,
         png=png,
@@ -374,7 +373,8 @@ def plan_command(
     if not observers:
         raise click.UsageError("give the targets' --observer X,Y (repeat for several)", ctx)
     targets = [_region_target(text) for text in target_region]
-    observer_xys = [parse_pair(text) for text in observers]
+    for text in observers:  # the syntax checked before any work
+        parse_pair(text)
     cap = _max_dimming(max_dimming)
     dimming_output, summary_output = _products(
         ctx, dimming_output, old_dimming_out, summary_output, old_summary
@@ -386,16 +386,12 @@ def plan_command(
     from nightlights import inverse as library
 
     result = library.least_dimming(
-        emission,
+        scene_of(emission, dem=dem, kernel=kernel),
+        [observer_of(text, observer_crs, observer_height) for text in observers],
         out,
-        observers=observer_xys,
         target_zenith=target_zenith,
         target_region=targets,
         max_dimming=cap,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        dem=dem,
-        kernel=kernel,
         dimming_output=dimming_output,
         summary_output=summary_output,
         png=png,

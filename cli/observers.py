@@ -18,6 +18,7 @@ from .options import (
     output_option,
     overwrite_option,
     resolve_inout,
+    scene_of,
     turbidity_option,
 )
 
@@ -102,18 +103,16 @@ def observers(
         )
     if panoramas is not None:
         Path(panoramas).mkdir(exist_ok=True)
+    from nightlights.sky import Observer
     from nightlights.sky.observers import observers as stage
 
+    sites = Observer.from_layer(
+        points, layer_name=observers_layer, crs=observer_crs, height=observer_height
+    )
     result = stage(
-        emission,
+        scene_of(emission, dem=dem, kernel=kernel, turbidity=turbidity),
+        sites,
         out,
-        observers=points,
-        observers_layer=observers_layer,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        kernel=kernel,
-        dem=dem,
-        turbidity=turbidity,
         panoramas=panoramas,
         top_cells=top_cells,
         scheduler=scheduler,

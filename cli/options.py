@@ -483,6 +483,39 @@ def parse_pair(text: str, option: str = "--observer") -> tuple[float, float]:
     return x, y
 
 
+def scene_of(
+    emission: str,
+    *,
+    dem: str | None = None,
+    kernel: str | None = None,
+    turbidity: float | None = None,
+    n_elevation: int | None = None,
+    n_azimuth: int | None = None,
+    n_distance: int | None = None,
+) -> Any:
+    """The ``nightlights.Scene`` of a sky command's scene options."""
+    from nightlights.sky import Scene
+
+    return Scene(
+        emission,
+        dem=dem,
+        kernel=kernel,
+        turbidity=turbidity,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+    )
+
+
+def observer_of(text: str, crs: str | None, height: float) -> Any:
+    """The ``nightlights.Observer`` of ``--observer X,Y``, ``--observer-crs`` and
+    ``--observer-height``."""
+    from nightlights.sky import Observer
+
+    x, y = parse_pair(text)
+    return Observer(x, y, crs, height)
+
+
 #: One observer's place (the sky commands of one observer).
 observer_option = click.option(
     "--observer", required=True, metavar="X,Y", help="Observer X,Y (in --observer-crs)."

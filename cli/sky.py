@@ -166,10 +166,12 @@ def render(
     tone_mapping = nightsky.ToneMapping(
         mode=tone, exposure=exposure, white_temperature=white_temperature
     )
+    from nightlights.sky import Observer
+
     result = nightsky.sky_render(
+        Observer.from_lonlat(*place) if place is not None else None,
         out,
         time=time,
-        lonlat=place,
         panorama=panorama,
         natural_only=natural_only,
         artificial_only=artificial_only,

@@ -12,11 +12,13 @@ from .options import (
     components_option,
     deprecated_option,
     files_argument,
+    observer_of,
     one_of,
     output_option,
     overwrite_option,
     parse_pair,
     resolve_inout,
+    scene_of,
     scene_options,
 )
 
@@ -99,32 +101,33 @@ def skyglow(
     ends in .tif."""
     import nightlights as nl
 
-    observer_xy = parse_pair(observer)
+    parse_pair(observer)  # the syntax checked before any work
     output = one_of(ctx, **{"-o/--output": output, "--out": old_out})
     polar_output = one_of(ctx, **{"--polar-output": polar_output, "--polar-out": old_polar_out})
     (emission,), out = resolve_inout(
         files, output, inputs=1, usage="EMISSION OUTPUT", overwrite=overwrite
     )
     check_outputs([png, polar_output], overwrite=overwrite)
-    result = nl.skyglow(
+    scene = scene_of(
         emission,
-        out,
-        observer=observer_xy,
-        observer_crs=observer_crs,
-        observer_height=observer_height,
-        turbidity=turbidity,
+        dem=dem,
         kernel=kernel,
+        turbidity=turbidity,
+        n_elevation=n_elevation,
+        n_azimuth=n_azimuth,
+        n_distance=n_distance,
+    )
+    result = nl.skyglow(
+        scene,
+        observer_of(observer, observer_crs, observer_height),
+        out,
         mode=mode,
         components=components,
         png=png,
         projection=projection,
         polar_output=polar_output,
-        dem=dem,
         bands=bands,
         spectrum=spectrum,
-        n_elevation=n_elevation,
-        n_azimuth=n_azimuth,
-        n_distance=n_distance,
     )
     from rich.console import Console
 
