@@ -86,12 +86,13 @@ def test_darkness_command_passes_its_options(fake_stage, emission: Path, tmp_pat
     args += ["--scheduler", "tcp://127.0.0.1:8786", "--turbidity", "3", "--n-distance", "32"]
     result = CliRunner().invoke(command_group(), args)
     assert result.exit_code == 0, result.output
-    assert recorder.args == (str(emission), str(out))
+    scene, written = recorder.args
+    assert (scene.emission, written) == (str(emission), str(out))
+    assert scene.dem == str(dem) and scene.turbidity == 3.0 and scene.kernel is None
+    assert scene.n_distance == 32 and scene.n_azimuth is None
     kwargs = recorder.kwargs
-    assert kwargs["dem"] == str(dem) and kwargs["chunk_size"] == 512
-    assert kwargs["scheduler"] == "tcp://127.0.0.1:8786" and kwargs["turbidity"] == 3.0
-    assert kwargs["n_distance"] == 32 and kwargs["observer_height"] == 1.7
-    assert kwargs["kernel"] is None
+    assert kwargs["chunk_size"] == 512 and kwargs["height"] == 1.7
+    assert kwargs["scheduler"] == "tcp://127.0.0.1:8786"
     assert "3 x 4 cells" in result.output
 
 

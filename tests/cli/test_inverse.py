@@ -351,17 +351,18 @@ def test_scene_options_reach_inverse_s(
     out = tmp_path / "s.tif"
     result = _invoke(
         "s", files.emission, out, *OBSERVER, "--region", "horizon:300,60,20",
-        "--observer-crs", "EPSG:4326", "--observer-height", 10, "--turbidity", 3,
+        "--observer-crs", "EPSG:32635", "--observer-height", 10, "--turbidity", 3,
         "--components", 4, "--method", "brute", "--n-azimuth", 32,
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     ((args, kwargs),) = fake_inverse["inverse_s"]
-    assert args == (str(files.emission), str(out))
-    assert kwargs["observer"] == (501000.0, 6699000.0) and kwargs["region"] == "horizon:300,60,20"
-    assert kwargs["observer_crs"] == "EPSG:4326" and kwargs["observer_height"] == 10.0
-    assert (kwargs["turbidity"], kwargs["components"], kwargs["method"]) == (3.0, 4, "brute")
-    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (None, 32, None)
-    assert kwargs["weight"] == "solid-angle" and kwargs["kernel"] is None
+    scene, observer, written = args
+    assert (scene.emission, written) == (str(files.emission), str(out))
+    assert (observer.x, observer.y, observer.height) == (501000.0, 6699000.0, 10.0)
+    assert observer.crs.to_epsg() == 32635 and kwargs["region"] == "horizon:300,60,20"
+    assert (scene.turbidity, kwargs["components"], kwargs["method"]) == (3.0, 4, "brute")
+    assert (scene.n_elevation, scene.n_azimuth, scene.n_distance) == (None, 32, None)
+    assert kwargs["weight"] == "solid-angle" and scene.kernel is None
 
 
 def test_target_regions_split_at_the_last_colon(
@@ -375,10 +376,10 @@ def test_target_regions_split_at_the_last_colon(
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "flux removed: 250 lm = 25.00 % of 1000 lm" in result.output
-    ((_, kwargs),) = fake_inverse["least_dimming"]
+    ((args, kwargs),) = fake_inverse["least_dimming"]
     assert kwargs["target_region"] == [("zenith:30", 21.5), (polygon, 20.0)]
     assert kwargs["target_zenith"] is None
-    assert kwargs["observers"] == [(501000.0, 6699000.0), (500550.0, 6698450.0)]
+    assert [(o.x, o.y) for o in args[1]] == [(501000.0, 6699000.0), (500550.0, 6698450.0)]
     assert kwargs["max_dimming"] == str(files.emission)
     assert "inverse_reduce" not in fake_inverse
     assert "DeprecationWarning: cli inverse reduce is deprecated; use cli inverse plan." in (

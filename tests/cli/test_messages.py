@@ -28,6 +28,8 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: the kernel's quadrature details, the atmosphere's switches, the night-sky helpers' inputs,
 #: the explore page's web API) or names of an object (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "emission",
+    "replace",
     "extinction",
     "extinction_coefficient",
     "iterations",

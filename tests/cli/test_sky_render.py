@@ -42,8 +42,8 @@ def panorama(tmp_path: Path) -> Path:
 def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[dict] = []
 
-    def fake(output: str, **kwargs: object) -> SimpleNamespace:
-        calls.append({"output": output, **kwargs})
+    def fake(observer: object, output: str, **kwargs: object) -> SimpleNamespace:
+        calls.append({"observer": observer, "output": output, **kwargs})
         return SimpleNamespace(legend="legend")
 
     monkeypatch.setattr(nightlights.nightsky, "sky_render", fake, raising=False)
@@ -69,7 +69,7 @@ def test_options_reach_the_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     )
     assert result.exit_code == 0, result.output
     (call,) = calls
-    assert call["output"] == str(out) and call["lonlat"] == (24.95, 60.17)
+    assert call["output"] == str(out) and call["observer"].lonlat() == (24.95, 60.17)
     assert call["projection"] == "perspective" and call["field_of_view"] == 60.0
     assert call["view_azimuth"] == 200.0 and call["natural_only"] is True
     assert call["limiting_magnitude"] is False and call["time"] == TIME

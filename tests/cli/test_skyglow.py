@@ -123,11 +123,12 @@ def test_options_reach_the_stage(fake_skyglow, emission: Path, tmp_path: Path) -
     args = ["skyglow", str(emission), str(out), *OBSERVER, "--polar-output", str(polar)]
     result = CliRunner().invoke(cli, [*args, "--components", "3", "--n-distance", "32"])
     assert result.exit_code == 0, result.output
-    assert fake_skyglow.args == (str(emission), str(out))
+    scene, observer, written = fake_skyglow.args
+    assert (scene.emission, written) == (str(emission), str(out))
     kwargs = fake_skyglow.kwargs
-    assert kwargs["observer"] == (501500.0, 6698500.0)
+    assert (observer.x, observer.y, observer.height) == (501500.0, 6698500.0, 1.7)
     assert kwargs["polar_output"] == str(polar) and kwargs["components"] == 3
-    assert (kwargs["n_elevation"], kwargs["n_azimuth"], kwargs["n_distance"]) == (None, None, 32)
+    assert (scene.n_elevation, scene.n_azimuth, scene.n_distance) == (None, None, 32)
     assert "Bortle class 5" in result.output and result.stderr.count("Deprecation") == 0
 
 
@@ -136,7 +137,7 @@ def test_deprecated_out_and_polar_out(fake_skyglow, emission: Path, tmp_path: Pa
     args = ["skyglow", str(emission), *OBSERVER, "--out", str(out), "--polar-out", str(polar)]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
-    assert fake_skyglow.args == (str(emission), str(out))
+    assert fake_skyglow.args[0].emission == str(emission) and fake_skyglow.args[2] == str(out)
     assert fake_skyglow.kwargs["polar_output"] == str(polar)
     assert "DeprecationWarning: --out is deprecated; use OUTPUT or -o/--output." in result.stderr
     assert "DeprecationWarning: --polar-out is deprecated; use --polar-output." in result.stderr
