@@ -11,6 +11,10 @@ of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memo
 ``--crs`` or ``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the
 library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
 
+Length: a little over 600 lines, because every option that two commands share is declared here
+once (the scene and observer options with the helpers that turn them into a ``Scene`` and an
+``Observer``, the streets, kernel and scheduler options), so that no command restates one.
+
 This module imports only click, so that ``nightlights --help`` stays fast. The choices and
 defaults that are the library's (a stage's modes, a dataclass's default) are not repeated here:
 :class:`~nightlights_cli.library.FromLibrary` names the library's constant, which is read when

@@ -19,11 +19,10 @@ direction of the artificial skyglow, and the lit cells that give most of the art
 luminance, in numbered columns (``top1_x``, ``top1_y``, ``top1_share``, ...: plain numeric
 fields that QGIS filters, labels and styles directly).
 
-Length: about 830 lines, a third of them numpydoc, because the stage accepts observers in
-every form a user has them (an array in any CRS, a point layer in memory or in a file, with
-or without names) and checks each one by name before any work, and because the engine a
-Dask task receives, the scheduling and the two outputs (summary layer, panoramas) share one
-set of private types that no other module needs.
+The observers are read by :class:`~nightlights.sky.observer.Observer` (from coordinates in any
+CRS or from a point layer); the engine a Dask task receives and the scheduling live in
+:mod:`nightlights.sky._observers_engine`; this module checks the inputs, runs the engine and
+writes the two outputs (summary layer, panoramas).
 
 References
 ----------
@@ -37,11 +36,9 @@ References
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import time
-import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,31 +48,25 @@ import geopandas as gpd
 import numpy as np
 import pandas as pd
 import xarray as xr
-from affine import Affine
 from pyproj import CRS
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import bortle_class, luminance_to_magnitude
-from nightlights.emission_functions import kernel_table_names
 from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.io import OutputSet, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
 from nightlights.sky._flat import flat_keywords
-from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
+from nightlights.sky._observers_engine import MAX_CHUNK as MAX_CHUNK  # re-exported
+from nightlights.sky._observers_engine import SCHEDULERS, _Engine, _run
+from nightlights.sky._observers_engine import TASKS_PER_WORKER as TASKS_PER_WORKER
+from nightlights.sky._observers_engine import _engine as _engine  # for benchmarks and tests
+from nightlights.sky._observers_engine import _Levels as _Levels
 from nightlights.sky.forward import _panorama_dataset
-from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
-from nightlights.sky.influence import cell_values, region_table, zenith_weights
+from nightlights.sky.horizon import ground_height, scene_terrain
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import Observer, positions
-from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
-from nightlights.sky.polar import (
-    PolarMap,
-    lit_polar_cells,
-    source_level_weights,
-)
 from nightlights.sky.scene import Scene
 from nightlights.sky.setup import (
     _check_flux,
@@ -87,8 +78,6 @@ from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
 __all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
 
-#: Local Dask schedulers; a ``distributed.Client`` or a scheduler address also works.
-SCHEDULERS = ("threads", "processes", "synchronous")
 #: Layer name of the summary GeoPackage.
 SUMMARY_LAYER = "observers"
 #: Fields of the summary layer, before the ``top<i>_*`` columns, with their units.
@@ -104,11 +93,6 @@ SUMMARY_FIELDS: dict[str, str] = {
     "brightest_elevation": "deg",
     "brightest_luminance": "cd m-2 (artificial)",
 }
-#: Most observers per Dask task: few enough that the progress bar moves, many enough that a
-#: task's overhead (a few ms on the local schedulers) stays below its work [1].
-MAX_CHUNK = 64
-#: Tasks per worker the observers are split into, so that the workers stay busy to the end [1].
-TASKS_PER_WORKER = 4
 #: Bytes per panorama pixel held until the files are written (luminance, sky brightness and
 #: the terrain mask in the written dataset, plus the array returned by the task) [B].
 _PANORAMA_PIXEL_BYTES = 3 * 8 + 1
@@ -138,225 +122,6 @@ class ObserversResult:
     panoramas: dict[str, Path]
     seconds: float
     path: Path | None
-
-
-@dataclass(frozen=True)
-class _Engine:
-    """Everything an observer's sky needs, computed once; what a Dask task receives.
-
-    Altitudes are the kernel's (shifted by ``offset`` as in
-    :class:`~nightlights.sky.setup.SceneSetup`).
-    """
-
-    rows: np.ndarray
-    cols: np.ndarray
-    values: FloatArray  # (bands, n) [lm m-2]
-    flux: FloatArray  # (bands, n) [lm]
-    level_weights: FloatArray  # (n_levels, n) [1]
-    transform: Affine
-    edges: FloatArray  # (n_r + 1,) [m]
-    n_az: int
-    elevation: FloatArray  # (n_el,) [deg]
-    offset: float  # [m]
-    functions: tuple[Any, ...]
-    slices: tuple[KernelSlice, ...] | None  # one eye altitude (no DEM): ready
-    table: xr.Dataset | None  # with a DEM: the PCA tables, for any eye altitude
-    dem: FloatArray | None
-    dem_transform: Affine | None
-    natural: float  # natural zenith luminance [cd m-2]
-    top_cells: int
-    keep_panoramas: bool
-
-    def sky(self, xy: tuple[float, float], eye: float, levels: _Levels) -> dict[str, Any]:
-        """One observer's figures (and panorama when kept) at eye altitude ``eye`` [m]."""
-        slices = list(self.slices) if self.slices is not None else levels.at(eye - self.offset)
-        maps, _ = polar_flux_levels(
-            self.rows,
-            self.cols,
-            self.flux,
-            self.level_weights,
-            self.transform,
-            xy,
-            distance_edges=self.edges,
-            n_az=self.n_az,
-        )
-        empty = np.zeros(1)
-        polars = [PolarMap(m, self.edges, self.n_az, empty, empty) for m in maps]
-        # Eqs. 7-9; PCA truncation can ring slightly below zero
-        luminance = np.maximum(panorama_pca(polars, slices), 0.0)
-        below = None
-        if self.dem is not None:
-            assert self.dem_transform is not None
-            horizon = horizon_elevation(
-                self.dem, self.dem_transform, xy, eye_altitude=eye, n_az=self.n_az
-            )
-            below = self.elevation[:, None] < horizon[None, :]
-            luminance = np.where(below, np.nan, luminance)
-        row = luminance[0]
-        zenith = float(np.nanmean(row)) if np.isfinite(row).any() else 0.0
-        out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
-        if self.top_cells:
-            out["top"] = self._top_cells(xy, maps, levels.zenith(slices))
-        if self.keep_panoramas:
-            out["luminance"] = luminance
-            out["below"] = below
-        return out
-
-    def _top_cells(self, xy: tuple[float, float], maps: FloatArray, zenith: _Zenith) -> FloatArray:
-        """``(top_cells, 3)``: x, y [m] and share of the artificial zenith [1] of the lit
-        cells that give most of it (NaN rows when fewer cells give any).
-
-        A cell's part is :func:`~nightlights.inverse.inverse_q`'s with ``metric="zenith"``
-        (Dobashi et al. 2023, Eqs. 13-14 with the zenith row's weights): its flux on each
-        source level times the zenith luminance per lumen of the polar bins its sub-points
-        fall in, summed. The parts of all cells add up to the binned flux times the same
-        table, the panorama's artificial zenith (Eqs. 13-14 are linear), the shares'
-        denominator. Every sub-point of a cell lies within half a cell diagonal of its centre,
-        so the cell's part lies between its flux times the least and the greatest value of
-        the table over the distance bins of that span; only the cells whose upper bound
-        reaches the ``top_cells``-th largest lower bound are split into sub-points
-        (:func:`~nightlights.sky.polar.lit_polar_cells`) and summed exactly, as
-        :func:`~nightlights.inverse.inverse_q` does for all of them.
-        """
-        total = float(sum(np.sum(m * t) for m, t in zip(maps, zenith.tables, strict=True)))
-        lower, upper = zenith.bounds(self, xy)
-        count = min(self.top_cells, lower.size)
-        threshold = np.partition(lower, lower.size - count)[lower.size - count]
-        chosen = np.nonzero(upper >= threshold)[0]
-        cells = lit_polar_cells(
-            self.rows[chosen],
-            self.cols[chosen],
-            self.values[:, chosen],
-            self.transform,
-            xy,
-            distance_edges=self.edges,
-            n_az=self.n_az,
-        )
-        exact = cell_values(cells, self.level_weights[:, chosen], zenith.tables)
-        values = np.zeros(lower.size)
-        values[chosen] = exact
-        out = np.full((self.top_cells, 3), np.nan)
-        if not total > 0:
-            return out
-        order = np.argsort(-values, kind="stable")[:count]
-        order = order[values[order] > 0]
-        t = self.transform
-        out[: order.size, 0] = t.c + t.a * (self.cols[order] + 0.5)
-        out[: order.size, 1] = t.f + t.e * (self.rows[order] + 0.5)
-        out[: order.size, 2] = values[order] / total
-        return out
-
-
-class _Levels:
-    """One task's band slices of a kernel at the eye altitudes it meets (with a DEM)."""
-
-    def __init__(self, engine: _Engine) -> None:
-        self._engine = engine
-        self._levels: KernelLevels | None = None
-        self._slices: dict[float, list[KernelSlice]] = {}
-        # keyed by the slices' identity; the slices are kept with their tables
-        self._zenith: dict[int, tuple[list[KernelSlice], _Zenith]] = {}
-
-    def at(self, altitude: float) -> list[KernelSlice]:
-        """The band slices at an eye altitude in the kernel's frame [m]."""
-        if altitude not in self._slices:
-            if self._levels is None:
-                assert self._engine.table is not None
-                self._levels = KernelLevels(self._engine.table, tables=False)
-            functions = self._engine.functions
-            self._slices[altitude] = [band_slice(s, functions) for s in self._levels.at(altitude)]
-        return self._slices[altitude]
-
-    def zenith(self, slices: list[KernelSlice]) -> _Zenith:
-        """The zenith tables of the slices (computed once per eye altitude)."""
-        key = id(slices[0])
-        if key not in self._zenith:
-            self._zenith[key] = (slices, _Zenith.of(slices))
-        return self._zenith[key][1]
-
-
-@dataclass(frozen=True)
-class _Zenith:
-    """Per source level, the artificial zenith luminance per lumen in each polar bin and its
-    least and greatest value over every range of distance bins [cd m-2 lm-1]."""
-
-    tables: list[FloatArray]  # (bands, n_r, n_az) per level
-    least: FloatArray  # (levels, bands, n_r, n_r): [.., first, last] over bins first..last
-    greatest: FloatArray
-
-    @classmethod
-    def of(cls, slices: list[KernelSlice]) -> _Zenith:
-        weights = zenith_weights(slices[0].elevation.size, slices[0].n_az)
-        # region_table of the zenith row (Dobashi et al. 2023, Eqs. 13-14)
-        tables = [region_table(t, weights) for t in slices]
-        low = np.stack([t.min(axis=-1) for t in tables])  # (levels, bands, n_r)
-        high = np.stack([t.max(axis=-1) for t in tables])
-        n_r = low.shape[-1]
-        least = np.full((*low.shape, n_r), np.inf)
-        greatest = np.full((*high.shape, n_r), -np.inf)
-        for first in range(n_r):
-            least[..., first, first:] = np.minimum.accumulate(low[..., first:], axis=-1)
-            greatest[..., first, first:] = np.maximum.accumulate(high[..., first:], axis=-1)
-        return cls(tables, least, greatest)
-
-    def bounds(self, engine: _Engine, xy: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
-        """Lower and upper bounds of every lit cell's part of the zenith [cd m-2]."""
-        t = engine.transform
-        cell = abs(t.a)
-        x = t.c + t.a * (engine.cols + 0.5)
-        y = t.f + t.e * (engine.rows + 0.5)
-        distance = np.hypot(x - xy[0], y - xy[1])
-        half = cell / math.sqrt(2.0)  # sub-points lie within half a diagonal of the centre
-        n_r = engine.edges.size - 1
-        # the bins of lit_polar_cells: searchsorted(edges, r, "right") - 1, 0 below the first
-        first = np.searchsorted(engine.edges, np.maximum(distance - half, 0.0), "right") - 1
-        last = np.searchsorted(engine.edges, distance + half, "right") - 1
-        outside = last >= n_r  # some sub-points may lie beyond the kernel: they count 0
-        first = np.clip(first, 0, n_r - 1)
-        last = np.clip(last, 0, n_r - 1)
-        least = self.least[:, :, first, last]  # (levels, bands, n)
-        greatest = self.greatest[:, :, first, last]
-        least = np.where(outside, np.minimum(least, 0.0), least)
-        greatest = np.where(outside, np.maximum(greatest, 0.0), greatest)
-        beyond = distance - half >= engine.edges[-1]  # every sub-point beyond the kernel
-        least = np.where(beyond, 0.0, least)
-        greatest = np.where(beyond, 0.0, greatest)
-        weight = engine.level_weights[:, None, :] * engine.flux[None, :, :]  # [lm]
-        return np.sum(weight * least, axis=(0, 1)), np.sum(weight * greatest, axis=(0, 1))
-
-
-def _brightest(luminance: FloatArray, elevation: FloatArray) -> dict[str, float]:
-    """Azimuth [deg], elevation [deg] and luminance [cd m-2] of the brightest pixel."""
-    filled = np.nan_to_num(luminance, nan=-1.0)
-    index = int(np.argmax(filled))
-    value = float(filled.flat[index])
-    if not value > 0:
-        return {"brightest_azimuth": math.nan, "brightest_elevation": math.nan,
-                "brightest_luminance": 0.0}  # fmt: skip
-    row, col = divmod(index, luminance.shape[1])
-    return {
-        "brightest_azimuth": (col + 0.5) * 360.0 / luminance.shape[1],
-        "brightest_elevation": float(elevation[row]),
-        "brightest_luminance": value,
-    }
-
-
-def _observe_chunk(
-    engine: _Engine, points: FloatArray, single_thread: bool
-) -> list[dict[str, Any]]:
-    """The skies of a chunk of observers: rows of (x, y, eye altitude) [m]."""
-    import numba
-
-    previous = numba.get_num_threads()
-    # The scheduler runs the tasks in parallel; and the compiled scatter uses one thread per
-    # _CELLS_PER_CHUNK lit cells at most, so a smaller scene gains nothing from launching more.
-    if single_thread or engine.rows.size < 2 * _CELLS_PER_CHUNK:
-        numba.set_num_threads(1)
-    try:
-        levels = _Levels(engine)
-        return [engine.sky((float(x), float(y)), float(eye), levels) for x, y, eye in points]
-    finally:
-        numba.set_num_threads(previous)
 
 
 @flat_keywords(legacy=("output",), observer="layer")
@@ -622,86 +387,6 @@ def _scene_kernel(
         progress=progress,
     )
     return table
-
-
-def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:
-    from nightlights.brightness import zenith_summary
-
-    cells = setup.emission
-    first = setup.slices[0]
-    table = None
-    if terrain:
-        # the PCA tables alone, in memory: what KernelLevels reads for any eye altitude
-        raw = [names[0] for names in kernel_table_names().values() if names[0] in setup.table]
-        table = setup.table.drop_vars(raw).load()
-    return _Engine(
-        rows=np.asarray(cells.rows, dtype=np.int64),
-        cols=np.asarray(cells.cols, dtype=np.int64),
-        values=np.asarray(cells.values, dtype=float),
-        flux=np.nan_to_num(np.asarray(cells.values, dtype=float), nan=0.0)
-        * abs(cells.transform.a) ** 2,
-        level_weights=source_level_weights(setup.heights, setup.levels),
-        transform=cells.transform,
-        edges=np.asarray(first.distance_edges, dtype=float),
-        n_az=int(first.n_az),
-        elevation=np.asarray(first.elevation, dtype=float),
-        offset=float(setup.offset),
-        functions=tuple(setup.functions),
-        slices=None if terrain else tuple(setup.slices),
-        table=table,
-        dem=setup.terrain.dem if terrain else None,
-        dem_transform=setup.terrain.transform if terrain else None,
-        natural=float(zenith_summary(0.0)["zenith_natural_cd_m2"]),
-        top_cells=int(top_cells),
-        keep_panoramas=keep_panoramas,
-    )
-
-
-# --- the computation ----------------------------------------------------------------------------
-
-
-def _chunks(count: int, workers: int) -> list[slice]:
-    size = max(1, min(MAX_CHUNK, math.ceil(count / (TASKS_PER_WORKER * max(workers, 1)))))
-    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
-
-
-def _run(
-    engine: _Engine,
-    points: FloatArray,
-    scheduler: str | Any,
-    num_workers: int | None,
-    progress: bool,
-) -> list[dict[str, Any]]:
-    """Every observer's sky, in order, one Dask task per chunk of observers."""
-    import dask
-
-    from nightlights._parallel import TaskProgress, compute_distributed
-
-    local = isinstance(scheduler, str) and scheduler in SCHEDULERS
-    workers = num_workers or os.cpu_count() or 1
-    if scheduler == "synchronous":
-        workers = 1
-    single_thread = scheduler != "synchronous"
-    prefix = f"observers-{uuid.uuid4().hex}"
-    shared = dask.delayed(engine, name=f"{prefix}-engine", pure=True)
-    tasks = [
-        dask.delayed(_observe_chunk, pure=True)(
-            shared, points[part], single_thread, dask_key_name=f"{prefix}-chunk-{i}"
-        )
-        for i, part in enumerate(_chunks(len(points), workers))
-    ]
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
-    with Progress(*columns, TimeElapsedColumn(), transient=True, disable=not progress) as bar:
-        task = bar.add_task(f"observers: {len(points)} skies", total=len(tasks))
-        if local:
-            options: dict[str, Any] = {"scheduler": scheduler}
-            if scheduler != "synchronous" and num_workers is not None:
-                options["num_workers"] = num_workers
-            with TaskProgress(lambda: bar.advance(task), f"{prefix}-chunk"):
-                results = dask.compute(*tasks, **options)
-        else:
-            results = compute_distributed(tasks, scheduler, lambda: bar.advance(task))
-    return [sky for chunk in results for sky in chunk]
 
 
 # --- outputs ------------------------------------------------------------------------------------
