@@ -167,8 +167,11 @@ def describe_parameters(command: click.Command) -> list[dict[str, Any]]:
         described.append(entry)
     options = [param for param in params if isinstance(param, click.Option)]
     names = {param.name for param in options}
-    points = [param for param in options if param.metavar in POINT_METAVARS]
-    folded = {*FOLDED, *(POINT_CRS for point in points if POINT_METAVARS[point.metavar] is None)}
+    projected = any(
+        option.metavar in POINT_METAVARS and POINT_METAVARS[option.metavar or ""] is None
+        for option in options
+    )
+    folded = {*FOLDED, *([POINT_CRS] if projected else [])}
     for option in options:
         layer_of = _layer_slot(option, described)
         if layer_of is not None:

@@ -61,6 +61,13 @@ GEOMETRIES = {
     "polygon": QgsProcessing.TypeVectorPolygon,
     None: QgsProcessing.TypeVectorAnyGeometry,
 }
+#: QGIS's number types of the description's.
+NUMBERS = {
+    "integer": QgsProcessingParameterNumber.Integer,
+    "float": QgsProcessingParameterNumber.Double,
+}
+#: What a file input asks for.
+FILES = {"file": QgsProcessingParameterFile.File, "folder": QgsProcessingParameterFile.Folder}
 
 
 def _given(parameters: Mapping[str, Any], name: str) -> bool:
@@ -97,14 +104,15 @@ def parameter_definition(parameter: Parameter) -> QgsProcessingParameterDefiniti
     elif kind == "point":
         definition = QgsProcessingParameterPoint(name, label, optional=optional)
     elif kind == "enum":
-        # one choice always has one (the default's, or "the command's default"); several
-        # may be none (the command's default)
+        # one choice always has a value (its default, or "the command's default" first);
+        # several may be none (then the command's default)
+        indices = enum_default(parameter)
         definition = QgsProcessingParameterEnum(
             name,
             label,
             enum_options(parameter),
             allowMultiple=multiple,
-            defaultValue=enum_default(parameter) if default or not multiple else None,
+            defaultValue=(indices or None) if multiple else indices,
             optional=multiple,
         )
     elif kind == "boolean":
@@ -116,11 +124,7 @@ def parameter_definition(parameter: Parameter) -> QgsProcessingParameterDefiniti
             name, f"{label} (several: separated by commas or spaces)", optional=optional
         )
     elif kind in ("integer", "float"):
-        number = (
-            QgsProcessingParameterNumber.Integer
-            if kind == "integer"
-            else (QgsProcessingParameterNumber.Double)
-        )
+        number = NUMBERS[kind]
         limits = {
             key: value
             for key, value in (("minValue", parameter["min"]), ("maxValue", parameter["max"]))
@@ -167,9 +171,7 @@ def _path_definition(parameter: Parameter) -> QgsProcessingParameterDefinition:
         return QgsProcessingParameterRasterLayer(name, label, optional=optional)
     if kind == "vector":
         return QgsProcessingParameterFeatureSource(name, label, [geometry], optional=optional)
-    behavior = (
-        QgsProcessingParameterFile.Folder if kind == "folder" else (QgsProcessingParameterFile.File)
-    )
+    behavior = FILES[kind]
     return QgsProcessingParameterFile(
         name, label, behavior, optional=optional, fileFilter=_file_filter(parameter)
     )
