@@ -26,6 +26,7 @@ A string option whose help lists a constant of the library (``--network``, ``--m
 from __future__ import annotations
 
 import inspect
+import numbers
 import re
 from collections.abc import Iterator
 from typing import Any
@@ -246,9 +247,10 @@ def _option_entry(option: click.Option) -> dict[str, Any]:
         entry["type"] = "crs"
     elif option.metavar in POINT_METAVARS:
         entry.update(type="point", crs=POINT_METAVARS[option.metavar])
+    elif _listed_values(option):
+        entry.update(type="enum", choices=_listed_values(option))
     else:
-        choices = _listed_values(option)
-        entry.update(type="enum", choices=choices) if choices else entry.update(type="string")
+        entry["type"] = "string"
     if entry["type"] == "enum":
         values = default if isinstance(default, list) else [default]
         wrong = [value for value in values if value is not None and value not in entry["choices"]]
@@ -277,11 +279,9 @@ def _default(option: click.Option) -> Any:
 
 def _plain(value: Any) -> Any:
     """A number of the library's (numpy or Python) as a Python number; others unchanged."""
-    if isinstance(value, bool | str) or value is None:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return value
-    if isinstance(value, int):
-        return int(value)
-    return float(value) if isinstance(value, float) else value
+    return int(value) if isinstance(value, numbers.Integral) else float(value)
 
 
 def _listed_values(option: click.Option) -> list[str] | None:
