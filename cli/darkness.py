@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from .kinds import RASTER
 from .options import (
     dem_option,
     files_argument,
@@ -20,7 +21,7 @@ from .options import (
 
 
 @click.command("darkness")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @observer_height_option

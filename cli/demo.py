@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from .kinds import FOLDER
 from .options import (
     SEED_HELP,
     OutputExistsError,
@@ -21,7 +22,7 @@ DEFAULT_DEMO_FOLDER = "nightlights-demo"
 
 
 @click.command("demo")
-@files_argument("[OUTPUT]")
+@files_argument("[OUTPUT]", FOLDER)
 @output_option
 @deprecated_option(
     "--out",

@@ -15,6 +15,7 @@ from typing import Any
 
 import click
 
+from .kinds import POINTS, RASTER
 from .options import (
     DEFAULT_VIIRS_SPECTRUM,
     DefaultCommandGroup,
@@ -47,7 +48,7 @@ def emission() -> None:
 
 
 @emission.command("ground")
-@files_argument("IRRADIANCE [LIGHTS] OUTPUT")
+@files_argument("IRRADIANCE [LIGHTS] OUTPUT", RASTER, POINTS, RASTER)
 @output_option
 @overwrite_option
 @click.option(
@@ -118,7 +119,7 @@ def parse_albedo(text: str) -> float | str:
 
 
 @emission.command("viirs")
-@files_argument("INPUT OUTPUT")
+@files_argument("INPUT OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @click.option(

@@ -27,6 +27,7 @@ from typing import Any
 
 import click
 
+from .kinds import JSON, PNG, RASTER, KindPath
 from .options import (
     Q_METRICS,
     S_METHODS,
@@ -79,7 +80,7 @@ def inverse() -> None:
 
 
 @inverse.command("q")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @scene_options
@@ -131,7 +132,7 @@ def q_command(
 
 
 @inverse.command("s")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @scene_options
@@ -207,7 +208,7 @@ dimming_products = options(
     click.option(
         "--dimming-output",
         default=None,
-        type=click.Path(dir_okay=False),
+        type=KindPath(RASTER, dir_okay=False),
         help="Write the dimming fraction of each cell (COG, band 'dimming') [1].",
     ),
     deprecated_option(
@@ -220,7 +221,7 @@ dimming_products = options(
     click.option(
         "--summary-output",
         default=None,
-        type=click.Path(dir_okay=False),
+        type=KindPath(JSON, dir_okay=False),
         help="Write the summary (flux removed, sky before and after) as JSON.",
     ),
     deprecated_option(
@@ -233,14 +234,14 @@ dimming_products = options(
     click.option(
         "--png",
         default=None,
-        type=click.Path(dir_okay=False),
+        type=KindPath(PNG, dir_okay=False),
         help="Before/after panoramas of the (first) observer side by side.",
     ),
 )
 rule_options = options(
     click.option(
         "--by",
-        type=click.Path(exists=True, dir_okay=False),
+        type=KindPath(RASTER, exists=True, dir_okay=False),
         required=True,
         help="The Q or S raster (inverse q / inverse s) to dim by.",
     ),
@@ -285,7 +286,7 @@ target_options = options(
 
 
 @inverse.command("dim")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @rule_options
@@ -336,7 +337,7 @@ def dim_command(
 
 
 @inverse.command("plan")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @observers_option
@@ -422,7 +423,7 @@ def _products(
     replacement="`inverse dim` (`--by`, `--qa`, `--qb`, `--gamma`) or `inverse plan` "
     "(`--target-zenith`, `--target-region`, `--max-dimming`)",
 )
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, RASTER)
 @output_option
 @overwrite_option
 @click.option("--by", type=click.Path(exists=True, dir_okay=False), default=None)

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import click
 
+from .kinds import POINTS, POLYGONS, RASTER, KindPath
+from .library import SENSORS
 from .options import (
     DEFAULT_AREA_HEIGHT,
     DEFAULT_MAX_RADIUS,
     IRRADIANCE_BACKENDS,
     LibraryChoice,
+    LibraryHelpOption,
     catalog_option,
     crs_option,
     dem_option,
@@ -35,18 +38,19 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
 
 
 @click.command("irradiance")
-@files_argument("LIGHTS OUTPUT")
+@files_argument("LIGHTS OUTPUT", POINTS, RASTER)
 @output_option
 @overwrite_option
 @click.option("--resolution", type=float, required=True, help="Pixel size [m].")
 @click.option(
     "--sensor",
     "sensors",
+    cls=LibraryHelpOption,
     multiple=True,
     default=("photopic",),
     show_default=True,
-    help="Band per sensor (repeat): photopic [lx], scotopic, cie_x/y/z, melanopic, "
-    "nvis_class_a/b [W m-2].",
+    help="Band per sensor (repeat): {sensors}; photopic in lx, the others in W m-2.",
+    help_values={"sensors": SENSORS},
 )
 @click.option(
     "--bounds",
@@ -78,7 +82,7 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
 @click.option(
     "--area-sources",
     default=None,
-    type=click.Path(exists=True, dir_okay=False),
+    type=KindPath(POLYGONS, exists=True, dir_okay=False),
     help="Polygon layer of lit areas (Voronoi pseudo-lights).",
 )
 @click.option(

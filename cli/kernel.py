@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from .kinds import NETCDF
 from .options import (
     KERNEL_BACKENDS,
     KERNEL_PRECISIONS,
@@ -30,7 +31,7 @@ def kernel() -> None:
 
 
 @kernel.command("build")
-@files_argument("OUTPUT")
+@files_argument("OUTPUT", NETCDF)
 @output_option
 @overwrite_option
 @click.option(

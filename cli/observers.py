@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from .kinds import FOLDER, POINTS, RASTER, KindPath
 from .options import (
     OBSERVER_SCHEDULERS,
     LibraryHelpOption,
@@ -24,7 +25,7 @@ from .options import (
 
 
 @click.command("observers")
-@files_argument("EMISSION OBSERVERS SUMMARY")
+@files_argument("EMISSION OBSERVERS SUMMARY", RASTER, POINTS, POINTS)
 @output_option
 @overwrite_option
 @click.option(
@@ -40,7 +41,7 @@ from .options import (
 @turbidity_option
 @click.option(
     "--panoramas",
-    type=click.Path(file_okay=False),
+    type=KindPath(FOLDER, file_okay=False),
     default=None,
     metavar="DIR",
     help="Also write one panorama NetCDF per observer into DIR (NAME.nc; created if missing).",

@@ -22,7 +22,11 @@ a command's help or arguments first need it (``tests/cli/test_options.py`` reads
 Each option is declared once, below, with its library parameter's name: the flag is the
 parameter with dashes (``observer_crs=`` is ``--observer-crs``), a repeatable option takes the
 singular of its list parameter (``--sensor`` for ``sensors=``); an older spelling stays as a
-hidden :class:`DeprecatedOption` for one release.
+hidden :class:`DeprecatedOption` for one release. Each path says what it names (a raster, a
+vector layer, a file, a folder: :mod:`~nightlights_cli.kinds`), for the QGIS plugin.
+
+Length: the options shared by the commands are declared here once each, with the library's
+constants they read re-exported one import per name (as the formatter writes them).
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from typing import Any, TypeVar
 
 import click
 
+from .kinds import NETCDF, RASTER, FilesArgument, KindPath, PathKind
 from .library import (
     BUILTIN_MAPPINGS as BUILTIN_MAPPINGS,
 )
@@ -135,9 +140,12 @@ class OutputExistsError(click.ClickException):
 # --- positional INPUT... OUTPUT, -o/--output, --overwrite -------------------------------------
 
 
-def files_argument(metavar: str) -> Callable[[F], F]:
-    """Positional paths ``INPUT... OUTPUT`` (the output may come from ``-o/--output``)."""
-    return click.argument("files", nargs=-1, type=click.Path(), metavar=metavar)
+def files_argument(metavar: str, *kinds: PathKind) -> Callable[[F], F]:
+    """Positional paths ``INPUT... OUTPUT`` (the output may come from ``-o/--output``), with
+    what each word of ``metavar`` names (``kinds``, one per word)."""
+    return click.argument(
+        "files", nargs=-1, type=click.Path(), metavar=metavar, cls=FilesArgument, kinds=kinds
+    )
 
 
 output_option = click.option(
@@ -460,7 +468,7 @@ target_crs_option = click.option(
 )
 dem_option = click.option(
     "--dem",
-    type=click.Path(exists=True, dir_okay=False),
+    type=KindPath(RASTER, exists=True, dir_okay=False),
     default=None,
     help="Terrain heights above sea level [m] (raster): the ground under each light or lit "
     "cell, the observers' altitude and their horizon.",
@@ -549,7 +557,7 @@ observer_height_option = click.option(
 )
 kernel_option = click.option(
     "--kernel",
-    type=click.Path(exists=True, dir_okay=False),
+    type=KindPath(NETCDF, exists=True, dir_okay=False),
     default=None,
     help="Precomputed kernel (nightlights kernel build); default: a cached scene kernel that "
     "covers the scene's distances and altitudes.",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from .kinds import file_kind
 from .options import files_argument, output_option, overwrite_option, resolve_inout
 
 
@@ -13,7 +14,7 @@ def qgis_plugin() -> None:
 
 
 @qgis_plugin.command("build")
-@files_argument("[OUTPUT]")
+@files_argument("[OUTPUT]", file_kind("zip"))
 @output_option
 @overwrite_option
 @click.option(
@@ -29,7 +30,9 @@ def build_command(
     """Write the plugin zip OUTPUT (default: nightlights_processing.zip).
 
     The plugin runs this environment's nightlights command in a subprocess (its path is
-    recorded in the zip), so QGIS's Python needs none of the toolkit's libraries. In QGIS:
+    recorded in the zip), so QGIS's Python needs none of the toolkit's libraries; its
+    Processing algorithms are made from the description of the stage commands' paths and
+    options that the zip carries (stages.json). In QGIS:
     Plugins > Manage and Install Plugins > Install from ZIP; the algorithms appear under
     nightlights in the Processing Toolbox.
     """
@@ -37,10 +40,14 @@ def build_command(
 
     from nightlights.qgis import build_plugin, toolkit_command
 
+    from .describe import describe_stages
+
     if output is None and not files:
         output = plugin_zip()
     _, out = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=overwrite)
-    path = build_plugin(out, command=command, overwrite=overwrite)
+    root = click.get_current_context().find_root().command
+    assert isinstance(root, click.Group)
+    path = build_plugin(out, describe_stages(root), command=command, overwrite=overwrite)
     runs = command or toolkit_command()
     Console(stderr=True).print(
         f"QGIS plugin -> {path} (runs {runs}); install it in QGIS with Plugins > Manage and "

@@ -6,11 +6,12 @@ from typing import Any
 
 import click
 
+from .kinds import FOLDER, file_kind
 from .options import PROJECT_STAGES, LibraryHelpOption, files_argument, output_option, resolve_inout
 
 
 @click.command("run")
-@files_argument("PROJECT.toml [OUTPUT]")
+@files_argument("PROJECT.toml [OUTPUT]", file_kind("toml"), FOLDER)
 @output_option
 @click.option(
     "--force",

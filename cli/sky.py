@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from .kinds import NETCDF, KindPath, file_kind
 from .options import (
     SKY_PROJECTIONS,
     TONE_MODES,
@@ -33,7 +34,7 @@ def sky() -> None:
 
 
 @sky.command("render")
-@files_argument("OUTPUT")
+@files_argument("OUTPUT", file_kind("png", "nc"))
 @output_option
 @overwrite_option
 @click.option("--time", required=True, metavar="ISO8601", help="Instant (UTC if no zone).")
@@ -45,7 +46,7 @@ def sky() -> None:
 )
 @click.option(
     "--panorama",
-    type=click.Path(exists=True, dir_okay=False),
+    type=KindPath(NETCDF, exists=True, dir_okay=False),
     default=None,
     help="Skyglow panorama NetCDF (nightlights skyglow) for the artificial light.",
 )

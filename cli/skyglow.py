@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from .kinds import PNG, RASTER, KindPath, file_kind
 from .options import (
     PROJECTIONS,
     SKYGLOW_MODES,
@@ -22,9 +23,12 @@ from .options import (
     scene_options,
 )
 
+#: The panorama and the polar map: a NetCDF, or a GeoTIFF when the name ends in .tif.
+PANORAMA = file_kind("nc", "tif")
+
 
 @click.command("skyglow")
-@files_argument("EMISSION OUTPUT")
+@files_argument("EMISSION OUTPUT", RASTER, PANORAMA)
 @output_option
 @deprecated_option(
     "--out", "old_out", type=click.Path(dir_okay=False), replacement="OUTPUT or -o/--output"
@@ -40,7 +44,7 @@ from .options import (
     "direct integration, the slow reference.",
 )
 @components_option
-@click.option("--png", default=None, type=click.Path(dir_okay=False), help="False-colour PNG.")
+@click.option("--png", default=None, type=KindPath(PNG, dir_okay=False), help="False-colour PNG.")
 @click.option(
     "--projection",
     type=LibraryChoice(PROJECTIONS),
@@ -51,7 +55,7 @@ from .options import (
 @click.option(
     "--polar-output",
     default=None,
-    type=click.Path(dir_okay=False),
+    type=KindPath(PANORAMA, dir_okay=False),
     help="Write the observer's polar flux map (NetCDF, or a GeoTIFF in the emission's CRS "
     "when it ends in .tif).",
 )

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
+from .kinds import FOLDER, LINES, POINTS
 from .options import (
     BUILTIN_MAPPINGS,
     DEFAULT_ACROSS_JITTER,
@@ -57,7 +58,7 @@ def streets() -> None:
 
 
 @streets.command("normalize")
-@files_argument("INPUT OUTPUT")
+@files_argument("INPUT OUTPUT", LINES, LINES)
 @output_option
 @overwrite_option
 @click.option(
@@ -120,7 +121,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
 
 
 @streets.command("sample")
-@files_argument("INPUT OUTPUT")
+@files_argument("INPUT OUTPUT", LINES, LINES)
 @output_option
 @overwrite_option
 @click.option(
@@ -208,7 +209,7 @@ def print_lighting_summary(streets: Any, dst: str) -> None:
 
 
 @streets.command("fit")
-@files_argument("INPUT OUTPUT")
+@files_argument("INPUT OUTPUT", LINES, FOLDER)
 @output_option
 @click.option(
     "--network",
@@ -242,7 +243,7 @@ def fit_command(
 
 
 @streets.command("learn")
-@files_argument("STREETS LAMPS OUT_DIR")
+@files_argument("STREETS LAMPS OUT_DIR", LINES, POINTS, FOLDER)
 @output_option
 @overwrite_option
 @click.option(
@@ -333,7 +334,7 @@ def print_learn_report(report: Any, dst: str) -> None:
 
 
 @streets.command("place")
-@files_argument("INPUT OUTPUT")
+@files_argument("INPUT OUTPUT", LINES, POINTS)
 @output_option
 @overwrite_option
 @catalog_option

@@ -6,7 +6,8 @@ command in a subprocess, reports its progress bars to QGIS's feedback and stops 
 the way QGIS's GRASS and SAGA providers run their tools, so that QGIS's Python never loads the
 toolkit's libraries (whose wheels bundle a GDAL of their own).
 
-:func:`build_plugin` writes the zip QGIS installs (``nightlights qgis-plugin build``).
+:func:`build_plugin` writes the zip QGIS installs (``nightlights qgis-plugin build``), with the
+description of the stage commands that the plugin makes one algorithm of each.
 """
 
 from nightlights.qgis._build import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command

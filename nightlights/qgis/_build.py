@@ -1,4 +1,5 @@
-"""Build the QGIS plugin zip: the plugin's sources plus the path of this toolkit's command."""
+"""Build the QGIS plugin zip: the plugin's sources, the path of this toolkit's command and the
+description of the stage commands the plugin makes its algorithms from."""
 
 from __future__ import annotations
 
@@ -7,12 +8,15 @@ import os
 import shutil
 import sysconfig
 import zipfile
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from nightlights.errors import InputError
 from nightlights.io.atomic import atomic_output
 from nightlights.qgis.plugin.runner import TOOLKIT_FILE
+from nightlights.qgis.plugin.stages import STAGES_FILE
 
 #: Folder (and Python package) name of the plugin inside the zip and in QGIS's plugin folder.
 PLUGIN_FOLDER = "nightlights_processing"
@@ -25,7 +29,7 @@ PLUGIN_FILES = (
     "algorithms.py",
     "runner.py",
     "messages.py",
-    "choices.py",
+    "stages.py",
     "metadata.txt",
 )
 
@@ -71,22 +75,27 @@ def plugin_metadata(version: str) -> str:
 
 def build_plugin(
     output: str | os.PathLike[str],
+    stages: Sequence[Mapping[str, Any]],
     *,
     command: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
 ) -> Path:
     """Write the QGIS plugin zip (QGIS: Plugins > Install from ZIP).
 
-    The zip holds one folder, :data:`PLUGIN_FOLDER`, with the plugin's sources and
+    The zip holds one folder, :data:`PLUGIN_FOLDER`, with the plugin's sources,
     ``toolkit.json``, which records ``command``: the plugin's algorithms run it in a
-    subprocess (QGIS's Python does not import the toolkit). A ``nightlights`` command set in
-    QGIS (Processing > Options > Providers > nightlights) or in ``$NIGHTLIGHTS_COMMAND``
-    takes precedence over the recorded one.
+    subprocess (QGIS's Python does not import the toolkit), and ``stages.json``, the
+    description of the stage commands that the plugin makes one algorithm of each. A
+    ``nightlights`` command set in QGIS (Processing > Options > Providers > nightlights) or in
+    ``$NIGHTLIGHTS_COMMAND`` takes precedence over the recorded one.
 
     Parameters
     ----------
     output
         Path of the zip.
+    stages
+        The description of the stage commands, JSON-ready (what
+        ``nightlights_cli.describe.describe_stages`` gives for the ``nightlights`` command).
     command
         The ``nightlights`` executable to record (default: :func:`toolkit_command`).
     overwrite
@@ -112,6 +121,7 @@ def build_plugin(
             f"command {str(executable)!r} is not a file; expected the nightlights executable"
         )
     record = {"command": str(executable.absolute()), "version": __version__}
+    description = json.dumps({"version": __version__, "stages": list(stages)}, indent=1)
     package = resources.files("nightlights.qgis.plugin")
     with atomic_output(output, overwrite=overwrite) as temporary:
         with zipfile.ZipFile(temporary, "w", compression=zipfile.ZIP_DEFLATED) as archive:
@@ -123,4 +133,5 @@ def build_plugin(
                 )
                 archive.writestr(f"{PLUGIN_FOLDER}/{name}", text)
             archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", json.dumps(record, indent=2) + "\n")
+            archive.writestr(f"{PLUGIN_FOLDER}/{STAGES_FILE}", description + "\n")
     return Path(output)

@@ -17,10 +17,24 @@ for MODE ``sky`` (INPUT: a folder with the ``lights.gpkg`` and ``irradiance.tif`
 1. ``nightlights:emission`` of those at 50 m;
 2. ``nightlights:skyglow`` over it for an observer given in longitude and latitude;
 3. ``nightlights:inverseq`` for that observer: each cell's part of the zenith luminance;
-4. ``nightlights:darkness`` over it.
+4. ``nightlights:darkness`` over it;
+5. ``nightlights:skyrender``: the night sky with the panorama of 2, at a point given in UTM
+   that the algorithm hands on in longitude and latitude;
 
-Prints one JSON object: for each run its outputs as QGIS opens them (validity, CRS, extent,
-features or bands and statistics), the progress values reported and the log, or the error.
+for MODE ``stages`` (INPUT: a folder with a small ``emission.tif`` and ``observers.gpkg`` in
+UTM 35N, :data:`SMALL_OBSERVER` among the lit cells):
+
+1. ``nightlights:kernelbuild``: a tiny kernel (3 km, 8 distances, 8 x 16 directions, uplight);
+2. ``nightlights:inverses`` with it: each cell's part of the glow within 30 deg of the zenith;
+3. ``nightlights:inversedim`` by that raster (no dimming below 0, all above half its maximum),
+   with the dimming raster and the summary;
+4. ``nightlights:inverseplan``: the least dimming that brings every point of the observers'
+   layer to a zenith of :data:`TARGET_ZENITH`;
+5. ``nightlights:skyobservers``: the skies of the observers' layer.
+
+Prints one JSON object: the provider's algorithms with their parameters and outputs, and for
+each run its outputs as QGIS opens them (validity, CRS, extent, features or bands and
+statistics), the progress values reported and the log, or the error.
 """
 
 from __future__ import annotations
@@ -34,6 +48,11 @@ PLUGIN = "nightlights_processing"
 PROCESSING_PLUGINS = "/usr/share/qgis/python/plugins"
 #: The sky run's observer: Esplanadi park in central Helsinki (longitude, latitude) [deg].
 OBSERVER = (24.9480, 60.1675)
+#: The stages run's observer, in UTM 35N [m], and its target zenith [mag arcsec-2].
+SMALL_OBSERVER = "501000,6699000 [EPSG:32635]"
+TARGET_ZENITH = 23.0
+#: The tiny kernel of the stages run (covers the 2 km square of its emission).
+TINY_KERNEL = {"R_MAX": 3000.0, "N_DISTANCE": 8, "N_ELEVATION": 8, "N_AZIMUTH": 16, "UPLIGHT": True}
 
 
 def _feedback(cancel_on_start: bool = False) -> Any:
@@ -188,8 +207,16 @@ def main(mode: str, plugins: str, source: str, work: str) -> dict[str, Any]:
     }
     registry = QgsApplication.processingRegistry()
     provider = registry.providerById("nightlights")
-    report["algorithms"] = sorted(a.id() for a in provider.algorithms()) if provider else []
-    report.update(light(source, work) if mode == "light" else sky(source, work))
+    report["algorithms"] = {
+        algorithm.id(): {
+            "parameters": [p.name() for p in algorithm.parameterDefinitions()],
+            "types": [p.type() for p in algorithm.parameterDefinitions()],
+            "outputs": [o.name() for o in algorithm.outputDefinitions()],
+            "group": algorithm.group(),
+        }
+        for algorithm in (provider.algorithms() if provider else [])
+    }
+    report.update({"light": light, "sky": sky, "stages": stages}[mode](source, work))
     return report
 
 
@@ -266,6 +293,105 @@ def sky(folder: str, work: str) -> dict[str, Any]:
         **run,
         "layer": _raster(darkness, sample=OBSERVER) if "error" not in run else None,
     }
+    report["skyrender"] = _run(
+        "nightlights:skyrender",
+        {
+            "OUTPUT": f"{work}/sky.png",
+            "TIME": "2024-01-15T22:00:00",
+            "LONLAT": f"{_utm(*OBSERVER)} [EPSG:32635]",
+            "PANORAMA": f"{work}/skyglow.nc",
+            "WIDTH": 240,
+            "HEIGHT": 120,
+        },
+        _feedback(),
+    )
+    return report
+
+
+def _utm(longitude: float, latitude: float) -> str:
+    """A longitude and latitude [deg] as x,y in UTM 35N [m], transformed by QGIS."""
+    from qgis.core import (
+        QgsCoordinateReferenceSystem,
+        QgsCoordinateTransform,
+        QgsPointXY,
+        QgsProject,
+    )
+
+    transform = QgsCoordinateTransform(
+        QgsCoordinateReferenceSystem("EPSG:4326"),
+        QgsCoordinateReferenceSystem("EPSG:32635"),
+        QgsProject.instance(),
+    )
+    point = transform.transform(QgsPointXY(longitude, latitude))
+    return f"{point.x()!r},{point.y()!r}"
+
+
+def stages(folder: str, work: str) -> dict[str, Any]:
+    """A tiny kernel, then inverse s, the dimming rule, the least dimming and the skies of many
+    observers with it, on the small scene in ``folder``."""
+    report: dict[str, Any] = {}
+    emission, observers, kernel = (
+        f"{folder}/emission.tif",
+        f"{folder}/observers.gpkg",
+        f"{work}/kernel.nc",
+    )
+    report["kernelbuild"] = _run(
+        "nightlights:kernelbuild", {**TINY_KERNEL, "OUTPUT": kernel}, _feedback()
+    )
+    s = f"{work}/s.tif"
+    run = _run(
+        "nightlights:inverses",
+        {
+            "EMISSION": emission,
+            "OBSERVER": SMALL_OBSERVER,
+            "KERNEL": kernel,
+            "REGION": "zenith:30",
+            "OUTPUT": s,
+        },
+        _feedback(),
+    )
+    report["inverses"] = {**run, "layer": _raster(s) if "error" not in run else None}
+    if "error" in run:
+        return report
+    (band,) = report["inverses"]["layer"]["bands"]
+    report["qb"] = band["max"] / 2
+    dimmed = f"{work}/dimmed.tif"
+    run = _run(
+        "nightlights:inversedim",
+        {
+            "EMISSION": emission,
+            "BY": s,
+            "QA": 0.0,
+            "QB": report["qb"],
+            "KERNEL": kernel,
+            "OUTPUT": dimmed,
+            "DIMMING_OUTPUT": f"{work}/dimming.tif",
+            "SUMMARY_OUTPUT": f"{work}/dim_summary.json",
+        },
+        _feedback(),
+    )
+    report["inversedim"] = {**run, "layer": _raster(dimmed) if "error" not in run else None}
+    planned = f"{work}/planned.tif"
+    run = _run(
+        "nightlights:inverseplan",
+        {
+            "EMISSION": emission,
+            "OBSERVERS": observers,
+            "TARGET_ZENITH": TARGET_ZENITH,
+            "KERNEL": kernel,
+            "OUTPUT": planned,
+            "SUMMARY_OUTPUT": f"{work}/plan_summary.json",
+        },
+        _feedback(),
+    )
+    report["inverseplan"] = {**run, "layer": _raster(planned) if "error" not in run else None}
+    summary = f"{work}/observers_summary.gpkg"
+    run = _run(
+        "nightlights:skyobservers",
+        {"EMISSION": emission, "OBSERVERS": observers, "KERNEL": kernel, "SUMMARY": summary},
+        _feedback(),
+    )
+    report["skyobservers"] = {**run, "layer": _vector(summary) if "error" not in run else None}
     return report
 
 

@@ -1,12 +1,14 @@
-"""The ``nightlights`` Processing provider: the toolkit's stages in the Processing Toolbox."""
+"""The ``nightlights`` Processing provider: the toolkit's stages in the Processing Toolbox, one
+algorithm per stage that the plugin's ``stages.json`` describes."""
 
 from __future__ import annotations
 
-from qgis.core import QgsApplication, QgsProcessingProvider
+from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
-from .algorithms import ALGORITHMS
+from .algorithms import algorithms
 from .runner import COMMAND_SETTING
+from .stages import STAGES_FILE, read_stages
 
 #: Provider id: algorithms are ``nightlights:<name>``.
 PROVIDER_ID = "nightlights"
@@ -54,8 +56,18 @@ class NightlightsProvider(QgsProcessingProvider):
         ProcessingConfig.removeSetting(COMMAND_SETTING)
 
     def loadAlgorithms(self) -> None:
-        for algorithm in ALGORITHMS:
-            self.addAlgorithm(algorithm())
+        try:
+            stages = read_stages()
+        except (OSError, ValueError) as exc:
+            QgsMessageLog.logMessage(
+                f"nightlights: no algorithms, {STAGES_FILE} unreadable ({exc}); rebuild the "
+                "plugin with `nightlights qgis-plugin build`",
+                "Processing",
+                Qgis.Critical,
+            )
+            return
+        for algorithm in algorithms(stages):
+            self.addAlgorithm(algorithm)
 
     def supportedOutputVectorLayerExtensions(self) -> list[str]:
         return ["gpkg"]

@@ -1,5 +1,5 @@
-"""The plugin zip: its files, metadata and recorded command; what the plugin may import; the
-choices it mirrors from the library."""
+"""The plugin zip: its files, metadata, recorded command and description of the stages; what the
+plugin may import. (The description, read from the commands: tests/cli/test_qgis_plugin.py.)"""
 
 from __future__ import annotations
 
@@ -12,31 +12,44 @@ from pathlib import Path
 
 import pytest
 
-import bayesnets
-import ies.spectra
 from nightlights import __version__
 from nightlights.errors import InputError, OutputError
-from nightlights.ground.upward import DEFAULT_VIIRS_SPECTRUM
 from nightlights.qgis import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
-from nightlights.qgis.plugin import choices
-from nightlights.sky.influence import METRICS
-from nightlights.sky.render import PROJECTIONS
-from nightlights.streets import builtin_mappings
+from nightlights.qgis.plugin.stages import STAGES_FILE, read_stages
 
 PLUGIN_SOURCE = Path(str(resources.files("nightlights.qgis.plugin")))
 #: What the plugin's modules may import in QGIS's Python: the standard library, QGIS, its
 #: Processing plugin and GDAL's bindings (QGIS's own), and the plugin's own modules.
 ALLOWED_ROOTS = {"qgis", "processing", "osgeo"}
+#: A description of one stage, as ``nightlights qgis-plugin build`` writes them.
+STAGES = [
+    {
+        "id": "darkness",
+        "command": ["darkness"],
+        "title": "Zenith darkness map",
+        "group": "Sky",
+        "help": "Zenith sky brightness (nightlights darkness)",
+        "overwrite": True,
+        "parameters": [
+            {"name": "EMISSION", "flag": None, "type": "raster", "output": False},
+            {"name": "OUTPUT", "flag": None, "type": "raster", "output": True},
+        ],
+    }
+]
 
 
 def test_the_zip_holds_the_plugin_folder(tmp_path: Path) -> None:
-    path = build_plugin(tmp_path / "plugin.zip")
+    path = build_plugin(tmp_path / "plugin.zip", STAGES)
     with zipfile.ZipFile(path) as archive:
         names = set(archive.namelist())
         metadata = archive.read(f"{PLUGIN_FOLDER}/metadata.txt").decode()
         record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
         sources = {name: archive.read(f"{PLUGIN_FOLDER}/{name}").decode() for name in PLUGIN_FILES}
-    assert names == {f"{PLUGIN_FOLDER}/{name}" for name in (*PLUGIN_FILES, "toolkit.json")}
+        archive.extractall(tmp_path)
+    written = {*PLUGIN_FILES, "toolkit.json", STAGES_FILE}
+    assert names == {f"{PLUGIN_FOLDER}/{name}" for name in written}
+    # the plugin reads back the description it was built with
+    assert read_stages(tmp_path / PLUGIN_FOLDER) == STAGES
     assert f"version={__version__}" in metadata.splitlines()
     assert "hasProcessingProvider=yes" in metadata.splitlines()
     assert "def classFactory(iface" in sources["__init__.py"]
@@ -64,14 +77,14 @@ def test_the_recorded_command_is_this_environments(tmp_path: Path) -> None:
 def test_a_given_command_is_recorded(tmp_path: Path) -> None:
     executable = tmp_path / "nightlights"
     executable.write_text("#!/bin/sh\n")
-    with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", command=executable)) as archive:
+    with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", STAGES, command=executable)) as archive:
         record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
     assert record["command"] == str(executable)
 
 
 def test_a_missing_command_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="is not a file"):
-        build_plugin(tmp_path / "p.zip", command=tmp_path / "missing")
+        build_plugin(tmp_path / "p.zip", STAGES, command=tmp_path / "missing")
     assert not (tmp_path / "p.zip").exists()
 
 
@@ -79,9 +92,9 @@ def test_an_existing_zip_is_kept_without_overwrite(tmp_path: Path) -> None:
     path = tmp_path / "p.zip"
     path.write_bytes(b"previous")
     with pytest.raises(OutputError, match="exists"):
-        build_plugin(path)
+        build_plugin(path, STAGES)
     assert path.read_bytes() == b"previous"
-    build_plugin(path, overwrite=True)
+    build_plugin(path, STAGES, overwrite=True)
     assert zipfile.is_zipfile(path)
 
 
@@ -98,12 +111,3 @@ def test_the_plugin_imports_no_toolkit_library(name: str) -> None:
             roots.add((node.module or "").split(".")[0])
     foreign = roots - ALLOWED_ROOTS - set(sys.stdlib_module_names) - {"__future__"}
     assert foreign == set()
-
-
-def test_choices_mirror_the_library() -> None:
-    assert list(choices.MAPPINGS) == builtin_mappings()
-    assert list(choices.NETWORKS) == bayesnets.catalog_names()
-    assert choices.SENSORS == ies.spectra.SENSORS
-    assert choices.PROJECTIONS == PROJECTIONS
-    assert choices.DEFAULT_VIIRS_SPECTRUM == DEFAULT_VIIRS_SPECTRUM
-    assert choices.Q_METRICS == METRICS
