@@ -57,7 +57,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
-from nightlights.brightness import bortle_class, luminance_to_magnitude
+from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
 from nightlights.emission_functions import kernel_table_names
 from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.io import OutputSet, source_label, write_gpkg
@@ -65,7 +65,7 @@ from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
-from nightlights.sky.forward import _panorama_dataset
+from nightlights.sky.forward import _panorama_dataset, panorama_zenith
 from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
 from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.multiple import scattering_note
@@ -192,8 +192,7 @@ class _Engine:
             )
             below = self.elevation[:, None] < horizon[None, :]
             luminance = np.where(below, np.nan, luminance)
-        row = luminance[0]
-        zenith = float(np.nanmean(row)) if np.isfinite(row).any() else 0.0
+        zenith = panorama_zenith(luminance, below)
         out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
         if self.top_cells:
             out["top"] = self._top_cells(xy, maps, levels.zenith(slices))
@@ -717,6 +716,10 @@ def _summary(
     files: dict[str, Path],
 ) -> gpd.GeoDataFrame:
     artificial = np.array([s["zenith"] for s in skies], dtype=float)
+    broken = [name for name, value in zip(names, artificial, strict=True) if not np.isfinite(value)]
+    if broken:
+        shown = ", ".join(broken[:5]) + (f" and {len(broken) - 5} more" if len(broken) > 5 else "")
+        raise InputError(f"observers {shown}: {NON_FINITE_SKY}")
     natural = np.full(artificial.shape, engine.natural)
     total = artificial + natural
     magnitude = luminance_to_magnitude(total)

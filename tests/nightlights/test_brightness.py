@@ -42,10 +42,20 @@ def test_zenith_summary_adds_a_given_natural_sky() -> None:
     assert summary["bortle_class_zenith"] == 5  # 20.25: between 20.49 and 19.50
 
 
-@pytest.mark.parametrize("bad", [-1e-9, math.nan])
-def test_zenith_summary_rejects_negative_light(bad: float) -> None:
-    with pytest.raises(InputError, match="expected >= 0"):
-        brightness.zenith_summary(bad)
+@pytest.mark.parametrize(
+    ("bad", "message"),
+    [
+        (-1e-9, "expected >= 0"),
+        (math.nan, "not a finite number .* no Bortle class"),
+        (math.inf, "not a finite number .* no Bortle class"),
+    ],
+)
+@pytest.mark.parametrize("summary", [brightness.zenith_summary, night_zenith_summary])
+def test_zenith_summary_rejects_negative_or_non_finite_light(
+    summary: object, bad: float, message: str
+) -> None:
+    with pytest.raises(InputError, match=message):
+        summary(bad)  # type: ignore[operator]
 
 
 def test_the_sky_packages_path_hands_on_the_same_objects() -> None:
