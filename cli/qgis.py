@@ -35,13 +35,13 @@ def build_command(
     """
     from rich.console import Console
 
-    from nightlights.qgis import build_plugin, toolkit_command
+    from nightlights.qgis import build_plugin, plugin_command
 
     if output is None and not files:
         output = plugin_zip()
     _, out = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=overwrite)
-    path = build_plugin(out, command=command, overwrite=overwrite)
-    runs = command or toolkit_command()
+    runs = plugin_command(command)  # absolute, executable: what the zip records
+    path = build_plugin(out, command=runs, overwrite=overwrite)
     Console(stderr=True).print(
         f"QGIS plugin -> {path} (runs {runs}); install it in QGIS with Plugins > Manage and "
         "Install Plugins > Install from ZIP",

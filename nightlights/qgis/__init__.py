@@ -9,6 +9,12 @@ toolkit's libraries (whose wheels bundle a GDAL of their own).
 :func:`build_plugin` writes the zip QGIS installs (``nightlights qgis-plugin build``).
 """
 
-from nightlights.qgis._build import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
+from nightlights.qgis._build import (
+    PLUGIN_FILES,
+    PLUGIN_FOLDER,
+    build_plugin,
+    plugin_command,
+    toolkit_command,
+)
 
-__all__ = ["PLUGIN_FILES", "PLUGIN_FOLDER", "build_plugin", "toolkit_command"]
+__all__ = ["PLUGIN_FILES", "PLUGIN_FOLDER", "build_plugin", "plugin_command", "toolkit_command"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import sysconfig
@@ -12,6 +11,7 @@ from pathlib import Path
 
 from nightlights.errors import InputError
 from nightlights.io.atomic import atomic_output
+from nightlights.io.jsonfile import dumps_json
 from nightlights.qgis.plugin.runner import TOOLKIT_FILE
 
 #: Folder (and Python package) name of the plugin inside the zip and in QGIS's plugin folder.
@@ -54,6 +54,46 @@ def toolkit_command() -> Path:
     )
 
 
+def plugin_command(command: str | os.PathLike[str] | None = None) -> Path:
+    """The absolute path of the executable the plugin is to run.
+
+    Parameters
+    ----------
+    command
+        A path (relative to the working folder or absolute) or, without a folder part, a
+        command name looked up on ``PATH``; None: :func:`toolkit_command`.
+
+    Returns
+    -------
+    pathlib.Path
+        The absolute path (QGIS starts the plugin's command from its own working folder, where
+        a relative path means nothing).
+
+    Raises
+    ------
+    InputError
+        ``command`` is not an existing file, or not executable.
+    """
+    if command is None:
+        return Path(os.path.abspath(toolkit_command()))
+    given = Path(command).expanduser()
+    if not given.exists() and len(given.parts) == 1:
+        found = shutil.which(str(given))
+        given = Path(found) if found else given
+    executable = Path(os.path.abspath(given))
+    if not executable.is_file():
+        raise InputError(
+            f"command {str(command)!r} ({executable}) is not a file; expected the nightlights "
+            "executable"
+        )
+    if not os.access(executable, os.X_OK):
+        raise InputError(
+            f"command {str(command)!r} ({executable}) is not executable (no execute "
+            "permission); expected the nightlights executable"
+        )
+    return executable
+
+
 def plugin_metadata(version: str) -> str:
     """The plugin's ``metadata.txt`` with its ``version`` line set to ``version``.
 
@@ -88,7 +128,8 @@ def build_plugin(
     output
         Path of the zip.
     command
-        The ``nightlights`` executable to record (default: :func:`toolkit_command`).
+        The ``nightlights`` executable to record, as an absolute path
+        (:func:`plugin_command`; default: :func:`toolkit_command`).
     overwrite
         Replace an existing zip.
 
@@ -100,18 +141,14 @@ def build_plugin(
     Raises
     ------
     InputError
-        ``command`` is not an existing file, or no command is installed.
+        ``command`` is not an existing executable file, or no command is installed.
     OutputError
         ``output`` exists and ``overwrite`` is False, or cannot be written.
     """
     from nightlights import __version__
 
-    executable = toolkit_command() if command is None else Path(command)
-    if not executable.is_file():
-        raise InputError(
-            f"command {str(executable)!r} is not a file; expected the nightlights executable"
-        )
-    record = {"command": str(executable.absolute()), "version": __version__}
+    executable = plugin_command(command)
+    record = {"command": str(executable), "version": __version__}
     package = resources.files("nightlights.qgis.plugin")
     with atomic_output(output, overwrite=overwrite) as temporary:
         with zipfile.ZipFile(temporary, "w", compression=zipfile.ZIP_DEFLATED) as archive:
@@ -122,5 +159,5 @@ def build_plugin(
                     else (package / name).read_text(encoding="utf-8")
                 )
                 archive.writestr(f"{PLUGIN_FOLDER}/{name}", text)
-            archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", json.dumps(record, indent=2) + "\n")
+            archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", dumps_json(record, indent=2) + "\n")
     return Path(output)

@@ -53,6 +53,7 @@ def test_build_refuses_an_existing_zip_without_overwrite(tmp_path: Path) -> None
 def test_build_records_a_given_command(tmp_path: Path) -> None:
     command = tmp_path / "nightlights"
     command.write_text("#!/bin/sh\n")
+    command.chmod(0o755)
     result = _build(str(tmp_path / "p.zip"), "--command", str(command))
     assert result.exit_code == 0, result.output
     with zipfile.ZipFile(tmp_path / "p.zip") as archive:

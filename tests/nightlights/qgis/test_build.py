@@ -64,6 +64,7 @@ def test_the_recorded_command_is_this_environments(tmp_path: Path) -> None:
 def test_a_given_command_is_recorded(tmp_path: Path) -> None:
     executable = tmp_path / "nightlights"
     executable.write_text("#!/bin/sh\n")
+    executable.chmod(0o755)
     with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", command=executable)) as archive:
         record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
     assert record["command"] == str(executable)
