@@ -61,3 +61,29 @@ def test_zenith_summary_rejects_negative_or_non_finite_light(
 def test_the_sky_packages_path_hands_on_the_same_objects() -> None:
     for name in sky_brightness.__all__:
         assert getattr(sky_brightness, name) is getattr(brightness, name), name
+
+
+#: (zenith magnitude [mag arcsec-2], Bortle class or None for a sky that is not finite)
+BORTLE_CASES = [
+    (22.5, 1),
+    (math.inf, 1),  # zero luminance: no light at all, the darkest class
+    (21.0, 4),
+    (17.9, 9),
+    (math.nan, None),  # NaN luminance
+    (-math.inf, None),  # infinite luminance
+]
+
+
+@pytest.mark.parametrize(("magnitude", "expected"), BORTLE_CASES)
+def test_a_sky_that_is_not_finite_has_no_bortle_class(
+    magnitude: float, expected: int | None
+) -> None:
+    if expected is None:
+        with pytest.raises(InputError, match="not a finite number .* no Bortle class"):
+            brightness.bortle_class(magnitude)
+        with pytest.raises(InputError, match="1 of 3 values"):
+            brightness.bortle_class([20.0, magnitude, 21.0])
+        assert brightness.bortle_class_or_reason(magnitude) == (None, brightness.NON_FINITE_SKY)
+    else:
+        assert int(brightness.bortle_class(magnitude)) == expected
+        assert brightness.bortle_class_or_reason(magnitude) == (expected, None)
