@@ -56,8 +56,8 @@ def terrain_under(
     """DEM height under points by bilinear interpolation [m], refusing points without one.
 
     The one check of every stage that takes a DEM (skyglow, inverse, observers, explore,
-    darkness): a point outside the DEM, or whose interpolation touches a nodata pixel, has no
-    terrain height, and is refused rather than filled with a guess.
+    darkness): a point outside the DEM, or whose interpolation gives a nodata pixel a weight,
+    has no terrain height, and is refused rather than filled with a guess.
 
     Parameters
     ----------
@@ -102,8 +102,13 @@ def terrain_under(
     col = inverse.a * px + inverse.b * py + inverse.c
     row = inverse.d * px + inverse.e * py + inverse.f
     inside = (row >= 0) & (row < heights.shape[0]) & (col >= 0) & (col < heights.shape[1])
-    values = map_coordinates(heights, [row - 0.5, col - 0.5], order=1, mode="nearest")
-    bad = ~inside | ~np.isfinite(values)
+    coordinates = [row - 0.5, col - 0.5]
+    missing = ~np.isfinite(heights)
+    values = map_coordinates(np.where(missing, 0.0, heights), coordinates, order=1, mode="nearest")
+    # a nodata pixel that takes part in a point's interpolation (a weight above 0) leaves it
+    # without a height; one next to it with no weight does not
+    touched = map_coordinates(missing.astype(float), coordinates, order=1, mode="nearest")
+    bad = ~inside | (touched > 1e-9) | ~np.isfinite(values)
     if bad.any():
         first = int(np.flatnonzero(bad.ravel())[0])
         raise InputError(

@@ -79,7 +79,7 @@ def test_a_sky_that_is_not_finite_has_no_bortle_class(
     magnitude: float, expected: int | None
 ) -> None:
     if expected is None:
-        with pytest.raises(InputError, match="not a finite number .* no Bortle class"):
+        with pytest.raises(InputError, match=r"not a finite number .* no Bortle class"):
             brightness.bortle_class(magnitude)
         with pytest.raises(InputError, match="1 of 3 values"):
             brightness.bortle_class([20.0, magnitude, 21.0])
