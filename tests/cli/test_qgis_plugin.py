@@ -90,3 +90,43 @@ def test_the_plugin_reads_the_zenith_line_skyglow_prints(
         "ZENITH_MAGNITUDE": 18.59,
         "BORTLE": 7,
     }
+
+
+#: (what --command names, relative to the working folder; its mode or None for a folder; exit
+#: status; words of the message): only an executable file is recorded, by its absolute path.
+COMMANDS = [
+    ("notes.txt", 0o644, 1, ["notes.txt", "is not executable"]),
+    ("tools", None, 2, ["is a directory"]),
+    ("bin/nightlights", 0o755, 0, []),
+]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="execute permissions")
+@pytest.mark.parametrize(("given", "mode", "code", "words"), COMMANDS, ids=[c[0] for c in COMMANDS])
+def test_the_recorded_command_is_an_absolute_executable(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    given: str,
+    mode: int | None,
+    code: int,
+    words: list[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / given
+    path.parent.mkdir(exist_ok=True)
+    if mode is None:
+        path.mkdir()
+    else:
+        path.write_text("#!/bin/sh\n")
+        path.chmod(mode)
+    result = CliRunner().invoke(cli, ["qgis-plugin", "build", "p.zip", "--command", given])
+    assert result.exit_code == code, result.output
+    for word in words:
+        assert word in result.output, result.output
+    if code:
+        assert not (tmp_path / "p.zip").exists()
+        return
+    with zipfile.ZipFile(tmp_path / "p.zip") as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == str(path) and Path(record["command"]).is_absolute()
+    assert f"runs {path}" in result.output
