@@ -136,7 +136,7 @@ class EmissionEdits:
         if op != "erase" and (value is None or not math.isfinite(value) or value < 0):
             raise InputError(f"{op} needs a finite value >= 0; got {value}")
         if op == "paint":
-            check_flux_density([value], what="paint value")
+            check_flux_density([float(value)], what="paint value")  # type: ignore[arg-type]
         window, inside = self._brush(stroke, float(radius))
         if window is None:
             return 0

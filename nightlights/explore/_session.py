@@ -811,7 +811,7 @@ class ExploreSession:
     def _check_terrain(self, window: tuple[slice, slice], after: FloatArray) -> None:
         """Refuse an edit that lights a cell without a terrain height (outside the DEM or on
         nodata), as every stage with a DEM refuses such a lit cell."""
-        assert self._dem is not None
+        assert self._dem is not None and self.scene.dem is not None
         rows, cols = np.nonzero(lit_mask(after))
         t = self.transform
         x = t.c + t.a * (cols + window[1].start + 0.5)

@@ -139,8 +139,9 @@ def check_radiance_source(raster: Raster, label: str) -> None:
     if raster.count > 1:
         warnings.warn(
             f"{label}: {raster.count} bands; band 1 "
-            f"({raster.descriptions[0] or 'unnamed'}) is read as radiance, the other "
-            f"{raster.count - 1} are ignored",
+            f"({raster.descriptions[0] or 'unnamed'}) is read as radiance, "
+            + ("band 2 is" if raster.count == 2 else f"bands 2-{raster.count} are")
+            + " ignored",
             DataQualityWarning,
             stacklevel=3,
         )
@@ -192,7 +193,7 @@ def clean_radiance(radiance: FloatArray, label: str) -> FloatArray:
         counts = match[hit].sum(axis=0)
         shown = ", ".join(f"{fill:g} x{n}" for fill, n in zip(fills, counts, strict=True) if n)
         warnings.warn(
-            f"{label}: {int(hit.sum())} pixels hold a common fill value the file does not "
+            f"{label}: {_pixels(int(hit.sum()))} a common fill value the file does not "
             f"declare as nodata ({shown}); they are treated as nodata, not as radiance",
             DataQualityWarning,
             stacklevel=3,
@@ -206,7 +207,7 @@ def clean_radiance(radiance: FloatArray, label: str) -> FloatArray:
         order = np.argsort(counts)[::-1][:5]
         shown = ", ".join(f"{found[i]:g} x{counts[i]}" for i in order)
         warnings.warn(
-            f"{label}: {int(high.sum())} pixels hold radiances above "
+            f"{label}: {_pixels(int(high.sum()))} radiances above "
             f"{MAX_PLAUSIBLE_RADIANCE:g} nW cm-2 sr-1 ({shown}; largest "
             f"{float(found[-1]):g}), beyond any city's night lights (urban cores: a few hundred, "
             "the brightest sites: a few thousand); they are taken as radiance: check the "
@@ -297,3 +298,8 @@ def warn_zone_span(src_crs: CRS, bounds: Sequence[float], target: CRS, label: st
         DataQualityWarning,
         stacklevel=3,
     )
+
+
+def _pixels(count: int) -> str:
+    """``1 pixel holds`` or ``n pixels hold``."""
+    return "1 pixel holds" if count == 1 else f"{count} pixels hold"

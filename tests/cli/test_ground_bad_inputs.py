@@ -262,7 +262,7 @@ WARNINGS = [
     ("fill -999", {(1, 1): -999.0, (2, 2): -999.0}, {}, ("-999 x2", "treated as nodata"), True),
     ("fill 1e20", {(3, 3): 1e20}, {}, ("1e+20 x1", "treated as nodata"), True),
     ("implausible radiance", {(4, 4): 5e4}, {},
-     ("1 pixels hold radiances above 10000 nW cm-2 sr-1 (50000 x1", "taken as radiance"), False),
+     ("1 pixel holds radiances above 10000 nW cm-2 sr-1 (50000 x1", "taken as radiance"), False),
     ("fifteen zones", {}, {"west": -30.0, "north": 61.0, "width": 11.25, "height": 0.25},
      ("spans 90 deg of longitude, more than one UTM zone (6 deg)", "off by up to 7.3 %",
       "--target-crs"), False),
@@ -310,3 +310,21 @@ def test_plain_viirs_is_converted_without_a_warning(
         )
     assert result.exit_code == 0, result.output
     assert "DataQualityWarning" not in caplog.text
+
+
+def test_a_stack_of_bands_is_read_from_band_one_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    stack = nl.io.Raster(
+        np.stack([np.full((8, 8), 20.0), np.full((8, 8), 12.0)]),
+        from_origin(24.9, 60.2, 0.004, 0.002),
+        "EPSG:4326",
+        ("avg_rade9h", "cf_cvg"),
+        ("nW cm-2 sr-1", "1"),
+    ).write(tmp_path / "stack.tif")
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, ["emission", "viirs", str(stack), str(tmp_path / "e.tif")])
+    assert result.exit_code == 0, result.output
+    assert "stack.tif: 2 bands; band 1 (avg_rade9h) is read as radiance, band 2 is ignored" in (
+        caplog.text
+    )
