@@ -114,7 +114,7 @@ def bortle_class(zenith_magnitude: ArrayLike) -> NDArray[np.int64]:
 
     Examples
     --------
-    >>> bortle_class([22.5, 18.0, np.inf]).tolist()
+    >>> bortle_class([22.5, 17.5, np.inf]).tolist()
     [1, 9, 1]
     """
     m = np.asarray(zenith_magnitude, dtype=float)
