@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import warnings
 
 import click
@@ -41,6 +40,7 @@ def info_command(
     from ies.errors import PhotometryWarning
     from ies.plot import write_polar_plot
     from nightlights.io import OutputSet
+    from nightlights.io.jsonfile import dumps_json
 
     check_outputs([plot_path], overwrite=overwrite)
     outputs = OutputSet(plot_path)  # the plot's folder is checked before the file is read
@@ -58,7 +58,7 @@ def info_command(
             write_polar_plot(photometry, outputs.temporary(plot_path))
         summary["plot"] = plot_path
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(dumps_json(summary, indent=2))
         return
     print_summary(summary)
 

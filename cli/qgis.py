@@ -38,7 +38,7 @@ def build_command(
     """
     from rich.console import Console
 
-    from nightlights.qgis import build_plugin, toolkit_command
+    from nightlights.qgis import build_plugin, plugin_command
 
     from .describe import describe_stages
 
@@ -47,8 +47,8 @@ def build_command(
     _, out = resolve_inout(files, output, inputs=0, usage="[OUTPUT]", overwrite=overwrite)
     root = click.get_current_context().find_root().command
     assert isinstance(root, click.Group)
-    path = build_plugin(out, describe_stages(root), command=command, overwrite=overwrite)
-    runs = command or toolkit_command()
+    runs = plugin_command(command)  # absolute, executable: what the zip records
+    path = build_plugin(out, describe_stages(root), command=runs, overwrite=overwrite)
     Console(stderr=True).print(
         f"QGIS plugin -> {path} (runs {runs}); install it in QGIS with Plugins > Manage and "
         "Install Plugins > Install from ZIP",

@@ -14,6 +14,8 @@ Bortle, J. E. (2001). Introducing the Bortle dark-sky scale. Sky & Telescope 101
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -23,8 +25,10 @@ __all__ = [
     "BORTLE_LOWER_EDGES",
     "NATURAL_ZENITH_LUMINANCE",
     "NATURAL_ZENITH_MAGNITUDE",
+    "NON_FINITE_SKY",
     "ZERO_POINT_LUMINANCE",
     "bortle_class",
+    "bortle_class_or_reason",
     "luminance_to_magnitude",
     "magnitude_to_luminance",
     "zenith_summary",
@@ -89,6 +93,10 @@ def magnitude_to_luminance(magnitude: ArrayLike) -> NDArray[np.float64]:
 def bortle_class(zenith_magnitude: ArrayLike) -> NDArray[np.int64]:
     """Bortle class (1 darkest .. 9 inner city) of a zenith sky brightness.
 
+    A sky whose luminance is not a finite number has no class: its magnitude is NaN (NaN
+    luminance) or -inf (infinite luminance), and it is refused rather than counted as the
+    darkest class. A magnitude of +inf (zero luminance: no light at all) is class 1.
+
     Parameters
     ----------
     zenith_magnitude
@@ -98,11 +106,65 @@ def bortle_class(zenith_magnitude: ArrayLike) -> NDArray[np.int64]:
     -------
     numpy.ndarray
         Integer class 1-9 (see :data:`BORTLE_LOWER_EDGES`).
+
+    Raises
+    ------
+    InputError
+        A NaN or -inf magnitude (:data:`NON_FINITE_SKY`).
+
+    Examples
+    --------
+    >>> bortle_class([22.5, 17.5, np.inf]).tolist()
+    [1, 9, 1]
     """
     m = np.asarray(zenith_magnitude, dtype=float)
+    bad = np.isnan(m) | (m == -np.inf)
+    if bad.any():
+        first = float(m[bad].flat[0])
+        raise InputError(
+            f"zenith sky brightness {first} mag arcsec-2 ({int(bad.sum())} of {m.size} "
+            f"values): {NON_FINITE_SKY}"
+        )
     edges = np.asarray(BORTLE_LOWER_EDGES)
     # Count the edges the value falls below: 0 -> class 1, 8 -> class 9.
     return 1 + np.sum(m[..., None] < edges, axis=-1)
+
+
+#: Why a sky has no brightness class: what :func:`bortle_class` refuses and what
+#: :func:`bortle_class_or_reason` gives with its ``None``.
+NON_FINITE_SKY = (
+    "the sky luminance is not a finite number (NaN or infinite), so it has no Bortle class; "
+    "expected a finite emission whose flux does not overflow"
+)
+
+
+def bortle_class_or_reason(zenith_magnitude: float) -> tuple[int | None, str | None]:
+    """Bortle class of one zenith brightness, or None and the reason for a non-finite sky.
+
+    For answers that must stay JSON (a null class with its reason, never a made-up class).
+
+    Parameters
+    ----------
+    zenith_magnitude
+        Zenith surface brightness [mag arcsec-2].
+
+    Returns
+    -------
+    tuple
+        ``(class, None)`` for a finite sky (or +inf: zero luminance), ``(None, reason)``
+        for a NaN or -inf magnitude.
+
+    Examples
+    --------
+    >>> bortle_class_or_reason(21.0)
+    (4, None)
+    >>> bortle_class_or_reason(float("nan"))[0] is None
+    True
+    """
+    magnitude = float(zenith_magnitude)
+    if math.isnan(magnitude) or magnitude == -math.inf:
+        return None, NON_FINITE_SKY
+    return int(bortle_class(magnitude)), None
 
 
 #: Luminance of the moonless natural sky at the zenith [cd m-2]: :data:`NATURAL_ZENITH_MAGNITUDE`
@@ -134,7 +196,8 @@ def zenith_summary(
     Raises
     ------
     InputError
-        A negative (or NaN) artificial luminance.
+        A negative, NaN or infinite artificial luminance (a non-finite sky has no brightness
+        and no Bortle class).
 
     Examples
     --------
@@ -142,6 +205,10 @@ def zenith_summary(
     >>> round(summary["zenith_sky_brightness"], 2), summary["bortle_class_zenith"]
     (18.63, 7)
     """
+    if not math.isfinite(artificial_luminance):
+        raise InputError(
+            f"artificial zenith luminance {artificial_luminance} cd m-2: {NON_FINITE_SKY}"
+        )
     if not artificial_luminance >= 0:
         raise InputError(f"artificial zenith luminance {artificial_luminance}: expected >= 0")
     natural = float(natural_luminance)

@@ -390,6 +390,7 @@ def _before_json(view: Any) -> dict[str, Any]:
         "zenith_luminance": view.zenith_luminance,
         "zenith_magnitude": view.zenith_magnitude,
         "bortle": view.bortle,
+        "bortle_reason": view.bortle_reason,
     }
 
 

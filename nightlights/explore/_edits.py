@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,6 +19,7 @@ import numpy as np
 from affine import Affine
 
 from nightlights._typing import FloatArray
+from nightlights._validate import check_flux_density
 from nightlights.errors import InputError
 
 __all__ = ["EDIT_OPS", "EmissionEdits", "band_share"]
@@ -96,8 +97,13 @@ class EmissionEdits:
         *,
         radius: float,
         value: float | None = None,
+        check: Callable[[tuple[slice, slice], FloatArray], None] | None = None,
     ) -> int:
         """Apply one brush stroke.
+
+        A stroke whose result is not finite or above
+        :data:`~nightlights._validate.MAX_FLUX_DENSITY` in any cell it changes is refused
+        (:class:`~nightlights.errors.InputError`) and changes nothing, history included.
 
         Parameters
         ----------
@@ -109,6 +115,9 @@ class EmissionEdits:
             Brush radius [m].
         value
             Flux density for ``paint`` [lm m-2] or factor for ``scale`` [1].
+        check
+            Called with the window and its edited values ``(bands, rows, cols)`` [lm m-2]
+            before they are written; raises to refuse the stroke.
 
         Returns
         -------
@@ -126,6 +135,8 @@ class EmissionEdits:
             raise InputError(f"brush radius {radius} m; expected a finite value > 0")
         if op != "erase" and (value is None or not math.isfinite(value) or value < 0):
             raise InputError(f"{op} needs a finite value >= 0; got {value}")
+        if op == "paint":
+            check_flux_density([float(value)], what="paint value")  # type: ignore[arg-type]
         window, inside = self._brush(stroke, float(radius))
         if window is None:
             return 0
@@ -137,10 +148,16 @@ class EmissionEdits:
         elif op == "erase":
             after[:, inside] = 0.0
         else:
-            after[:, inside] = before[:, inside] * float(value)  # type: ignore[arg-type]
-        changed = int(np.sum(np.any(~_same(before, after), axis=0)))
+            with np.errstate(over="ignore", invalid="ignore"):
+                after[:, inside] = before[:, inside] * float(value)  # type: ignore[arg-type]
+        moved = ~_same(before, after)
+        changed = int(np.sum(np.any(moved, axis=0)))
         if changed == 0:
             return 0
+        if op == "scale":
+            check_flux_density(after[moved], what=f"scale by {value:g}: the edited cells")
+        if check is not None:
+            check(window, after)
         self.data[(slice(None), *window)] = after
         record = {
             "op": op,

@@ -18,7 +18,7 @@ The panoramas equal ``skyglow_panorama``'s for the same raster, kernel and obser
 per-cell Q and S maps and the least-flux dimming are the inverse stage's
 (:mod:`nightlights.inverse`).
 
-Length: about 1150 lines, most of them numpydoc, because the session's state (the emission
+Length: about 1200 lines, most of them numpydoc, because the session's state (the emission
 in its current and original form, the kernel levels, the per-observer caches) and every query
 and file on it are kept in one class, so that no query sees a half-updated state; the views
 and the edit history are in their own modules.
@@ -43,18 +43,29 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights._typing import FloatArray, PathLike
-from nightlights.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
+from nightlights.brightness import (
+    bortle_class_or_reason,
+    luminance_to_magnitude,
+    magnitude_to_luminance,
+)
 from nightlights.errors import InputError, OutputExistsError
 from nightlights.explore._edits import EmissionEdits, band_share
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._region import SkyRegion
-from nightlights.io import Raster, as_raster
+from nightlights.io import Raster, as_raster, source_label
+from nightlights.io.jsonfile import dumps_json
 from nightlights.io.raster import LitCells
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import SCENE_KEYWORDS
 from nightlights.sky._polar_numba import polar_flux_levels
-from nightlights.sky.horizon import ground_height, horizon_elevation, scene_terrain
+from nightlights.sky.forward import panorama_zenith
+from nightlights.sky.horizon import (
+    ground_height,
+    horizon_elevation,
+    scene_terrain,
+    terrain_under,
+)
 from nightlights.sky.influence import (
     cell_values,
     hemisphere_weights,
@@ -509,10 +520,11 @@ class ExploreSession:
         source: str,
         dimming: FloatArray | None = None,
     ) -> PanoramaView:
-        # The zenith figures of skyglow_panorama's dataset: the mean of the top row.
-        top = luminance[0]
-        zenith = float(np.nanmean(top)) if np.isfinite(top).any() else 0.0
+        # The zenith figures of skyglow_panorama's dataset: the mean of the top row's open
+        # sky; a sky that is not finite has no brightness and no class (null, with the reason).
+        zenith = panorama_zenith(luminance, self._below_terrain(xy, eye))
         magnitude = float(luminance_to_magnitude(zenith))
+        bortle, reason = bortle_class_or_reason(magnitude)
         return PanoramaView(
             x=xy[0],
             y=xy[1],
@@ -522,10 +534,11 @@ class ExploreSession:
             luminance=luminance,
             zenith_luminance=zenith,
             zenith_magnitude=magnitude,
-            bortle=int(bortle_class(magnitude)),
+            bortle=bortle,
             seconds=seconds,
             source=source,
             dimming=dimming,
+            bortle_reason=reason,
         )
 
     # --- inverse ----------------------------------------------------------------------------
@@ -783,9 +796,27 @@ class ExploreSession:
         -------
         EditView
             The emission's state after the step.
+
+        Raises
+        ------
+        InputError
+            A bad stroke, or a result that is not finite or above
+            :data:`~nightlights._validate.MAX_FLUX_DENSITY`, or a lit cell without a terrain
+            height (with a DEM): the emission and the history stay as they were.
         """
-        changed = self._edits.apply(op, points, radius=radius, value=value)
+        check = self._check_terrain if self._dem is not None else None
+        changed = self._edits.apply(op, points, radius=radius, value=value, check=check)
         return self._changed(changed) if changed else self._edit_view(0)
+
+    def _check_terrain(self, window: tuple[slice, slice], after: FloatArray) -> None:
+        """Refuse an edit that lights a cell without a terrain height (outside the DEM or on
+        nodata), as every stage with a DEM refuses such a lit cell."""
+        assert self._dem is not None and self.scene.dem is not None
+        rows, cols = np.nonzero(lit_mask(after))
+        t = self.transform
+        x = t.c + t.a * (cols + window[1].start + 0.5)
+        y = t.f + t.e * (rows + window[0].start + 0.5)
+        terrain_under(self._dem, x, y, label=source_label(self.scene.dem, "DEM"))
 
     def undo(self) -> EditView:
         """Undo the last edit.
@@ -882,7 +913,7 @@ class ExploreSession:
             "flux_removed_lm": repr(view.flux_removed),
             "flux_removed_percent": repr(view.flux_removed_percent),
             "method": view.method,
-            "params": json.dumps(view.params),
+            "params": dumps_json(view.params),
             "reference": "Dobashi et al. 2023, ACM TOG 42(6) 219, Sec. 4.1, Eq. 12",
         }
         raster = Raster(view.fraction[None], self.transform, self.crs, ("dimming",), ("1",), tags)
@@ -999,7 +1030,7 @@ class ExploreSession:
             "edits": self._edits.ops,
         }
         with atomic_output(target) as tmp:
-            Path(tmp).write_text(json.dumps(content, indent=1))
+            Path(tmp).write_text(dumps_json(content, indent=1))
         return target
 
     # --- state ------------------------------------------------------------------------------

@@ -39,13 +39,16 @@ class PanoramaView:
     zenith_magnitude
         Zenith sky brightness [mag arcsec-2].
     bortle
-        Bortle class of the zenith [1].
+        Bortle class of the zenith [1]; None for a sky whose luminance is not finite (never
+        a made-up class), with the reason in ``bortle_reason``.
     seconds
         Time of the computation [s].
     source
         ``current``, ``original`` (before the edits) or ``dimmed``.
     dimming
         For ``dimmed``: the dimming fraction of each lit cell of the current emission [1].
+    bortle_reason
+        Why ``bortle`` is None (:data:`nightlights.brightness.NON_FINITE_SKY`), else None.
     """
 
     x: float
@@ -56,10 +59,11 @@ class PanoramaView:
     luminance: FloatArray
     zenith_luminance: float
     zenith_magnitude: float
-    bortle: int
+    bortle: int | None
     seconds: float
     source: str = "current"
     dimming: FloatArray | None = field(default=None, repr=False)
+    bortle_reason: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (NaN as None) of the figures and the luminance grid."""
@@ -76,6 +80,7 @@ class PanoramaView:
             "zenith_luminance": _json_float(self.zenith_luminance),
             "zenith_magnitude": _json_float(self.zenith_magnitude),
             "bortle": self.bortle,
+            "bortle_reason": self.bortle_reason,
             "seconds": self.seconds,
             "source": self.source,
         }

@@ -15,7 +15,7 @@ coarse grid, which the skyglow stages take as their source:
    without street data (see :func:`viirs_radiance_to_flux_density`): one band tagged with
    the emission function that turned its nadir radiance into flux.
 
-Length: about 780 lines, because the two routes to one product share its raster, its
+Length: about 860 lines, because the two routes to one product share its raster, its
 float32 round trip, its checked writing and its memory checks made before reading; split in
 two modules they would import each other's private helpers.
 """
@@ -54,6 +54,7 @@ from nightlights.ground.checks import (
 )
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
+from nightlights.ground.viirs_input import check_radiance_source, clean_radiance, warn_zone_span
 from nightlights.io import (
     OutputSet,
     Raster,
@@ -653,7 +654,9 @@ def emission_from_viirs(
         The raster has no CRS, or ``target_crs`` is not a projected CRS.
     InputError
         Bad resolution, a spectrum without power in the band, infinite radiance, no
-        radiance at all, or an output grid that gets no value.
+        radiance at all, an output grid that gets no value, or an input that is recognisably
+        not radiance (a raster of this toolkit, a photometric unit:
+        :func:`~nightlights.ground.viirs_input.check_radiance_source`).
     ResourceError
         The output grid (``resolution``) would need more memory than allowed (checked
         before allocating).
@@ -664,8 +667,14 @@ def emission_from_viirs(
     -----
     :math:`M_v = \\pi L 10^{-5} K` (:func:`viirs_radiance_to_flux_density`). Negative
     radiances (noise after background subtraction) are set to 0 with a
-    :class:`~nightlights.errors.DataQualityWarning`. Resampling uses the area average, so a
-    coarser output conserves flux.
+    :class:`~nightlights.errors.DataQualityWarning`. Pixels holding a common fill value the
+    file does not declare (65535, -999, 1e20, ...) are nodata, and radiances above
+    :data:`~nightlights.ground.viirs_input.MAX_PLAUSIBLE_RADIANCE` are kept; both with a
+    :class:`~nightlights.errors.DataQualityWarning`
+    (:func:`~nightlights.ground.viirs_input.clean_radiance`), as is a raster wider than one
+    UTM zone projected into one CRS
+    (:func:`~nightlights.ground.viirs_input.warn_zone_span`). Resampling uses the area
+    average, so a coarser output conserves flux.
 
     Examples
     --------
@@ -696,12 +705,15 @@ def emission_from_viirs(
     if header is not None and header.crs is not None:
         _check_viirs_memory(header, resolution, target_crs, label)
     source = as_raster(viirs)
+    check_radiance_source(source, label)
     radiance = source.data[0]
     src_crs = source.crs
     src_transform = source.transform
     (height, width), bounds = source.shape, source.bounds
     if src_crs is None:
         raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
+    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
+    radiance = clean_radiance(radiance, label)
     check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
     negative = radiance < 0
     if negative.any():
@@ -719,6 +731,8 @@ def emission_from_viirs(
     if grid is None:
         out, transform = density, src_transform
     else:
+        if target != src_crs:
+            warn_zone_span(src_crs, bounds, target, label)
         transform, rows, cols = grid
         out = np.full((rows, cols), np.nan)
         reproject(

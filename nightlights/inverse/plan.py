@@ -15,7 +15,7 @@ the computation, each written atomically).
 
 from __future__ import annotations
 
-import json
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -40,6 +40,7 @@ from nightlights.inverse.stage import (
     _target_weights,
 )
 from nightlights.io import Raster, as_raster, source_label
+from nightlights.io.jsonfile import dumps_json, non_finite_reason
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
@@ -457,6 +458,16 @@ def _summary(
     }, figure
 
 
+def _null_reason(key: str, value: float) -> str:
+    """Why a figure of the summary is null in its JSON file."""
+    if key.endswith("_mag_arcsec2") and value == math.inf:
+        return (
+            f"{key}: the luminance is 0 cd m-2 (no artificial light left), a sky brightness "
+            "of +inf mag arcsec-2, which strict JSON cannot hold"
+        )
+    return non_finite_reason(key, value)
+
+
 def _reduce_outputs(
     raster: Raster,
     fraction: FloatArray,
@@ -506,7 +517,8 @@ def _reduce_outputs(
         if dimming_output is not None:
             dimming.write(outputs.temporary(dimming_output))
         if summary_output is not None:
-            outputs.temporary(summary_output).write_text(json.dumps(summary, indent=2) + "\n")
+            text = dumps_json(summary, reason=_null_reason, indent=2)
+            outputs.temporary(summary_output).write_text(text + "\n")
         if png is not None and picture is not None:
             from nightlights.inverse._figures import render_before_after
 

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from nightlights import brightness
 from nightlights._typing import FloatArray
-from nightlights.brightness import bortle_class, luminance_to_magnitude
+from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.nightsky._photometry import (
     ARCSEC2_SR,
@@ -388,13 +388,18 @@ def _render_sky(
     if not pixels.sky.all():
         xyz[~pixels.sky] = np.nan
     zenith_total = zenith_natural + zenith_artificial
+    if not math.isfinite(zenith_total):
+        raise InputError(
+            f"zenith luminance {zenith_total} cd m-2 (natural {zenith_natural}, artificial "
+            f"{zenith_artificial}): {NON_FINITE_SKY}"
+        )
     magnitude = float(luminance_to_magnitude(zenith_total)) if zenith_total > 0 else math.inf
     summary.update(
         {
             "zenith_natural_cd_m2": zenith_natural,
             "zenith_artificial_cd_m2": zenith_artificial,
             "zenith_sky_brightness": magnitude,
-            "bortle_class_zenith": int(bortle_class(magnitude)) if math.isfinite(magnitude) else 1,
+            "bortle_class_zenith": int(bortle_class(magnitude)),  # no light (+inf mag): 1
             "stars_drawn": drawn,
             "zenith_limiting_magnitude": float(schaefer_limiting_magnitude(zenith_total)),
         }
@@ -440,6 +445,10 @@ def zenith_summary(
     (18.63, 7)
     """
     options = options if options is not None else SkyOptions()
+    if not math.isfinite(artificial_luminance):
+        raise InputError(
+            f"artificial zenith luminance {artificial_luminance} cd m-2: {NON_FINITE_SKY}"
+        )
     if not artificial_luminance >= 0:
         raise InputError(f"artificial zenith luminance {artificial_luminance}: expected >= 0")
     if time is None:

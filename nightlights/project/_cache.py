@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from nightlights.io.jsonfile import dumps_json
 from nightlights.io.outputs import sidecar_paths
 
 #: Folder of the records and the staging folders, inside the output folder.
@@ -204,6 +205,6 @@ class StageCache:
         }
         path = self._record_path(task)
         temporary = path.with_name(f".{path.name}.tmp")
-        temporary.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
+        temporary.write_text(dumps_json(record, indent=1, default=str), encoding="utf-8")
         os.replace(temporary, path)
         return Record(key, states, dict(facts), seconds)

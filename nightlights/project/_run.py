@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -166,7 +167,10 @@ def plan_tasks(project: Project) -> list[Task]:
 def _collect(task: Task, facts: Mapping[str, Any], result: ProjectResult) -> None:
     if "zenith" in facts and task.observer is not None:
         magnitude, bortle = facts["zenith"]
-        result.zenith[task.observer.name] = (float(magnitude), int(bortle))
+        # a record is strict JSON: its null magnitude is a sky without artificial light
+        # (+inf mag arcsec-2); a sky that is not finite is refused before any record is made
+        magnitude = math.inf if magnitude is None else float(magnitude)
+        result.zenith[task.observer.name] = (magnitude, int(bortle))
     result.findings.extend(facts.get("findings", []))
 
 

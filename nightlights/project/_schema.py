@@ -123,7 +123,7 @@ class KernelTable(_Table):
     """``[kernel]``: one kernel for every sky stage (built once, cached)."""
 
     r_min: PositiveFloat = 10.0
-    r_max: PositiveFloat = 100_000.0
+    r_max: Annotated[float, Field(gt=0, le=MAX_REACH, allow_inf_nan=False)] = 100_000.0
     n_distance: Count = 64
     n_elevation: Count = 64
     n_azimuth: Annotated[int, Field(ge=2, multiple_of=2)] = 256

@@ -10,6 +10,12 @@ toolkit's libraries (whose wheels bundle a GDAL of their own).
 description of the stage commands that the plugin makes one algorithm of each.
 """
 
-from nightlights.qgis._build import PLUGIN_FILES, PLUGIN_FOLDER, build_plugin, toolkit_command
+from nightlights.qgis._build import (
+    PLUGIN_FILES,
+    PLUGIN_FOLDER,
+    build_plugin,
+    plugin_command,
+    toolkit_command,
+)
 
-__all__ = ["PLUGIN_FILES", "PLUGIN_FOLDER", "build_plugin", "toolkit_command"]
+__all__ = ["PLUGIN_FILES", "PLUGIN_FOLDER", "build_plugin", "plugin_command", "toolkit_command"]

@@ -3,7 +3,6 @@ description of the stage commands the plugin makes its algorithms from."""
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import sysconfig
@@ -15,6 +14,7 @@ from typing import Any
 
 from nightlights.errors import InputError
 from nightlights.io.atomic import atomic_output
+from nightlights.io.jsonfile import dumps_json
 from nightlights.qgis.plugin.runner import TOOLKIT_FILE
 from nightlights.qgis.plugin.stages import STAGES_FILE
 
@@ -58,6 +58,46 @@ def toolkit_command() -> Path:
     )
 
 
+def plugin_command(command: str | os.PathLike[str] | None = None) -> Path:
+    """The absolute path of the executable the plugin is to run.
+
+    Parameters
+    ----------
+    command
+        A path (relative to the working folder or absolute) or, without a folder part, a
+        command name looked up on ``PATH``; None: :func:`toolkit_command`.
+
+    Returns
+    -------
+    pathlib.Path
+        The absolute path (QGIS starts the plugin's command from its own working folder, where
+        a relative path means nothing).
+
+    Raises
+    ------
+    InputError
+        ``command`` is not an existing file, or not executable.
+    """
+    if command is None:
+        return Path(os.path.abspath(toolkit_command()))
+    given = Path(command).expanduser()
+    if not given.exists() and len(given.parts) == 1:
+        found = shutil.which(str(given))
+        given = Path(found) if found else given
+    executable = Path(os.path.abspath(given))
+    if not executable.is_file():
+        raise InputError(
+            f"command {str(command)!r} ({executable}) is not a file; expected the nightlights "
+            "executable"
+        )
+    if not os.access(executable, os.X_OK):
+        raise InputError(
+            f"command {str(command)!r} ({executable}) is not executable (no execute "
+            "permission); expected the nightlights executable"
+        )
+    return executable
+
+
 def plugin_metadata(version: str) -> str:
     """The plugin's ``metadata.txt`` with its ``version`` line set to ``version``.
 
@@ -97,7 +137,8 @@ def build_plugin(
         The description of the stage commands, JSON-ready (what
         ``nightlights_cli.describe.describe_stages`` gives for the ``nightlights`` command).
     command
-        The ``nightlights`` executable to record (default: :func:`toolkit_command`).
+        The ``nightlights`` executable to record, as an absolute path
+        (:func:`plugin_command`; default: :func:`toolkit_command`).
     overwrite
         Replace an existing zip.
 
@@ -109,19 +150,15 @@ def build_plugin(
     Raises
     ------
     InputError
-        ``command`` is not an existing file, or no command is installed.
+        ``command`` is not an existing executable file, or no command is installed.
     OutputError
         ``output`` exists and ``overwrite`` is False, or cannot be written.
     """
     from nightlights import __version__
 
-    executable = toolkit_command() if command is None else Path(command)
-    if not executable.is_file():
-        raise InputError(
-            f"command {str(executable)!r} is not a file; expected the nightlights executable"
-        )
-    record = {"command": str(executable.absolute()), "version": __version__}
-    description = json.dumps({"version": __version__, "stages": list(stages)}, indent=1)
+    executable = plugin_command(command)
+    record = {"command": str(executable), "version": __version__}
+    description = dumps_json({"version": __version__, "stages": list(stages)}, indent=1)
     package = resources.files("nightlights.qgis.plugin")
     with atomic_output(output, overwrite=overwrite) as temporary:
         with zipfile.ZipFile(temporary, "w", compression=zipfile.ZIP_DEFLATED) as archive:
@@ -132,6 +169,6 @@ def build_plugin(
                     else (package / name).read_text(encoding="utf-8")
                 )
                 archive.writestr(f"{PLUGIN_FOLDER}/{name}", text)
-            archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", json.dumps(record, indent=2) + "\n")
+            archive.writestr(f"{PLUGIN_FOLDER}/{TOOLKIT_FILE}", dumps_json(record, indent=2) + "\n")
             archive.writestr(f"{PLUGIN_FOLDER}/{STAGES_FILE}", description + "\n")
     return Path(output)

@@ -27,6 +27,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from nightlights._typing import FloatArray
 from nightlights.emission_functions import kernel_table_names
 from nightlights.sky._polar_numba import _CELLS_PER_CHUNK, polar_flux_levels
+from nightlights.sky.forward import panorama_zenith
 from nightlights.sky.horizon import horizon_elevation
 from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
@@ -97,8 +98,7 @@ class _Engine:
             )
             below = self.elevation[:, None] < horizon[None, :]
             luminance = np.where(below, np.nan, luminance)
-        row = luminance[0]
-        zenith = float(np.nanmean(row)) if np.isfinite(row).any() else 0.0
+        zenith = panorama_zenith(luminance, below)
         out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
         if self.top_cells:
             out["top"] = self._top_cells(xy, maps, levels.zenith(slices))

@@ -58,7 +58,6 @@ import numpy as np
 import scipy.fft
 from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from scipy.ndimage import map_coordinates
 
 from nightlights._parallel import TaskProgress, compute_distributed
 from nightlights._resources import check_memory
@@ -69,6 +68,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
+from nightlights.sky.horizon import terrain_under
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
@@ -647,25 +647,22 @@ def _check_chunk_size(chunk_size: int | None) -> int:
 
 def _terrain(dem: RasterInput, raster: Raster, label: str) -> FloatArray:
     """Terrain height under every emission cell centre [m], bilinear as the panorama reads it
-    (:func:`~nightlights.sky.horizon.ground_height`, :func:`scene_terrain`)."""
+    (:func:`~nightlights.sky.horizon.terrain_under`, the check every stage with a DEM makes):
+    every cell is an observer here, so every cell needs a height, lit or not."""
     relief = as_raster(dem)
     if relief.crs is None or raster.crs is None or not relief.crs.equals(raster.crs):
         raise CRSError(f"{label}: the DEM must be in the emission raster's CRS")
     rows, cols = raster.shape
-    t, inv = raster.transform, ~relief.transform
+    t = raster.transform
     cx, cy = np.meshgrid(t.c + t.a * (np.arange(cols) + 0.5), t.f + t.e * (np.arange(rows) + 0.5))
-    col = inv.a * cx + inv.b * cy + inv.c
-    row = inv.d * cx + inv.e * cy + inv.f
-    heights = relief.data[0]
-    inside = (row >= 0) & (row < heights.shape[0]) & (col >= 0) & (col < heights.shape[1])
-    values = map_coordinates(heights, [row - 0.5, col - 0.5], order=1, mode="nearest")
-    bad = ~inside | ~np.isfinite(values)
-    if bad.any():
-        raise InputError(
-            f"{label}: no terrain height under {int(bad.sum())} of {bad.size} emission cells "
-            "(outside the DEM or nodata); expected a DEM covering the whole emission raster"
-        )
-    return np.asarray(values, dtype=float)
+    return terrain_under(
+        relief,
+        cx,
+        cy,
+        label=label,
+        what="emission cells",
+        expected="a DEM covering the whole emission raster",
+    )
 
 
 def _warn_range(raster: Raster, kernel_range: float) -> None:

@@ -15,6 +15,7 @@ the Night Sky", ACM TOG 42(6) 219, Sec. 3.3.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -23,7 +24,7 @@ import numpy as np
 import xarray as xr
 
 from nightlights._typing import FloatArray
-from nightlights.brightness import bortle_class, luminance_to_magnitude
+from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.atmosphere import Atmosphere
@@ -45,7 +46,7 @@ from nightlights.sky.scene import Scene
 from nightlights.sky.setup import SceneSetup, prepare_scene
 from nightlights.sky.store import get_or_build_kernel
 
-__all__ = ["SkyglowScene", "skyglow_panorama"]
+__all__ = ["SkyglowScene", "panorama_zenith", "skyglow_panorama"]
 
 
 @dataclass(frozen=True)
@@ -253,7 +254,13 @@ def _panorama_dataset(
     n_az = luminance.shape[1]
     azimuth = (np.arange(n_az) + 0.5) * 360.0 / n_az
     magnitude = luminance_to_magnitude(luminance)
-    zenith = float(np.nanmean(luminance[0])) if np.isfinite(luminance[0]).any() else 0.0
+    zenith = panorama_zenith(luminance, below_terrain)
+    if not np.isfinite(zenith):
+        bad = int(np.sum(~np.isfinite(luminance[~below_terrain.astype(bool)])))
+        raise InputError(
+            f"the skyglow panorama has {bad} open-sky pixels whose luminance is not finite: "
+            f"{NON_FINITE_SKY}"
+        )
     zenith_mag = float(luminance_to_magnitude(zenith))
     dataset = xr.Dataset(
         {
@@ -292,6 +299,43 @@ def _panorama_dataset(
                 },
             )
     return dataset
+
+
+def panorama_zenith(luminance: FloatArray, below_terrain: np.ndarray | None = None) -> float:
+    """Zenith luminance of a panorama: the mean of its top row where the sky is open [cd m-2].
+
+    Parameters
+    ----------
+    luminance
+        Shape ``(n_el, n_az)``, zenith row first: sky luminance [cd m-2], NaN where the
+        terrain hides the sky.
+    below_terrain
+        Same shape, True where the terrain hides the sky (None: all open).
+
+    Returns
+    -------
+    float
+        The mean of the open pixels of the top row; 0 where the terrain hides all of it; NaN
+        when any open-sky pixel is not finite (an overflowing emission): such a sky has no
+        zenith brightness and no Bortle class, and is never reported as a dark one.
+
+    Examples
+    --------
+    >>> panorama_zenith(np.array([[1.0, 3.0], [5.0, 5.0]]))
+    2.0
+    >>> panorama_zenith(np.array([[1.0, np.inf], [5.0, 5.0]]))
+    nan
+    """
+    values = np.asarray(luminance, dtype=float)
+    hidden = (
+        np.zeros(values.shape, dtype=bool)
+        if below_terrain is None
+        else np.asarray(below_terrain, dtype=bool)
+    )
+    if not np.isfinite(values[~hidden]).all():
+        return math.nan
+    top = np.where(hidden[0], np.nan, values[0])
+    return float(np.nanmean(top)) if np.isfinite(top).any() else 0.0
 
 
 def panorama_coords(elevation: FloatArray, azimuth: FloatArray) -> dict[str, Any]:

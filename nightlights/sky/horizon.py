@@ -44,6 +44,81 @@ def ground_height(dem: FloatArray, transform: Affine, x: float, y: float) -> flo
     return float(value)
 
 
+def terrain_under(
+    dem: Raster,
+    x: FloatArray,
+    y: FloatArray,
+    *,
+    label: str = "DEM",
+    what: str = "lit emission cells",
+    expected: str = "a DEM with a height under each",
+) -> FloatArray:
+    """DEM height under points by bilinear interpolation [m], refusing points without one.
+
+    The one check of every stage that takes a DEM (skyglow, inverse, observers, explore,
+    darkness): a point outside the DEM, or whose interpolation gives a nodata pixel a weight,
+    has no terrain height, and is refused rather than filled with a guess.
+
+    Parameters
+    ----------
+    dem
+        Terrain heights above sea level [m], nodata as NaN.
+    x, y
+        Points (cell centres) in the DEM's CRS [m].
+    label
+        How messages name the DEM.
+    what
+        What the points are, for messages.
+    expected
+        What the message asks for instead.
+
+    Returns
+    -------
+    numpy.ndarray
+        Height under each point [m], the shape of ``x``.
+
+    Raises
+    ------
+    InputError
+        Some point lies outside the DEM or on nodata.
+
+    Examples
+    --------
+    >>> from affine import Affine
+    >>> dem = Raster(np.array([[[10.0, 20.0], [np.nan, 40.0]]]), Affine(10, 0, 0, 0, -10, 20),
+    ...              "EPSG:32633")
+    >>> terrain_under(dem, np.array([5.0, 15.0]), np.array([15.0, 15.0])).tolist()
+    [10.0, 20.0]
+    >>> terrain_under(dem, np.array([5.0]), np.array([5.0]))
+    Traceback (most recent call last):
+    ...
+    nightlights.errors.InputError: DEM: no terrain height under 1 of 1 lit emission cells \
+(outside the DEM or nodata; the first at (5.0, 5.0)); expected a DEM with a height under each
+    """
+    px = np.asarray(x, dtype=float)
+    py = np.asarray(y, dtype=float)
+    heights = dem.data[0]
+    inverse = ~dem.transform
+    col = inverse.a * px + inverse.b * py + inverse.c
+    row = inverse.d * px + inverse.e * py + inverse.f
+    inside = (row >= 0) & (row < heights.shape[0]) & (col >= 0) & (col < heights.shape[1])
+    coordinates = [row - 0.5, col - 0.5]
+    missing = ~np.isfinite(heights)
+    values = map_coordinates(np.where(missing, 0.0, heights), coordinates, order=1, mode="nearest")
+    # a nodata pixel that takes part in a point's interpolation (a weight above 0) leaves it
+    # without a height; one next to it with no weight does not
+    touched = map_coordinates(missing.astype(float), coordinates, order=1, mode="nearest")
+    bad = ~inside | (touched > 1e-9) | ~np.isfinite(values)
+    if bad.any():
+        first = int(np.flatnonzero(bad.ravel())[0])
+        raise InputError(
+            f"{label}: no terrain height under {int(bad.sum())} of {bad.size} {what} (outside "
+            f"the DEM or nodata; the first at ({px.flat[first]:.1f}, {py.flat[first]:.1f})); "
+            f"expected {expected}"
+        )
+    return np.asarray(values, dtype=float)
+
+
 def horizon_elevation(
     dem: FloatArray,
     transform: Affine,
@@ -147,6 +222,12 @@ def scene_terrain(
     SceneTerrain
         DEM, eye altitude [m], flux-weighted source altitude [m], the height under each lit
         cell of ``emission.lit_cells()`` [m].
+
+    Raises
+    ------
+    InputError
+        The observer or a lit cell has no terrain height: outside the DEM or on nodata
+        (:func:`terrain_under`).
     """
     cells = emission if isinstance(emission, LitCells) else emission.lit_cells()
     relief = as_raster(dem)
@@ -160,12 +241,7 @@ def scene_terrain(
     cell_heights = np.zeros(0)
     if cells.n_cells:
         cx, cy = cells.centres()
-        inv = ~relief.transform
-        dcol = inv.a * cx + inv.b * cy + inv.c
-        drow = inv.d * cx + inv.e * cy + inv.f
-        cell_heights = map_coordinates(
-            np.nan_to_num(heights, nan=ground), [drow - 0.5, dcol - 0.5], order=1, mode="nearest"
-        )
+        cell_heights = terrain_under(relief, cx, cy, label=label)
         weights = np.abs(flux)
         source_altitude = float(
             np.average(cell_heights, weights=weights) if weights.sum() > 0 else cell_heights.mean()

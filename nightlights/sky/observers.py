@@ -52,7 +52,7 @@ from pyproj import CRS
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
-from nightlights.brightness import bortle_class, luminance_to_magnitude
+from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
 from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.io import OutputSet, source_label, write_gpkg
 from nightlights.io.raster import as_lit_cells
@@ -402,6 +402,10 @@ def _summary(
     files: dict[str, Path],
 ) -> gpd.GeoDataFrame:
     artificial = np.array([s["zenith"] for s in skies], dtype=float)
+    broken = [name for name, value in zip(names, artificial, strict=True) if not np.isfinite(value)]
+    if broken:
+        shown = ", ".join(broken[:5]) + (f" and {len(broken) - 5} more" if len(broken) > 5 else "")
+        raise InputError(f"observers {shown}: {NON_FINITE_SKY}")
     natural = np.full(artificial.shape, engine.natural)
     total = artificial + natural
     magnitude = luminance_to_magnitude(total)

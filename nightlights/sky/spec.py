@@ -131,6 +131,12 @@ def _derived_rounded(parameters: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+#: Largest source distance any kernel covers [m], the outer edge of a scene-sized kernel and
+#: the bound of ``r_max`` (spherical Earth; beyond it sources sit well below the observer's
+#: horizon and contribute little, and the tables are not validated there).
+MAX_KERNEL_RANGE = 300_000.0
+
+
 def distance_grid(r_min: float, r_max: float, n_distance: int) -> FloatArray:
     """Log-spaced distance bin edges.
 
@@ -194,7 +200,8 @@ class KernelSpec:
     r_min
         Inner edge of the default distance grid [m].
     r_max
-        Outer edge of the default distance grid [m].
+        Outer edge of the default distance grid, at most :data:`MAX_KERNEL_RANGE` (so is the
+        last of ``distance_edges``) [m].
     n_distance
         Number of distance bins of the default grid [1].
     source_altitudes
@@ -315,6 +322,16 @@ class KernelSpec:
             if self.distance_edges is None
             else self.distance_edges
         )
+        if edges[-1] > MAX_KERNEL_RANGE:
+            given = (
+                f"r_max={self.r_max!r} m"
+                if self.distance_edges is None
+                else f"distance_edges ending at {edges[-1]:g} m"
+            )
+            raise InputError(
+                f"{given}; expected at most {MAX_KERNEL_RANGE:g} m (MAX_KERNEL_RANGE: the "
+                "kernel's supported range; farther sources sit below the observer's horizon)"
+            )
         setattr_ = object.__setattr__
         setattr_(self, "distance_edges", tuple(float(x) for x in edges))
         setattr_(self, "r_min", float(edges[0]))
@@ -639,10 +656,6 @@ class KernelSpec:
         attrs.setdefault("n_azimuth", int(kernel.sizes.get("azimuth", 2 * (n_frequency - 1))))
         return cls.from_attrs(attrs)
 
-
-#: Largest source distance a scene-sized kernel covers [m] (spherical Earth; beyond it
-#: sources sit well below the observer's horizon and contribute little).
-MAX_KERNEL_RANGE = 300_000.0
 
 #: Largest spacing of the source-altitude levels of a scene kernel over terrain [m] (Dobashi
 #: et al. 2023 use 62.5 m); at most :data:`MAX_SOURCE_LEVELS` levels span the lit cells.

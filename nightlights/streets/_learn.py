@@ -30,7 +30,6 @@ agreement is at least :data:`AGREEMENT_THRESHOLD`.
 from __future__ import annotations
 
 import datetime
-import json
 import os
 import warnings
 from dataclasses import dataclass, field, replace
@@ -48,6 +47,7 @@ from bayesnets.network import CONFIG_NAME
 from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
 from nightlights.io import as_vector, write_gpkg
+from nightlights.io.jsonfile import dumps_json
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
@@ -429,7 +429,7 @@ def learn(
             assert tmp is not None  # a folder for a target
             write_network(learned, tmp)
             (tmp / REPORT_FILE).write_text(
-                json.dumps(report.as_dict(), indent=2) + "\n", encoding="utf-8"
+                dumps_json(report.as_dict(), indent=2) + "\n", encoding="utf-8"
             )
             write_gpkg(evidence_layer, tmp / EVIDENCE_FILE, layer="streets", schema=EVIDENCE_SCHEMA)
             write_gpkg(lamp_layer, tmp / LAMPS_FILE, layer="lamps", schema=LAMP_SCHEMA)

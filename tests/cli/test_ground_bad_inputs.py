@@ -92,6 +92,24 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
         folder / "viirs_nan.tif", np.full((8, 8), np.nan), "EPSG:4326", geo, "dnb"
     )
     paths["viirs_nocrs"] = _tif(folder / "viirs_nocrs.tif", np.full((8, 8), 20.0), None, geo, "d")
+    # what is recognisably not radiance: the toolkit's own products, photometric units
+    paths["viirs_emission"] = folder / "viirs_emission.tif"
+    nl.emission_from_viirs(paths["viirs"], paths["viirs_emission"])
+    paths["ground_emission"] = folder / "ground_emission.tif"
+    nl.emission(
+        paths["irradiance"],
+        paths["ground_emission"],
+        lights=paths["lights"],
+        resolution=20.0,
+        albedo=0.2,
+    )
+    bands = np.full((2, 8, 8), 0.3)
+    paths["two_bands"] = nl.io.Raster(
+        bands, geo, "EPSG:4326", ("reflected", "uplight"), ("", "")
+    ).write(folder / "two_bands.tif")
+    paths["viirs_lm"] = nl.io.Raster(
+        np.full((1, 8, 8), 0.3), geo, "EPSG:4326", ("flux",), ("lm m-2",)
+    ).write(folder / "viirs_lm.tif")
     return SimpleNamespace(**paths)
 
 
@@ -187,6 +205,16 @@ CASES = [
     Case("viirs spectrum", (*VIIRS, "--spectrum", "bogus"), 1, ("unknown SPD 'bogus'",)),
     Case("viirs output folder missing", ("emission", "viirs", "{viirs}", "{nodir}"), 1,
          ("OutputError", "does not exist")),
+    # not radiance at all: once taken for it, now refused
+    Case("viirs of an emission", ("emission", "viirs", "{viirs_emission}", "{out}"), 1,
+         ("a nightlights 'emission' raster (tag product), not radiance",
+          "give it to the sky stages")),
+    Case("viirs of a ground emission", ("emission", "viirs", "{ground_emission}", "{out}"), 1,
+         ("a nightlights 'emission' raster", "not radiance")),
+    Case("viirs of emission bands", ("emission", "viirs", "{two_bands}", "{out}"), 1,
+         ("a nightlights emission raster (its bands: reflected, uplight), not radiance",)),
+    Case("viirs in lm m-2", ("emission", "viirs", "{viirs_lm}", "{out}"), 1,
+         ("band 1 is in lm m-2, not a radiance",)),
 ]  # fmt: skip
 
 
@@ -211,3 +239,92 @@ def test_bad_input(case: Case, data: SimpleNamespace, tmp_path: Path) -> None:
     assert re.search(case.pattern, message[0]), (case.pattern, message[0])
     assert out.read_bytes() == PREVIOUS
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.tif"]
+
+
+def _radiance(
+    folder: Path, name: str, changes: dict[tuple[int, int], float], **grid: float
+) -> Path:
+    """An 8 x 8 geographic radiance raster of 20 nW cm-2 sr-1 with some pixels changed."""
+    values = np.full((8, 8), 20.0)
+    for (row, col), value in changes.items():
+        values[row, col] = value
+    west, north = grid.get("west", 24.9), grid.get("north", 60.2)
+    transform = from_origin(west, north, grid.get("width", 0.004), grid.get("height", 0.002))
+    return _tif(folder / name, values, "EPSG:4326", transform, "dnb")
+
+
+#: (name, changed pixels, grid, words of the warning, whether the flux is the city's alone):
+#: usable input that is suspicious is converted, and said so on one line.
+WARNINGS = [
+    ("fill 65535", {(0, c): 65535.0 for c in range(4)}, {},
+     ("4 pixels hold a common fill value the file does not declare as nodata", "65535 x4",
+      "treated as nodata"), True),
+    ("fill -999", {(1, 1): -999.0, (2, 2): -999.0}, {}, ("-999 x2", "treated as nodata"), True),
+    ("fill 1e20", {(3, 3): 1e20}, {}, ("1e+20 x1", "treated as nodata"), True),
+    ("implausible radiance", {(4, 4): 5e4}, {},
+     ("1 pixel holds radiances above 10000 nW cm-2 sr-1 (50000 x1", "taken as radiance"), False),
+    ("fifteen zones", {}, {"west": -30.0, "north": 61.0, "width": 11.25, "height": 0.25},
+     ("spans 90 deg of longitude, more than one UTM zone (6 deg)", "off by up to 7.3 %",
+      "--target-crs"), False),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("name", "changes", "grid", "words", "city"), WARNINGS, ids=[w[0] for w in WARNINGS]
+)
+def test_suspicious_viirs_is_converted_with_a_warning(
+    tmp_path: Path,
+    caplog: pytest.LogCaptureFixture,
+    name: str,
+    changes: dict[tuple[int, int], float],
+    grid: dict[str, float],
+    words: tuple[str, ...],
+    city: bool,
+) -> None:
+    source = _radiance(tmp_path, "dnb.tif", changes, **grid)
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(
+            cli, ["emission", "viirs", str(source), str(tmp_path / "e.tif")]
+        )
+    assert result.exit_code == 0, result.output
+    warned = [r.getMessage() for r in caplog.records if "DataQualityWarning" in r.getMessage()]
+    assert len(warned) == 1, warned
+    for word in words:
+        assert word in warned[0], (word, warned[0])
+    if city:  # the fill pixels add no light: at most the flux of the plain raster
+        plain = nl.emission_from_viirs(_radiance(tmp_path, "plain.tif", {}, **grid))
+        with rasterio.open(tmp_path / "e.tif") as dataset:
+            total = float(np.nansum(dataset.read(1))) * abs(
+                dataset.transform.a * dataset.transform.e
+            )
+        assert 0 < total < plain.total_flux["upward"]
+
+
+def test_plain_viirs_is_converted_without_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    source = _radiance(tmp_path, "dnb.tif", {})
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(
+            cli, ["emission", "viirs", str(source), str(tmp_path / "e.tif")]
+        )
+    assert result.exit_code == 0, result.output
+    assert "DataQualityWarning" not in caplog.text
+
+
+def test_a_stack_of_bands_is_read_from_band_one_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    stack = nl.io.Raster(
+        np.stack([np.full((8, 8), 20.0), np.full((8, 8), 12.0)]),
+        from_origin(24.9, 60.2, 0.004, 0.002),
+        "EPSG:4326",
+        ("avg_rade9h", "cf_cvg"),
+        ("nW cm-2 sr-1", "1"),
+    ).write(tmp_path / "stack.tif")
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, ["emission", "viirs", str(stack), str(tmp_path / "e.tif")])
+    assert result.exit_code == 0, result.output
+    assert "stack.tif: 2 bands; band 1 (avg_rade9h) is read as radiance, band 2 is ignored" in (
+        caplog.text
+    )

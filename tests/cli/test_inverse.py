@@ -471,3 +471,46 @@ def test_inverse_help_does_not_import_the_library() -> None:
         "& set(sys.modules); assert not heavy, heavy"
     )
     subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[2])
+
+
+def _strict_json(text: str) -> Any:
+    """JSON as strict parsers read it (RFC 8259): NaN and Infinity are refused."""
+
+    def refuse(constant: str) -> None:
+        raise ValueError(f"{constant} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+#: Dimmings that leave the observer's sky without artificial light: the zenith after is 0 cd
+#: m-2, +inf mag arcsec-2, which the summary once wrote as Infinity.
+DARKENED = [
+    ("dim every cell", ["dim", "--by", "{q}", "--qa", "0", "--qb", "1e-30", "--gamma", "1"]),
+    ("dim every cell by S", ["dim", "--by", "{s}", "--qa", "0", "--qb", "1e-30", "--gamma", "1"]),
+]
+
+
+@pytest.mark.parametrize(("name", "args"), DARKENED, ids=[d[0] for d in DARKENED])
+def test_the_summary_of_a_sky_dimmed_to_darkness_is_strict_json(
+    files: SimpleNamespace, tmp_path: Path, name: str, args: list[str]
+) -> None:
+    q, s = tmp_path / "q.tif", tmp_path / "s.tif"
+    assert _q(files, q, "--metric", "zenith").exit_code == 0
+    region = ["--region", "zenith:30"]
+    made = _invoke("s", files.emission, s, *OBSERVER, "--kernel", files.kernel, *region)
+    assert made.exit_code == 0, made.output
+    summary = tmp_path / "summary.json"
+    command, *options = (arg.format(q=q, s=s) for arg in args)
+    result = _invoke(
+        command, files.emission, tmp_path / "reduced.tif", *options,
+        "--kernel", files.kernel, "--summary-output", summary,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    report = _strict_json(summary.read_text())
+    zenith = report["observers"][0]["zenith"]
+    assert zenith["after_cd_m2"] == 0.0
+    assert zenith["after_mag_arcsec2"] is None
+    assert "no artificial light left" in zenith["after_mag_arcsec2_null_reason"]
+    assert zenith["before_mag_arcsec2"] > 0
+    for area in report["observers"][0].get("regions", []):  # by S: its region too
+        assert area["after_mag_arcsec2"] is None and area["after_mag_arcsec2_null_reason"]

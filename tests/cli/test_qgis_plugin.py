@@ -60,6 +60,7 @@ def test_build_refuses_an_existing_zip_without_overwrite(tmp_path: Path) -> None
 def test_build_records_a_given_command(tmp_path: Path) -> None:
     command = tmp_path / "nightlights"
     command.write_text("#!/bin/sh\n")
+    command.chmod(0o755)
     result = _build(str(tmp_path / "p.zip"), "--command", str(command))
     assert result.exit_code == 0, result.output
     with zipfile.ZipFile(tmp_path / "p.zip") as archive:
@@ -275,3 +276,43 @@ def test_the_description_names_what_each_path_is() -> None:
         for stage in stages.values()
         for p in stage["parameters"]
     )
+
+
+#: (what --command names, relative to the working folder; its mode or None for a folder; exit
+#: status; words of the message): only an executable file is recorded, by its absolute path.
+COMMANDS = [
+    ("notes.txt", 0o644, 1, ["notes.txt", "is not executable"]),
+    ("tools", None, 2, ["is a directory"]),
+    ("bin/nightlights", 0o755, 0, []),
+]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="execute permissions")
+@pytest.mark.parametrize(("given", "mode", "code", "words"), COMMANDS, ids=[c[0] for c in COMMANDS])
+def test_the_recorded_command_is_an_absolute_executable(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    given: str,
+    mode: int | None,
+    code: int,
+    words: list[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / given
+    path.parent.mkdir(exist_ok=True)
+    if mode is None:
+        path.mkdir()
+    else:
+        path.write_text("#!/bin/sh\n")
+        path.chmod(mode)
+    result = CliRunner().invoke(cli, ["qgis-plugin", "build", "p.zip", "--command", given])
+    assert result.exit_code == code, result.output
+    for word in words:
+        assert word in result.output, result.output
+    if code:
+        assert not (tmp_path / "p.zip").exists()
+        return
+    with zipfile.ZipFile(tmp_path / "p.zip") as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == str(path) and Path(record["command"]).is_absolute()
+    assert f"runs {path}" in result.output

@@ -56,7 +56,15 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
         inf=_raster(folder, "inf.tif", inf=1),
         nan=_raster(folder, "nan.tif", np.nan, dark=1),
         zero=_raster(folder, "zero.tif", dark=1),
+        holes=_holes(folder / "holes.tif"),
     )
+
+
+def _holes(path: Path) -> Path:
+    """A flat DEM at 0 m on the emission grid with one nodata cell, under a lit cell."""
+    heights = np.zeros((1, 20, 20))
+    heights[0, 5, 14] = np.nan
+    return Raster(heights, TRANSFORM, "EPSG:32635", ("height",), ("m",)).write(path)
 
 
 @pytest.fixture(autouse=True)
@@ -66,6 +74,9 @@ def _reset_memory_limit() -> Iterator[None]:
     set_memory_limit(None)
 
 
+#: What every stage says of a DEM with a hole under a lit cell.
+HOLE = ["no terrain height under 1 of 9 lit emission cells", "holes.tif", "(501450.0, 6699450.0)"]
+
 #: (name, arguments with {placeholders}, exit code, key words of the message)
 CASES = [
     # kernel build: absurd atmosphere and grids, resources
@@ -74,6 +85,9 @@ CASES = [
     ("wavelength", "kernel build {out} --wavelength-nm 5", 1, ["300-1100 nm"]),
     ("aod", "kernel build {out} --aerosol-optical-depth 1e4", 1, ["optical depth"]),
     ("r-max-inf", "kernel build {out} --r-max inf", 1, ["--r-max", "finite"]),
+    # beyond the kernel's supported range (MAX_KERNEL_RANGE): it moved zeniths silently
+    ("r-max-1e9", "kernel build {out} --r-max 1e9", 1, ["--r-max=1000000000.0", "300000 m"]),
+    ("r-max-above", "kernel build {out} --r-max 300001", 1, ["--r-max=300001.0", "at most"]),
     ("n-azimuth-odd", "kernel build {out} --n-azimuth 7", 1, ["--n-azimuth=7", "even"]),
     ("nodes-0", "kernel build {out} --nodes 0", 1, ["nodes=0"]),
     ("n-distance-huge", "kernel build {out} --n-distance 1000000", 1, ["needs about", "--n-dist"]),
@@ -179,6 +193,16 @@ CASES = [
         1,
         ["does not exist"],
     ),
+    # a DEM with a hole (nodata) under a lit cell: the same refusal in every stage
+    ("sky-dem-hole", "skyglow {em} {out} {obs} --kernel {kernel} --dem {holes}", 1, HOLE),
+    ("q-dem-hole", "inverse q {em} {out} {obs} --kernel {kernel} --dem {holes}", 1, HOLE),
+    (
+        "s-dem-hole",
+        "inverse s {em} {out} {obs} --kernel {kernel} --region zenith:30 --dem {holes}",
+        1,
+        HOLE,
+    ),
+    ("dark-dem-hole", "darkness {em} {out} --kernel {kernel} --dem {holes}", 1, ["no terrain"]),
     # darkness
     ("dark-inf", "darkness {inf} {out} --kernel {kernel}", 1, ["non-finite"]),
     ("dark-zero", "darkness {zero} {out} --kernel {kernel}", 1, ["no lit cell"]),
@@ -210,6 +234,7 @@ def test_bad_input_is_one_line_and_leaves_the_previous_output(
         "nan": str(inputs.nan),
         "zero": str(inputs.zero),
         "q": str(inputs.q),
+        "holes": str(inputs.holes),
     }
     args = arguments.format(**values).split()
     env = {"NIGHTLIGHTS_CACHE": str(tmp_path / "cache")}

@@ -42,12 +42,48 @@ def test_zenith_summary_adds_a_given_natural_sky() -> None:
     assert summary["bortle_class_zenith"] == 5  # 20.25: between 20.49 and 19.50
 
 
-@pytest.mark.parametrize("bad", [-1e-9, math.nan])
-def test_zenith_summary_rejects_negative_light(bad: float) -> None:
-    with pytest.raises(InputError, match="expected >= 0"):
-        brightness.zenith_summary(bad)
+@pytest.mark.parametrize(
+    ("bad", "message"),
+    [
+        (-1e-9, "expected >= 0"),
+        (math.nan, "not a finite number .* no Bortle class"),
+        (math.inf, "not a finite number .* no Bortle class"),
+    ],
+)
+@pytest.mark.parametrize("summary", [brightness.zenith_summary, night_zenith_summary])
+def test_zenith_summary_rejects_negative_or_non_finite_light(
+    summary: object, bad: float, message: str
+) -> None:
+    with pytest.raises(InputError, match=message):
+        summary(bad)  # type: ignore[operator]
 
 
 def test_the_sky_packages_path_hands_on_the_same_objects() -> None:
     for name in sky_brightness.__all__:
         assert getattr(sky_brightness, name) is getattr(brightness, name), name
+
+
+#: (zenith magnitude [mag arcsec-2], Bortle class or None for a sky that is not finite)
+BORTLE_CASES = [
+    (22.5, 1),
+    (math.inf, 1),  # zero luminance: no light at all, the darkest class
+    (21.0, 4),
+    (17.9, 9),
+    (math.nan, None),  # NaN luminance
+    (-math.inf, None),  # infinite luminance
+]
+
+
+@pytest.mark.parametrize(("magnitude", "expected"), BORTLE_CASES)
+def test_a_sky_that_is_not_finite_has_no_bortle_class(
+    magnitude: float, expected: int | None
+) -> None:
+    if expected is None:
+        with pytest.raises(InputError, match=r"not a finite number .* no Bortle class"):
+            brightness.bortle_class(magnitude)
+        with pytest.raises(InputError, match="1 of 3 values"):
+            brightness.bortle_class([20.0, magnitude, 21.0])
+        assert brightness.bortle_class_or_reason(magnitude) == (None, brightness.NON_FINITE_SKY)
+    else:
+        assert int(brightness.bortle_class(magnitude)) == expected
+        assert brightness.bortle_class_or_reason(magnitude) == (expected, None)

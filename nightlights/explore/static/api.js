@@ -45,9 +45,10 @@
  * @property {number[]} azimuth [deg]
  * @property {number[]} elevation [deg]
  * @property {(number | null)[][]} luminance (n_el, n_az) [cd m-2], null below the terrain
- * @property {number} zenith_luminance [cd m-2]
- * @property {number} zenith_magnitude [mag arcsec-2]
- * @property {number} bortle
+ * @property {number | null} zenith_luminance [cd m-2], null for a sky that is not finite
+ * @property {number | null} zenith_magnitude [mag arcsec-2], null for zero or no luminance
+ * @property {number | null} bortle null for a sky that is not finite (see bortle_reason)
+ * @property {string | null} [bortle_reason] why bortle is null
  * @property {number} seconds
  * @property {number} x
  * @property {number} y

@@ -333,10 +333,17 @@ export function drawSky() {
   drawEquirectangular(panorama);
   drawFisheye(panorama);
   if (!panorama) return;
-  const zenith = panorama.zenith_magnitude ?? luminanceToMagnitude(panorama.zenith_luminance);
+  // A null zenith luminance is a sky that is not finite: no magnitude and no class (the
+  // server says why in bortle_reason); a zero luminance (null magnitude) is +inf, class 1.
+  const zenith =
+    panorama.zenith_magnitude ??
+    (panorama.zenith_luminance === null ? NaN : luminanceToMagnitude(panorama.zenith_luminance));
   ui.zenithMag.textContent = Number.isFinite(zenith) ? zenith.toFixed(2) : "–";
   ui.zenithMag.dataset.value = String(zenith);
-  ui.bortle.textContent = String(panorama.bortle ?? bortleClass(zenith));
+  const noClass = panorama.bortle === null || Number.isNaN(zenith);
+  ui.bortle.textContent = noClass ? "–" : String(panorama.bortle ?? bortleClass(zenith));
+  const reason = panorama.bortle_reason ?? "the sky is not finite: no Bortle class";
+  ui.bortle.title = noClass ? reason : "";
   let label = state.which === "original" ? "original emission (before edits)" : "current emission";
   if (panorama === state.dimming?.panorama) {
     const before = state.dimming.before.zenith_magnitude;

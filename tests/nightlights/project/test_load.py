@@ -106,6 +106,12 @@ BAD = [
         id="negative number",
     ),
     pytest.param(
+        "r-max = 3000.0",
+        "r-max = 1e9",
+        "kernel.r-max = 1000000000.0: input should be less than or equal to 300000",
+        id="r-max beyond any kernel's range",
+    ),
+    pytest.param(
         "[observers]",
         "[observer]",
         "observer: unknown key in the file; allowed: project, inputs, observers, atmosphere, "

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import ast
 import json
+import os
+import shutil
 import sys
 import zipfile
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -77,6 +80,7 @@ def test_the_recorded_command_is_this_environments(tmp_path: Path) -> None:
 def test_a_given_command_is_recorded(tmp_path: Path) -> None:
     executable = tmp_path / "nightlights"
     executable.write_text("#!/bin/sh\n")
+    executable.chmod(0o755)
     with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", STAGES, command=executable)) as archive:
         record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
     assert record["command"] == str(executable)
@@ -111,3 +115,30 @@ def test_the_plugin_imports_no_toolkit_library(name: str) -> None:
             roots.add((node.module or "").split(".")[0])
     foreign = roots - ALLOWED_ROOTS - set(sys.stdlib_module_names) - {"__future__"}
     assert foreign == set()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="execute permissions")
+@pytest.mark.parametrize(
+    ("given", "expected"),
+    [
+        ("relative", lambda tmp: str(tmp / "nl")),
+        ("name on PATH", lambda tmp: shutil.which("sh")),
+        ("not executable", "is not executable"),
+    ],
+)
+def test_the_command_is_recorded_absolute_and_executable(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, given: str, expected: Any
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    script = tmp_path / "nl"
+    script.write_text("#!/bin/sh\n")
+    script.chmod(0o644 if given == "not executable" else 0o755)
+    command = "sh" if given == "name on PATH" else "nl"
+    if isinstance(expected, str):
+        with pytest.raises(InputError, match=expected):
+            build_plugin(tmp_path / "p.zip", STAGES, command=command)
+        assert not (tmp_path / "p.zip").exists()
+        return
+    with zipfile.ZipFile(build_plugin(tmp_path / "p.zip", STAGES, command=command)) as archive:
+        record = json.loads(archive.read(f"{PLUGIN_FOLDER}/toolkit.json"))
+    assert record["command"] == expected(tmp_path)

@@ -1,7 +1,7 @@
 """What ``prepare_scene`` refuses (one-line errors) or warns about, instead of a sky that looks
 measured: infinite or empty emission, observers off the Earth or beyond every lit cell's reach,
 degree-like coordinates without ``observer_crs``, grid options a given kernel cannot honour,
-and absurd atmospheres."""
+absurd atmospheres, and a DEM with a hole under a lit cell (the same refusal in every stage)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,9 @@ import pytest
 import xarray as xr
 from affine import Affine
 
+import nightlights as nl
 from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.explore import ExploreSession
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky.atmosphere import Atmosphere
@@ -166,3 +168,34 @@ def test_skyglow_outputs_are_all_or_nothing(
     monkeypatch.undo()
     skyglow(_raster(), panorama, observer=INSIDE, kernel=small_kernel, png=png, polar_output=polar)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.nc", "p.png", "polar.nc"]
+
+
+def _holed_dem(row: int, col: int) -> Raster:
+    """A flat DEM at 0 m on the emission grid with one nodata pixel."""
+    heights = np.zeros((1, 40, 40))
+    heights[0, row, col] = np.nan
+    return Raster(heights, TRANSFORM, "EPSG:32635", ("height",), ("m",))
+
+
+#: Every stage that takes a DEM, called on a scene whose DEM has a hole under a lit cell.
+DEM_STAGES = {
+    "skyglow": lambda scene: nl.skyglow(scene, Observer(*INSIDE), progress=False),
+    "inverse_q": lambda scene: nl.inverse_q(scene, Observer(*INSIDE), progress=False),
+    "inverse_s": lambda scene: nl.inverse_s(
+        scene, Observer(*INSIDE), region="zenith:30", progress=False
+    ),
+    "observers": lambda scene: nl.observers(
+        scene, [Observer(*INSIDE, name="a")], top_cells=0, progress=False
+    ),
+    "explore": lambda scene: ExploreSession(scene, progress=False),
+    "darkness": lambda scene: nl.darkness(scene, progress=False),
+}
+
+
+@pytest.mark.parametrize("stage", sorted(DEM_STAGES))
+def test_a_dem_hole_under_a_lit_cell_is_refused_by_every_stage(
+    small_kernel: xr.Dataset, stage: str
+) -> None:
+    scene = Scene(_raster(), kernel=small_kernel, dem=_holed_dem(10, 11))
+    with pytest.raises(InputError, match=r"in-memory DEM: no terrain height under 1 of \d+"):
+        DEM_STAGES[stage](scene)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ from nightlights.emission_functions import (
 from nightlights.errors import InputError, OutputError
 from nightlights.sky import KernelResult, KernelSpec, build_kernel
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import read_kernel
 
 TINY = {"r_min": 20.0, "r_max": 2000.0, "n_distance": 4, "n_elevation": 4, "n_azimuth": 8}
@@ -171,3 +174,24 @@ def test_spec_axes() -> None:
     np.testing.assert_allclose(spec.edges, np.geomspace(20.0, 2000.0, 5))
     np.testing.assert_allclose(spec.distances, np.sqrt(spec.edges[:-1] * spec.edges[1:]))
     assert spec.elevations.shape == (4,) and spec.azimuths.shape == (8,)
+
+
+#: r_max or distance edges beyond the kernel's supported range (MAX_KERNEL_RANGE), and its edge.
+RANGES = [
+    ({"r_max": 1e9}, "r_max=1000000000.0 m; expected at most 300000 m"),
+    ({"r_max": 300_001.0}, "r_max=300001.0 m; expected at most 300000 m"),
+    ({"distance_edges": (10.0, 1e3, 5e5)}, "distance_edges ending at 500000 m; expected at most"),
+    ({"r_max": MAX_KERNEL_RANGE}, None),
+]
+
+
+@pytest.mark.parametrize(("changes", "message"), RANGES)
+def test_r_max_is_bounded_by_the_kernels_supported_range(
+    changes: dict[str, Any], message: str | None
+) -> None:
+    grid = {"n_distance": 4, "n_elevation": 4, "n_azimuth": 8, **changes}
+    if message is None:
+        assert KernelSpec(**grid).r_max == MAX_KERNEL_RANGE
+        return
+    with pytest.raises(InputError, match=re.escape(message)):
+        KernelSpec(**grid)
