@@ -45,7 +45,7 @@ from bench_inverse_qs import city
 
 from nightlights.explore import ExploreSession
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec
+from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky._polar_numba import polar_flux_levels
 from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.panorama import KernelSlice, panorama_pca
@@ -94,14 +94,16 @@ def observer_rows(
 ) -> list[dict[str, Any]]:
     """Section 1: time and error against the bases used."""
     exact = {
-        xy: skyglow_panorama(raster, xy, table, mode="exact", progress=False)
+        xy: skyglow_panorama(
+            Scene(raster, kernel=table), Observer(*xy), mode="exact", progress=False
+        )
         .panorama["luminance"]
         .values
         for xy in positions[:: max(1, len(positions) // 8)]
     }
     rows = []
     for bases in sorted({b for b in BASES if b < stored} | {stored}):
-        session = ExploreSession(raster, kernel=table, components=bases, progress=False)
+        session = ExploreSession(Scene(raster, kernel=table), components=bases, progress=False)
         session.panorama(*positions[0])  # compile and read the kernel levels
         times = []
         for xy in positions:
@@ -176,7 +178,11 @@ def pca_time(table: xr.Dataset, bases: int) -> float:
 def stage_time(raster: Raster, table: xr.Dataset, positions: list[tuple[float, float]]) -> float:
     """The stage's in-memory panorama for one observer (checks, lit cells, polar map, PCA)."""
     times = [
-        harness.timed(lambda xy=xy: skyglow_panorama(raster, xy, table, progress=False))[1]
+        harness.timed(
+            lambda xy=xy: skyglow_panorama(
+                Scene(raster, kernel=table), Observer(*xy), progress=False
+            )
+        )[1]
         for xy in positions[:5]
     ]
     return statistics.median(times)
@@ -357,7 +363,7 @@ def main() -> None:
     stored = int(table.sizes["component"])
     positions = path(side, count)
     rows = observer_rows(raster, table, positions, stored)
-    session = ExploreSession(raster, kernel=table, progress=False)
+    session = ExploreSession(Scene(raster, kernel=table), progress=False)
     figures: dict[str, Any] = {
         **polar_times(raster, table, positions),
         "stage_s": stage_time(raster, table, positions),

@@ -34,7 +34,7 @@ from affine import Affine
 
 from nightlights.errors import DataQualityWarning
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec
+from nightlights.sky import KernelSpec, Observer, Scene
 from nightlights.sky.darkness import darkness
 from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.spec import MAX_KERNEL_RANGE
@@ -98,13 +98,20 @@ def sample_cells(zenith: np.ndarray, count: int, rng: np.random.Generator) -> li
     return list(dict.fromkeys(cells))[:count]
 
 
-def reference_zenith(raster: Raster, cell: tuple[int, int], **options: Any) -> float:
+def reference_zenith(
+    raster: Raster, cell: tuple[int, int], *, mode: str = "pca", **scene: Any
+) -> float:
+    """The panorama's zenith with the observer at ``cell``; ``scene``: the Scene's fields
+    beside the emission (kernel, dem, grid)."""
     t = raster.transform
     xy = (t.c + t.a * (cell[1] + 0.5), t.f + t.e * (cell[0] + 0.5))
-    scene = skyglow_panorama(
-        raster, xy, observer_height=OBSERVER_HEIGHT, cache_dir=CACHE, progress=False, **options
+    sky = skyglow_panorama(
+        Scene(raster, cache_dir=CACHE, **scene),
+        Observer(*xy, height=OBSERVER_HEIGHT),
+        mode=mode,
+        progress=False,
     )
-    return float(scene.panorama.attrs["zenith_luminance_cd_m2"])
+    return float(sky.panorama.attrs["zenith_luminance_cd_m2"])
 
 
 def timing(quick: bool, sizes: dict[str, Any]) -> list[dict[str, Any]]:
@@ -126,7 +133,7 @@ def timing(quick: bool, sizes: dict[str, Any]) -> list[dict[str, Any]]:
             tracemalloc.start()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", DataQualityWarning)  # regions beyond 300 km
-                result = darkness(raster, kernel=kernel, chunk_size=size, progress=False)
+                result = darkness(Scene(raster, kernel=kernel), chunk_size=size, progress=False)
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
             row[f"{label}_s"] = result.seconds
@@ -145,7 +152,7 @@ def flat_accuracy(quick: bool, sizes: dict[str, Any]) -> dict[str, Any]:
     options = {"n_distance": sizes["n_distance"], "n_elevation": sizes["n_elevation"]}
     options["n_azimuth"] = sizes["n_azimuth"]
     result = darkness(
-        raster, observer_height=OBSERVER_HEIGHT, cache_dir=CACHE, progress=False, **options
+        Scene(raster, cache_dir=CACHE, **options), height=OBSERVER_HEIGHT, progress=False
     )
     zenith = result.raster.data[0]
     same = read_kernel(kernel_cache_path(result.raster.tags["kernel_hash"], CACHE))
@@ -181,12 +188,9 @@ def terrain_accuracy(quick: bool) -> dict[str, Any]:
     options = {"n_distance": 48, "n_elevation": 32, "n_azimuth": 128}
     (result, seconds) = harness.timed(
         lambda: darkness(
-            raster,
-            dem=dem,
-            observer_height=OBSERVER_HEIGHT,
-            cache_dir=CACHE,
+            Scene(raster, dem=dem, cache_dir=CACHE, **options),
+            height=OBSERVER_HEIGHT,
             progress=False,
-            **options,
         )
     )
     zenith = result.raster.data[0]

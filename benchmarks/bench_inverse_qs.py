@@ -164,10 +164,12 @@ def stage(
     """One timed call: ``q_pca_norm``, ``q_zenith``, ``s_pca`` or ``s_brute``."""
     if name.startswith("q_"):
         metric = "pca-norm" if name == "q_pca_norm" else "zenith"
-        return inverse_q(raster, observer=where, kernel=table, metric=metric, progress=False)
+        return inverse_q(
+            Scene(raster, kernel=table), Observer(*where), metric=metric, progress=False
+        )
     method = name.removeprefix("s_")
     return inverse_s(
-        raster, observer=where, kernel=table, region=region, method=method, progress=False
+        Scene(raster, kernel=table), Observer(*where), region=region, method=method, progress=False
     )
 
 
@@ -260,9 +262,8 @@ def error_rows(
 
         def call(k: int | None = None, method: str = "pca", text: str = text) -> InfluenceResult:
             return inverse_s(
-                raster,
-                observer=where,
-                kernel=table,
+                Scene(raster, kernel=table),
+                Observer(*where),
                 region=text,
                 method=method,
                 components=k,

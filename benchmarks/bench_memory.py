@@ -73,7 +73,7 @@ elif kind == "kernel":
     get_or_build_kernel(spec, progress=False)
     extra = {"ran": ["kernel"]}
 elif kind == "render":
-    result = nl.sky_render(out, time="2026-01-25T20:00:00Z", panorama=source)
+    result = nl.sky_render(None, out, time="2026-01-25T20:00:00Z", panorama=source)
     extra = {"lonlat": list(result.lonlat)}
 elif kind == "irradiance":
     result = nl.irradiance(

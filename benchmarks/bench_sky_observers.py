@@ -43,7 +43,7 @@ import numpy as np
 import nightlights as nl
 from nightlights.demo import DEMO_PROJECT, example_path
 from nightlights.io import as_raster
-from nightlights.sky import KernelSpec, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, skyglow
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.observers import SCHEDULERS, _engine, _Levels, observers
 from nightlights.sky.store import get_or_build_kernel
@@ -110,7 +110,8 @@ def run(emission: Path, kernel: Any, xy: np.ndarray, folder: Path, **options: An
     best = None
     for _ in range(1 if options.get("scheduler") == "processes" else REPEATS):
         start = time.perf_counter()
-        result = observers(emission, out, observers=xy, kernel=kernel, overwrite=True,
+        sites = [Observer(x, y) for x, y in xy]
+        result = observers(Scene(emission, kernel=kernel), sites, out, overwrite=True,
                            progress=False, **options)  # fmt: skip
         wall = time.perf_counter() - start
         if best is None or wall < best[0]:
@@ -135,7 +136,7 @@ def reference(emission: Path, kernel: Any, xy: np.ndarray, summary: Any) -> dict
     times, worst = [], 0.0
     for (x, y), expected in zip(xy, summary["zenith_artificial"], strict=False):
         start = time.perf_counter()
-        alone = skyglow(emission, observer=(x, y), kernel=kernel, progress=False)
+        alone = skyglow(Scene(emission, kernel=kernel), Observer(x, y), progress=False)
         times.append(time.perf_counter() - start)
         worst = max(worst, abs(alone.zenith_luminance - expected) / alone.zenith_luminance)
     row = {
@@ -149,7 +150,6 @@ def reference(emission: Path, kernel: Any, xy: np.ndarray, summary: Any) -> dict
 
 def candidates(emission: Path, kernel: Any, xy: np.ndarray, top_cells: int) -> dict[str, Any]:
     """How many lit cells the bounds of the top-cell search leave to be summed exactly."""
-    from nightlights.sky import Observer, Scene
     from nightlights.sky.setup import prepare_scene
 
     setup = prepare_scene(Scene(emission, kernel=kernel), Observer(*xy[0]), progress=False)

@@ -57,6 +57,7 @@ from nightlights.nightsky.render import (
 )
 from nightlights.nightsky.stage import legend_text, sky_render
 from nightlights.nightsky.tonemap import _tone_map, tone_map
+from nightlights.sky import Observer
 
 #: Helsinki, a winter evening with the waxing gibbous Moon up.
 TIME, LON, LAT = "2026-01-27T19:00:00Z", 24.95, 60.17
@@ -127,9 +128,9 @@ def compiled_picture(pano: xr.Dataset, path: Path) -> dict:
     """The picture by the stage [s]."""
     start = time.perf_counter()
     sky_render(
+        Observer.from_lonlat(LON, LAT),
         path,
         time=TIME,
-        lonlat=(LON, LAT),
         panorama=pano,
         width=PICTURE.width,
         height=PICTURE.height,

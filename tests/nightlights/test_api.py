@@ -110,11 +110,7 @@ def _in_memory_panorama() -> xr.Dataset:
     )
     kernel = nl.build_kernel(nl.KernelSpec(**KERNEL_OPTIONS), progress=False)
     sky = nl.skyglow(
-        upward.raster,
-        observer=ESPLANADI,
-        observer_crs="EPSG:4326",
-        kernel=kernel,
-        progress=False,
+        nl.Scene(upward.raster, kernel=kernel), nl.Observer.from_lonlat(*ESPLANADI), progress=False
     )
     for result in (ground, upward, kernel, sky):
         assert result.path is None

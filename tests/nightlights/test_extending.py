@@ -46,7 +46,7 @@ from nightlights.io.styles import (
     sidecar_path,
     unregister_raster_style,
 )
-from nightlights.sky import KernelSpec, build_kernel, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 from nightlights.sky.kernel import sky_luminance, sky_luminance_grid
 from nightlights.sky.montecarlo import monte_carlo_luminance
 
@@ -174,9 +174,9 @@ def test_a_toy_shape_gets_its_kernel_table_and_band_tag() -> None:
         toy["coefficient_cos2_lobe"].values, tab["coefficient_tabulated"].values
     )
     # a band tagged with the toy shape reads its table: the panorama of the same function
-    observer: dict[str, Any] = {"observer": (1000.0, 950.0), "observer_height": 0.0}
-    toy_sky = skyglow(_emission("cos2_lobe"), kernel=toy, **observer).panorama
-    tab_sky = skyglow(_emission(COS2_TEXT), kernel=tab, **observer).panorama
+    observer = Observer(1000.0, 950.0, height=0.0)
+    toy_sky = skyglow(Scene(_emission("cos2_lobe"), kernel=toy), observer).panorama
+    tab_sky = skyglow(Scene(_emission(COS2_TEXT), kernel=tab), observer).panorama
     assert float(toy_sky["luminance"].max()) > 0
     xr.testing.assert_equal(toy_sky["luminance"], tab_sky["luminance"])
     # the Monte Carlo cannot sample a table: the multiple-scattering factor borrows a shape's
@@ -203,9 +203,9 @@ def test_a_toy_region_kind_masks_and_drives_inverse_s() -> None:
         SkyRegion.parse("above:x")
     # "above:30" is the zenith cap of radius 60: S_i over it is the built-in kind's, exactly
     kernel = build_kernel(KernelSpec(**TINY), progress=False).kernel
-    common: dict[str, Any] = {"observer": (1000.0, 950.0), "kernel": kernel}
-    toy = inverse_s(_emission("lambertian"), region="above:30", **common).raster.data
-    builtin = inverse_s(_emission("lambertian"), region="zenith:60", **common).raster.data
+    scene, observer = Scene(_emission("lambertian"), kernel=kernel), Observer(1000.0, 950.0)
+    toy = inverse_s(scene, observer, region="above:30").raster.data
+    builtin = inverse_s(scene, observer, region="zenith:60").raster.data
     assert np.nansum(toy) > 0
     np.testing.assert_array_equal(toy, builtin)
 

@@ -70,13 +70,15 @@ def scene(tmp_path_factory: pytest.TempPathFactory) -> Scene:
 
 @pytest.fixture(scope="session")
 def make_session(scene: Scene) -> Callable[..., object]:
-    """A factory of fresh explore sessions of the scene (keywords go to ExploreSession)."""
+    """A factory of fresh explore sessions of the scene with its kernel (keywords go to
+    ExploreSession)."""
     from nightlights.explore._session import ExploreSession
+    from nightlights.sky import Scene as SkyScene
 
     def make(**options: object) -> object:
-        options.setdefault("kernel", scene.kernel)
         options.setdefault("progress", False)
-        return ExploreSession(scene.emission, **options)  # type: ignore[arg-type]
+        sky = SkyScene(scene.emission, kernel=scene.kernel)
+        return ExploreSession(sky, **options)  # type: ignore[arg-type]
 
     return make
 

@@ -123,9 +123,12 @@ def test_info_describes_the_session(client: TestClient, shared_session: Any, sce
 
 
 def test_panorama_equals_skyglow_panorama(client: TestClient, scene: Scene) -> None:
-    from nightlights.sky import skyglow_panorama
+    from nightlights.sky import Observer, skyglow_panorama
+    from nightlights.sky import Scene as SkyScene
 
-    expected = skyglow_panorama(scene.emission, OBSERVER, scene.kernel, progress=False).panorama
+    expected = skyglow_panorama(
+        SkyScene(scene.emission, kernel=scene.kernel), Observer(*OBSERVER), progress=False
+    ).panorama
     response = client.get("/api/panorama", params={"x": X, "y": Y})
     assert response.status_code == 200
     view = response.json()

@@ -64,7 +64,7 @@ def _synthetic_session(folder: Path) -> Any:
 
     from nightlights.explore._session import ExploreSession
     from nightlights.io import Raster
-    from nightlights.sky import KernelSpec, build_kernel
+    from nightlights.sky import KernelSpec, Scene, build_kernel
 
     n = 48
     rng = np.random.default_rng(7)
@@ -82,7 +82,7 @@ def _synthetic_session(folder: Path) -> Any:
     kernel = build_kernel(spec, folder / "kernel.nc", progress=False).path
     emission = Raster(flux[None], transform, CRS.from_epsg(32635)).write(folder / "emission.tif")
     # from files, so that the session file can name them
-    return ExploreSession(emission, lights=lights, kernel=kernel, progress=False)
+    return ExploreSession(Scene(emission, kernel=kernel), lights=lights, progress=False)
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ from nightlights.errors import InputError, OutputExistsError
 from nightlights.explore import ExploreSession, _edits
 from nightlights.inverse import InfeasibleTargetError
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec, build_kernel
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
 from nightlights.sky.forward import skyglow_panorama
 
 CRS = "EPSG:32635"
@@ -67,7 +67,7 @@ def dem() -> Raster:
 
 @pytest.fixture
 def session(kernel: xr.Dataset) -> ExploreSession:
-    return ExploreSession(_raster(2), kernel=kernel)
+    return ExploreSession(Scene(_raster(2), kernel=kernel))
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -84,7 +84,9 @@ def test_panorama_equals_the_skyglow_stage(
     session: ExploreSession, kernel: xr.Dataset, observer: tuple[float, float]
 ) -> None:
     view = session.panorama(*observer)
-    reference = skyglow_panorama(_raster(2), observer, kernel, progress=False).panorama
+    reference = skyglow_panorama(
+        Scene(_raster(2), kernel=kernel), Observer(*observer), progress=False
+    ).panorama
     assert _relative(view.luminance, reference["luminance"].values) < 1e-9
     assert view.zenith_magnitude == pytest.approx(reference.attrs["zenith_sky_brightness"])
     assert view.bortle == reference.attrs["bortle_class_zenith"]
@@ -98,11 +100,13 @@ def test_panorama_over_terrain_equals_the_skyglow_stage(
 ) -> None:
     # Observer between the kernel's two observer levels, every cell at its own height, and
     # the terrain's horizon masking the panorama.
-    session = ExploreSession(_raster(1), kernel=dem_kernel, dem=dem, observer_height=2.0)
+    session = ExploreSession(Scene(_raster(1), kernel=dem_kernel, dem=dem), height=2.0)
     for observer in (OBSERVER, (500_200.0, 6_699_100.0)):
         view = session.panorama(*observer)
         reference = skyglow_panorama(
-            _raster(1), observer, dem_kernel, dem, observer_height=2.0, progress=False
+            Scene(_raster(1), kernel=dem_kernel, dem=dem),
+            Observer(*observer, height=2.0),
+            progress=False,
         ).panorama
         assert _relative(view.luminance, reference["luminance"].values) < 1e-9
         assert view.observer_altitude == pytest.approx(reference.attrs["observer_altitude_m"])
@@ -142,7 +146,7 @@ def test_q_equals_the_inverse_stage(
     session: ExploreSession, kernel: xr.Dataset, metric: str
 ) -> None:
     view = session.influence(*OBSERVER, kind="q", metric=metric)
-    stage = nl.inverse_q(_raster(2), observer=OBSERVER, kernel=kernel, metric=metric)
+    stage = nl.inverse_q(Scene(_raster(2), kernel=kernel), Observer(*OBSERVER), metric=metric)
     assert _relative(view.grid, stage.raster.data[0]) < 1e-9
     if metric != "pca-norm":
         # the per-cell parts add up to the forward panorama's value
@@ -152,7 +156,7 @@ def test_q_equals_the_inverse_stage(
 def test_s_equals_the_inverse_stage(session: ExploreSession, kernel: xr.Dataset) -> None:
     view = session.influence(*OBSERVER, kind="s", region=REGION)
     text = " ".join(f"{az},{el}" for az, el in [*REGION, REGION[0]])
-    stage = nl.inverse_s(_raster(2), observer=OBSERVER, kernel=kernel, region=text)
+    stage = nl.inverse_s(Scene(_raster(2), kernel=kernel), Observer(*OBSERVER), region=text)
     assert _relative(view.grid, stage.raster.data[0]) < 1e-9
     assert view.total == pytest.approx(view.panorama_value, rel=1e-9)
 
@@ -184,7 +188,9 @@ def test_eq12_dimming_equals_a_panorama_of_the_dimmed_raster(
     assert 0 < fraction.max() <= 0.7
     dimmed = _raster(2)
     dimmed = Raster(dimmed.data * (1 - fraction)[None], TRANSFORM, CRS)
-    reference = skyglow_panorama(dimmed, OBSERVER, kernel, progress=False).panorama
+    reference = skyglow_panorama(
+        Scene(dimmed, kernel=kernel), Observer(*OBSERVER), progress=False
+    ).panorama
     assert _relative(view.panorama.luminance, reference["luminance"].values) < 1e-9
     flux = _raster(2).data.sum(axis=0) * 400.0  # [lm]
     assert view.flux_removed == pytest.approx(float(np.sum(flux * fraction)))
@@ -200,7 +206,10 @@ def test_least_dimming_reaches_the_target_with_the_stage_flux(
     view = session.least_dimming(*OBSERVER, target_zenith=target)
     assert view.panorama.zenith_magnitude == pytest.approx(target, abs=1e-6)
     stage = nl.least_dimming(
-        _raster(2), observers=[OBSERVER], target_zenith=target, kernel=kernel, progress=False
+        Scene(_raster(2), kernel=kernel),
+        [Observer(*OBSERVER)],
+        target_zenith=target,
+        progress=False,
     )
     assert view.flux_removed == pytest.approx(stage.summary["flux_removed_lm"], rel=1e-6)
 
@@ -299,7 +308,7 @@ def test_session_file_reopens_with_its_edits(tmp_path, kernel: xr.Dataset) -> No
     emission = _raster(2).write(tmp_path / "emission.tif")
     kernel_path = tmp_path / "kernel.nc"
     kernel.to_netcdf(kernel_path, engine="h5netcdf")
-    session = ExploreSession(emission, kernel=kernel_path)
+    session = ExploreSession(Scene(emission, kernel=kernel_path))
     session.edit("paint", [(500_300.0, 6_699_700.0)], radius=50.0, value=8.0)
     session.edit("erase", [OBSERVER], radius=100.0)
     saved = session.save(tmp_path / "s.json", observer=OBSERVER)
@@ -330,13 +339,13 @@ def test_session_file_errors(tmp_path, kernel: xr.Dataset) -> None:
     with pytest.raises(InputError, match="does not exist"):
         ExploreSession.open(bad)
     with pytest.raises(InputError, match="in-memory"):
-        ExploreSession(_raster(1), kernel=kernel).save(tmp_path / "x.json")
+        ExploreSession(Scene(_raster(1), kernel=kernel)).save(tmp_path / "x.json")
 
 
 def test_session_file_warns_when_the_emission_changed(tmp_path, kernel: xr.Dataset) -> None:
     emission = _raster(1).write(tmp_path / "emission.tif")
     kernel.to_netcdf(tmp_path / "kernel.nc", engine="h5netcdf")
-    saved = ExploreSession(emission, kernel=tmp_path / "kernel.nc").save(tmp_path / "s.json")
+    saved = ExploreSession(Scene(emission, kernel=tmp_path / "kernel.nc")).save(tmp_path / "s.json")
     _raster(1, seed=8).write(emission)
     with pytest.warns(UserWarning, match="changed"):
         ExploreSession.open(saved)
@@ -363,7 +372,7 @@ def test_scene_kernel_reaches_across_the_raster(tmp_path) -> None:
     # Without a kernel the session builds one from any cell to the farthest corner.
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        session = ExploreSession(_raster(1), cache_dir=tmp_path, progress=False)
+        session = ExploreSession(Scene(_raster(1), cache_dir=tmp_path), progress=False)
     diagonal = float(np.hypot(1200.0, 1200.0))
     assert session.kernel_info["range_m"] >= diagonal
     corner = session.panorama(500_001.0, 6_698_801.0)
@@ -380,11 +389,13 @@ def test_each_band_reads_its_emission_function_as_the_stage_does() -> None:
     table = build_kernel(spec, progress=False).kernel
     untagged = _raster(1)
     tagged = Raster(untagged.data, TRANSFORM, CRS, band_tags=({"emission_function": "uplight"},))
-    lambertian = ExploreSession(untagged, kernel=build_kernel(
+    lambertian = ExploreSession(Scene(untagged, kernel=build_kernel(
         KernelSpec(r_max=3000.0, n_distance=10, n_elevation=8, n_azimuth=32), progress=False
-    ).kernel).panorama(*OBSERVER).luminance  # fmt: skip
+    ).kernel)).panorama(*OBSERVER).luminance  # fmt: skip
     for raster in (untagged, tagged):
-        view = ExploreSession(raster, kernel=table).panorama(*OBSERVER)
-        reference = skyglow_panorama(raster, OBSERVER, table, progress=False).panorama
+        view = ExploreSession(Scene(raster, kernel=table)).panorama(*OBSERVER)
+        reference = skyglow_panorama(
+            Scene(raster, kernel=table), Observer(*OBSERVER), progress=False
+        ).panorama
         assert _relative(view.luminance, reference["luminance"].values) < 1e-9
         assert not np.allclose(view.luminance, lambertian, rtol=1e-3)

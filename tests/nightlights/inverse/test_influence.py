@@ -19,11 +19,11 @@ from nightlights.inverse import (
     least_dimming,
 )
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec, build_kernel, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 
 CELL = 100.0
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, 4000.0)
-OBSERVER = (2050.0, 1950.0)  # centre of cell (row 20, col 20)
+OBSERVER = Observer(2050.0, 1950.0)  # centre of cell (row 20, col 20)
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +82,7 @@ def test_q_falls_with_distance_for_equal_cells(kernel) -> None:
     cols = np.array([21, 22, 24, 28, 36])  # equal cells due east, 100-1600 m, distinct bins
     data[:, 19, cols] = 1.0
     for metric in ("pca-norm", "zenith", "hemisphere"):
-        q = inverse_q(_raster(data), observer=OBSERVER, kernel=kernel, metric=metric)
+        q = inverse_q(Scene(_raster(data), kernel=kernel), OBSERVER, metric=metric)
         values = q.raster.data[0, 19, cols]
         assert np.all(np.isfinite(values)) and np.all(values > 0), metric
         assert np.all(np.diff(values) < 0), (metric, values)
@@ -90,11 +90,11 @@ def test_q_falls_with_distance_for_equal_cells(kernel) -> None:
 
 def test_q_is_nan_where_unlit_and_carries_its_observer(kernel) -> None:
     city = _city()
-    q = inverse_q(city, observer=OBSERVER, kernel=kernel)
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER)
     lit = np.any(city.data != 0, axis=0)
     assert np.array_equal(np.isfinite(q.raster.data[0]), lit)
     assert q.raster.descriptions == ("q_pca_norm",) and q.raster.units == ("cd m-2",)
-    assert float(q.raster.tags["observer_x"]) == OBSERVER[0]
+    assert float(q.raster.tags["observer_x"]) == OBSERVER.x
     assert np.isnan(q.panorama_value)
 
 
@@ -102,8 +102,8 @@ def test_pca_norm_is_the_norm_of_the_cell_image(kernel) -> None:
     """Eq. 10 with orthonormal bases: Q = the L2 norm of the kernel image over the pixels."""
     data = np.zeros((1, 40, 40))
     data[0, 10, 33] = 2.0  # one cell, far enough that it is a single sub-point
-    q = inverse_q(_raster(data), observer=OBSERVER, kernel=kernel)
-    image = skyglow(_raster(data), observer=OBSERVER, kernel=kernel, observer_height=1.7)
+    q = inverse_q(Scene(_raster(data), kernel=kernel), OBSERVER)
+    image = skyglow(Scene(_raster(data), kernel=kernel), OBSERVER.replace(height=1.7))
     norm = np.sqrt(np.sum(image.panorama["luminance"].values ** 2))
     assert q.raster.data[0, 10, 33] == pytest.approx(norm, rel=1e-3)
 
@@ -111,9 +111,9 @@ def test_pca_norm_is_the_norm_of_the_cell_image(kernel) -> None:
 @pytest.mark.parametrize("metric", ["zenith", "hemisphere"])
 def test_physical_metrics_add_up_to_the_forward_panorama(kernel, metric) -> None:
     city = _city()
-    q = inverse_q(city, observer=OBSERVER, kernel=kernel, metric=metric)
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER, metric=metric)
     assert q.total == pytest.approx(q.panorama_value, rel=1e-9)
-    forward = skyglow(city, observer=OBSERVER, kernel=kernel)
+    forward = skyglow(Scene(city, kernel=kernel), OBSERVER)
     if metric == "zenith":
         assert q.total == pytest.approx(forward.zenith_luminance, rel=1e-9)
     else:
@@ -131,39 +131,19 @@ def test_sums_hold_between_kernel_levels(two_level_kernel) -> None:
     dem = Raster(
         np.linspace(0.0, 25.0, 1600).reshape(1, 40, 40), TRANSFORM, "EPSG:32635", ("height",)
     )
-    q = inverse_q(
-        city,
-        observer=OBSERVER,
-        kernel=two_level_kernel,
-        metric="zenith",
-        dem=dem,
-        observer_height=3.0,
-    )
+    scene = Scene(city, kernel=two_level_kernel, dem=dem)
+    eye = OBSERVER.replace(height=3.0)
+    q = inverse_q(scene, eye, metric="zenith")
     assert q.total == pytest.approx(q.panorama_value, rel=1e-9)
-    s = inverse_s(
-        city,
-        observer=OBSERVER,
-        kernel=two_level_kernel,
-        dem=dem,
-        region="horizon:0,180,40",
-        observer_height=3.0,
-    )
-    brute = inverse_s(
-        city,
-        observer=OBSERVER,
-        kernel=two_level_kernel,
-        dem=dem,
-        region="horizon:0,180,40",
-        observer_height=3.0,
-        method="brute",
-    )
+    s = inverse_s(scene, eye, region="horizon:0,180,40")
+    brute = inverse_s(scene, eye, region="horizon:0,180,40", method="brute")
     lit = np.isfinite(s.raster.data)
     assert np.allclose(s.raster.data[lit], brute.raster.data[lit], rtol=1e-4, atol=0)
 
 
 def test_an_observer_outside_the_raster_within_reach_is_fine(kernel) -> None:
     city = _city()
-    q = inverse_q(city, observer=(4500.0, 2000.0), kernel=kernel, metric="zenith")
+    q = inverse_q(Scene(city, kernel=kernel), Observer(4500.0, 2000.0), metric="zenith")
     assert q.total == pytest.approx(q.panorama_value, rel=1e-9) and q.total > 0
 
 
@@ -171,7 +151,7 @@ def test_eastern_region_ranks_the_eastern_cell_first(kernel) -> None:
     data = np.zeros((2, 40, 40))
     data[:, 19, 30] = 1.0  # 1 km east
     data[:, 19, 10] = 1.0  # 1 km west
-    s = inverse_s(_raster(data), observer=OBSERVER, kernel=kernel, region="horizon:45,135,30")
+    s = inverse_s(Scene(_raster(data), kernel=kernel), OBSERVER, region="horizon:45,135,30")
     east, west = s.raster.data[0, 19, 30], s.raster.data[0, 19, 10]
     assert east > 5 * west > 0
 
@@ -181,10 +161,9 @@ def test_s_equals_the_brute_force_and_the_panorama(full_kernel, weight) -> None:
     kernel = full_kernel
     city = _city(7)
     region = "200,10 260,10 260,50 200,50 200,10"
-    fast = inverse_s(city, observer=OBSERVER, kernel=kernel, region=region, weight=weight)
-    brute = inverse_s(
-        city, observer=OBSERVER, kernel=kernel, region=region, weight=weight, method="brute"
-    )
+    scene = Scene(city, kernel=kernel)
+    fast = inverse_s(scene, OBSERVER, region=region, weight=weight)
+    brute = inverse_s(scene, OBSERVER, region=region, weight=weight, method="brute")
     lit = np.isfinite(fast.raster.data)
     assert np.array_equal(lit, np.isfinite(brute.raster.data))
     assert np.allclose(fast.raster.data[lit], brute.raster.data[lit], rtol=1e-4, atol=0)
@@ -196,11 +175,12 @@ def test_few_bases_are_worse_than_all(full_kernel) -> None:
     kernel = full_kernel
     city = _city(7)
     region = "zenith:30"
-    brute = inverse_s(city, observer=OBSERVER, kernel=kernel, region=region, method="brute")
+    scene = Scene(city, kernel=kernel)
+    brute = inverse_s(scene, OBSERVER, region=region, method="brute")
     lit = np.isfinite(brute.raster.data)
     errors = []
     for components in (1, None):
-        s = inverse_s(city, observer=OBSERVER, kernel=kernel, region=region, components=components)
+        s = inverse_s(scene, OBSERVER, region=region, components=components)
         ratio = s.raster.data[lit] / brute.raster.data[lit]
         errors.append(np.max(np.abs(ratio - 1)))
     assert errors[1] < 1e-4 < 1e-2 < errors[0]
@@ -209,7 +189,7 @@ def test_few_bases_are_worse_than_all(full_kernel) -> None:
 def test_dimming_the_top_s_cells_beats_a_uniform_cut(kernel) -> None:
     city = _city(11)
     region = "horizon:250,330,25"
-    s = inverse_s(city, observer=OBSERVER, kernel=kernel, region=region)
+    s = inverse_s(Scene(city, kernel=kernel), OBSERVER, region=region)
     values = np.nan_to_num(s.raster.data[0], nan=-1.0)
     flux = city.data.sum(axis=0)
     top = values >= np.quantile(values[values >= 0], 0.9)
@@ -218,7 +198,7 @@ def test_dimming_the_top_s_cells_beats_a_uniform_cut(kernel) -> None:
     targeted = _raster(city.data * ~top[None])
     even = _raster(city.data * (1.0 - uniform))
     region_of = [
-        inverse_s(r, observer=OBSERVER, kernel=kernel, region=region).panorama_value
+        inverse_s(Scene(r, kernel=kernel), OBSERVER, region=region).panorama_value
         for r in (city, targeted, even)
     ]
     assert region_of[1] < region_of[2] < region_of[0]
@@ -226,17 +206,16 @@ def test_dimming_the_top_s_cells_beats_a_uniform_cut(kernel) -> None:
 
 def test_reduce_writes_the_dimmed_emission_and_a_summary(kernel, tmp_path: Path) -> None:
     city = _city(13)
-    q = inverse_q(city, tmp_path / "q.tif", observer=OBSERVER, kernel=kernel, metric="zenith")
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER, tmp_path / "q.tif", metric="zenith")
     lit = np.isfinite(q.raster.data[0])
     qa, qb = np.quantile(q.raster.data[0][lit], [0.5, 0.9])
     result = inverse_reduce(
-        city,
+        Scene(city, kernel=kernel),
         tmp_path / "reduced.tif",
         by=tmp_path / "q.tif",
         qa=qa,
         qb=qb,
         gamma=1.0,
-        kernel=kernel,
         dimming_output=tmp_path / "dimming.tif",
         summary_output=tmp_path / "summary.json",
         png=tmp_path / "before_after.png",
@@ -261,27 +240,25 @@ def test_reduce_writes_the_dimmed_emission_and_a_summary(kernel, tmp_path: Path)
 
 def test_least_dimming_meets_its_targets(kernel) -> None:
     city = _city(17)
-    observers = [OBSERVER, (1050.0, 2950.0)]
-    zenith = [skyglow(city, observer=o, kernel=kernel).zenith_magnitude for o in observers]
+    observers = [OBSERVER, Observer(1050.0, 2950.0)]
+    scene = Scene(city, kernel=kernel)
+    zenith = [skyglow(scene, o).zenith_magnitude for o in observers]
     target = max(zenith) + 0.5  # half a magnitude darker than the darker of the two
-    plan = least_dimming(
-        city, observers=observers, target_zenith=target, max_dimming=0.9, kernel=kernel
-    )
+    plan = least_dimming(scene, observers, target_zenith=target, max_dimming=0.9)
     assert plan.summary["plan"]["method"] == "lp"
     for entry in plan.summary["observers"]:
         assert entry["zenith"]["after_mag_arcsec2"] >= target - 1e-6
     fraction = np.nan_to_num(plan.dimming.data[0])
     assert fraction.max() <= 0.9 + 1e-12
-    after = [skyglow(plan.raster, observer=o, kernel=kernel).zenith_magnitude for o in observers]
+    after = [skyglow(Scene(plan.raster, kernel=kernel), o).zenith_magnitude for o in observers]
     assert min(after) >= target - 1e-6
 
 
 def test_one_target_is_solved_by_the_greedy_rule(kernel) -> None:
     city = _city(19)
-    before = skyglow(city, observer=OBSERVER, kernel=kernel).zenith_magnitude
-    plan = least_dimming(
-        city, observers=[OBSERVER], target_region=[("zenith:40", before + 0.3)], kernel=kernel
-    )
+    scene = Scene(city, kernel=kernel)
+    before = skyglow(scene, OBSERVER).zenith_magnitude
+    plan = least_dimming(scene, [OBSERVER], target_region=[("zenith:40", before + 0.3)])
     assert plan.summary["plan"]["method"] == "greedy"
     region = plan.summary["observers"][0]["regions"][0]
     assert region["after_mag_arcsec2"] >= before + 0.3 - 1e-6
@@ -291,12 +268,11 @@ def test_infeasible_targets_fail_clearly_and_write_nothing(kernel, tmp_path: Pat
     city = _city(23)
     with pytest.raises(InfeasibleTargetError, match="reachable"):
         least_dimming(
-            city,
+            Scene(city, kernel=kernel),
+            [OBSERVER],
             tmp_path / "reduced.tif",
-            observers=[OBSERVER],
             target_zenith=30.0,
             max_dimming=0.5,
-            kernel=kernel,
             summary_output=tmp_path / "summary.json",
         )
     assert list(tmp_path.iterdir()) == []
@@ -305,15 +281,15 @@ def test_infeasible_targets_fail_clearly_and_write_nothing(kernel, tmp_path: Pat
 @pytest.mark.parametrize(
     ("options", "match"),
     [
-        ({"observer": (9000.0, 100.0)}, "outside"),  # 5 km beyond the 4 km kernel
-        ({"observer": (2000.0, 3.0e6)}, "outside"),  # a swapped-coordinates mistake
+        ({"observer": Observer(9000.0, 100.0)}, "outside"),  # 5 km beyond the 4 km kernel
+        ({"observer": Observer(2000.0, 3.0e6)}, "outside"),  # a swapped-coordinates mistake
         ({"metric": "brightest"}, "metric"),
     ],
 )
 def test_q_errors_write_nothing(kernel, tmp_path: Path, options, match) -> None:
-    arguments = {"observer": OBSERVER, "kernel": kernel, **options}
+    arguments = {"observer": OBSERVER, **options}
     with pytest.raises(InputError, match=match):
-        inverse_q(_city(), tmp_path / "q.tif", **arguments)
+        inverse_q(Scene(_city(), kernel=kernel), output=tmp_path / "q.tif", **arguments)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -326,25 +302,25 @@ def test_q_errors_write_nothing(kernel, tmp_path: Path, options, match) -> None:
 )
 def test_bad_regions_fail_before_any_work(kernel, tmp_path: Path, region, match) -> None:
     with pytest.raises(InputError, match=match):
-        inverse_s(_city(), tmp_path / "s.tif", observer=OBSERVER, kernel=kernel, region=region)
+        inverse_s(Scene(_city(), kernel=kernel), OBSERVER, tmp_path / "s.tif", region=region)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_reduce_rejects_a_bad_rule(kernel, tmp_path: Path) -> None:
     city = _city()
-    q = inverse_q(city, observer=OBSERVER, kernel=kernel)
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER)
     for qa, qb, gamma in ((2.0, 1.0, 1.0), (0.0, 1.0, 1.5)):
         with pytest.raises(InputError):
-            inverse_reduce(city, tmp_path / "r.tif", by=q.raster, qa=qa, qb=qb, gamma=gamma)
+            inverse_reduce(Scene(city), tmp_path / "r.tif", by=q.raster, qa=qa, qb=qb, gamma=gamma)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_magnitudes_in_the_summary_are_consistent(kernel) -> None:
     city = _city(29)
-    q = inverse_q(city, observer=OBSERVER, kernel=kernel)
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER)
     values = q.raster.data[0][np.isfinite(q.raster.data[0])]
     result = inverse_reduce(
-        city, by=q.raster, qa=float(np.median(values)), qb=float(values.max()), kernel=kernel
+        Scene(city, kernel=kernel), by=q.raster, qa=float(np.median(values)), qb=float(values.max())
     )
     zenith = result.summary["observers"][0]["zenith"]
     assert zenith["after_mag_arcsec2"] == pytest.approx(
@@ -357,13 +333,15 @@ def test_dimming_refuses_a_raster_larger_than_the_memory_limit(kernel, tmp_path:
     from nightlights.errors import ResourceError
 
     city = _city(31)
-    q = inverse_q(city, observer=OBSERVER, kernel=kernel)
+    q = inverse_q(Scene(city, kernel=kernel), OBSERVER)
     set_memory_limit(100_000)  # [B]: the 40 x 40 grid needs about 0.1 MB
     try:
         with pytest.raises(ResourceError, match="dimming the 40 x 40 emission raster"):
-            inverse_reduce(city, tmp_path / "r.tif", by=q.raster, qa=0.0, qb=1.0, kernel=kernel)
+            inverse_reduce(
+                Scene(city, kernel=kernel), tmp_path / "r.tif", by=q.raster, qa=0.0, qb=1.0
+            )
         with pytest.raises(ResourceError, match="NIGHTLIGHTS_MAX_MEMORY"):
-            least_dimming(city, observers=[OBSERVER], target_zenith=25.0, kernel=kernel)
+            least_dimming(Scene(city, kernel=kernel), [OBSERVER], target_zenith=25.0)
     finally:
         set_memory_limit(None)
     assert list(tmp_path.iterdir()) == []

@@ -16,9 +16,10 @@ from distributed import Client, LocalCluster
 from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError
 from nightlights.io import Raster
-from nightlights.sky import KernelSpec, build_kernel
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
 from nightlights.sky.darkness import DarknessResult, darkness, zenith_per_lumen
 from nightlights.sky.forward import skyglow_panorama
+from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import kernel_slice
 from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import kernel_cache_path
@@ -83,11 +84,15 @@ def terrain_kernel() -> xr.Dataset:
     return build_kernel(spec, progress=False).kernel
 
 
-def panorama_zenith(raster: Raster, cell: tuple[int, int], kernel, **options) -> float:
+def panorama_zenith(
+    scene: Scene, cell: tuple[int, int], *, height: float = OBSERVER_HEIGHT, mode: str
+) -> float:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
-        scene = skyglow_panorama(raster, centre(*cell), kernel, progress=False, **options)
-    return float(scene.panorama.attrs["zenith_luminance_cd_m2"])
+        sky = skyglow_panorama(
+            scene, Observer(*centre(*cell), height=height), mode=mode, progress=False
+        )
+    return float(sky.panorama.attrs["zenith_luminance_cd_m2"])
 
 
 # --- the forward panorama's zenith at every cell ------------------------------------------------
@@ -99,12 +104,11 @@ CELLS = [(11, 21), (30, 5), (0, 0), (39, 39), (20, 39), (0, 17), (5, 5)]
 @pytest.mark.parametrize("observer_height", [0.0, 1.7, 6.0])
 def test_flat_map_equals_the_panorama_zenith(kernel: xr.Dataset, observer_height: float) -> None:
     raster = emission(bands=2)
-    result = darkness(raster, kernel=kernel, observer_height=observer_height, progress=False)
+    scene = Scene(raster, kernel=kernel)
+    result = darkness(scene, height=observer_height, progress=False)
     zenith = result.raster.data[0]
     for cell in CELLS:
-        expected = panorama_zenith(
-            raster, cell, kernel, observer_height=observer_height, mode="exact"
-        )
+        expected = panorama_zenith(scene, cell, height=observer_height, mode="exact")
         assert zenith[cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL), cell
 
 
@@ -114,9 +118,10 @@ def test_flat_ground_between_two_source_levels_is_split_as_the_panorama_splits_i
     )
     straddling = build_kernel(spec, progress=False).kernel
     raster = emission(n=30)
-    zenith = darkness(raster, kernel=straddling, observer_height=0.0, progress=False)
+    scene = Scene(raster, kernel=straddling)
+    zenith = darkness(scene, height=0.0, progress=False)
     for cell in [(8, 16), (0, 0), (29, 29)]:
-        expected = panorama_zenith(raster, cell, straddling, observer_height=0.0, mode="exact")
+        expected = panorama_zenith(scene, cell, height=0.0, mode="exact")
         assert zenith.raster.data[0][cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL)
 
 
@@ -124,9 +129,10 @@ def test_pca_only_kernel_uses_the_dc_term_and_equals_the_pca_panorama() -> None:
     spec = KernelSpec(r_max=6000.0, n_distance=16, n_elevation=8, n_azimuth=32, store_tables=False)
     pca_only = build_kernel(spec, progress=False).kernel
     raster = emission(n=30)
-    zenith = darkness(raster, kernel=pca_only, observer_height=0.0, progress=False).raster.data[0]
+    scene = Scene(raster, kernel=pca_only)
+    zenith = darkness(scene, height=0.0, progress=False).raster.data[0]
     for cell in [(11, 21), (0, 0), (29, 29), (20, 5)]:
-        expected = panorama_zenith(raster, cell, pca_only, observer_height=0.0, mode="pca")
+        expected = panorama_zenith(scene, cell, height=0.0, mode="pca")
         assert zenith[cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL), cell
 
 
@@ -152,9 +158,10 @@ def test_terrain_map_equals_per_cell_panoramas_with_the_same_kernel(
 ) -> None:
     """Source levels and observer-level interpolation are the panorama's: float rounding."""
     raster, dem = emission(), hills()
-    zenith = darkness(raster, kernel=terrain_kernel, dem=dem, progress=False).raster.data[0]
+    scene = Scene(raster, kernel=terrain_kernel, dem=dem)
+    zenith = darkness(scene, progress=False).raster.data[0]
     for cell in CELLS:
-        expected = panorama_zenith(raster, cell, terrain_kernel, dem=dem, mode="exact")
+        expected = panorama_zenith(scene, cell, mode="exact")
         assert zenith[cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL), cell
 
 
@@ -165,9 +172,10 @@ def test_terrain_map_is_within_a_few_percent_of_per_cell_scene_kernels(tmp_path:
     bench_sky_source_levels), and by the binning; the benchmark measures default kernels."""
     raster, dem = emission(n=24), hills(n=24, relief=30.0)
     small = {"n_distance": 16, "n_elevation": 8, "n_azimuth": 32, "cache_dir": tmp_path}
-    zenith = darkness(raster, dem=dem, progress=False, **small).raster.data[0]
+    scene = Scene(raster, dem=dem, **small)
+    zenith = darkness(scene, progress=False).raster.data[0]
     for cell in [(11, 21), (0, 0), (20, 3)]:
-        expected = panorama_zenith(raster, cell, None, dem=dem, mode="exact", **small)
+        expected = panorama_zenith(scene, cell, mode="exact")
         assert zenith[cell] == pytest.approx(expected, rel=0.05), cell
 
 
@@ -194,8 +202,9 @@ def test_chunks_equal_one_fft(short_kernel: xr.Dataset, terrain: bool) -> None:
     dem = hills(n=80) if terrain else None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)  # region wider than the kernel
-        one = darkness(raster, kernel=short_kernel, dem=dem, progress=False)
-        chunked = darkness(raster, kernel=short_kernel, dem=dem, chunk_size=24, progress=False)
+        scene = Scene(raster, kernel=short_kernel, dem=dem)
+        one = darkness(scene, progress=False)
+        chunked = darkness(scene, chunk_size=24, progress=False)
     assert "1 chunk(s)" in one.raster.tags["method"]
     assert "9 chunk(s) of 24 cells" in chunked.raster.tags["method"]
     np.testing.assert_allclose(chunked.raster.data[0], one.raster.data[0], rtol=1e-12)
@@ -204,7 +213,7 @@ def test_chunks_equal_one_fft(short_kernel: xr.Dataset, terrain: bool) -> None:
 def test_small_chunks_grow_to_twice_the_stencil_radius(short_kernel: xr.Dataset) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
-        result = darkness(emission(n=80), kernel=short_kernel, chunk_size=5, progress=False)
+        result = darkness(Scene(emission(n=80), kernel=short_kernel), chunk_size=5, progress=False)
     assert "of 24 cells" in result.raster.tags["method"]  # radius 12 cells
 
 
@@ -214,18 +223,19 @@ def test_small_chunks_grow_to_twice_the_stencil_radius(short_kernel: xr.Dataset)
 )
 def test_local_cluster_equals_single_process(short_kernel: xr.Dataset, processes: bool) -> None:
     raster, dem = emission(n=80, seed=5), hills(n=80)
-    options = {"kernel": short_kernel, "dem": dem, "chunk_size": 24, "progress": False}
+    scene = Scene(raster, kernel=short_kernel, dem=dem)
+    options = {"chunk_size": 24, "progress": False}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
-        local = darkness(raster, **options)
+        local = darkness(scene, **options)
         with (
             LocalCluster(
                 n_workers=2, threads_per_worker=1, processes=processes, dashboard_address=None
             ) as cluster,
             Client(cluster) as client,
         ):
-            by_address = darkness(raster, scheduler=cluster.scheduler_address, **options)
-            by_client = darkness(raster, scheduler=client, **options)
+            by_address = darkness(scene, scheduler=cluster.scheduler_address, **options)
+            by_client = darkness(scene, scheduler=client, **options)
     np.testing.assert_allclose(by_address.raster.data, local.raster.data, rtol=1e-12)
     np.testing.assert_allclose(by_client.raster.data, local.raster.data, rtol=1e-12)
     assert by_client.raster.tags == local.raster.tags
@@ -237,7 +247,8 @@ def test_local_cluster_equals_single_process(short_kernel: xr.Dataset, processes
 def test_scene_kernel_covers_the_diagonal_and_the_eye_altitudes(tmp_path: Path) -> None:
     raster, dem = emission(n=20), hills(n=20)
     small = {"n_distance": 8, "n_elevation": 8, "n_azimuth": 16, "cache_dir": tmp_path}
-    result = darkness(raster, dem=dem, observer_height=2.0, progress=False, **small)
+    scene = Scene(raster, dem=dem, **small)
+    result = darkness(scene, height=2.0, progress=False)
     cached = list(tmp_path.glob("kernel-*.nc"))
     assert len(cached) == 1
     table = xr.load_dataset(cached[0], engine="h5netcdf")
@@ -250,7 +261,7 @@ def test_scene_kernel_covers_the_diagonal_and_the_eye_altitudes(tmp_path: Path) 
     assert observer.min() == pytest.approx(heights.min() + 2.0)
     assert observer.max() == pytest.approx(heights.max() + 2.0)
     assert np.diff(observer).max() <= 50.0 + 1e-9  # the source-level spacing
-    again = darkness(raster, dem=dem, observer_height=2.0, progress=False, **small)
+    again = darkness(scene, height=2.0, progress=False)
     np.testing.assert_array_equal(again.raster.data, result.raster.data)  # reused
 
 
@@ -260,7 +271,7 @@ def test_region_beyond_the_largest_kernel_range_warns(tmp_path: Path) -> None:
     huge = Raster(flux, Affine(100_000, 0, 0, 0, -100_000, 400_000), CRS)
     small = {"n_distance": 4, "n_elevation": 4, "n_azimuth": 8, "cache_dir": tmp_path}
     with pytest.warns(DataQualityWarning, match="left out"):
-        result = darkness(huge, progress=False, **small)
+        result = darkness(Scene(huge, **small), progress=False)
     assert float(result.raster.tags["kernel_range_m"]) == MAX_KERNEL_RANGE
     zenith = result.raster.data[0]
     assert zenith[0, 0] > 0
@@ -273,8 +284,9 @@ def test_region_beyond_the_largest_kernel_range_warns(tmp_path: Path) -> None:
 def test_map_is_linear_symmetric_and_peaks_under_the_light(kernel: xr.Dataset) -> None:
     flux = np.zeros((1, 31, 31))
     flux[0, 15, 15] = 2.0
-    one = darkness(Raster(flux, TRANSFORM, CRS), kernel=kernel, progress=False).raster.data[0]
-    double = darkness(Raster(2 * flux, TRANSFORM, CRS), kernel=kernel, progress=False)
+    one = darkness(Scene(Raster(flux, TRANSFORM, CRS), kernel=kernel), progress=False)
+    one = one.raster.data[0]
+    double = darkness(Scene(Raster(2 * flux, TRANSFORM, CRS), kernel=kernel), progress=False)
     np.testing.assert_allclose(double.raster.data[0], 2 * one, rtol=1e-12)
     np.testing.assert_allclose(one, one[::-1, :], rtol=1e-9)
     np.testing.assert_allclose(one, one.T, rtol=1e-9)
@@ -286,19 +298,19 @@ def test_dark_emission_is_refused_not_reported_as_a_dark_sky(kernel: xr.Dataset)
     for values in (np.nan, 0.0):
         dark = Raster(np.full((1, 10, 10), values), TRANSFORM, CRS)
         with pytest.raises(InputError, match="no lit cell"):
-            darkness(dark, kernel=kernel, progress=False)
+            darkness(Scene(dark, kernel=kernel), progress=False)
 
 
 def test_infinite_emission_is_refused_with_its_count(kernel: xr.Dataset) -> None:
     flux = emission().data.copy()
     flux[0, 1, 1] = flux[0, 2, 2] = np.inf
     with pytest.raises(InputError, match="2 non-finite"):
-        darkness(Raster(flux, TRANSFORM, CRS), kernel=kernel, progress=False)
+        darkness(Scene(Raster(flux, TRANSFORM, CRS), kernel=kernel), progress=False)
 
 
 def test_grid_options_that_the_kernel_fixes_are_refused(kernel: xr.Dataset) -> None:
     with pytest.raises(InputError, match="n_azimuth=2: the kernel fixes the grid"):
-        darkness(emission(), kernel=kernel, n_azimuth=2, progress=False)
+        darkness(Scene(emission(), kernel=kernel, n_azimuth=2), progress=False)
 
 
 # --- output ----------------------------------------------------------------------
@@ -306,7 +318,7 @@ def test_grid_options_that_the_kernel_fixes_are_refused(kernel: xr.Dataset) -> N
 
 def test_writes_a_two_band_cog_with_its_provenance(kernel: xr.Dataset, tmp_path: Path) -> None:
     out = tmp_path / "zenith.tif"
-    result = darkness(emission(), out, kernel=kernel, observer_height=1.7, progress=False)
+    result = darkness(Scene(emission(), kernel=kernel), out, height=1.7, progress=False)
     assert isinstance(result, DarknessResult) and result.path == out and result.seconds > 0
     written = Raster.read(out)
     assert written.descriptions == ("zenith_luminance", "zenith_sky_brightness")
@@ -325,23 +337,25 @@ def test_writes_a_two_band_cog_with_its_provenance(kernel: xr.Dataset, tmp_path:
 
 def test_errors_are_one_line(kernel: xr.Dataset, tmp_path: Path) -> None:
     raster = emission(n=10)
+    # (error, message, scene fields, stage options)
     cases = [
-        (CRSError, "projected CRS", {"emission": Raster(raster.data, TRANSFORM, "EPSG:4326")}),
-        (InputError, "negative flux", {"emission": Raster(-raster.data, TRANSFORM, CRS)}),
-        (InputError, "3 bands", {"emission": Raster(np.ones((3, 5, 5)), TRANSFORM, CRS)}),
-        (InputError, "chunk size 0", {"chunk_size": 0}),
-        (InputError, "chunk size 2.5", {"chunk_size": 2.5}),
-        (InputError, "chunk size True", {"chunk_size": True}),
-        (InputError, "height=-1.0 m", {"observer_height": -1.0}),
-        (OutputError, "does not exist", {"output": tmp_path / "missing" / "z.tif"}),
-        (InputError, "turbidity 5", {"turbidity": 5.0}),
-        (InputError, "covering the whole", {"dem": Raster(np.ones((5, 5)), TRANSFORM, CRS)}),
-        (CRSError, "DEM", {"dem": Raster(np.ones((10, 10)), TRANSFORM, "EPSG:3067")}),
+        (CRSError, "projected CRS", {"emission": Raster(raster.data, TRANSFORM, "EPSG:4326")}, {}),
+        (InputError, "negative flux", {"emission": Raster(-raster.data, TRANSFORM, CRS)}, {}),
+        (InputError, "3 bands", {"emission": Raster(np.ones((3, 5, 5)), TRANSFORM, CRS)}, {}),
+        (InputError, "chunk size 0", {}, {"chunk_size": 0}),
+        (InputError, "chunk size 2.5", {}, {"chunk_size": 2.5}),
+        (InputError, "chunk size True", {}, {"chunk_size": True}),
+        (InputError, "height=-1.0 m", {}, {"height": -1.0}),
+        (OutputError, "does not exist", {}, {"output": tmp_path / "missing" / "z.tif"}),
+        (InputError, "turbidity 5", {"turbidity": 5.0}, {}),
+        (InputError, "covering the whole", {"dem": Raster(np.ones((5, 5)), TRANSFORM, CRS)}, {}),
+        (CRSError, "DEM", {"dem": Raster(np.ones((10, 10)), TRANSFORM, "EPSG:3067")}, {}),
     ]
-    for error, message, override in cases:
-        arguments = {"emission": raster, "kernel": kernel, "progress": False, **override}
+    for error, message, fields, options in cases:
         with pytest.raises(error, match=message) as info:
-            darkness(**arguments)
+            darkness(
+                Scene(**{"emission": raster, "kernel": kernel, **fields}), progress=False, **options
+            )
         assert "\n" not in str(info.value)
 
 
@@ -349,9 +363,9 @@ def test_uplight_band_needs_an_uplight_kernel() -> None:
     spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
     lambertian = build_kernel(spec, progress=False).kernel
     with pytest.raises(InputError, match="no uplight table"):
-        darkness(emission(n=10, bands=2), kernel=lambertian, progress=False)
+        darkness(Scene(emission(n=10, bands=2), kernel=lambertian), progress=False)
 
 
 def test_eyes_outside_the_kernel_levels_warn(kernel: xr.Dataset) -> None:
     with pytest.warns(DataQualityWarning, match="outside the kernel's observer levels"):
-        darkness(emission(n=10), kernel=kernel, observer_height=30.0, progress=False)
+        darkness(Scene(emission(n=10), kernel=kernel), height=30.0, progress=False)

@@ -28,7 +28,7 @@ from nightlights.ground.upward import (
     viirs_radiance_to_flux_density,
 )
 from nightlights.io import Raster
-from nightlights.sky import _kernel_numba
+from nightlights.sky import Observer, Scene, _kernel_numba
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.forward import skyglow_panorama
@@ -367,7 +367,7 @@ def test_a_band_mix_needs_the_shapes_in_the_kernel() -> None:
 # -- the band tag emission_function ----------------------------------------------------------
 
 CITY_TRANSFORM = Affine(100.0, 0.0, 500_000.0, 0.0, -100.0, 6_702_000.0)
-CITY_OBSERVER = (501_000.0, 6_701_000.0)
+CITY_OBSERVER = Observer(501_000.0, 6_701_000.0)
 SCENE_GRID = {"n_elevation": 8, "n_azimuth": 32, "n_distance": 12}
 
 
@@ -402,25 +402,25 @@ def test_untagged_single_band_reads_garstang_with_a_scene_kernel(tmp_path: Path)
     """The scene kernel gets the lobe table; the panorama equals the tagged garstang band's
     and its attributes say which function the band was given."""
     untagged = skyglow_panorama(
-        _city(), CITY_OBSERVER, cache_dir=tmp_path, progress=False, **SCENE_GRID
+        Scene(_city(), cache_dir=tmp_path, **SCENE_GRID), CITY_OBSERVER, progress=False
     ).panorama
     assert untagged.attrs["emission_functions"] == "garstang:0.15,0.15"
     assert untagged.attrs["emission_function_sources"] == "default"
     tagged = skyglow_panorama(
-        _city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)),
+        Scene(
+            _city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)),
+            cache_dir=tmp_path,
+            **SCENE_GRID,
+        ),
         CITY_OBSERVER,
-        cache_dir=tmp_path,
         progress=False,
-        **SCENE_GRID,
     ).panorama
     assert tagged.attrs["emission_function_sources"] == "tag"
     np.testing.assert_array_equal(untagged["luminance"], tagged["luminance"])
     lambertian = skyglow_panorama(
-        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)),
+        Scene(_city(({EMISSION_FUNCTION_TAG: "lambertian"},)), cache_dir=tmp_path, **SCENE_GRID),
         CITY_OBSERVER,
-        cache_dir=tmp_path,
         progress=False,
-        **SCENE_GRID,
     ).panorama
     assert lambertian.attrs["emission_functions"] == "lambertian"
     # the low-angle lobe lights the sky near the horizon more than a Lambertian ground
@@ -431,20 +431,18 @@ def test_untagged_single_band_reads_garstang_with_a_scene_kernel(tmp_path: Path)
 def test_untagged_band_with_a_given_kernel_without_the_lobe(small_kernel: xr.Dataset) -> None:
     """Read as Lambertian, as before the default, and said so; a tagged Garstang band needs
     the lobe table."""
-    kwargs = {"observer_height": 0.0}
-    untagged = skyglow_panorama(_city(), CITY_OBSERVER, small_kernel, **kwargs).panorama
+    eye = CITY_OBSERVER.replace(height=0.0)
+    untagged = skyglow_panorama(Scene(_city(), kernel=small_kernel), eye).panorama
     assert untagged.attrs["emission_functions"] == "lambertian"
     assert "needs the kernel's garstang_lobe table" in untagged.attrs["emission_function_sources"]
     lambertian = skyglow_panorama(
-        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)), CITY_OBSERVER, small_kernel, **kwargs
+        Scene(_city(({EMISSION_FUNCTION_TAG: "lambertian"},)), kernel=small_kernel), eye
     ).panorama
     np.testing.assert_array_equal(untagged["luminance"], lambertian["luminance"])
     with pytest.raises(InputError, match="no garstang_lobe table"):
         skyglow_panorama(
-            _city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)),
-            CITY_OBSERVER,
-            small_kernel,
-            **kwargs,
+            Scene(_city(({EMISSION_FUNCTION_TAG: "garstang:0.15,0.15"},)), kernel=small_kernel),
+            eye,
         )
 
 
@@ -452,10 +450,10 @@ def test_tagged_bands_pca_against_naive(lobe_kernel: xr.Dataset) -> None:
     """Two bands with their own functions (uplight, garstang) in pca mode against the direct
     integration of each band's mix."""
     city = _city(({EMISSION_FUNCTION_TAG: "uplight"}, {EMISSION_FUNCTION_TAG: "garstang:0.2,0.1"}))
-    observer = (501_000.0, 6_700_500.0)
-    kwargs = {"observer_height": 0.0}
-    pca = skyglow_panorama(city, observer, lobe_kernel, **kwargs).panorama
-    naive = skyglow_panorama(city, observer, lobe_kernel, mode="naive", **kwargs).panorama
+    observer = Observer(501_000.0, 6_700_500.0, height=0.0)
+    scene = Scene(city, kernel=lobe_kernel)
+    pca = skyglow_panorama(scene, observer).panorama
+    naive = skyglow_panorama(scene, observer, mode="naive").panorama
     assert pca.attrs["emission_functions"] == "uplight; garstang:0.2,0.1"
     a, b = pca["luminance"].values, naive["luminance"].values
     bright = b > 0.01 * b.max()
@@ -544,26 +542,24 @@ def test_tabulated_kernel_table_and_band(tmp_path: Path) -> None:
         kernel["kernel_tabulated"].values, kernel["kernel"].values, rtol=1e-4, atol=0
     )
     tabulated = skyglow_panorama(
-        _city(({EMISSION_FUNCTION_TAG: cosine},)),
+        Scene(_city(({EMISSION_FUNCTION_TAG: cosine},)), cache_dir=tmp_path, **SCENE_GRID),
         CITY_OBSERVER,
-        cache_dir=tmp_path,
         progress=False,
-        **SCENE_GRID,
     ).panorama
     assert tabulated.attrs["emission_functions"] == parse_tabulated_emission(cosine)[0]
     lambertian = skyglow_panorama(
-        _city(({EMISSION_FUNCTION_TAG: "lambertian"},)),
+        Scene(_city(({EMISSION_FUNCTION_TAG: "lambertian"},)), cache_dir=tmp_path, **SCENE_GRID),
         CITY_OBSERVER,
-        cache_dir=tmp_path,
         progress=False,
-        **SCENE_GRID,
     ).panorama
     np.testing.assert_allclose(tabulated["luminance"], lambertian["luminance"], rtol=1e-3)
     with pytest.raises(InputError, match="2 different tabulated"):
         skyglow_panorama(
-            _city(({EMISSION_FUNCTION_TAG: cosine}, {EMISSION_FUNCTION_TAG: PEAKED})),
+            Scene(
+                _city(({EMISSION_FUNCTION_TAG: cosine}, {EMISSION_FUNCTION_TAG: PEAKED})),
+                cache_dir=tmp_path,
+                **SCENE_GRID,
+            ),
             CITY_OBSERVER,
-            cache_dir=tmp_path,
             progress=False,
-            **SCENE_GRID,
         )

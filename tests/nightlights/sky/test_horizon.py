@@ -9,7 +9,7 @@ from affine import Affine
 
 from nightlights.errors import CRSError, InputError
 from nightlights.io import RasterBand, write_cog
-from nightlights.sky import skyglow
+from nightlights.sky import Observer, Scene, skyglow
 from nightlights.sky.horizon import ground_height, horizon_elevation
 
 T = Affine(50.0, 0, 0, 0, -50.0, 8000.0)  # 160 x 160 cells of 50 m
@@ -57,7 +57,7 @@ def test_stage_masks_the_panorama_below_the_terrain(tmp_path, small_kernel) -> N
     )
     out = tmp_path / "pano.nc"
     one_band = small_kernel.drop_vars(["kernel_uplight", "coefficient_uplight"])
-    skyglow(src, out, observer=(4000.0, 4000.0), kernel=one_band, dem=dem_path)
+    skyglow(Scene(src, kernel=one_band, dem=dem_path), Observer(4000.0, 4000.0), out)
     pano = xr.open_dataset(out, engine="h5netcdf")
     mask = pano["terrain_mask"].values.astype(bool)
     azimuth = pano["azimuth"].values
@@ -74,4 +74,6 @@ def test_stage_masks_the_panorama_below_the_terrain(tmp_path, small_kernel) -> N
         crs="EPSG:32635",
     )
     with pytest.raises(CRSError, match="DEM must be in the emission raster's CRS"):
-        skyglow(src, tmp_path / "x.nc", observer=(4000.0, 4000.0), kernel=one_band, dem=wrong_crs)
+        skyglow(
+            Scene(src, kernel=one_band, dem=wrong_crs), Observer(4000.0, 4000.0), tmp_path / "x.nc"
+        )

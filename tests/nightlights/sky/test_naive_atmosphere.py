@@ -9,7 +9,7 @@ import pytest
 from affine import Affine
 
 from nightlights.io import RasterBand, write_cog
-from nightlights.sky import KernelSpec, build_kernel, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 from nightlights.sky.atmosphere import Atmosphere
 
 CELL = 100.0
@@ -58,11 +58,9 @@ def test_naive_mode_uses_the_kernels_atmosphere(tmp_path, atmosphere: Atmosphere
     _write_scene(src)
     runs = {
         mode: skyglow(
-            src,
+            Scene(src, kernel=kernel),
+            Observer(502_000.0, 6_698_000.0, height=0.0),
             tmp_path / f"{mode}.nc",
-            observer=(502_000.0, 6_698_000.0),
-            observer_height=0.0,
-            kernel=kernel,
             mode=mode,
         )
         .panorama["luminance"]

@@ -45,11 +45,22 @@ def town(bands: int = 2, n: int = 20, seed: int = 1) -> Raster:
     return Raster(flux, T, CRS)
 
 
-def run(raster: Raster, kernel: xr.Dataset, **options) -> module.ObserversResult:
-    options.setdefault("observers", POINTS)
-    options.setdefault("observer_height", 0.0)
+def sites(
+    points=POINTS, *, height: float = 0.0, crs: str | None = None, names=None
+) -> list[Observer]:
+    """One observer per (x, y) point [m] (in the emission's CRS unless ``crs`` is given)."""
+    labels = [None] * len(points) if names is None else names
+    return [Observer(x, y, crs, height, name) for (x, y), name in zip(points, labels, strict=True)]
+
+
+def run(
+    raster: Raster, kernel: xr.Dataset | None, people=None, *, dem=None, **options
+) -> module.ObserversResult:
+    """The stage on a scene of ``raster`` (with ``kernel`` and ``dem``), for ``people``
+    (default: an observer at each of :data:`POINTS`, eyes on the ground)."""
     options.setdefault("scheduler", "synchronous")
-    return observers(raster, kernel=kernel, progress=False, **options)
+    scene = Scene(raster, kernel=kernel, dem=dem)
+    return observers(scene, sites() if people is None else people, progress=False, **options)
 
 
 def test_every_observer_sees_what_skyglow_sees(small_kernel: xr.Dataset) -> None:
@@ -57,7 +68,7 @@ def test_every_observer_sees_what_skyglow_sees(small_kernel: xr.Dataset) -> None
     result = run(raster, small_kernel, top_cells=0)
     assert list(result.summary.columns[: len(SUMMARY_FIELDS)]) == list(SUMMARY_FIELDS)
     for row, xy in zip(result.summary.itertuples(), POINTS, strict=True):
-        alone = skyglow(raster, observer=tuple(xy), observer_height=0.0, kernel=small_kernel)
+        alone = skyglow(Scene(raster, kernel=small_kernel), Observer(*xy, height=0.0))
         luminance = alone.panorama["luminance"].values
         assert row.zenith_artificial == pytest.approx(alone.zenith_luminance, rel=1e-12)
         el, az = np.unravel_index(np.nanargmax(luminance), luminance.shape)
@@ -81,7 +92,7 @@ def test_top_cells_are_the_largest_zenith_parts_of_inverse_q(small_kernel: xr.Da
     raster = town()
     summary = run(raster, small_kernel, top_cells=4).summary
     for row, xy in zip(summary.itertuples(), POINTS, strict=True):
-        q = inverse_q(raster, observer=tuple(xy), observer_height=0.0, kernel=small_kernel,
+        q = inverse_q(Scene(raster, kernel=small_kernel), Observer(*xy, height=0.0),
                       metric="zenith", progress=False).raster  # fmt: skip
         values = np.nan_to_num(q.data[0])
         order = np.argsort(-values, axis=None)[:4]
@@ -125,7 +136,7 @@ def test_every_cells_zenith_part_lies_within_its_bounds(small_kernel, xy) -> Non
 def test_fewer_lit_cells_than_asked_leave_nan(small_kernel: xr.Dataset) -> None:
     flux = np.zeros((1, 20, 20))
     flux[0, 3, 4] = 2.0
-    result = run(Raster(flux, T, CRS), small_kernel, top_cells=2, observers=POINTS[:1])
+    result = run(Raster(flux, T, CRS), small_kernel, sites(POINTS[:1]), top_cells=2)
     row = result.summary.iloc[0]
     assert row["top1_share"] == pytest.approx(1.0)
     assert np.isnan(row["top2_x"]) and np.isnan(row["top2_share"])
@@ -136,8 +147,8 @@ def test_fewer_lit_cells_than_asked_leave_nan(small_kernel: xr.Dataset) -> None:
 )
 def test_local_schedulers_agree(small_kernel: xr.Dataset, scheduler: str) -> None:
     points = np.column_stack([np.linspace(10_100, 11_900, 9), np.linspace(18_100, 19_900, 9)])
-    reference = run(town(), small_kernel, observers=points).summary
-    other = run(town(), small_kernel, observers=points, scheduler=scheduler, num_workers=2)
+    reference = run(town(), small_kernel, sites(points)).summary
+    other = run(town(), small_kernel, sites(points), scheduler=scheduler, num_workers=2)
     numeric = reference.columns.drop(["name", "geometry"])
     np.testing.assert_allclose(other.summary[numeric], reference[numeric], rtol=1e-12)
     assert other.summary["name"].tolist() == reference["name"].tolist()
@@ -182,13 +193,11 @@ def test_observers_on_terrain_equal_skyglow_over_the_dem(two_eyes: xr.Dataset) -
     flux[0, 8:14, 6:12] = 1.0
     raster = Raster(flux, T, CRS)
     points = np.array([[10_950.0, 19_050.0], [11_750.0, 19_750.0], [10_350.0, 18_400.0]])
-    result = run(raster, two_eyes, observers=points, dem=hill(), observer_height=1.7,
-                 top_cells=0)  # fmt: skip
+    result = run(raster, two_eyes, sites(points, height=1.7), dem=hill(), top_cells=0)
     eyes = result.summary["observer_altitude"].to_numpy()
     np.testing.assert_allclose(eyes[:2], [101.7, 301.7])
     for row, xy in zip(result.summary.itertuples(), points, strict=True):
-        alone = skyglow(raster, observer=tuple(xy), observer_height=1.7, kernel=two_eyes,
-                        dem=hill())  # fmt: skip
+        alone = skyglow(Scene(raster, kernel=two_eyes, dem=hill()), Observer(*xy, height=1.7))
         assert row.zenith_artificial == pytest.approx(alone.zenith_luminance, rel=1e-12)
         luminance = alone.panorama["luminance"].values
         assert row.brightest_luminance == pytest.approx(np.nanmax(luminance), rel=1e-12)
@@ -209,7 +218,7 @@ def test_the_scene_kernel_reaches_the_farthest_observer_at_every_eye(
     flux = np.zeros((1, 20, 20))
     flux[0, 8:14, 6:12] = 1.0
     points = np.array([[10_950.0, 19_050.0], [11_750.0, 19_750.0]])
-    run(Raster(flux, T, CRS), None, observers=points, dem=hill(), observer_height=1.7)
+    run(Raster(flux, T, CRS), None, sites(points, height=1.7), dem=hill())
     (spec,) = specs
     assert spec.observer_altitudes == pytest.approx((101.7, 301.7))
     lit = (10_600.0, 18_600.0, 11_200.0, 19_200.0)  # lit cells' bounds
@@ -230,7 +239,7 @@ def test_the_flat_scene_kernel_reaches_from_the_farthest_observer(
 
     monkeypatch.setattr(setup_module, "get_or_build_kernel", fake)
     raster = town()
-    run(raster, None, observer_height=0.0)
+    run(raster, None, sites(height=0.0))
     (spec,) = specs
     left, bottom, right, top = raster.lit_cells().lit_bounds()
     far = max(
@@ -245,8 +254,8 @@ def test_an_observer_off_the_dem_is_named(two_eyes: xr.Dataset) -> None:
     flux = np.zeros((1, 20, 20))
     flux[0, 8:14, 6:12] = 1.0
     with pytest.raises(InputError, match=r"observer .far away.*outside the DEM"):
-        run(Raster(flux, T, CRS), two_eyes, observers=[[10_500, 19_000], [9_000, 19_000]],
-            names=["here", "far away"], dem=hill())  # fmt: skip
+        far = sites([[10_500, 19_000], [9_000, 19_000]], names=["here", "far away"])
+        run(Raster(flux, T, CRS), two_eyes, far, dem=hill())
 
 
 # --- inputs and outputs ------------------------------------------------------------------------
@@ -259,50 +268,65 @@ def test_a_point_layer_in_degrees_with_names(tmp_path: Path, small_kernel: xr.Da
     path = tmp_path / "observers.gpkg"
     layer.to_file(path, layer="places")
     for source in (layer, path):
-        summary = run(town(), small_kernel, observers=source).summary
+        summary = run(town(), small_kernel, Observer.from_layer(source, height=0.0)).summary
         assert summary["name"].tolist() == ["a", "b"]
         assert summary.crs.equals(CRS)
         np.testing.assert_allclose(
             np.column_stack([summary.geometry.x, summary.geometry.y]), POINTS[:2], atol=1e-6
         )
     lonlat = layer.geometry.get_coordinates().to_numpy()
-    by_array = run(town(), small_kernel, observers=lonlat, observer_crs="EPSG:4326").summary
+    by_array = run(town(), small_kernel, sites(lonlat, crs="EPSG:4326")).summary
     assert by_array["name"].tolist() == ["observer_1", "observer_2"]
     np.testing.assert_allclose(by_array["zenith_artificial"], summary["zenith_artificial"])
 
 
+def _layer(points) -> gpd.GeoDataFrame:
+    return gpd.GeoDataFrame(geometry=[Point(p) for p in points], crs=CRS)
+
+
 @pytest.mark.parametrize(
-    ("options", "error", "message"),
+    ("people", "options", "error", "message"),
     [
-        ({"observers": [[1.0, 2.0, 3.0]]}, InputError, r"expected \(n, 2\)"),
-        ({"observers": np.zeros((0, 2))}, InputError, "no observer"),
-        ({"observers": [[np.nan, 1.0]]}, InputError, "expected two finite numbers"),
-        ({"names": ["a", "b", "c", "a"]}, InputError, "same name 'a'"),
-        ({"names": ["a/b", "a b", "c", "d"]}, InputError, "same file name"),
-        ({"names": ["a"]}, InputError, "1 names for 4 observers"),
-        ({"scheduler": "fast"}, InputError, "scheduler 'fast'"),
-        ({"top_cells": -1}, InputError, "top_cells=-1"),
-        ({"observer_height": -2.0}, InputError, "observer height -2.0"),
-        ({"observers": [[99_000.0, 19_000.0]]}, InputError, "observer 'observer_1'.*outside"),
-        ({"observer_crs": "EPSG:999999"}, CRSError, "is not a CRS"),
+        (lambda: [(1.0, 2.0)], {}, InputError, "expected Observer objects"),
+        (lambda: [], {}, InputError, "no observer"),
+        (lambda: sites([[np.nan, 1.0]]), {}, InputError, "expected two finite numbers"),
+        (lambda: sites(names=["a", "b", "c", "a"]), {}, InputError, "same name 'a'"),
+        (lambda: sites(names=["a/b", "a b", "c", "d"]), {}, InputError, "same file name"),
+        (
+            lambda: Observer.from_layer(_layer(POINTS), names=["a"]),
+            {},
+            InputError,
+            "1 names for 4 observers",
+        ),
+        (sites, {"scheduler": "fast"}, InputError, "scheduler 'fast'"),
+        (sites, {"top_cells": -1}, InputError, "top_cells=-1"),
+        (lambda: sites(height=-2.0), {}, InputError, "observer height -2.0"),
+        (
+            lambda: sites([[99_000.0, 19_000.0]]),
+            {},
+            InputError,
+            "observer 'observer_1'.*outside",
+        ),
+        (lambda: sites(crs="EPSG:999999"), {}, CRSError, "is not a CRS"),
     ],
 )
-def test_bad_inputs_are_one_line_errors(small_kernel, options, error, message) -> None:
+def test_bad_inputs_are_one_line_errors(small_kernel, people, options, error, message) -> None:
     with pytest.raises(error, match=message):
-        run(town(), small_kernel, **options)
+        run(town(), small_kernel, people(), **options)
 
 
 def test_layers_that_are_not_usable_points(small_kernel: xr.Dataset) -> None:
     lines = gpd.GeoDataFrame(geometry=[LineString([(0, 0), (1, 1)])], crs=CRS)
     with pytest.raises(InputError, match="feature 0 is a LineString; expected points"):
-        run(town(), small_kernel, observers=lines)
+        run(town(), small_kernel, lines)
     bare = gpd.GeoDataFrame(geometry=[Point(POINTS[0])])
     with pytest.raises(CRSError, match="no CRS; give crs"):
-        run(town(), small_kernel, observers=bare)
-    assert len(run(town(), small_kernel, observers=bare, observer_crs=CRS).summary) == 1
+        run(town(), small_kernel, bare)
+    placed_bare = Observer.from_layer(bare, crs=CRS, height=0.0)
+    assert len(run(town(), small_kernel, placed_bare).summary) == 1
     placed = bare.set_crs(CRS)
     with pytest.raises(InputError, match="give crs only for a layer without a CRS"):
-        run(town(), small_kernel, observers=placed, observer_crs="EPSG:4326")
+        run(town(), small_kernel, Observer.from_layer(placed, crs="EPSG:4326", height=0.0))
 
 
 def test_summary_geopackage_and_panoramas(tmp_path: Path, small_kernel: xr.Dataset) -> None:
@@ -312,7 +336,7 @@ def test_summary_geopackage_and_panoramas(tmp_path: Path, small_kernel: xr.Datas
     out, folder = tmp_path / "summary.gpkg", tmp_path / "skies"
     folder.mkdir()
     names = ["Esplanadi park", "b", "c", "d"]
-    result = run(src, small_kernel, output=out, panoramas=folder, names=names, top_cells=2)
+    result = run(src, small_kernel, sites(names=names), output=out, panoramas=folder, top_cells=2)
     assert result.path == out
     assert SUMMARY_LAYER in pyogrio.list_layers(out)[:, 0].tolist()
     styles = pyogrio.read_dataframe(out, layer="layer_styles")
@@ -327,7 +351,7 @@ def test_summary_geopackage_and_panoramas(tmp_path: Path, small_kernel: xr.Datas
     assert sorted(result.panoramas) == sorted(names)
     assert result.panoramas["Esplanadi park"] == folder / "Esplanadi_park.nc"
     assert written["panorama"].tolist()[0] == "Esplanadi_park.nc"
-    alone = skyglow(src, observer=tuple(POINTS[0]), observer_height=0.0, kernel=small_kernel)
+    alone = skyglow(Scene(src, kernel=small_kernel), Observer(*POINTS[0], height=0.0))
     with xr.open_dataset(result.panoramas["Esplanadi park"], engine="h5netcdf") as pano:
         np.testing.assert_allclose(
             pano["luminance"].values, alone.panorama["luminance"].values, rtol=1e-12
@@ -356,6 +380,6 @@ def test_an_observer_beyond_some_cells_still_counts_the_rest(small_kernel) -> No
     raster = Raster(flux, Affine(1500.0, 0, 0, 0, -1500.0, 30_000.0), CRS)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
-        summary = run(raster, small_kernel, observers=[[750.0, 29_250.0]]).summary
+        summary = run(raster, small_kernel, sites([[750.0, 29_250.0]])).summary
     assert summary["zenith_artificial"].iloc[0] > 0
     assert summary["top1_share"].iloc[0] == pytest.approx(1.0)

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from nightlights.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.io import RasterBand, write_cog
-from nightlights.sky import skyglow
+from nightlights.sky import Observer, Scene, skyglow
 from nightlights.sky.panorama import (
     kernel_slice,
     panorama_exact,
@@ -224,11 +224,9 @@ def test_stage_writes_panorama_contract(tmp_path, small_kernel) -> None:
     png = tmp_path / "pano.png"
     polar_nc = tmp_path / "polar.nc"
     result = skyglow(
-        src,
+        Scene(src, kernel=small_kernel),
+        Observer(502_000.0, 6_698_000.0, height=0.0),
         out,
-        observer=(502_000.0, 6_698_000.0),
-        kernel=small_kernel,
-        observer_height=0.0,
         png=png,
         projection="fisheye",
         polar_output=polar_nc,
@@ -256,21 +254,9 @@ def test_stage_observer_in_another_crs(tmp_path, small_kernel) -> None:
     lon, lat = Transformer.from_crs("EPSG:32635", "EPSG:4326", always_xy=True).transform(
         502_000.0, 6_698_000.0
     )
-    a = skyglow(
-        src,
-        tmp_path / "a.nc",
-        observer=(502_000.0, 6_698_000.0),
-        kernel=small_kernel,
-        observer_height=0.0,
-    )
-    b = skyglow(
-        src,
-        tmp_path / "b.nc",
-        observer=(lon, lat),
-        observer_crs="EPSG:4326",
-        kernel=small_kernel,
-        observer_height=0.0,
-    )
+    scene = Scene(src, kernel=small_kernel)
+    a = skyglow(scene, Observer(502_000.0, 6_698_000.0, height=0.0), tmp_path / "a.nc")
+    b = skyglow(scene, Observer(lon, lat, crs="EPSG:4326", height=0.0), tmp_path / "b.nc")
     np.testing.assert_allclose(a.panorama["luminance"], b.panorama["luminance"], rtol=1e-6)
 
 
@@ -278,15 +264,14 @@ def test_stage_bad_inputs(tmp_path, small_kernel) -> None:
     src = tmp_path / "emission.tif"
     _write_scene(src)
     out = tmp_path / "pano.nc"
+    site = Observer(502_000.0, 6_698_000.0)
     with pytest.raises(InputError, match="mode 'fast'"):
-        skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=small_kernel, mode="fast")
+        skyglow(Scene(src, kernel=small_kernel), site, out, mode="fast")
     one_band_kernel = small_kernel.drop_vars(["kernel_uplight", "coefficient_uplight"])
     with pytest.raises(InputError, match="no uplight table"):
-        skyglow(
-            src, out, observer=(502_000.0, 6_698_000.0), kernel=one_band_kernel, observer_height=0.0
-        )
+        skyglow(Scene(src, kernel=one_band_kernel), site.replace(height=0.0), out)
     with pytest.raises(InputError, match="turbidity 5"):
-        skyglow(src, out, observer=(502_000.0, 6_698_000.0), kernel=small_kernel, turbidity=5)
+        skyglow(Scene(src, kernel=small_kernel, turbidity=5), site, out)
     geographic = tmp_path / "geo.tif"
     write_cog(
         geographic,
@@ -295,7 +280,7 @@ def test_stage_bad_inputs(tmp_path, small_kernel) -> None:
         crs="EPSG:4326",
     )
     with pytest.raises(CRSError, match="projected CRS"):
-        skyglow(geographic, out, observer=(24.01, 59.99), kernel=small_kernel)
+        skyglow(Scene(geographic, kernel=small_kernel), Observer(24.01, 59.99), out)
     assert not out.exists()
 
 
@@ -316,15 +301,11 @@ def test_rgb_bands_orange_and_blue_white_lights_colour_the_sky(tmp_path) -> None
     for spectrum in ("HPS", "LED_4000K"):
         out = tmp_path / f"{spectrum}.nc"
         skyglow(
-            src,
+            Scene(src, n_elevation=8, n_azimuth=32, n_distance=16, cache_dir=cache),
+            Observer(502_000.0, 6_698_000.0),
             out,
-            observer=(502_000.0, 6_698_000.0),
             bands="RGB",
             spectrum=spectrum,
-            n_elevation=8,
-            n_azimuth=32,
-            n_distance=16,
-            cache_dir=cache,
             progress=False,
             png=tmp_path / f"{spectrum}.png",
         )
@@ -337,10 +318,9 @@ def test_rgb_bands_orange_and_blue_white_lights_colour_the_sky(tmp_path) -> None
     assert (tmp_path / "HPS.png").stat().st_size > 5000
     with pytest.raises(InputError, match="RGB"):
         skyglow(
-            src,
+            Scene(src, cache_dir=cache),
+            Observer(502_000.0, 6_698_000.0),
             tmp_path / "x.nc",
-            observer=(502_000.0, 6_698_000.0),
             bands="RGB",
             mode="naive",
-            cache_dir=cache,
         )

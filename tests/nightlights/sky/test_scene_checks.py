@@ -159,14 +159,13 @@ def test_skyglow_outputs_are_all_or_nothing(
         raise OSError("disk full")
 
     monkeypatch.setattr(stage_module, "render_panorama", broken)
+    scene = Scene(_raster(), kernel=small_kernel)
     with pytest.raises(OSError, match="disk full"):
-        skyglow(
-            _raster(), panorama, observer=INSIDE, kernel=small_kernel, png=png, polar_output=polar
-        )
+        skyglow(scene, Observer(*INSIDE), panorama, png=png, polar_output=polar)
     assert panorama.read_bytes() == b"previous"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.nc"]  # no temporary left
     monkeypatch.undo()
-    skyglow(_raster(), panorama, observer=INSIDE, kernel=small_kernel, png=png, polar_output=polar)
+    skyglow(scene, Observer(*INSIDE), panorama, png=png, polar_output=polar)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.nc", "p.png", "polar.nc"]
 
 

@@ -205,6 +205,113 @@ def test_flat_keywords_of_every_sky_stage_still_work(
     np.testing.assert_array_equal(summary["zenith_artificial"], old["zenith_artificial"])
 
 
+def test_flat_panorama_positional_dem_and_observer_crs(
+    raster: Raster, kernel: nl.KernelResult
+) -> None:
+    """skyglow_panorama's former positional (emission, observer, kernel, dem), with the
+    observer's CRS and height as keywords."""
+    from nightlights.sky import skyglow_panorama
+
+    ground = Raster(np.zeros((1, 20, 20)), raster.transform, CRS)
+    scene = Scene(raster, kernel=kernel, dem=ground)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        new = skyglow_panorama(scene, Observer(1000.0, 1000.0, CRS, height=0.0), progress=False)
+    with pytest.warns(DeprecationWarning, match=r"skyglow_panorama\(emission"):
+        old = skyglow_panorama(
+            raster, (1000.0, 1000.0), kernel, ground, observer_crs=CRS, observer_height=0.0,
+            progress=False,
+        )  # fmt: skip
+    np.testing.assert_array_equal(new.panorama["luminance"], old.panorama["luminance"])
+    np.testing.assert_array_equal(new.panorama["terrain_mask"], old.panorama["terrain_mask"])
+
+
+def test_flat_dimming_rule_and_explore_session(raster: Raster, kernel: nl.KernelResult) -> None:
+    """inverse_reduce(emission, kernel=, ...) and ExploreSession(emission, kernel=,
+    observer_height=) as the inverse and explore tests called them."""
+    from nightlights.explore import ExploreSession
+
+    scene = Scene(raster, kernel=kernel)
+    q = nl.inverse_q(scene, Observer(1000.0, 1000.0), metric="zenith", progress=False).raster
+    rule = {"by": q, "qa": float(np.nanmin(q.data)), "qb": float(np.nanmax(q.data))}
+    new = nl.inverse_reduce(scene, gamma=0.5, progress=False, **rule)
+    with pytest.warns(DeprecationWarning, match=r"inverse_reduce\(emission"):
+        old = nl.inverse_reduce(raster, kernel=kernel, gamma=0.5, progress=False, **rule)
+    np.testing.assert_array_equal(new.dimming.data, old.dimming.data)
+    assert new.summary["observers"] == old.summary["observers"]
+    session = ExploreSession(scene, height=0.0, progress=False)
+    with pytest.warns(DeprecationWarning, match=r"ExploreSession\(emission"):
+        flat = ExploreSession(raster, kernel=kernel, observer_height=0.0, progress=False)
+    assert flat.observer_height == 0.0
+    np.testing.assert_array_equal(
+        flat.panorama(1000.0, 1000.0).luminance, session.panorama(1000.0, 1000.0).luminance
+    )
+
+
+def test_flat_sky_render_output_first_and_lonlat(tmp_path: Path) -> None:
+    """sky_render(output, time=, lonlat=): the former call, output first."""
+    picture = {"time": "2026-01-25T20:00:00Z", "natural_only": True, "width": 64, "height": 32}
+    new = nl.sky_render(Observer.from_lonlat(24.95, 60.17), tmp_path / "new.png", **picture)
+    with pytest.warns(DeprecationWarning, match=r"sky_render\(output"):
+        old = nl.sky_render(tmp_path / "old.png", lonlat=(24.95, 60.17), **picture)
+    assert old.lonlat == new.lonlat == (24.95, 60.17)
+    assert old.image.summary == new.image.summary
+    assert (tmp_path / "old.png").stat().st_size > 0
+
+
+def test_flat_observers_as_arrays_names_and_layers(
+    raster: Raster, kernel: nl.KernelResult, tmp_path: Path
+) -> None:
+    """observers(emission, observers=(n, 2) array or layer, observer_crs=, observers_layer=,
+    names=): the same observers as Observer objects."""
+    sites = [Observer(1000.0, 1000.0, name="a"), Observer(500.0, 500.0, name="b")]
+    new = nl.observers(Scene(raster, kernel=kernel), sites, progress=False).summary
+    lonlat = np.array([site.lonlat(CRS) for site in sites])
+    layer = gpd.GeoDataFrame(
+        {"name": ["a", "b"]}, geometry=[Point(s.x, s.y) for s in sites], crs=CRS
+    )
+    layer.to_file(tmp_path / "sites.gpkg", layer="places")
+    flat_calls = [
+        {"observers": lonlat, "observer_crs": "EPSG:4326", "names": ["a", "b"]},
+        {"observers": tmp_path / "sites.gpkg", "observers_layer": "places"},
+    ]
+    for flat in flat_calls:
+        with pytest.warns(DeprecationWarning, match=r"observers\(emission"):
+            old = nl.observers(raster, kernel=kernel, progress=False, **flat).summary
+        assert old["name"].tolist() == ["a", "b"]
+        np.testing.assert_allclose(old["zenith_artificial"], new["zenith_artificial"], rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("flat", "error", "match"),
+    [
+        ({"observers": [[1.0, 2.0, 3.0]]}, InputError, r"expected \(n, 2\)"),
+        ({"observers": [[np.nan, 1.0]]}, InputError, "observer 0: .*two finite numbers"),
+        ({"observers": [[1.0, 2.0]], "names": ["a", "b"]}, InputError, "2 names for 1 obs"),
+        ({"observers": [[1.0, 2.0]], "observers_layer": "x"}, InputError, "names a layer"),
+        ({"observers": [[1.0, 2.0]], "observer_height": -2.0}, InputError, "height -2.0"),
+        ({"observers": [[1.0, 2.0]], "observer_crs": "EPSG:999999"}, CRSError, "not a CRS"),
+        (
+            {
+                "observers": gpd.GeoDataFrame(geometry=[Point(1.0, 2.0)], crs=CRS),
+                "observer_crs": "EPSG:4326",
+            },
+            InputError,
+            "give crs only for a layer without a CRS",
+        ),
+    ],
+)
+def test_flat_observers_are_checked_as_before(
+    raster: Raster, kernel: nl.KernelResult, flat: dict, error: type, match: str
+) -> None:
+    """The flat observers' own checks (the (n, 2) shape, one name per row), moved from the
+    many-observer tests, and the Observer checks they reach."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        with pytest.raises(error, match=match):
+            nl.observers(raster, kernel=kernel, progress=False, **flat)
+
+
 def test_observers_at_different_heights_without_terrain_are_refused(
     raster: Raster, kernel: nl.KernelResult
 ) -> None:

@@ -11,11 +11,11 @@ import xarray as xr
 from affine import Affine
 
 from nightlights.io import Raster
-from nightlights.sky import KernelResult, KernelSpec, skyglow, skyglow_panorama
+from nightlights.sky import KernelResult, KernelSpec, Observer, Scene, skyglow, skyglow_panorama
 
 CELL = 100.0
 TRANSFORM = Affine(CELL, 0, 500_000, 0, -CELL, 6_700_000)
-OBSERVER = (502_000.0, 6_698_000.0)
+OBSERVER = Observer(502_000.0, 6_698_000.0, height=0.0)
 
 
 def _raster() -> Raster:
@@ -37,25 +37,18 @@ def test_raster_dataarray_and_file_give_one_panorama(
 ) -> None:
     raster = _raster()
     monkeypatch.chdir(tmp_path)
-    options = {"observer_height": 1.75, "kernel": small_kernel, "dem": _dem()}
-    in_memory = skyglow(raster, observer=OBSERVER, **options)
+    eye = OBSERVER.replace(height=1.75)
+    in_memory = skyglow(Scene(raster, kernel=small_kernel, dem=_dem()), eye)
     assert in_memory.path is None and list(tmp_path.iterdir()) == []
-    pure = skyglow_panorama(raster, OBSERVER, small_kernel, _dem(), observer_height=1.75).panorama
+    pure = skyglow_panorama(Scene(raster, kernel=small_kernel, dem=_dem()), eye).panorama
     from_array = skyglow_panorama(
-        raster.to_xarray(), OBSERVER, small_kernel, _dem().to_xarray(), observer_height=1.75
+        Scene(raster.to_xarray(), kernel=small_kernel, dem=_dem().to_xarray()), eye
     ).panorama
     assert list(tmp_path.iterdir()) == []
     src, dem = tmp_path / "emission.tif", tmp_path / "dem.tif"
     raster.write(src)
     _dem().write(dem)
-    on_disk = skyglow(
-        src,
-        tmp_path / "pano.nc",
-        observer=OBSERVER,
-        observer_height=1.75,
-        kernel=small_kernel,
-        dem=dem,
-    )
+    on_disk = skyglow(Scene(src, kernel=small_kernel, dem=dem), eye, tmp_path / "pano.nc")
     assert on_disk.path == tmp_path / "pano.nc"
     written = xr.load_dataset(on_disk.path, engine="h5netcdf")
     assert pure["terrain_mask"].values.any()
@@ -76,7 +69,7 @@ def test_kernel_result_dataset_and_path_are_one_kernel(
     path = tmp_path / "k.nc"
     small_kernel.to_netcdf(path, engine="h5netcdf")
     panoramas = [
-        skyglow_panorama(_raster(), OBSERVER, kernel, observer_height=0.0).panorama["luminance"]
+        skyglow_panorama(Scene(_raster(), kernel=kernel), OBSERVER).panorama["luminance"]
         for kernel in (result, small_kernel, path)
     ]
     np.testing.assert_array_equal(panoramas[0], panoramas[1])
@@ -85,10 +78,8 @@ def test_kernel_result_dataset_and_path_are_one_kernel(
 
 def test_png_and_polar_written_only_when_asked(tmp_path: Path, small_kernel: xr.Dataset) -> None:
     result = skyglow(
-        _raster(),
-        observer=OBSERVER,
-        observer_height=0.0,
-        kernel=small_kernel,
+        Scene(_raster(), kernel=small_kernel),
+        OBSERVER,
         png=tmp_path / "p.png",
         polar_output=tmp_path / "polar.nc",
     )
@@ -99,9 +90,7 @@ def test_png_and_polar_written_only_when_asked(tmp_path: Path, small_kernel: xr.
 def test_summary_adds_the_natural_sky_beside_the_artificial(small_kernel: xr.Dataset) -> None:
     from nightlights.brightness import luminance_to_magnitude
 
-    attrs = skyglow(
-        _raster(), observer=OBSERVER, observer_height=0.0, kernel=small_kernel
-    ).panorama.attrs
+    attrs = skyglow(Scene(_raster(), kernel=small_kernel), OBSERVER).panorama.attrs
     natural, artificial = attrs["zenith_natural_cd_m2"], attrs["zenith_luminance_cd_m2"]
     assert float(luminance_to_magnitude(natural)) == pytest.approx(22.0, abs=0.01)
     total = float(luminance_to_magnitude(natural + artificial))

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import RasterBand, write_cog
-from nightlights.sky import KernelSpec, build_kernel, skyglow
+from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.panorama import (
     kernel_levels,
@@ -212,15 +212,17 @@ def test_stage_over_terrain_uses_per_cell_levels(tmp_path) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("error", DataQualityWarning)
             runs[mode] = skyglow(
-                src,
+                Scene(
+                    src,
+                    dem=dem_path,
+                    n_elevation=8,
+                    n_azimuth=32,
+                    n_distance=48,
+                    cache_dir=tmp_path / "cache",
+                ),
+                Observer(2000.0, 2000.0),
                 tmp_path / f"pano_{mode}.nc",
-                observer=(2000.0, 2000.0),
-                dem=dem_path,
                 mode=mode,
-                n_elevation=8,
-                n_azimuth=32,
-                n_distance=48,
-                cache_dir=tmp_path / "cache",
                 progress=False,
             )
     attrs = runs["pca"].panorama.attrs
@@ -262,11 +264,9 @@ def test_given_kernel_below_the_terrain_keeps_relative_heights(tmp_path, level_k
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             result = skyglow(
-                src,
+                Scene(src, kernel=level_kernel, dem=path),
+                Observer(2000.0, 2000.0),
                 tmp_path / f"pano_{name}.nc",
-                observer=(2000.0, 2000.0),
-                kernel=level_kernel,
-                dem=path,
             )
         messages[name] = [str(w.message) for w in caught if "shifted by" in str(w.message)]
         panoramas[name] = result.panorama

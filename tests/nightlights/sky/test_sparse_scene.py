@@ -128,5 +128,7 @@ def test_sparse_file_path_equals_the_dense_raster(small_kernel: xr.Dataset, tmp_
     )
     expected = np.maximum(panorama_pca(levels, setup.slices), 0.0)
     for source in (path, raster):
-        scene = skyglow_panorama(source, observer, small_kernel, observer_height=0.0)
+        scene = skyglow_panorama(
+            Scene(source, kernel=small_kernel), Observer(*observer, height=0.0)
+        )
         np.testing.assert_allclose(scene.panorama["luminance"].values, expected, rtol=1e-9)

@@ -12,7 +12,7 @@ from affine import Affine
 
 from nightlights.errors import InputError
 from nightlights.io import Raster
-from nightlights.sky import skyglow
+from nightlights.sky import Observer, Scene, skyglow
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.stage import panorama_raster, polar_raster
 
@@ -33,11 +33,9 @@ def test_skyglow_writes_a_styled_panorama_and_polar_map_by_extension(
     kernel: xr.Dataset, tmp_path: Path
 ) -> None:
     result = skyglow(
-        _emission(),
+        Scene(_emission(), kernel=kernel),
+        Observer(501_000.0, 6_701_000.0, height=0.0),
         tmp_path / "panorama.tif",
-        observer=(501_000.0, 6_701_000.0),
-        observer_height=0.0,
-        kernel=kernel,
         polar_output=tmp_path / "polar.tif",
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == [
@@ -65,11 +63,9 @@ def test_skyglow_writes_a_styled_panorama_and_polar_map_by_extension(
 
 def test_a_netcdf_panorama_stays_netcdf(kernel: xr.Dataset, tmp_path: Path) -> None:
     skyglow(
-        _emission(),
+        Scene(_emission(), kernel=kernel),
+        Observer(501_000.0, 6_701_000.0, height=0.0),
         tmp_path / "panorama.nc",
-        observer=(501_000.0, 6_701_000.0),
-        observer_height=0.0,
-        kernel=kernel,
     )
     assert [p.name for p in tmp_path.iterdir()] == ["panorama.nc"]
 
