@@ -91,8 +91,8 @@ def held_signals() -> Iterator[None]:
     finally:
         _HOLDER.depth -= 1
         if _HOLDER.depth == 0:
-            for signum, previous in _HOLDER.previous.items():
-                signal.signal(signum, previous)
+            for held, handler in _HOLDER.previous.items():
+                signal.signal(held, handler)
             _HOLDER.deliver()
 
 
