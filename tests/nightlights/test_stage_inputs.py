@@ -43,6 +43,7 @@ def files(tmp_path: Path) -> SimpleNamespace:
         found[folder] = tmp_path / folder
     found["held"] = found["holder"] / "table.csv"
     found["command"] = found["nightlights"]
+    found["command"].chmod(0o755)  # the plugin records an executable
     return SimpleNamespace(**found)
 
 
@@ -199,7 +200,7 @@ STAGES: dict[str, tuple[Call, str, str, str]] = {
     ),
     "plot_raster_map raster": (lambda f: plot_raster_map(f.q, f.q), "q", "raster", ""),
     "build_plugin command": (
-        lambda f: build_plugin(f.command, command=f.command, overwrite=True),
+        lambda f: build_plugin(f.command, [], command=f.command, overwrite=True),
         "command",
         "command",
         "",
