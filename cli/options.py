@@ -2,7 +2,11 @@
 
 Every command that writes a product takes its paths as positional ``INPUT... OUTPUT``; the
 output may be given with ``-o/--output`` instead, and then every positional path is an input.
-An existing output is never replaced unless ``--overwrite`` is given.
+An existing output is never replaced unless ``--overwrite`` is given, and an output that is one
+of the command's inputs (a positional input or the file of any other option: ``--dem``,
+``--kernel``, ``--by``...; by any path, link or spelling) is refused with or without it
+(:func:`refuse_replacing_inputs`): the options that name outputs are listed once, in
+:data:`OUTPUT_PARAMETERS`.
 
 Option values are checked here as far as their type allows, before any work starts: a value
 of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
@@ -161,6 +165,76 @@ overwrite_option = click.option(
 )
 
 
+#: Parameters of the commands that name outputs; the path in any other parameter is an input.
+OUTPUT_PARAMETERS = frozenset(
+    {
+        "output",
+        "old_out",
+        "png",
+        "polar_output",
+        "old_polar_out",
+        "dimming_output",
+        "old_dimming_out",
+        "summary_output",
+        "old_summary",
+        "plot_path",
+        "panoramas",
+        "export_dir",
+    }
+)
+#: Sources of a parameter's value that are not the user's (no input file comes from them).
+_NOT_GIVEN = (click.core.ParameterSource.DEFAULT, click.core.ParameterSource.DEFAULT_MAP, None)
+#: Where :func:`resolve_inout` leaves the positional inputs for :func:`check_outputs`.
+_POSITIONAL_INPUTS = "nightlights_cli.positional_inputs"
+
+
+def _flag(param: click.Parameter) -> str:
+    """How the command line spells ``param``: its long flag, or an argument's metavar."""
+    if isinstance(param, click.Option):
+        long = [name for name in param.opts if name.startswith("--")]
+        return (long or param.opts)[-1]
+    return param.human_readable_name.upper()
+
+
+def command_inputs(ctx: click.Context | None = None) -> dict[str, list[str]]:
+    """The input paths of the running command, by the flag or argument that gave them.
+
+    The positional inputs that :func:`resolve_inout` found, and the value of every other
+    parameter given that is not an output (:data:`OUTPUT_PARAMETERS`): a value that names no
+    file (``--mapping osm``, ``--albedo 0.1``) is no input and is skipped when checked.
+    """
+    ctx = ctx if ctx is not None else click.get_current_context(silent=True)
+    if ctx is None:
+        return {}
+    inputs: dict[str, list[str]] = {
+        name: [path] for name, path in ctx.meta.get(_POSITIONAL_INPUTS, {}).items()
+    }
+    for param in ctx.command.params:
+        if param.name is None or param.name in OUTPUT_PARAMETERS or param.name == "files":
+            continue
+        if ctx.get_parameter_source(param.name) in _NOT_GIVEN:
+            continue  # a default (``--mapping osm``) names no file of the user's
+        value = ctx.params.get(param.name)
+        values = value if isinstance(value, tuple | list) else (value,)
+        paths = [v for v in values if isinstance(v, str)]
+        if paths:
+            inputs[_flag(param)] = paths
+    return inputs
+
+
+def refuse_replacing_inputs(outputs: Sequence[str | None]) -> None:
+    """Refuse an output that is one of the running command's inputs (:func:`command_inputs`).
+
+    Raises
+    ------
+    nightlights.errors.OutputError
+        Naming the output and the input, with or without ``--overwrite``.
+    """
+    from nightlights.io.outputs import refuse_replacing_inputs as refuse
+
+    refuse(outputs, command_inputs())
+
+
 def resolve_inout(
     files: Sequence[str],
     output: str | None,
@@ -196,6 +270,8 @@ def resolve_inout(
     ------
     click.UsageError
         Wrong number of paths, or a missing input.
+    nightlights.errors.OutputError
+        The output is one of the command's inputs (:func:`refuse_replacing_inputs`).
     OutputExistsError
         The output exists and ``overwrite`` is False.
     """
@@ -212,12 +288,21 @@ def resolve_inout(
         for path in paths:
             if not Path(path).exists():
                 raise click.UsageError(f"input {path!r} does not exist")
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        names = [name.strip("[]") for name in usage.split()]
+        ctx.meta[_POSITIONAL_INPUTS] = {
+            names[i] if i < len(names) - 1 else f"INPUT {i + 1}": path
+            for i, path in enumerate(paths)
+        }
     check_outputs([output], overwrite=overwrite)
     return paths, output
 
 
 def check_outputs(paths: Sequence[str | None], *, overwrite: bool) -> None:
-    """Refuse the first path that exists unless ``overwrite``; None entries are skipped."""
+    """Refuse an output that is one of the command's inputs (:func:`refuse_replacing_inputs`),
+    then the first path that exists unless ``overwrite``; None entries are skipped."""
+    refuse_replacing_inputs(paths)
     if overwrite:
         return
     for path in paths:

@@ -22,6 +22,7 @@ from rasterio.enums import Resampling
 from rasterio.windows import Window
 
 from nightlights.io import Raster, as_raster, atomic_output
+from nightlights.io.outputs import refuse_replacing_inputs
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -76,6 +77,7 @@ def plot_raster_map(
     pathlib.Path
         The written PNG.
     """
+    refuse_replacing_inputs([out_png], {"raster": raster})  # before the raster is read
     if isinstance(raster, (str, os.PathLike)):
         images, crs, unit, description = _read_images(raster, band, zoom)
     else:

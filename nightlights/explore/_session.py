@@ -55,6 +55,7 @@ from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.jsonfile import dumps_json
+from nightlights.io.outputs import refuse_replacing_inputs
 from nightlights.io.raster import LitCells
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import SCENE_KEYWORDS
@@ -885,7 +886,7 @@ class ExploreSession:
         Path
             The written file.
         """
-        _refuse_existing(path, overwrite)
+        self._refuse(path, overwrite)
         return self.current_raster().write(path)
 
     def export_dimming(self, path: PathLike, view: DimmingView, *, overwrite: bool = False) -> Path:
@@ -905,7 +906,7 @@ class ExploreSession:
         Path
             The written file.
         """
-        _refuse_existing(path, overwrite)
+        self._refuse(path, overwrite)
         tags = {
             PRODUCT_TAG: "dimming",
             "observer_x": repr(view.panorama.x),
@@ -955,7 +956,7 @@ class ExploreSession:
             raise InputError("give a NetCDF or a PNG path for the panorama")
         for path in (nc, png):
             if path is not None:
-                _refuse_existing(path, overwrite)
+                self._refuse(path, overwrite)
         data = self._original if view.source == "original" else self._data.copy()
         if view.source == "dimmed" and view.dimming is not None:
             cells = self._state("current")
@@ -1000,7 +1001,7 @@ class ExploreSession:
         from nightlights.io import atomic_output
 
         target = Path(path)
-        _refuse_existing(target, overwrite)
+        self._refuse(target, overwrite)
         if self._in_memory:
             raise InputError(
                 f"a session of an in-memory {', '.join(self._in_memory)} cannot be saved: "
@@ -1032,6 +1033,13 @@ class ExploreSession:
         with atomic_output(target) as tmp:
             Path(tmp).write_text(dumps_json(content, indent=1))
         return target
+
+    def _refuse(self, path: PathLike, overwrite: bool) -> None:
+        """Refuse a file the session was opened from (whatever ``overwrite``), then an
+        existing file without ``overwrite``."""
+        inputs = {name: self._sources[name] for name in ("emission", "kernel", "dem", "lights")}
+        refuse_replacing_inputs([path], inputs)
+        _refuse_existing(path, overwrite)
 
     # --- state ------------------------------------------------------------------------------
 

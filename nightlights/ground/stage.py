@@ -254,7 +254,16 @@ def irradiance(
         raise InputError("no sensors requested; expected at least one (e.g. photopic)")
     assume_crs = parse_crs(crs, option="crs")
     if output is not None:
-        OutputSet(output)  # checks the output's folder before anything is computed
+        # the output's folder is checked before anything is computed; no input is replaced
+        OutputSet(
+            output,
+            inputs={
+                "lights": lights,
+                "dem": dem,
+                "area_sources": area_sources,
+                "catalog": catalog,
+            },
+        )
     frame, label = as_vector(lights, name="lights")
     frame = ensure_projected(frame, source=label, assume_crs=assume_crs)
     layer_crs = CRS.from_user_input(frame.crs)

@@ -377,7 +377,8 @@ def emission(
     label = source_label(irradiance, "irradiance raster")
     assume_crs = parse_crs(crs, option="crs")
     check_resolution(resolution)
-    outputs = None if output is None else OutputSet(output)
+    inputs = {"irradiance": irradiance, "lights": lights, "albedo": albedo, "catalog": catalog}
+    outputs = None if output is None else OutputSet(output, inputs=inputs)
     # a file with a uniform albedo is read strip by strip, never whole
     streamed = isinstance(irradiance, (str, os.PathLike)) and isinstance(albedo, (int, float))
     header = raster_header(irradiance)
@@ -700,7 +701,7 @@ def emission_from_viirs(
     if resolution is not None:
         resolution = check_resolution(resolution)
     target_crs = parse_crs(target_crs, option="target_crs")
-    outputs = None if output is None else OutputSet(output)
+    outputs = None if output is None else OutputSet(output, inputs={"viirs": viirs})
     header = raster_header(viirs)
     if header is not None and header.crs is not None:
         _check_viirs_memory(header, resolution, target_crs, label)

@@ -147,7 +147,9 @@ def inverse_reduce(
     >>> round(result.summary["flux_removed_percent"], 1)
     25.0
     """
-    outputs = _check_outputs(output, dimming_output, summary_output, png)
+    outputs = _check_outputs(
+        output, dimming_output, summary_output, png, inputs={**scene.inputs, "by": by}
+    )
     emission = scene.raster_input("inverse_reduce")
     _check_dense(emission)
     raster = as_raster(emission)
@@ -269,7 +271,9 @@ def least_dimming(
         raise InputError("no target: give target_zenith and/or target_region")
     if not observers:
         raise InputError("no observer: the targets are for at least one observer")
-    outputs = _check_outputs(output, dimming_output, summary_output, png)
+    given = [region for region, _ in target_region]
+    inputs = {**scene.inputs, "max_dimming": max_dimming, "target_region": given}
+    outputs = _check_outputs(output, dimming_output, summary_output, png, inputs=inputs)
     emission = scene.raster_input("least_dimming")
     _check_dense(emission)
     raster = as_raster(emission)

@@ -26,7 +26,7 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
-from nightlights.io.outputs import OutputSet
+from nightlights.io.outputs import Inputs, OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.influence import (
@@ -144,7 +144,7 @@ def inverse_q(
     """
     if metric not in METRICS:
         raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
-    _check_outputs(output)
+    _check_outputs(output, inputs=scene.inputs)
     setup = prepare_scene(scene, observer, progress=progress)
     start = time.perf_counter()
     cells = setup.polar_cells()
@@ -229,7 +229,7 @@ def inverse_s(
     if method not in S_METHODS:
         raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
     sky_region = SkyRegion.parse(region)
-    _check_outputs(output)
+    _check_outputs(output, inputs=scene.inputs)
     setup = prepare_scene(scene, observer, progress=progress)
     weights = _region_weights(setup, sky_region, weight)
     start = time.perf_counter()
@@ -354,10 +354,11 @@ def _written(result: InfluenceResult, output: PathLike | None) -> InfluenceResul
     )
 
 
-def _check_outputs(*paths: PathLike | None) -> OutputSet:
+def _check_outputs(*paths: PathLike | None, inputs: Inputs) -> OutputSet:
     """Every output's location checked before any computation (folder exists and is
-    writable, no path twice); the set writes them together (:class:`OutputSet`)."""
-    return OutputSet(*paths)
+    writable, no path twice, none of the ``inputs``); the set writes them together
+    (:class:`OutputSet`)."""
+    return OutputSet(*paths, inputs=inputs)
 
 
 def _lit(data: FloatArray) -> np.ndarray:

@@ -7,11 +7,13 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
-from nightlights.io.outputs import OutputSet
+from nightlights.io.outputs import Inputs, OutputSet
 
 
 @contextlib.contextmanager
-def atomic_output(path: str | os.PathLike[str], *, overwrite: bool = True) -> Iterator[Path]:
+def atomic_output(
+    path: str | os.PathLike[str], *, overwrite: bool = True, inputs: Inputs | None = None
+) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
 
     If the block raises, is interrupted (Ctrl-C) or the process receives ``SIGTERM``, the
@@ -26,6 +28,9 @@ def atomic_output(path: str | os.PathLike[str], *, overwrite: bool = True) -> It
         Final output path.
     overwrite
         Replace an existing file at ``path``. If False an existing file is an error.
+    inputs
+        The inputs the file is made from, by name; ``path`` must not be one of them
+        (:func:`~nightlights.io.outputs.refuse_replacing_inputs`).
 
     Yields
     ------
@@ -36,7 +41,8 @@ def atomic_output(path: str | os.PathLike[str], *, overwrite: bool = True) -> It
     ------
     OutputError
         The folder does not exist or cannot be written to (permission denied, read-only),
-        ``path`` is a folder or exists with ``overwrite=False``, or the block wrote no file.
+        ``path`` is a folder, an input, or exists with ``overwrite=False``, or the block
+        wrote no file.
     """
-    with OutputSet(path, overwrite=overwrite) as outputs:
+    with OutputSet(path, overwrite=overwrite, inputs=inputs) as outputs:
         yield outputs.temporary(path)

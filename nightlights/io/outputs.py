@@ -17,6 +17,17 @@ arrives while the outputs are being renamed is held until the renaming is done. 
 signal handlers between bytecodes, so a signal that arrives during a long call into GDAL takes
 effect when that call returns.
 
+No output replaces an input. A stage names its input files when it opens its outputs
+(``OutputSet(..., inputs={"emission": path, "dem": dem})``) and an output that is the same
+file as one of them (the same path relative or absolute, through a symbolic link, a hard link
+or another spelling on a case-insensitive disk), that would replace a file inside an input
+folder, or that is a folder holding an input, is refused before any work, with or without
+overwrite (:func:`refuse_replacing_inputs`).
+
+``SIGTERM`` can also be turned into :class:`Terminated` for a whole block that writes through
+several output sets in turn (:func:`terminate_cleanly`), so that the clean-up of the block
+(a project stage's staging folder) runs between two of them as well.
+
 A writer may leave a style sidecar beside a temporary (a ``.qml`` of the same name, which
 QGIS reads as the layer's default style: :data:`SIDECAR_SUFFIXES`); it is renamed onto the
 output's sidecar together with the output, and removed with the temporary.
@@ -31,7 +42,7 @@ import shutil
 import signal
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import Any
@@ -39,9 +50,20 @@ from typing import Any
 from nightlights._resources import format_bytes
 from nightlights.errors import OutputError
 
-__all__ = ["SIDECAR_SUFFIXES", "OutputSet", "Terminated", "sidecar_paths"]
+__all__ = [
+    "SIDECAR_SUFFIXES",
+    "OutputSet",
+    "Terminated",
+    "refuse_replacing_inputs",
+    "replaced_input",
+    "sidecar_paths",
+    "terminate_cleanly",
+]
 
 PathLike = str | os.PathLike[str]
+#: A stage's inputs by name (its parameter, or an option on the command line): a path, None,
+#: an in-memory object (skipped: it is no file) or a sequence of them.
+Inputs = Mapping[str, object]
 
 #: Side files that travel with an output: the temporary's name with this suffix is renamed
 #: onto the output's name with it (QGIS's default-style ``.qml`` beside a raster).
@@ -138,6 +160,28 @@ class _TerminationGuard:
 _GUARD = _TerminationGuard()
 
 
+@contextlib.contextmanager
+def terminate_cleanly() -> Iterator[None]:
+    """Turn ``SIGTERM`` into :class:`Terminated` for the whole block (main thread only).
+
+    Output sets already do so while they are open; a block that writes through several of
+    them in turn, and keeps something to clean up between them (a project stage's staging
+    folder), wraps them in this so that a ``SIGTERM`` between two outputs unwinds it as
+    Ctrl-C does. When the block has been left, the signal is delivered again to the previous
+    handler, so the process still ends as terminated (exit status 143 from a shell).
+
+    Examples
+    --------
+    >>> with terminate_cleanly():
+    ...     pass  # SIGTERM here raises Terminated, and the process ends after the clean-up
+    """
+    _GUARD.enter()
+    try:
+        yield
+    finally:
+        _GUARD.exit()
+
+
 def _reason(exc: OSError) -> str:
     if isinstance(exc, PermissionError):
         return "permission denied"
@@ -152,6 +196,93 @@ def _remove_with_side_files(path: Path) -> None:
             os.unlink(name)
 
 
+# --- no output replaces an input -----------------------------------------------------------------
+
+
+def _input_paths(inputs: Inputs | None) -> list[tuple[str, Path]]:
+    """The inputs that are files or folders on disk, with their names."""
+    found: list[tuple[str, Path]] = []
+    for name, value in (inputs or {}).items():
+        values = value if isinstance(value, list | tuple) else [value]
+        for item in values:
+            if isinstance(item, str | os.PathLike):
+                path = Path(item)
+                if os.path.exists(path):  # one that does not exist cannot be replaced
+                    found.append((name, path))
+    return found
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` lies inside ``folder`` (both resolved, links followed)."""
+    return Path(os.path.realpath(folder)) in Path(os.path.realpath(path)).parents
+
+
+def replaced_input(output: PathLike, inputs: Inputs | None) -> str | None:
+    """How writing ``output`` would destroy one of ``inputs``, as a phrase; None if it would not.
+
+    Parameters
+    ----------
+    output
+        An output path (file or folder).
+    inputs
+        The stage's inputs by name (:data:`Inputs`); the name and path of the input at risk
+        become part of the phrase.
+
+    Returns
+    -------
+    str or None
+        ``is the input NAME (PATH)``, ``lies in the input folder NAME (PATH) and would replace
+        one of its files`` or ``holds the input NAME (PATH) and would replace it``; None when no
+        input is at risk.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> emission = pathlib.Path(tempfile.mkdtemp()) / "e.tif"
+    >>> _ = emission.write_text("raster")
+    >>> replaced_input(emission, {"emission": emission}).startswith("is the input emission")
+    True
+    >>> replaced_input(emission.with_name("q.tif"), {"emission": emission}) is None
+    True
+    """
+    out = Path(output)
+    if not os.path.exists(out):
+        return None  # what does not exist is no input (nor holds one)
+    for name, path in _input_paths(inputs):
+        if os.path.samefile(out, path):
+            return f"is the input {name} ({path})"
+        if path.is_dir() and _inside(out, path):
+            return f"lies in the input folder {name} ({path}) and would replace one of its files"
+        if out.is_dir() and _inside(path, out):
+            return f"holds the input {name} ({path}) and would replace it"
+    return None
+
+
+def refuse_replacing_inputs(outputs: Iterable[PathLike | None], inputs: Inputs | None) -> None:
+    """Refuse any output that would replace (or lie in, or hold) one of the inputs.
+
+    Parameters
+    ----------
+    outputs
+        Output paths; None entries (outputs not asked for) are skipped.
+    inputs
+        The stage's inputs by name (:data:`Inputs`).
+
+    Raises
+    ------
+    OutputError
+        Naming the output and the input (:func:`replaced_input`), whatever ``overwrite``.
+    """
+    for output in outputs:
+        if output is None:
+            continue
+        reason = replaced_input(output, inputs)
+        if reason is not None:
+            raise OutputError(
+                f"{output}: {reason}; an output never replaces an input: choose another output path"
+            )
+
+
 class OutputSet:
     """Outputs of one stage: checked up front, written to temporaries, all renamed at the end.
 
@@ -164,13 +295,17 @@ class OutputSet:
     free_bytes
         Estimated size of all outputs together [B]; each output folder must have this much
         free disk space.
+    inputs
+        The stage's inputs by name (:data:`Inputs`: paths, None or in-memory objects); an
+        output that would replace one is refused (:func:`refuse_replacing_inputs`).
 
     Raises
     ------
     OutputError
-        At construction, naming the path: a folder that does not exist, is not a folder or
-        cannot be written to, an output that is a folder, exists (``overwrite=False``) or is
-        named twice, too little free disk space. On leaving the block: an output the block did
+        At construction, naming the path: an output that is an input (or lies in an input
+        folder), a folder that does not exist, is not a folder or cannot be written to, an
+        output that is a folder, exists (``overwrite=False``) or is named twice, too little
+        free disk space. On leaving the block: an output the block did
         not write, or a rename that failed (the outputs renamed before it are restored).
 
     Examples
@@ -185,13 +320,18 @@ class OutputSet:
     """
 
     def __init__(
-        self, *paths: PathLike | None, overwrite: bool = True, free_bytes: float = 0
+        self,
+        *paths: PathLike | None,
+        overwrite: bool = True,
+        free_bytes: float = 0,
+        inputs: Inputs | None = None,
     ) -> None:
         self.paths: tuple[Path, ...] = tuple(Path(p) for p in paths if p is not None)
         self.overwrite = overwrite
         self.free_bytes = float(free_bytes)
         self._temporaries: dict[Path, Path] = {}
         self._entered = False
+        refuse_replacing_inputs(self.paths, inputs)
         self._check()
 
     # --- checks made at construction -------------------------------------------------------

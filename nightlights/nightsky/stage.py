@@ -23,7 +23,7 @@ from nightlights._typing import PathLike
 from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
 from nightlights.io import atomic_output
-from nightlights.io.outputs import OutputSet
+from nightlights.io.outputs import OutputSet, refuse_replacing_inputs
 from nightlights.nightsky.render import SkyImage, SkyOptions, View, render_sky
 from nightlights.nightsky.tonemap import ToneMapping, tone_map
 from nightlights.sky.forward import panorama_coords
@@ -280,6 +280,7 @@ def sky_render(
             )
     if natural_only and artificial_only:
         raise InputError("natural_only and artificial_only exclude each other")
+    refuse_replacing_inputs([target], {"panorama": panorama})
     dataset = read_panorama(panorama) if panorama is not None else None
     if artificial_only and dataset is None:
         raise InputError("artificial_only needs a skyglow panorama")

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nightlights.errors import OutputError
+from nightlights.io.outputs import replaced_input, sidecar_paths, terminate_cleanly
 from nightlights.project._cache import StageCache, file_hash, stage_key
 from nightlights.project._ground_tasks import GROUND_BUILDERS
 from nightlights.project._load import load_project
@@ -125,33 +126,48 @@ def run(
     result = ProjectResult(folder=folder)
     notify = on_task or (lambda name, event, seconds: None)
     context = Context(checked, progress, notify)
-    for task in tasks:
-        key = _key(task, files)
-        record = None if task.name in forced else cache.valid(task.name, key)
-        if record is None:
-            notify(task.name, "start", 0.0)
-            begun = time.perf_counter()
-            cache.forget(task.name, list(task.outputs.values()))
-            with cache.staging(task.name) as staging:
-                staged = {name: staging / file for name, file in task.outputs.items()}
-                inputs = {name: files.path(name) for name in task.needs}
-                facts = task.compute(context, staged, inputs)
-                for name, path in staged.items():
-                    if not path.exists():
-                        raise OutputError(f"stage {task.name}: wrote no {task.outputs[name]}")
-                seconds = time.perf_counter() - begun
-                record = cache.commit(task.name, key, staged, facts, seconds)
-            result.ran.append(task.name)
-            notify(task.name, "ran", seconds)
-        else:
-            result.cached.append(task.name)
-            notify(task.name, "cached", record.seconds)
-        for name, state in record.outputs.items():
-            files.add(name, folder / state["file"], state["sha256"])
-            result.outputs[name] = folder / state["file"]
-        _collect(task, record.facts, result)
+    # SIGTERM unwinds the stages as Ctrl-C does (a stage writes its outputs one after another
+    # into its staging folder, which must go however the run ends)
+    with terminate_cleanly():
+        for task in tasks:
+            _run_task(task, context, cache, files, forced, result)
     result.seconds = time.perf_counter() - started
     return result
+
+
+def _run_task(
+    task: Task,
+    context: Context,
+    cache: StageCache,
+    files: _Files,
+    forced: set[str],
+    result: ProjectResult,
+) -> None:
+    """Run ``task`` unless its record is valid; record its outputs and facts in ``result``."""
+    key = _key(task, files)
+    record = None if task.name in forced else cache.valid(task.name, key)
+    if record is None:
+        context.notify(task.name, "start", 0.0)
+        begun = time.perf_counter()
+        cache.forget(task.name, list(task.outputs.values()))
+        with cache.staging(task.name) as staging:
+            staged = {name: staging / file for name, file in task.outputs.items()}
+            inputs = {name: files.path(name) for name in task.needs}
+            facts = task.compute(context, staged, inputs)
+            for name, path in staged.items():
+                if not path.exists():
+                    raise OutputError(f"stage {task.name}: wrote no {task.outputs[name]}")
+            seconds = time.perf_counter() - begun
+            record = cache.commit(task.name, key, staged, facts, seconds)
+        result.ran.append(task.name)
+        context.notify(task.name, "ran", seconds)
+    else:
+        result.cached.append(task.name)
+        context.notify(task.name, "cached", record.seconds)
+    for name, state in record.outputs.items():
+        files.add(name, cache.folder / state["file"], state["sha256"])
+        result.outputs[name] = cache.folder / state["file"]
+    _collect(task, record.facts, result)
 
 
 def plan_tasks(project: Project) -> list[Task]:
@@ -191,6 +207,9 @@ class _Files:
         emission = project.options("emission")
         if emission is not None and isinstance(emission.albedo, str):
             self._paths["stages.emission.albedo"] = Path(emission.albedo)
+        observers = project.file.observers
+        if observers is not None and observers.file is not None:
+            self._paths["observers.file"] = observers.file
         if inputs.emission is not None:
             self._paths["emission"] = inputs.emission
         self._hashes: dict[str, str] = {}
@@ -215,16 +234,26 @@ class _Files:
 def _refuse_replacing_inputs(
     tasks: list[Task], folder: Path, files: _Files, project: Project
 ) -> None:
-    """Refuse an output folder where a stage's output would replace one of the inputs."""
-    inputs = {path.resolve(): name for name, path in files.inputs().items()}
+    """Refuse an output folder where a stage's output (or the folder itself) would replace one
+    of the inputs: the same file by any path or link, a file in an input folder, a folder
+    holding an input (:func:`~nightlights.io.outputs.replaced_input`)."""
+    inputs = files.inputs()
+    for name, path in inputs.items():
+        if os.path.exists(folder) and os.path.exists(path) and os.path.samefile(folder, path):
+            raise ProjectError(
+                f"{project.source}: project.output: the output folder {folder} is {name} "
+                f"({path}); choose another output folder"
+            )
     for task in tasks:
         for file in task.outputs.values():
-            name = inputs.get((folder / file).resolve())
-            if name is not None:
-                raise ProjectError(
-                    f"{project.source}: project.output: stage {task.name} would write "
-                    f"{folder / file}, which is {name}; choose another output folder"
-                )
+            target = folder / file
+            for candidate in (target, *sidecar_paths(target)):
+                reason = replaced_input(candidate, inputs)
+                if reason is not None:
+                    raise ProjectError(
+                        f"{project.source}: project.output: stage {task.name} would write "
+                        f"{candidate}, which {reason}; choose another output folder"
+                    )
 
 
 def _key(task: Task, files: _Files) -> str:

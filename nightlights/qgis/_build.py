@@ -160,7 +160,7 @@ def build_plugin(
     record = {"command": str(executable), "version": __version__}
     description = dumps_json({"version": __version__, "stages": list(stages)}, indent=1)
     package = resources.files("nightlights.qgis.plugin")
-    with atomic_output(output, overwrite=overwrite) as temporary:
+    with atomic_output(output, overwrite=overwrite, inputs={"command": executable}) as temporary:
         with zipfile.ZipFile(temporary, "w", compression=zipfile.ZIP_DEFLATED) as archive:
             for name in PLUGIN_FILES:
                 text = (

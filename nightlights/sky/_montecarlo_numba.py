@@ -16,7 +16,7 @@ The numpy reference of this module is :func:`nightlights.sky.montecarlo.point_so
 (the estimator of one scattering event) together with :func:`nightlights.sky.kernel.optical_depth`
 (the free paths of a recorded photon), compared in the tests.
 
-Length: about 870 lines, because the random-number stream, the transport, the
+Length: about 910 lines, because the random-number stream, the transport, the
 ray-integrated estimator and its azimuthal splitting are one compiled unit that numba inlines
 together.
 """
@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from nightlights._signals import deliver_signals, held_signals
 from nightlights._typing import FloatArray
 from nightlights.emission_functions import (
     COSINE_FORM,
@@ -40,7 +41,7 @@ from nightlights.emission_functions import (
 from nightlights.sky._kernel_numba import model_parameters as kernel_model_parameters
 from nightlights.sky.atmosphere import Atmosphere
 
-__all__ = ["model_parameters", "observer_rays", "trace_photon", "transport"]
+__all__ = ["BATCH_BLOCKS", "model_parameters", "observer_rays", "trace_photon", "transport"]
 
 # layout of the float parameter vector
 _P_BETA_M, _P_H_M, _P_BETA_A, _P_H_A, _P_ALBEDO, _P_G = 0, 1, 2, 3, 4, 5
@@ -64,6 +65,9 @@ _TWO_POW_53 = 1.0 / 9007199254740992.0
 _SPLIT_SALT = np.uint64(0x6A09E667F3BCC909)
 #: Half-length of the split arc along the event's circle, in windows (at most the circle) [1].
 _ARC_WINDOWS = 4.0
+#: Photons per block in one compiled call of :func:`transport`, between two looks at a held
+#: Ctrl-C: 256 photons with the default 64 blocks, a second or two on two cores [1].
+BATCH_BLOCKS = 4
 
 
 def model_parameters(
@@ -708,8 +712,8 @@ def _history(
 @njit(parallel=True, cache=True)
 def _transport(
     seed: int,
-    photons: int,
-    blocks: int,
+    first: int,
+    last: int,
     max_order: int,
     rays: FloatArray,
     x_gl: FloatArray,
@@ -718,19 +722,22 @@ def _transport(
     flags: NDArray[np.int64],
     windows: FloatArray,
     points: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:  # pragma: no cover
-    """Per-block sums over photons of the order tallies, their squares, the squares of the
-    per-photon sum over orders >= 2, the flux budget, and the event counts."""
+    sums: FloatArray,
+    squares: FloatArray,
+    total_squares: FloatArray,
+    budgets: FloatArray,
+    events: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """Add photons ``first`` to ``last`` - 1 to the per-block sums (block b takes the photons
+    b, b + blocks, ... in order; ``first`` is a multiple of the blocks): the order tallies,
+    their squares, the squares of the per-photon sum over orders >= 2, the flux budget and the
+    event counts, arrays whose first axis is the block."""
+    blocks = sums.shape[0]
     n_rays = rays.shape[0]
-    sums = np.zeros((blocks, max_order + 1, n_rays))
-    squares = np.zeros((blocks, max_order + 1, n_rays))
-    total_squares = np.zeros((blocks, n_rays))
-    budgets = np.zeros((blocks, 4))
-    events = np.zeros(blocks)
     no_record = np.zeros((0, 8))
     for b in prange(blocks):
         tally = np.zeros((max_order + 1, n_rays))
-        for photon in range(b, photons, blocks):
+        for photon in range(first + b, last, blocks):
             tally[:] = 0.0
             events[b] += _history(
                 seed,
@@ -756,7 +763,6 @@ def _transport(
                 for k in range(max_order + 1):
                     t += tally[k, j]
                 total_squares[b, j] += t * t
-    return sums, squares, total_squares, budgets, events
 
 
 def transport(
@@ -773,6 +779,11 @@ def transport(
     points: int = 0,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float, FloatArray]:
     """Run ``photons`` histories; the result does not depend on the number of threads.
+
+    The histories run in batches of ``blocks`` x :data:`BATCH_BLOCKS` photons, with Ctrl-C
+    and ``SIGTERM`` held during each batch and raised between two
+    (:func:`~nightlights._signals.held_signals`); each block adds its photons in the same
+    order whatever the batches, so the sums are those of one run.
 
     Azimuthal splitting (``windows``, ``points``): the atmosphere and the emission are
     symmetric about the source's vertical, so an event rotated by any angle about it is an
@@ -812,20 +823,38 @@ def transport(
     """
     blocks = max(1, min(blocks, photons))
     win = np.zeros(rays.shape[0]) if windows is None else np.asarray(windows, dtype=float)
-    sums, squares, total_squares, budgets, events = _transport(
-        int(seed),
-        int(photons),
-        blocks,
-        int(max_order),
-        rays,
-        x_gl,
-        w_gl,
-        params,
-        flags,
-        win,
-        int(points),
-    )
-    order1 = _source_luminance(rays, x_gl, w_gl, params, flags)
+    n_rays = rays.shape[0]
+    sums = np.zeros((blocks, max_order + 1, n_rays))
+    squares = np.zeros((blocks, max_order + 1, n_rays))
+    total_squares = np.zeros((blocks, n_rays))
+    budgets = np.zeros((blocks, 4))
+    events = np.zeros(blocks)
+    step = blocks * BATCH_BLOCKS
+    # Ctrl-C (or SIGTERM) waits for the end of a batch: raised inside the compiled, threaded
+    # call it would crash the process; the photons' order in each block, and so every sum,
+    # is that of one call
+    with held_signals():
+        for first in range(0, photons, step):
+            _transport(
+                int(seed),
+                first,
+                min(first + step, int(photons)),
+                int(max_order),
+                rays,
+                x_gl,
+                w_gl,
+                params,
+                flags,
+                win,
+                int(points),
+                sums,
+                squares,
+                total_squares,
+                budgets,
+                events,
+            )
+            deliver_signals()
+        order1 = _source_luminance(rays, x_gl, w_gl, params, flags)
     return (
         sums.sum(axis=0),
         squares.sum(axis=0),

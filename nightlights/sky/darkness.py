@@ -366,7 +366,7 @@ def darkness(
     >>> bool(zenith[5, 15] == zenith.max()), bool(np.all(zenith > 0))
     (True, True)
     """
-    target = _check_output(output)
+    target = _check_output(output, scene)
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
     raster = as_raster(emission)
@@ -601,10 +601,11 @@ def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
     return tuple(sizes)
 
 
-def _check_output(output: PathLike | None) -> Path | None:
+def _check_output(output: PathLike | None, scene: Scene) -> Path | None:
     if output is None:
         return None
-    OutputSet(output)  # its folder exists and is writable, checked before any work
+    # its folder exists and is writable and it is none of the scene's inputs, checked first
+    OutputSet(output, inputs=scene.inputs)
     return Path(output)
 
 

@@ -74,6 +74,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from nightlights._signals import held_signals
 from nightlights._typing import FloatArray
 from nightlights.emission_functions import sampled_shape
 from nightlights.errors import InputError
@@ -263,7 +264,8 @@ def monte_carlo_luminance(
     )
     rays = compiled.observer_rays(el, az, r, np.full(el.size, float(observer_altitude)), atmosphere)
     x_src, w_src = gauss_legendre(nodes)
-    order1 = compiled.source_luminance(rays, x_src, w_src, params, flags)
+    with held_signals():  # a Ctrl-C raised as the compiled call returns would crash it
+        order1 = compiled.source_luminance(rays, x_src, w_src, params, flags)
     n_rays = el.size
     luminance = np.zeros((max_order, n_rays))
     error = np.zeros((max_order, n_rays))

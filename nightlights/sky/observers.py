@@ -55,6 +55,7 @@ from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
 from nightlights.errors import CRSError, InputError, OutputExistsError
 from nightlights.io import OutputSet, source_label, write_gpkg
+from nightlights.io.outputs import refuse_replacing_inputs
 from nightlights.io.raster import as_lit_cells
 from nightlights.io.styles import observers_style
 from nightlights.sky._flat import flat_keywords
@@ -184,6 +185,10 @@ def observers(
         Observers that are not points, have no CRS, repeat a name, stand outside the DEM or
         farther from every lit cell than the kernel reaches; an unknown scheduler; the
         emission refused by :func:`~nightlights.sky.setup.prepare_scene`.
+    OutputError
+        An output (the summary, a panorama) is one of the inputs (the observers' layer, the
+        scene's emission, DEM or kernel file), exists without ``overwrite``, or cannot be
+        written.
 
     Examples
     --------
@@ -206,6 +211,9 @@ def observers(
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
     emission, dem = scene.emission, scene.dem
     label = scene.label
+    # no output is an input (the observers' layer, the scene's files), overwrite or not
+    inputs = {**scene.inputs, "observers": observers}
+    refuse_replacing_inputs([output], inputs)
     cells = as_lit_cells(emission)
     if cells.crs is None or not cells.crs.is_projected:
         raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
@@ -223,6 +231,7 @@ def observers(
     files = {name: folder / f"{_file_name(name)}.nc" for name in labels} if folder else {}
     if folder is not None and not folder.is_dir():
         raise InputError(f"panorama folder {folder} does not exist or is not a folder")
+    refuse_replacing_inputs(files.values(), inputs)
     for path in [output, *files.values()]:
         if path is not None and not overwrite and Path(path).exists():
             raise OutputExistsError(f"{path}: exists; give overwrite to replace it")

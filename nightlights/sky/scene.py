@@ -242,6 +242,13 @@ class Scene:
         return self.emission
 
     @property
+    def inputs(self) -> dict[str, Any]:
+        """The scene's inputs by parameter (``emission``, ``dem``, ``kernel``): the stages
+        refuse an output that would replace one of those given as files
+        (:func:`~nightlights.io.outputs.refuse_replacing_inputs`)."""
+        return {"emission": self.emission, "dem": self.dem, "kernel": self.kernel}
+
+    @property
     def grid(self) -> dict[str, int | None]:
         """The grid options as given (None where the default or the kernel's applies)."""
         return {name: getattr(self, name) for name in DEFAULT_GRID}

@@ -220,7 +220,7 @@ def skyglow(
     """
     target = Path(output) if output is not None else None
     # Every location is checked now; the outputs appear together at the end or not at all.
-    outputs = OutputSet(target, png, polar_output)
+    outputs = OutputSet(target, png, polar_output, inputs=scene.inputs)
     sky = skyglow_panorama(
         scene,
         observer,

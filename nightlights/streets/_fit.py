@@ -26,6 +26,7 @@ from bayesnets.errors import BayesNetError
 from nightlights._typing import PathLike
 from nightlights.errors import EmptyInputError, OutputError
 from nightlights.io import as_vector
+from nightlights.io.outputs import refuse_replacing_inputs
 from nightlights.streets._sample import network_by_location, network_for_streets
 from nightlights.streets.schema import observed_field
 
@@ -162,8 +163,8 @@ def fit(
     Raises
     ------
     OutputError
-        ``output`` exists and is not an empty folder, or its parent folder is missing or
-        not writable (checked before any work).
+        ``output`` is an input or holds one, exists and is not an empty folder, or its
+        parent folder is missing or not writable (checked before any work).
     EmptyInputError
         The layer has no features, or no known values of the network's fields.
     bayesnets.errors.BayesNetError
@@ -192,6 +193,7 @@ def fit(
     ('surveyed', None)
     """
     target = Path(output) if output is not None else None
+    refuse_replacing_inputs([target], {"streets": streets, "network": network})
     if target is not None and target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise OutputError(f"{target}: exists and is not an empty folder")
     with network_folder(target) as tmp:

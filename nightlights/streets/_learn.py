@@ -48,6 +48,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.jsonfile import dumps_json
+from nightlights.io.outputs import refuse_replacing_inputs
 from nightlights.io.vector import FieldType
 from nightlights.streets._checks import finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
@@ -326,7 +327,8 @@ def learn(
         No streets, no lamps, or no street with enough lamps to derive a field.
     OutputError
         ``out_dir`` exists and is not an empty folder (or, with ``overwrite``, not a network
-        folder); its parent folder is missing.
+        folder); its parent folder is missing; it is an input (the base ``network`` folder) or
+        holds one (whatever ``overwrite``).
     bayesnets.errors.BayesNetError
         A value the base network cannot map.
 
@@ -358,6 +360,8 @@ def learn(
     rng = rng_from_seed(seed)
     target = Path(out_dir) if out_dir is not None else None
     if target is not None:
+        # the folder is replaced whole: it must be no input and hold none
+        refuse_replacing_inputs([target], {"streets": streets, "lamps": lamps, "network": network})
         _check_target(target, overwrite)
     frame, source = as_vector(streets, name="streets")
     if frame.empty:

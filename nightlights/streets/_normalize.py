@@ -302,7 +302,7 @@ def normalize(
     (2, None)
     """
     rules = load_mapping(mapping)
-    with OutputSet(output) as outputs:
+    with OutputSet(output, inputs={"streets": streets, "mapping": mapping}) as outputs:
         frame, source = as_vector(streets, layer=layer, name="streets")
         if frame.empty:
             raise EmptyInputError(f"{source}: the layer has no features")

@@ -346,7 +346,7 @@ def place(
     """
     options = _placement_options(options, along_jitter, across_jitter, merge_fraction)
     rng = rng_from_seed(seed)
-    with OutputSet(output) as outputs:
+    with OutputSet(output, inputs={"streets": streets, "catalog": catalog}) as outputs:
         frame, source = as_vector(streets, name="streets")
         if frame.empty:
             raise EmptyInputError(f"{source}: the layer has no streets")

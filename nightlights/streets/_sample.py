@@ -428,7 +428,7 @@ def sample(
     rng = rng_from_seed(seed)
     if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 1:
         raise InputError(f"candidates={candidates!r}; expected an integer >= 1")
-    with OutputSet(output) as outputs:
+    with OutputSet(output, inputs={"streets": streets, "network": network}) as outputs:
         frame, source = as_vector(streets, name="streets")
         if frame.crs is None or not frame.crs.is_projected:
             raise InputError(

@@ -17,7 +17,7 @@ import xarray as xr
 from affine import Affine
 
 import nightlights as nl
-from nightlights.errors import InputError, OutputExistsError
+from nightlights.errors import InputError, OutputError, OutputExistsError
 from nightlights.explore import ExploreSession, _edits
 from nightlights.inverse import InfeasibleTargetError
 from nightlights.io import Raster
@@ -323,6 +323,27 @@ def test_session_file_reopens_with_its_edits(tmp_path, kernel: xr.Dataset) -> No
         _relative(reopened.panorama(*OBSERVER).luminance, session.panorama(*OBSERVER).luminance)
         < 1e-12
     )
+
+
+def test_exports_never_replace_the_files_the_session_was_opened_from(
+    tmp_path, kernel: xr.Dataset
+) -> None:
+    emission = _raster(2).write(tmp_path / "emission.tif")
+    kernel_path = tmp_path / "kernel.nc"
+    kernel.to_netcdf(kernel_path, engine="h5netcdf")
+    session = ExploreSession(nl.Scene(emission, kernel=kernel_path))
+    before = {path: path.read_bytes() for path in (emission, kernel_path)}
+    (tmp_path / "link.tif").symlink_to(emission)
+    view = session.panorama(*OBSERVER)
+    for write, label in (
+        (lambda: session.export_emission(emission, overwrite=True), "emission"),
+        (lambda: session.export_emission(tmp_path / "link.tif", overwrite=True), "emission"),
+        (lambda: session.save(kernel_path, overwrite=True), "kernel"),
+        (lambda: session.export_panorama(view, nc=kernel_path, overwrite=True), "kernel"),
+    ):
+        with pytest.raises(OutputError, match=f"is the input {label} "):
+            write()
+    assert {path: path.read_bytes() for path in before} == before
 
 
 def test_session_file_errors(tmp_path, kernel: xr.Dataset) -> None:

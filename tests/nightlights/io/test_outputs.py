@@ -17,6 +17,7 @@ import pytest
 from nightlights.errors import OutputError
 from nightlights.io import OutputSet, Terminated, atomic_output
 from nightlights.io import outputs as outputs_module
+from nightlights.io.outputs import refuse_replacing_inputs, replaced_input
 
 
 def listing(folder: Path) -> dict[str, bytes | None]:
@@ -248,3 +249,154 @@ def test_sigterm_during_a_cog_write_leaves_no_temporary(tmp_path: Path) -> None:
     process.send_signal(signal.SIGTERM)
     assert process.wait(timeout=60) == -signal.SIGTERM  # 143 from a shell
     assert listing(tmp_path) == {"out.tif": b"previous output"}
+
+
+# --- no output replaces an input ------------------------------------------------------------
+
+
+def _same_path(folder: Path, source: Path) -> Path:
+    return source
+
+
+def _relative(folder: Path, source: Path) -> Path:
+    return Path(os.path.relpath(source))
+
+
+def _through_dotdot(folder: Path, source: Path) -> Path:
+    (folder / "sub").mkdir(exist_ok=True)
+    return folder / "sub" / ".." / source.name
+
+
+def _symlink(folder: Path, source: Path) -> Path:
+    link = folder / "link.tif"
+    link.symlink_to(source)
+    return link
+
+
+def _linked_folder(folder: Path, source: Path) -> Path:
+    link = folder / "linked"
+    link.symlink_to(folder, target_is_directory=True)
+    return link / source.name
+
+
+def _hard_link(folder: Path, source: Path) -> Path:
+    link = folder / "hard.tif"
+    os.link(source, link)
+    return link
+
+
+def _other_case(folder: Path, source: Path) -> Path:
+    other = source.with_name(source.name.upper())
+    if not other.exists():
+        pytest.skip("the disk tells names apart by case")
+    return other
+
+
+#: Ways to name the input ``e.tif`` as an output (the output path, built in the folder).
+SAME_FILE = {
+    "same path": _same_path,
+    "relative path": _relative,
+    "through ..": _through_dotdot,
+    "symbolic link": _symlink,
+    "through a linked folder": _linked_folder,
+    "hard link": _hard_link,
+    "other case": _other_case,
+}
+
+
+@pytest.mark.parametrize("overwrite", [True, False], ids=["overwrite", "no-overwrite"])
+@pytest.mark.parametrize("name", list(SAME_FILE))
+def test_an_output_that_is_an_input_is_refused(
+    tmp_path: Path, monkeypatch, name: str, overwrite: bool
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    source = tmp_path / "e.tif"
+    source.write_bytes(b"emission")
+    output = SAME_FILE[name](tmp_path, source)
+    with pytest.raises(OutputError) as error:
+        OutputSet(tmp_path / "q.png", output, overwrite=overwrite, inputs={"emission": source})
+    message = str(error.value)
+    assert "\n" not in message
+    assert message.startswith(f"{output}: is the input emission ({source})"), message
+    assert "an output never replaces an input" in message
+    with pytest.raises(OutputError, match="is the input emission"):
+        with atomic_output(output, inputs={"emission": source}):
+            pass  # pragma: no cover - refused on entry
+    assert source.read_bytes() == b"emission"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+
+
+def test_inputs_that_are_no_files_are_skipped(tmp_path: Path) -> None:
+    output = tmp_path / "osm"
+    output.write_text("previous")
+    inputs = {"mapping": "osm", "raster": object(), "dem": None, "albedo": 0.1}
+    with OutputSet(output, inputs={**inputs, "missing": tmp_path / "missing.tif"}) as outputs:
+        outputs.temporary(output).write_text("new")
+    assert output.read_text() == "new"
+
+
+def test_an_output_in_an_input_folder_or_holding_an_input_is_refused(tmp_path: Path) -> None:
+    catalog = tmp_path / "catalog"
+    catalog.mkdir()
+    (catalog / "lights.csv").write_text("table")
+    with pytest.raises(OutputError, match=r"lies in the input folder catalog .* its files"):
+        OutputSet(catalog / "lights.csv", inputs={"catalog": catalog})
+    OutputSet(catalog / "new.gpkg", inputs={"catalog": catalog})  # adds a file, replaces none
+    streets = catalog / "streets.gpkg"
+    streets.write_text("streets")
+    with pytest.raises(OutputError, match=r"holds the input streets .* would replace it"):
+        refuse_replacing_inputs([catalog], {"streets": streets})
+    with pytest.raises(OutputError, match=r"catalog: is the input network"):
+        refuse_replacing_inputs([catalog], {"network": str(catalog)})
+    assert (catalog / "lights.csv").read_text() == "table"
+    assert replaced_input(tmp_path / "elsewhere.tif", {"catalog": catalog}) is None
+
+
+# --- SIGTERM between two outputs of a block (terminate_cleanly) -----------------------------
+
+STAGED = textwrap.dedent(
+    """
+    import shutil, sys, tempfile, time
+    from pathlib import Path
+    from nightlights.io import atomic_output
+    from nightlights.io.outputs import terminate_cleanly
+
+    folder = Path(sys.argv[1])
+    guarded = sys.argv[2] == "guarded"
+    def stage():
+        staging = Path(tempfile.mkdtemp(suffix=".partial", dir=folder))
+        try:
+            with atomic_output(staging / "first.tif") as tmp:
+                tmp.write_text("first")
+            print("between", flush=True)
+            time.sleep(30)  # no output open: SIGTERM arrives here
+            with atomic_output(staging / "second.png") as tmp:
+                tmp.write_text("second")
+        finally:
+            shutil.rmtree(staging)
+    if guarded:
+        with terminate_cleanly():
+            stage()
+    else:
+        stage()
+    """
+)
+
+
+@pytest.mark.parametrize("guarded", [True, False], ids=["terminate_cleanly", "unguarded"])
+def test_sigterm_between_two_outputs_cleans_up_under_terminate_cleanly(
+    tmp_path: Path, guarded: bool
+) -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-c", STAGED, str(tmp_path), "guarded" if guarded else "plain"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert process.stdout is not None
+    assert process.stdout.readline().strip() == "between"
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=60) == -signal.SIGTERM  # ends as terminated either way
+    left = [p.name for p in tmp_path.iterdir()]
+    # only the guarded block removes its staging folder; without it SIGTERM ends the process
+    # at once (what a project stage did before it ran under terminate_cleanly)
+    assert (left == []) is guarded, left

@@ -122,7 +122,8 @@ def test_an_output_folder_where_a_stage_would_replace_an_input_is_refused(
     _edit(small_project, 'emission = "emission.tif"', 'emission = "darkness.tif"')
     _edit(small_project, "[stages.skyglow]", "[stages.darkness]\n\n[stages.skyglow]")
     with pytest.raises(
-        ProjectError, match=r"stage darkness would write .*darkness\.tif, which is inputs.emission"
+        ProjectError,
+        match=r"stage darkness would write .*darkness\.tif, which is the input inputs.emission",
     ):
         run(small_project, small_project.parent, progress=False)
     assert not (small_project.parent / ".nightlights").exists()

@@ -359,3 +359,23 @@ def test_azimuthal_splitting_keeps_the_histories_and_the_mean() -> None:
     bound = 4 * (plain.total_standard_error + split.total_standard_error)
     assert np.all(np.abs(split.total - plain.total) <= bound), split.total / plain.total - 1
     assert np.all(split.total_standard_error < plain.total_standard_error)
+
+
+@pytest.mark.parametrize("photons", [1, 63, 130, 700])
+def test_batches_do_not_change_the_numbers(monkeypatch, photons: int) -> None:
+    # the histories run in batches (a Ctrl-C is raised between two); every block adds its
+    # photons in the same order whatever the batch size, so the sums are bit for bit equal
+    rays = _rays([90.0, 20.0], [3e3, 30e3], SPHERE)
+    params, flags = compiled.model_parameters(SPHERE, "lambertian", 1.0, 4.0, 0.0)
+    x_gl, w_gl = gauss_legendre(12)
+    windows = np.array([750.0, 7500.0])
+    runs = []
+    for batch_blocks in (1, compiled.BATCH_BLOCKS, 10**6):
+        monkeypatch.setattr(compiled, "BATCH_BLOCKS", batch_blocks)
+        run = compiled.transport(
+            7, photons, 12, rays, x_gl, w_gl, params, flags, blocks=8, windows=windows, points=4
+        )
+        runs.append(run)
+    for run in runs[1:]:
+        for got, expected in zip(run, runs[0], strict=True):
+            np.testing.assert_array_equal(got, expected)
