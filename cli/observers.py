@@ -7,6 +7,7 @@ import click
 from .options import (
     OBSERVER_SCHEDULERS,
     LibraryHelpOption,
+    SchedulerText,
     dem_option,
     deprecated_option,
     files_argument,
@@ -55,6 +56,7 @@ from .options import (
 @click.option(
     "--scheduler",
     cls=LibraryHelpOption,
+    type=SchedulerText(OBSERVER_SCHEDULERS),
     default="threads",
     show_default=True,
     metavar="NAME|ADDRESS",
@@ -93,13 +95,6 @@ def observers(
         raise click.BadParameter(f"{out!r}; expected a .gpkg", param_hint="SUMMARY")
     observers_layer = one_of(ctx, **{"--observers-layer": observers_layer, "--layer": old_layer})
     num_workers = one_of(ctx, **{"--num-workers": num_workers, "--workers": old_workers})
-    schedulers = OBSERVER_SCHEDULERS()
-    if scheduler not in schedulers and "://" not in scheduler:
-        raise click.BadParameter(
-            f"{scheduler!r}; expected one of {', '.join(schedulers)} or an address such as "
-            "tcp://host:8786",
-            param_hint="--scheduler",
-        )
     if panoramas is not None:
         Path(panoramas).mkdir(exist_ok=True)
     from nightlights.sky.observers import observers as stage

@@ -45,7 +45,7 @@ from pyproj import CRS
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import bortle_class, luminance_to_magnitude, magnitude_to_luminance
 from nightlights.errors import InputError, OutputExistsError
-from nightlights.explore._edits import EmissionEdits, band_share
+from nightlights.explore._edits import EmissionEdits, band_share, check_saved_edits
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._region import SkyRegion
@@ -287,6 +287,19 @@ class ExploreSession:
                 raise InputError(f"{path}: its {name} {found} does not exist")
             return found
 
+        edits = check_saved_edits(content.get("edits", []), str(path))
+        observer_height = content.get("observer_height", OBSERVER_HEIGHT)
+        if isinstance(observer_height, bool) or not isinstance(observer_height, int | float):
+            raise InputError(f"{path}: observer_height={observer_height!r}; expected a number [m]")
+        saved_observer = content.get("observer")
+        if saved_observer is not None and not (
+            isinstance(saved_observer, list)
+            and len(saved_observer) == 2
+            and all(isinstance(v, int | float) and not isinstance(v, bool) for v in saved_observer)
+        ):
+            raise InputError(
+                f"{path}: observer={saved_observer!r}; expected null or [x, y] in the raster CRS"
+            )
         emission = resolve("emission")
         if emission is None:
             raise InputError(f"{path}: the session names no emission raster")
@@ -306,12 +319,15 @@ class ExploreSession:
                 cache_dir=cache_dir,
             ),
             lights=resolve("lights"),
-            height=float(content.get("observer_height", OBSERVER_HEIGHT)),
+            height=float(observer_height),
             progress=progress,
         )
-        for op in content.get("edits", []):
-            session.edit(op["op"], op["points"], radius=op["radius"], value=op.get("value"))
-        session.saved_observer = content.get("observer")
+        for index, op in enumerate(edits):
+            try:
+                session.edit(op["op"], op["points"], radius=op["radius"], value=op["value"])
+            except InputError as exc:
+                raise InputError(f"{path}: edit {index + 1} of {len(edits)}: {exc}") from None
+        session.saved_observer = saved_observer
         return session
 
     # --- properties -------------------------------------------------------------------------

@@ -55,6 +55,7 @@ from affine import Affine
 from pyproj import CRS
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from nightlights._parallel import check_scheduler
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import bortle_class, luminance_to_magnitude
@@ -85,7 +86,14 @@ from nightlights.sky.setup import (
 )
 from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
-__all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
+__all__ = [
+    "MAX_TOP_CELLS",
+    "SCHEDULERS",
+    "SUMMARY_FIELDS",
+    "SUMMARY_LAYER",
+    "ObserversResult",
+    "observers",
+]
 
 #: Local Dask schedulers; a ``distributed.Client`` or a scheduler address also works.
 SCHEDULERS = ("threads", "processes", "synchronous")
@@ -104,6 +112,12 @@ SUMMARY_FIELDS: dict[str, str] = {
     "brightest_elevation": "deg",
     "brightest_luminance": "cd m-2 (artificial)",
 }
+#: Columns of a GeoPackage table at most, its feature id and geometry among them (SQLite's
+#: ``SQLITE_MAX_COLUMN``, which GDAL's GeoPackage driver keeps) [1].
+GPKG_MAX_COLUMNS = 2000
+#: Most lit cells per observer the summary GeoPackage can list: three columns each, beside the
+#: feature id, the geometry, :data:`SUMMARY_FIELDS` and ``panorama`` [1].
+MAX_TOP_CELLS = (GPKG_MAX_COLUMNS - 2 - len(SUMMARY_FIELDS) - 1) // 3
 #: Most observers per Dask task: few enough that the progress bar moves, many enough that a
 #: task's overhead (a few ms on the local schedulers) stays below its work [1].
 MAX_CHUNK = 64
@@ -396,7 +410,8 @@ def observers(
         Folder for one panorama NetCDF per observer (``<name>.nc``, the ``skyglow`` stage's
         format, which ``nightlights sky render --panorama`` reads); None writes none.
     top_cells
-        Lit cells listed per observer, by their part of the artificial zenith [1].
+        Lit cells listed per observer, by their part of the artificial zenith; with an
+        ``output``, at most :data:`MAX_TOP_CELLS` (the GeoPackage's column limit) [1].
     scheduler
         ``threads``, ``processes`` or ``synchronous`` (local Dask schedulers), a
         ``distributed.Client`` or a scheduler address (``tcp://host:8786``).
@@ -417,7 +432,8 @@ def observers(
     ------
     InputError
         Observers that are not points, have no CRS, repeat a name, stand outside the DEM or
-        farther from every lit cell than the kernel reaches; an unknown scheduler; the
+        farther from every lit cell than the kernel reaches; more ``top_cells`` than the
+        summary layer holds; a scheduler that is unknown or does not answer; the
         emission refused by :func:`~nightlights.sky.setup.prepare_scene`.
 
     Examples
@@ -436,9 +452,15 @@ def observers(
     >>> result.summary["name"].tolist(), result.summary["top1_share"].tolist()
     (['observer_1', 'observer_2'], [1.0, 1.0])
     """
-    _check_scheduler(scheduler)
+    scheduler = check_scheduler(scheduler, local=SCHEDULERS)  # parsed and probed first
     if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
+    if output is not None and top_cells > MAX_TOP_CELLS:
+        raise InputError(
+            f"top_cells={top_cells}: the summary GeoPackage holds at most {MAX_TOP_CELLS} top "
+            f"cells (3 columns each, {GPKG_MAX_COLUMNS} columns per table); expected 0 to "
+            f"{MAX_TOP_CELLS}"
+        )
     emission, dem = scene.emission, scene.dem
     label = scene.label
     cells = as_lit_cells(emission)
@@ -507,21 +529,6 @@ def observers(
 
 
 # --- inputs -----------------------------------------------------------------------------------
-
-
-def _check_scheduler(scheduler: Any) -> None:
-    if isinstance(scheduler, str):
-        if scheduler in SCHEDULERS or "://" in scheduler:
-            return
-        raise InputError(
-            f"scheduler {scheduler!r}; expected one of {', '.join(SCHEDULERS)}, a "
-            "distributed.Client or a scheduler address (tcp://host:8786)"
-        )
-    if type(scheduler).__name__ != "Client":
-        raise InputError(
-            f"scheduler of type {type(scheduler).__name__}; expected one of "
-            f"{', '.join(SCHEDULERS)}, a distributed.Client or a scheduler address"
-        )
 
 
 def _as_observers(source: Any) -> tuple[Observer, ...]:

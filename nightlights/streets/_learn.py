@@ -49,7 +49,7 @@ from nightlights._typing import PathLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError, OutputError
 from nightlights.io import as_vector, write_gpkg
 from nightlights.io.vector import FieldType
-from nightlights.streets._checks import finite_vertices, rng_from_seed
+from nightlights.streets._checks import check_lines, finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
 from nightlights.streets._learn_assign import (
     CENTRE_TOLERANCE,
@@ -321,7 +321,8 @@ def learn(
     ------
     InputError
         ``max_distance`` not positive and finite; layers without a projected CRS (the
-        lamps are reprojected to the streets' CRS); a negative seed.
+        lamps are reprojected to the streets' CRS); streets that are not lines; a negative
+        seed.
     EmptyInputError
         No streets, no lamps, or no street with enough lamps to derive a field.
     OutputError
@@ -367,6 +368,7 @@ def learn(
             f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
             "normalize` first)"
         )
+    check_lines(frame, source)
     points, lamp_source = _read_lamps(lamps, lamps_layer, frame.crs)
     frame = frame.reset_index(drop=True)
     if network is None:
