@@ -19,9 +19,9 @@ direction of the artificial skyglow, and the lit cells that give most of the art
 luminance, in numbered columns (``top1_x``, ``top1_y``, ``top1_share``, ...: plain numeric
 fields that QGIS filters, labels and styles directly).
 
-Length: about 830 lines, a third of them numpydoc, because the stage accepts observers in
+Length: about 880 lines, a third of them numpydoc, because the stage accepts observers in
 every form a user has them (an array in any CRS, a point layer in memory or in a file, with
-or without names) and checks each one by name before any work, and because the engine a
+or without names) and checks each one by name, and its memory, before any work, and because the engine a
 Dask task receives, the scheduling and the two outputs (summary layer, panoramas) share one
 set of private types that no other module needs.
 
@@ -126,6 +126,15 @@ TASKS_PER_WORKER = 4
 #: Bytes per panorama pixel held until the files are written (luminance, sky brightness and
 #: the terrain mask in the written dataset, plus the array returned by the task) [B].
 _PANORAMA_PIXEL_BYTES = 3 * 8 + 1
+#: Bytes per lit cell of a task in flight: the cells' distances, centres and polar bins, the
+#: masks and the exact parts of the cells near the top (besides 16 B per level and band for
+#: the bounds of their parts); 152 B measured per task with one level and band (peak resident
+#: memory, 257 400 lit cells, one and two tasks at once) [B].
+_TASK_CELL_BYTES = 160.0
+#: Bytes per number of the summary: the task's result, the stacked table, the data frame, the
+#: GeoDataFrame and the GeoPackage writer's copies; 92 B measured with 200 observers x 600 top
+#: cells [B].
+_SUMMARY_BYTES = 128.0
 #: Characters kept from an observer's name in its panorama's file name.
 _SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
@@ -470,6 +479,8 @@ def observers(
     xy = positions(sites, cells.crs)
     labels = _names([site.name for site in sites])
     heights = np.array([site.height for site in sites])
+    workers = _workers(scheduler, num_workers)
+    _check_memory(cells, len(xy), top_cells, workers, levels=1)  # before a kernel is built
     if dem is None and np.ptp(heights) > 0:
         raise InputError(
             f"observers at eye heights {heights.min():g}-{heights.max():g} m; without a DEM "
@@ -505,6 +516,7 @@ def observers(
         progress=progress,
     )
     _check_reaches(setup.emission, xy, labels, label, setup.table)
+    _check_memory(setup.emission, len(xy), top_cells, workers, levels=len(setup.levels))
     engine = _engine(setup, relief is not None, top_cells, folder is not None)
     if folder is not None:
         first = setup.slices[0]
@@ -529,6 +541,68 @@ def observers(
 
 
 # --- inputs -----------------------------------------------------------------------------------
+
+
+def observers_memory(
+    n_cells: int, bands: int, levels: int, n_observers: int, top_cells: int, workers: int
+) -> float:
+    """Estimated peak memory of :func:`observers` besides the kernel and the panoramas [B].
+
+    The engine every task shares (per lit cell its indices, flux density and flux per band
+    and source-level weights), the arrays of each task in flight over every lit cell (its
+    distance, polar bins and the bounds of its part of the zenith per level and band:
+    :data:`_TASK_CELL_BYTES` and 16 B per level and band), and the summary (per observer its
+    fields and ``top_cells`` x 3 numbers, held as results, as a table and as written:
+    :data:`_SUMMARY_BYTES` per number).
+
+    Parameters
+    ----------
+    n_cells
+        Lit cells of the emission [1].
+    bands
+        Emission bands [1].
+    levels
+        Source levels of the kernel [1].
+    n_observers
+        Observers [1].
+    top_cells
+        Lit cells listed per observer [1].
+    workers
+        Tasks computed at once [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(observers_memory(10**6, 1, 1, 1000, 5, 4) / 2**20)
+    713
+    """
+    engine = float(n_cells) * (16.0 + 16.0 * bands + 8.0 * levels)
+    tasks = float(workers) * n_cells * (_TASK_CELL_BYTES + 16.0 * levels * bands)
+    summary = float(n_observers) * (len(SUMMARY_FIELDS) + 3 + 3 * top_cells) * _SUMMARY_BYTES
+    return engine + tasks + summary
+
+
+def _workers(scheduler: Any, num_workers: int | None) -> int:
+    """Tasks that run at once in this process: one for ``synchronous``, the local workers
+    for ``threads`` and ``processes`` (each process holds its own), one for a cluster (its
+    workers hold theirs)."""
+    if scheduler == "synchronous" or not isinstance(scheduler, str) or scheduler not in SCHEDULERS:
+        return 1
+    return num_workers or os.cpu_count() or 1
+
+
+def _check_memory(cells: Any, n_observers: int, top_cells: int, workers: int, levels: int) -> None:
+    """Refuse a run whose estimate (:func:`observers_memory`) exceeds the limit."""
+    check_memory(
+        observers_memory(cells.n_cells, cells.count, levels, n_observers, top_cells, workers),
+        f"the skies of {n_observers} observers over {cells.n_cells} lit cells "
+        f"({top_cells} top cells each, {workers} at once)",
+        option="give fewer observers or top_cells= at once, or fewer num_workers=",
+    )
 
 
 def _as_observers(source: Any) -> tuple[Observer, ...]:
