@@ -21,9 +21,9 @@ fields that QGIS filters, labels and styles directly).
 
 Length: about 880 lines, a third of them numpydoc, because the stage accepts observers in
 every form a user has them (an array in any CRS, a point layer in memory or in a file, with
-or without names) and checks each one by name, and its memory, before any work, and because the engine a
-Dask task receives, the scheduling and the two outputs (summary layer, panoramas) share one
-set of private types that no other module needs.
+or without names) and checks each one by name, and its memory, before any work, and because
+the engine a Dask task receives, the scheduling and the two outputs (summary layer, panoramas)
+share one set of private types that no other module needs.
 
 References
 ----------
