@@ -13,9 +13,9 @@ from .options import (
     overwrite_option,
     resolve_inout,
     scene_grid_options,
-    scheduler_option,
     turbidity_option,
 )
+from .resources import max_memory_option, scheduler_option
 
 
 @click.command("darkness")
@@ -35,6 +35,7 @@ from .options import (
 )
 @scheduler_option
 @scene_grid_options
+@max_memory_option
 def darkness(
     files: tuple[str, ...],
     output: str | None,

@@ -11,6 +11,7 @@ from .options import (
     one_of,
     turbidity_option,
 )
+from .resources import max_memory_option
 
 #: Options that a session file (``--session``) fixes.
 SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
@@ -59,6 +60,7 @@ SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
     help="Folder the page's exports are written to (the only place it writes).",
 )
 @click.pass_context
+@max_memory_option
 def explore(
     ctx: click.Context,
     emission: str | None,

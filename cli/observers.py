@@ -7,7 +7,6 @@ import click
 from .options import (
     OBSERVER_SCHEDULERS,
     LibraryHelpOption,
-    SchedulerText,
     dem_option,
     deprecated_option,
     files_argument,
@@ -21,6 +20,7 @@ from .options import (
     resolve_inout,
     turbidity_option,
 )
+from .resources import SchedulerText, max_memory_option
 
 
 @click.command("observers")
@@ -65,6 +65,7 @@ from .options import (
 )
 @num_workers_option
 @click.pass_context
+@max_memory_option
 def observers(
     ctx: click.Context,
     files: tuple[str, ...],

@@ -6,11 +6,12 @@ An existing output is never replaced unless ``--overwrite`` is given.
 
 Option values are checked here as far as their type allows, before any work starts: a value
 of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
-:class:`MemorySize`, a malformed ``--scheduler`` address, :class:`SchedulerText`) is a usage
-error (exit status 2); ``nan`` or ``inf`` for any float option (:func:`require_finite_floats`,
-applied to every command by ``nightlights_cli.main``) and a ``--crs`` or ``--target-crs`` that
-pyproj cannot read (:class:`CRSText`) are refused like the
-library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
+:class:`MemorySize`, a malformed ``--scheduler`` address,
+:class:`~nightlights_cli.resources.SchedulerText`) is a usage error (exit status 2); ``nan``
+or ``inf`` for any float option (:func:`require_finite_floats`, applied to every command by
+``nightlights_cli.main``) and a ``--crs`` or ``--target-crs`` that pyproj cannot read
+(:class:`CRSText`) are refused like the library's range checks, with an
+``InputError``/``CRSError`` line and exit status 1.
 
 This module imports only click, so that ``nightlights --help`` stays fast. The choices and
 defaults that are the library's (a stage's modes, a dataclass's default) are not repeated here:
@@ -305,28 +306,6 @@ class MemorySize(click.ParamType):
             self.fail(f"{value!r}; expected a size such as 8G, 500M or 2e9 (bytes)", param, ctx)
 
 
-class SchedulerText(click.ParamType):
-    """A Dask scheduler: a ``dask.distributed`` scheduler address, or where ``local`` is given
-    one of the library's local schedulers, parsed by the library
-    (:func:`nightlights._parallel.check_scheduler`). A malformed value is a usage error (exit
-    status 2); whether a scheduler answers at the address the stage checks before any work."""
-
-    name = "scheduler"
-
-    def __init__(self, local: FromLibrary | None = None) -> None:
-        self.local = local
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        from nightlights._parallel import check_scheduler
-        from nightlights.errors import InputError
-
-        names = tuple(self.local()) if self.local is not None else ()
-        try:
-            return check_scheduler(value, local=names, connect=False)
-        except InputError as exc:
-            self.fail(str(exc).removeprefix(f"scheduler={value!r}").lstrip(":; "), param, ctx)
-
-
 # --- deprecated spellings -----------------------------------------------------------------------
 
 
@@ -447,13 +426,6 @@ SEED_HELP = "Random seed; the same seed gives the same output."
 #: Seeds of numpy's random generators are non-negative integers.
 SEED_TYPE = click.IntRange(min=0)
 seed_option = click.option("--seed", type=SEED_TYPE, default=None, help=SEED_HELP)
-scheduler_option = click.option(
-    "--scheduler",
-    default=None,
-    type=SchedulerText(),
-    metavar="ADDRESS",
-    help="dask.distributed scheduler address; default: local threads.",
-)
 catalog_option = click.option(
     "--catalog",
     default=None,

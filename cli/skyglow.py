@@ -19,6 +19,7 @@ from .options import (
     resolve_inout,
     scene_options,
 )
+from .resources import max_memory_option
 
 
 @click.command("skyglow")
@@ -70,6 +71,7 @@ from .options import (
     help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
 )
 @click.pass_context
+@max_memory_option
 def skyglow(
     ctx: click.Context,
     files: tuple[str, ...],

@@ -34,6 +34,7 @@ from .options import (
     seed_option,
     target_crs_option,
 )
+from .resources import max_memory_option
 
 if TYPE_CHECKING:
     from nightlights.streets import NormalizeReport
@@ -71,6 +72,7 @@ def streets() -> None:
 @click.option("--layer", default=None, help="Input layer (default: first; 'lines' for OSM).")
 @crs_option
 @target_crs_option
+@max_memory_option
 def normalize_command(
     files: tuple[str, ...],
     output: str | None,
@@ -146,6 +148,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
     show_default=True,
     help="Impossible evidence: stop, or drop the least likely observations with a warning.",
 )
+@max_memory_option
 def sample_command(
     files: tuple[str, ...],
     output: str | None,
@@ -219,6 +222,7 @@ def print_lighting_summary(streets: Any, dst: str) -> None:
     help_values=_NETWORKS,
 )
 @prior_option
+@max_memory_option
 def fit_command(
     files: tuple[str, ...], output: str | None, network: str | None, prior: float
 ) -> None:
@@ -267,6 +271,7 @@ def fit_command(
     help="Layer of the LAMPS file (default: 'points' for OSM files, else the first).",
 )
 @seed_option
+@max_memory_option
 def learn_command(
     files: tuple[str, ...],
     output: str | None,
@@ -359,6 +364,7 @@ def print_learn_report(report: Any, dst: str) -> None:
     show_default=True,
     help="Merge poles of different streets closer than this fraction of the spacing [1].",
 )
+@max_memory_option
 def place_command(
     files: tuple[str, ...],
     output: str | None,

@@ -67,6 +67,7 @@ from nightlights.streets._learn_evidence import MIN_GAP as MIN_GAP
 from nightlights.streets._learn_evidence import PAIRING_FRACTION as PAIRING_FRACTION
 from nightlights.streets._learn_fit import (
     DEFAULT_ITERATIONS,
+    check_learn_memory,
     learn_lighting_network,
     spacing_ratio_states,
     with_occupancy,
@@ -375,6 +376,7 @@ def learn(
         # the base network for where the streets lie, as streets sample chooses it
         network, _ = network_by_location(frame, source=str(source))
     base = resolve_network(network)
+    check_learn_memory(points.geometry.to_numpy(), frame, base, float(max_distance))
     rank = _street_rank(frame)
     lit = frame["lit"].astype("boolean") if "lit" in frame else pd.Series(pd.NA, index=frame.index)
     unlit = (lit == False).fillna(False).to_numpy(bool)  # noqa: E712 (nullable boolean)
