@@ -41,7 +41,7 @@ class SchedulerText(click.ParamType):
         try:
             return check_scheduler(value, local=names, connect=False)
         except InputError as exc:
-            self.fail(str(exc).removeprefix(f"scheduler={value!r}").lstrip(":; "), param, ctx)
+            self.fail(str(exc).removeprefix("scheduler="), param, ctx)
 
 
 scheduler_option = click.option(

@@ -265,7 +265,7 @@ points, radius and value (null for erase)
         op, points, radius = edit["op"], edit["points"], edit["radius"]
         value = edit.get("value")
         if op not in EDIT_OPS:
-            raise InputError(f"{where}: op={op!r}; expected one of {', '.join(EDIT_OPS)}")
+            raise InputError(f"{where}: op {op!r}; expected one of {', '.join(EDIT_OPS)}")
         if not (
             isinstance(points, list)
             and points
@@ -275,15 +275,15 @@ points, radius and value (null for erase)
             )
         ):
             raise InputError(
-                f"{where}: points={_shown(points)}; expected a list of [x, y] points (finite "
+                f"{where}: points {_shown(points)}; expected a list of [x, y] points (finite "
                 "numbers)"
             )
         if not (_finite(radius) and radius > 0):
-            raise InputError(f"{where}: radius={_shown(radius)}; expected a number > 0 [m]")
+            raise InputError(f"{where}: radius {_shown(radius)}; expected a number > 0 [m]")
         if op != "erase" and not (_finite(value) and value >= 0):
-            raise InputError(f"{where}: value={_shown(value)}; {op} needs a number >= 0")
+            raise InputError(f"{where}: value {_shown(value)}; {op} needs a number >= 0")
         if op == "erase" and value is not None and not _finite(value):
-            raise InputError(f"{where}: value={_shown(value)}; expected null or a number")
+            raise InputError(f"{where}: value {_shown(value)}; expected null or a number")
         checked.append({"op": op, "points": points, "radius": radius, "value": value})
     return checked
 

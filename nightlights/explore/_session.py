@@ -304,7 +304,7 @@ class ExploreSession:
         edits = check_saved_edits(content.get("edits", []), str(path))
         observer_height = content.get("observer_height", OBSERVER_HEIGHT)
         if isinstance(observer_height, bool) or not isinstance(observer_height, int | float):
-            raise InputError(f"{path}: observer_height={observer_height!r}; expected a number [m]")
+            raise InputError(f"{path}: observer_height {observer_height!r}; expected a number [m]")
         saved_observer = content.get("observer")
         if saved_observer is not None and not (
             isinstance(saved_observer, list)
@@ -312,7 +312,7 @@ class ExploreSession:
             and all(isinstance(v, int | float) and not isinstance(v, bool) for v in saved_observer)
         ):
             raise InputError(
-                f"{path}: observer={saved_observer!r}; expected null or [x, y] in the raster CRS"
+                f"{path}: observer {saved_observer!r}; expected null or [x, y] in the raster CRS"
             )
         emission = resolve("emission")
         if emission is None:
