@@ -41,7 +41,8 @@ class SchedulerText(click.ParamType):
         try:
             return check_scheduler(value, local=names, connect=False)
         except InputError as exc:
-            self.fail(str(exc).removeprefix("scheduler="), param, ctx)
+            # the command line cannot pass a Client
+            self.fail(str(exc).removeprefix("scheduler=").replace(" or a Client", ""), param, ctx)
 
 
 scheduler_option = click.option(

@@ -220,7 +220,7 @@ def _is_client(value: Any) -> bool:
 def _unreachable(address: str, why: str) -> InputError:
     return InputError(
         f"scheduler={address!r}: cannot connect to a dask scheduler: {why}; expected the "
-        f"address of a running scheduler, e.g. {ADDRESS_EXAMPLE}"
+        "address of a running dask scheduler, tcp://HOST:PORT"
     )
 
 

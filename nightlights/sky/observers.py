@@ -599,7 +599,7 @@ def _check_memory(cells: Any, n_observers: int, top_cells: int, workers: int, le
     """Refuse a run whose estimate (:func:`observers_memory`) exceeds the limit."""
     check_memory(
         observers_memory(cells.n_cells, cells.count, levels, n_observers, top_cells, workers),
-        f"the skies of {n_observers} observers over {cells.n_cells} lit cells "
+        f"computing the skies of {n_observers} observers over {cells.n_cells} lit cells "
         f"({top_cells} top cells each, {workers} at once)",
         option="give fewer observers or top_cells= at once, or fewer num_workers=",
     )

@@ -239,7 +239,10 @@ STAGES: dict[str, tuple[str, str, list[str], str]] = {
     "sky observers": (
         "sky observers {emission} {many_observers} {out}/o.gpkg --kernel {kernel} --top-cells 662",
         "100M",
-        ["the skies of 2000 observers over 9 lit cells (662 top cells each", "--top-cells"],
+        [
+            "computing the skies of 2000 observers over 9 lit cells (662 top cells each",
+            "--top-cells",
+        ],
         "sky observers {emission} {observers} {out}/o.gpkg --kernel {kernel} --top-cells 662",
     ),
     "sky render": (
