@@ -280,7 +280,7 @@ points, radius and value (null for erase)
             )
         if not (_finite(radius) and radius > 0):
             raise InputError(f"{where}: radius {_shown(radius)}; expected a number > 0 [m]")
-        if op != "erase" and not (_finite(value) and value >= 0):
+        if op != "erase" and not (_finite(value) and float(value or 0) >= 0):
             raise InputError(f"{where}: value {_shown(value)}; {op} needs a number >= 0")
         if op == "erase" and value is not None and not _finite(value):
             raise InputError(f"{where}: value {_shown(value)}; expected null or a number")
