@@ -15,9 +15,9 @@ from .options import (
     resolve_inout,
     scene_grid_options,
     scene_of,
-    scheduler_option,
     turbidity_option,
 )
+from .resources import max_memory_option, scheduler_option
 
 
 @click.command("darkness")
@@ -37,6 +37,7 @@ from .options import (
 )
 @scheduler_option
 @scene_grid_options
+@max_memory_option
 def darkness(
     files: tuple[str, ...],
     output: str | None,

@@ -17,6 +17,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
 )
+from .resources import max_memory_option
 
 DEFAULT_DEMO_FOLDER = "nightlights-demo"
 
@@ -33,6 +34,7 @@ DEFAULT_DEMO_FOLDER = "nightlights-demo"
 @overwrite_option
 @click.option("--seed", type=int, default=2011, show_default=True, help=SEED_HELP)
 @click.pass_context
+@max_memory_option
 def demo(
     ctx: click.Context,
     files: tuple[str, ...],

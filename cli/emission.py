@@ -28,6 +28,7 @@ from .options import (
     skip_unknown_option,
     target_crs_option,
 )
+from .resources import max_memory_option
 
 
 @click.group(
@@ -61,6 +62,7 @@ def emission() -> None:
 @catalog_option
 @skip_unknown_option
 @crs_option
+@max_memory_option
 def ground_command(
     files: tuple[str, ...],
     output: str | None,
@@ -142,6 +144,7 @@ def parse_albedo(text: str) -> float | str:
     "default lambertian): sets the flux the nadir radiance implies; written as the band's tag "
     "for skyglow.",
 )
+@max_memory_option
 def viirs_command(
     files: tuple[str, ...],
     output: str | None,

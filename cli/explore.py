@@ -12,6 +12,7 @@ from .options import (
     scene_of,
     turbidity_option,
 )
+from .resources import max_memory_option
 
 #: Options that a session file (``--session``) fixes.
 SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
@@ -60,6 +61,7 @@ SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
     help="Folder the page's exports are written to (the only place it writes).",
 )
 @click.pass_context
+@max_memory_option
 def explore(
     ctx: click.Context,
     emission: str | None,

@@ -54,6 +54,7 @@ from .options import (
     scene_options,
     warn_deprecated,
 )
+from .resources import max_memory_option
 
 REGION_HELP = (
     "Region of the sky: 'az,el az,el ...' (closed: the first vertex repeated at the end), "
@@ -93,6 +94,7 @@ def inverse() -> None:
     "cell's part of the zenith luminance [cd m-2]; hemisphere: its part of the mean luminance "
     "of the visible sky [cd m-2].",
 )
+@max_memory_option
 def q_command(
     files: tuple[str, ...],
     output: str | None,
@@ -154,6 +156,7 @@ def q_command(
     "image summed over the region (the reference).",
 )
 @components_option
+@max_memory_option
 def s_command(
     files: tuple[str, ...],
     output: str | None,
@@ -294,6 +297,7 @@ target_options = options(
 @kernel_option
 @dimming_products
 @click.pass_context
+@max_memory_option
 def dim_command(
     ctx: click.Context,
     files: tuple[str, ...],
@@ -348,6 +352,7 @@ def dim_command(
 @kernel_option
 @dimming_products
 @click.pass_context
+@max_memory_option
 def plan_command(
     ctx: click.Context,
     files: tuple[str, ...],
@@ -438,6 +443,7 @@ def _products(
 @kernel_option
 @dimming_products
 @click.pass_context
+@max_memory_option
 def reduce_command(ctx: click.Context, **params: Any) -> None:
     """Deprecated: inverse dim (--by) or inverse plan (--target-zenith, --target-region)."""
     by_mode = params["by"] is not None

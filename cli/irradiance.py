@@ -19,9 +19,9 @@ from .options import (
     output_option,
     overwrite_option,
     resolve_inout,
-    scheduler_option,
     skip_unknown_option,
 )
+from .resources import max_memory_option, scheduler_option
 
 
 def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
@@ -116,6 +116,7 @@ def parse_bounds(text: str | None) -> tuple[float, float, float, float] | None:
     help="Illuminance kernel: numba (compiled) or numpy (reference).",
 )
 @scheduler_option
+@max_memory_option
 def irradiance_command(
     files: tuple[str, ...],
     output: str | None,

@@ -23,6 +23,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
 )
+from .resources import max_memory_option
 
 
 @click.group("kernel")
@@ -214,6 +215,7 @@ def kernel() -> None:
     help="Line-of-sight integrator: numba (compiled) or numpy (reference).",
 )
 @click.pass_context
+@max_memory_option
 def build(
     ctx: click.Context,
     files: tuple[str, ...],

@@ -22,6 +22,7 @@ from .options import (
     scene_of,
     turbidity_option,
 )
+from .resources import SchedulerText, max_memory_option
 
 
 @click.command("observers")
@@ -57,6 +58,7 @@ from .options import (
 @click.option(
     "--scheduler",
     cls=LibraryHelpOption,
+    type=SchedulerText(OBSERVER_SCHEDULERS),
     default="threads",
     show_default=True,
     metavar="NAME|ADDRESS",
@@ -65,6 +67,7 @@ from .options import (
 )
 @num_workers_option
 @click.pass_context
+@max_memory_option
 def observers(
     ctx: click.Context,
     files: tuple[str, ...],
@@ -95,13 +98,6 @@ def observers(
         raise click.BadParameter(f"{out!r}; expected a .gpkg", param_hint="SUMMARY")
     observers_layer = one_of(ctx, **{"--observers-layer": observers_layer, "--layer": old_layer})
     num_workers = one_of(ctx, **{"--num-workers": num_workers, "--workers": old_workers})
-    schedulers = OBSERVER_SCHEDULERS()
-    if scheduler not in schedulers and "://" not in scheduler:
-        raise click.BadParameter(
-            f"{scheduler!r}; expected one of {', '.join(schedulers)} or an address such as "
-            "tcp://host:8786",
-            param_hint="--scheduler",
-        )
     if panoramas is not None:
         Path(panoramas).mkdir(exist_ok=True)
     from nightlights.sky import Observer

@@ -10,10 +10,12 @@ of the command's inputs (a positional input or the file of any other option: ``-
 
 Option values are checked here as far as their type allows, before any work starts: a value
 of the wrong form (not a number, a negative ``--seed``, a malformed ``--max-memory`` size,
-:class:`MemorySize`) is a usage error (exit status 2); ``nan`` or ``inf`` for any float option
-(:func:`require_finite_floats`, applied to every command by ``nightlights_cli.main``) and a
-``--crs`` or ``--target-crs`` that pyproj cannot read (:class:`CRSText`) are refused like the
-library's range checks, with an ``InputError``/``CRSError`` line and exit status 1.
+:class:`MemorySize`, a malformed ``--scheduler`` address,
+:class:`~nightlights_cli.resources.SchedulerText`) is a usage error (exit status 2); ``nan``
+or ``inf`` for any float option (:func:`require_finite_floats`, applied to every command by
+``nightlights_cli.main``) and a ``--crs`` or ``--target-crs`` that pyproj cannot read
+(:class:`CRSText`) are refused like the library's range checks, with an
+``InputError``/``CRSError`` line and exit status 1.
 
 Length: a little over 600 lines, because every option that two commands share is declared here
 once (the scene and observer options with the helpers that turn them into a ``Scene`` and an
@@ -521,12 +523,6 @@ SEED_HELP = "Random seed; the same seed gives the same output."
 #: Seeds of numpy's random generators are non-negative integers.
 SEED_TYPE = click.IntRange(min=0)
 seed_option = click.option("--seed", type=SEED_TYPE, default=None, help=SEED_HELP)
-scheduler_option = click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS",
-    help="dask.distributed scheduler address; default: local threads.",
-)
 catalog_option = click.option(
     "--catalog",
     default=None,

@@ -8,6 +8,7 @@ import click
 
 from .kinds import FOLDER, file_kind
 from .options import PROJECT_STAGES, LibraryHelpOption, files_argument, output_option, resolve_inout
+from .resources import max_memory_option
 
 
 @click.command("run")
@@ -28,6 +29,7 @@ from .options import PROJECT_STAGES, LibraryHelpOption, files_argument, output_o
     is_flag=True,
     help="Check the project file and list which stages would run; run nothing.",
 )
+@max_memory_option
 def run_command(
     files: tuple[str, ...], output: str | None, force: tuple[str, ...], check_only: bool
 ) -> None:

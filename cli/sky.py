@@ -17,6 +17,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
 )
+from .resources import max_memory_option
 
 
 def parse_lonlat(text: str) -> tuple[float, float]:
@@ -122,6 +123,7 @@ def sky() -> None:
 )
 @click.option("--no-legend", is_flag=True, help="No legend strip under the PNG.")
 @click.pass_context
+@max_memory_option
 def render(
     ctx: click.Context,
     files: tuple[str, ...],

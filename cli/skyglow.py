@@ -22,6 +22,7 @@ from .options import (
     scene_of,
     scene_options,
 )
+from .resources import max_memory_option
 
 #: The panorama and the polar map: a NetCDF, or a GeoTIFF when the name ends in .tif.
 PANORAMA = file_kind("nc", "tif")
@@ -76,6 +77,7 @@ PANORAMA = file_kind("nc", "tif")
     help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
 )
 @click.pass_context
+@max_memory_option
 def skyglow(
     ctx: click.Context,
     files: tuple[str, ...],

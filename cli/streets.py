@@ -35,6 +35,7 @@ from .options import (
     seed_option,
     target_crs_option,
 )
+from .resources import max_memory_option
 
 if TYPE_CHECKING:
     from nightlights.streets import NormalizeReport
@@ -72,6 +73,7 @@ def streets() -> None:
 @click.option("--layer", default=None, help="Input layer (default: first; 'lines' for OSM).")
 @crs_option
 @target_crs_option
+@max_memory_option
 def normalize_command(
     files: tuple[str, ...],
     output: str | None,
@@ -147,6 +149,7 @@ def print_normalize_report(report: NormalizeReport, dst: str) -> None:
     show_default=True,
     help="Impossible evidence: stop, or drop the least likely observations with a warning.",
 )
+@max_memory_option
 def sample_command(
     files: tuple[str, ...],
     output: str | None,
@@ -220,6 +223,7 @@ def print_lighting_summary(streets: Any, dst: str) -> None:
     help_values=_NETWORKS,
 )
 @prior_option
+@max_memory_option
 def fit_command(
     files: tuple[str, ...], output: str | None, network: str | None, prior: float
 ) -> None:
@@ -268,6 +272,7 @@ def fit_command(
     help="Layer of the LAMPS file (default: 'points' for OSM files, else the first).",
 )
 @seed_option
+@max_memory_option
 def learn_command(
     files: tuple[str, ...],
     output: str | None,
@@ -360,6 +365,7 @@ def print_learn_report(report: Any, dst: str) -> None:
     show_default=True,
     help="Merge poles of different streets closer than this fraction of the spacing [1].",
 )
+@max_memory_option
 def place_command(
     files: tuple[str, ...],
     output: str | None,

@@ -239,9 +239,17 @@ class Fields:
                 raise ApiError(400, f"{key}={value!r}: expected {expected}") from None
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ApiError(400, f"{key}={json.dumps(value)[:60]}: expected {expected}")
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond the largest float (some 309 digits)
+            number = math.inf
         if not math.isfinite(number):
-            raise ApiError(400, f"{key}={value}: expected {expected}")
+            shown = (
+                str(value)
+                if len(str(value)) <= 60
+                else f"{str(value)[:20]}... ({len(str(value))} digits)"
+            )
+            raise ApiError(400, f"{key}={shown}: expected {expected}")
         return number
 
     def choice(self, key: str, choices: tuple[str, ...], default: Any = _REQUIRED) -> Any:
@@ -450,8 +458,9 @@ class _Explorer:
         if length is not None:
             if not length.isdigit():
                 raise ApiError(400, f"Content-Length {length!r}: expected a number of bytes")
-            if int(length) > self.max_body:
-                raise ApiError(413, f"body of {length} bytes; at most {self.max_body} taken")
+            if len(length) > 18 or int(length) > self.max_body:  # int() refuses 4300 digits
+                shown = length if len(length) <= 18 else f"{length[:18]}... ({len(length)} digits)"
+                raise ApiError(413, f"body of {shown} bytes; at most {self.max_body} taken")
         chunks, size = [], 0
         async for chunk in request.stream():
             size += len(chunk)

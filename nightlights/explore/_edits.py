@@ -22,7 +22,7 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_flux_density
 from nightlights.errors import InputError
 
-__all__ = ["EDIT_OPS", "EmissionEdits", "band_share"]
+__all__ = ["EDIT_OPS", "EmissionEdits", "band_share", "check_saved_edits"]
 
 #: Edit operations.
 EDIT_OPS = ("paint", "erase", "scale")
@@ -229,6 +229,100 @@ class EmissionEdits:
         while len(self._undo) > 1 and sum(s.before.nbytes * 2 for s in self._undo) > HISTORY_BYTES:
             dropped = self._undo.pop(0)
             self._baked.append(dropped.op)
+
+
+#: Fields of a saved edit (:attr:`EmissionEdits.ops`); ``value`` may be null for ``erase``.
+EDIT_FIELDS = ("op", "points", "radius", "value")
+
+
+def check_saved_edits(edits: Any, source: str) -> list[dict[str, Any]]:
+    """The edits of a session file, each checked field by field before any is replayed.
+
+    Parameters
+    ----------
+    edits
+        The file's ``edits``: a list of ``{"op", "points", "radius", "value"}`` objects, as
+        :attr:`EmissionEdits.ops` writes them.
+    source
+        The session file, for messages.
+
+    Returns
+    -------
+    list of dict
+        The edits (``value`` None where absent).
+
+    Raises
+    ------
+    InputError
+        Not a list; an edit that is not an object, lacks a field, has one of the wrong type or
+        an unknown one: the message names the edit (counted from 1) and the field.
+
+    Examples
+    --------
+    >>> check_saved_edits([{"op": "erase", "points": [[0, 0]]}], "s.json")
+    Traceback (most recent call last):
+    ...
+    nightlights.errors.InputError: s.json: edit 1 of 1: missing field 'radius'; expected op, \
+points, radius and value (null for erase)
+    """
+    if not isinstance(edits, list):
+        raise InputError(f"{source}: edits is a {_json_type(edits)}; expected a list of edits")
+    expected = "expected op, points, radius and value (null for erase)"
+    checked = []
+    for index, edit in enumerate(edits):
+        where = f"{source}: edit {index + 1} of {len(edits)}"
+        if not isinstance(edit, dict):
+            raise InputError(f"{where}: a {_json_type(edit)}; {expected}")
+        unknown = sorted(set(edit) - set(EDIT_FIELDS))
+        if unknown:
+            raise InputError(f"{where}: unknown field {unknown[0]!r}; {expected}")
+        for name in ("op", "points", "radius"):
+            if name not in edit:
+                raise InputError(f"{where}: missing field {name!r}; {expected}")
+        op, points, radius = edit["op"], edit["points"], edit["radius"]
+        value = edit.get("value")
+        if op not in EDIT_OPS:
+            raise InputError(f"{where}: op {op!r}; expected one of {', '.join(EDIT_OPS)}")
+        if not (
+            isinstance(points, list)
+            and points
+            and all(
+                isinstance(point, list) and len(point) == 2 and all(map(_finite, point))
+                for point in points
+            )
+        ):
+            raise InputError(
+                f"{where}: points {_shown(points)}; expected a list of [x, y] points (finite "
+                "numbers)"
+            )
+        if not (_finite(radius) and radius > 0):
+            raise InputError(f"{where}: radius {_shown(radius)}; expected a number > 0 [m]")
+        if op != "erase" and not (_finite(value) and float(value or 0) >= 0):
+            raise InputError(f"{where}: value {_shown(value)}; {op} needs a number >= 0")
+        if op == "erase" and value is not None and not _finite(value):
+            raise InputError(f"{where}: value {_shown(value)}; expected null or a number")
+        checked.append({"op": op, "points": points, "radius": radius, "value": value})
+    return checked
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` is a JSON number (not a boolean) that is finite as a float."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:  # an integer too large for a float
+        return False
+
+
+def _json_type(value: Any) -> str:
+    names = {dict: "object", list: "list", str: "string", bool: "boolean", type(None): "null"}
+    return names.get(type(value), "number")
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def band_share(data: FloatArray) -> FloatArray:

@@ -42,6 +42,7 @@ import xarray as xr
 from affine import Affine
 from pyproj import CRS
 
+from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import (
     bortle_class_or_reason,
@@ -49,8 +50,9 @@ from nightlights.brightness import (
     magnitude_to_luminance,
 )
 from nightlights.errors import InputError, OutputExistsError
-from nightlights.explore._edits import EmissionEdits, band_share
+from nightlights.explore._edits import EmissionEdits, band_share, check_saved_edits
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
+from nightlights.ground.checks import raster_header
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster, as_raster, source_label
@@ -98,6 +100,17 @@ _CACHE_SIZE = 16
 _MAX_BRUSH_CELLS = 16_000_000
 #: Undo history kept, all steps together [B].
 _HISTORY_BYTES = 512 * 2**20
+#: Influence maps kept (each a float64 grid of the raster), all together; the newest is
+#: always kept [B].
+_INFLUENCE_BYTES = 256 * 2**20
+#: Bytes per cell and emission band a session holds: the raster read, the original and the
+#: edited copies [B].
+BYTES_PER_CELL_BAND = 24.0
+#: Bytes per cell besides: the lit-cell states, a dimming's fraction and dimmed copy, the map
+#: images' resampling; 26 B measured with the bands' 24 B (peak resident memory over a
+#: 40 x 40 session's, a 3000 x 3000 single-band raster, after panoramas, influence maps, a
+#: dimming and an edit, the influence maps' grids apart) [B].
+BYTES_PER_CELL = 16.0
 #: Lights shown on the map at most [1].
 MAX_LIGHTS = 100_000
 #: Edit operations.
@@ -175,6 +188,7 @@ class ExploreSession:
         emission, kernel, dem = scene.emission, scene.kernel, scene.dem
         self.scene = scene
         self.label = scene.label
+        _check_memory(scene.raster_input("ExploreSession"), dem, self.label)
         raster = as_raster(scene.raster_input("ExploreSession"))
         self._sources: dict[str, Any] = {
             "emission": _path_or_none(emission),
@@ -299,6 +313,19 @@ class ExploreSession:
                 raise InputError(f"{path}: its {name} {found} does not exist")
             return found
 
+        edits = check_saved_edits(content.get("edits", []), str(path))
+        observer_height = content.get("observer_height", OBSERVER_HEIGHT)
+        if isinstance(observer_height, bool) or not isinstance(observer_height, int | float):
+            raise InputError(f"{path}: observer_height {observer_height!r}; expected a number [m]")
+        saved_observer = content.get("observer")
+        if saved_observer is not None and not (
+            isinstance(saved_observer, list)
+            and len(saved_observer) == 2
+            and all(isinstance(v, int | float) and not isinstance(v, bool) for v in saved_observer)
+        ):
+            raise InputError(
+                f"{path}: observer {saved_observer!r}; expected null or [x, y] in the raster CRS"
+            )
         emission = resolve("emission")
         if emission is None:
             raise InputError(f"{path}: the session names no emission raster")
@@ -318,12 +345,15 @@ class ExploreSession:
                 cache_dir=cache_dir,
             ),
             lights=resolve("lights"),
-            height=float(content.get("observer_height", OBSERVER_HEIGHT)),
+            height=float(observer_height),
             progress=progress,
         )
-        for op in content.get("edits", []):
-            session.edit(op["op"], op["points"], radius=op["radius"], value=op.get("value"))
-        session.saved_observer = content.get("observer")
+        for index, op in enumerate(edits):
+            try:
+                session.edit(op["op"], op["points"], radius=op["radius"], value=op["value"])
+            except InputError as exc:
+                raise InputError(f"{path}: edit {index + 1} of {len(edits)}: {exc}") from None
+        session.saved_observer = saved_observer
         return session
 
     # --- properties -------------------------------------------------------------------------
@@ -634,6 +664,10 @@ class ExploreSession:
             seconds=time.perf_counter() - start,
         )
         self._remember(self._influences, key, view)
+        while len(self._influences) > 1 and _INFLUENCE_BYTES < sum(
+            kept.grid.nbytes for kept in self._influences.values()
+        ):
+            self._influences.popitem(last=False)  # the oldest map beyond the budget
         self._influence_version[key] = self.edit_version
         return view
 
@@ -1123,6 +1157,53 @@ class ExploreSession:
 
 
 # --- helpers ----------------------------------------------------------------------------------
+
+
+def session_memory(shape: tuple[int, int], bands: int, dem_cells: int = 0) -> float:
+    """Estimated memory an explore session holds for a raster [B]: per cell
+    :data:`BYTES_PER_CELL_BAND` per band and :data:`BYTES_PER_CELL`, the DEM, the influence
+    maps it keeps (up to 16 grids, at most :data:`_INFLUENCE_BYTES`) and its undo history
+    (up to a before and after copy of every cell, at most ``_HISTORY_BYTES``).
+
+    Parameters
+    ----------
+    shape
+        Raster (rows, cols) [cells].
+    bands
+        Emission bands [1].
+    dem_cells
+        Cells of the DEM, read whole [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(session_memory((1000, 1000), 1) / 2**20)
+    175
+    """
+    cells = float(shape[0]) * float(shape[1])
+    influence = min(_CACHE_SIZE * 8.0 * cells, float(_INFLUENCE_BYTES))
+    history = min(16.0 * bands * cells, float(_HISTORY_BYTES))
+    per_cell = BYTES_PER_CELL_BAND * bands + BYTES_PER_CELL
+    return cells * per_cell + 8.0 * dem_cells + influence + history
+
+
+def _check_memory(emission: Any, dem: Any, label: str) -> None:
+    """Refuse a session whose estimate (:func:`session_memory`) exceeds the limit, from the
+    rasters' headers, before either is read or a kernel is built."""
+    header = raster_header(emission)
+    if header is None:
+        return  # the reader names what is wrong with it
+    dem_header = raster_header(dem) if dem is not None else None
+    dem_cells = 0 if dem_header is None else dem_header.rows * dem_header.cols
+    check_memory(
+        session_memory((header.rows, header.cols), header.count, dem_cells),
+        f"an explore session of the {header.rows} x {header.cols} cells of {label}",
+        option="coarsen or crop the emission raster",
+    )
 
 
 def _which(which: str) -> str:

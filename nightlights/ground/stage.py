@@ -21,6 +21,7 @@ import geopandas as gpd
 import numpy as np
 from pyproj import CRS
 
+from nightlights._parallel import check_scheduler
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
@@ -253,6 +254,7 @@ def irradiance(
     if not sensors:
         raise InputError("no sensors requested; expected at least one (e.g. photopic)")
     assume_crs = parse_crs(crs, option="crs")
+    scheduler = check_scheduler(scheduler)  # an address is parsed and probed before any work
     if output is not None:
         # the output's folder is checked before anything is computed; no input is replaced
         OutputSet(

@@ -24,9 +24,11 @@ import xarray as xr
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
+from nightlights.ground.checks import raster_header
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.io.outputs import Inputs, OutputSet
+from nightlights.io.raster import LitCells
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.influence import (
@@ -145,6 +147,7 @@ def inverse_q(
     if metric not in METRICS:
         raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
     _check_outputs(output, inputs=scene.inputs)
+    _check_grid(_emission_shape(scene), metric)  # before the kernel and the emission are read
     setup = prepare_scene(scene, observer, progress=progress)
     start = time.perf_counter()
     cells = setup.polar_cells()
@@ -230,6 +233,7 @@ def inverse_s(
         raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
     sky_region = SkyRegion.parse(region)
     _check_outputs(output, inputs=scene.inputs)
+    _check_grid(_emission_shape(scene), "region")  # before the kernel and the emission are read
     setup = prepare_scene(scene, observer, progress=progress)
     weights = _region_weights(setup, sky_region, weight)
     start = time.perf_counter()
@@ -302,13 +306,7 @@ def _influence_result(
     seconds: float,
     extra: dict[str, str],
 ) -> InfluenceResult:
-    rows, cols = setup.shape
-    # The raster on the emission grid (float64), its float32 copy and the COG writer's.
-    check_memory(
-        16.0 * rows * cols,
-        f"the {metric} raster of {rows} x {cols} cells",
-        option="crop the emission raster to the lit region",
-    )
+    _check_grid(setup.shape, metric)
     grid = np.full(setup.shape, np.nan)
     grid[cells.rows, cells.cols] = values
     name, meaning = _BAND[metric]
@@ -343,6 +341,27 @@ def _influence_result(
         ({"long_name": meaning},),
     )
     return InfluenceResult(raster, metric, float(values.sum()), panorama_value, seconds)
+
+
+def _check_grid(shape: tuple[int, int] | None, metric: str) -> None:
+    """Refuse a map whose grid would pass the memory limit: the raster on the emission grid
+    (float64), its float32 copy and the COG writer's."""
+    if shape is None:
+        return  # the reader reports what is wrong with the emission
+    rows, cols = shape
+    check_memory(
+        16.0 * rows * cols,
+        f"the {metric} raster of {rows} x {cols} cells",
+        option="crop the emission raster to the lit region",
+    )
+
+
+def _emission_shape(scene: Scene) -> tuple[int, int] | None:
+    """The emission grid's (rows, cols) from its header, before anything is read."""
+    if isinstance(scene.emission, LitCells):
+        return scene.emission.shape
+    header = raster_header(scene.emission)
+    return None if header is None else (header.rows, header.cols)
 
 
 def _written(result: InfluenceResult, output: PathLike | None) -> InfluenceResult:

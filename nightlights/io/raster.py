@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from pyproj import CRS
 from rasterio.io import MemoryFile
 
-from nightlights._resources import check_memory
+from nightlights._resources import check_memory, memory_limit
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError, OutputError
 from nightlights.io.outputs import OutputSet
@@ -588,16 +588,43 @@ def _bounds(
     return (float(min(xs)), float(min(ys)), float(max(xs)), float(max(ys)))
 
 
-class _LitCollector:
-    """Collects the lit cells of consecutive row windows of a raster."""
+def lit_cell_bytes(bands: int) -> float:
+    """Bytes per lit cell while they are collected (:func:`read_lit_cells`): the row and
+    column indices and the float64 values of the windows, their concatenation, the sort order
+    and the sorted arrays [B].
 
-    def __init__(self, count: int) -> None:
+    Parameters
+    ----------
+    bands
+        Bands of the raster [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> lit_cell_bytes(1)
+    80.0
+    """
+    return 3.0 * (16.0 + 8.0 * bands) + 8.0
+
+
+class _LitCollector:
+    """Collects the lit cells of consecutive row windows of a raster, refusing (before it
+    keeps a window's cells) a total whose memory (:func:`lit_cell_bytes`) passes the limit."""
+
+    def __init__(self, count: int, label: str = "the raster") -> None:
         self.rows: list[np.ndarray] = []
         self.cols: list[np.ndarray] = []
         self.values: list[np.ndarray] = []
         self.count = count
+        self.label = label
         self.nodata_cells = 0
         self.infinite_values = 0
+        self.n_cells = 0
+        self.limit = memory_limit()
 
     def add(self, block: np.ndarray, row0: int, nodata: float | None, col0: int = 0) -> None:
         """Add a ``(bands, rows, cols)`` window whose first cell is (``row0``, ``col0``)."""
@@ -613,6 +640,15 @@ class _LitCollector:
             lit &= ~missing
             self.nodata_cells += int(np.count_nonzero(missing.all(axis=0)))
         lit_any = lit.any(axis=0)
+        found = int(np.count_nonzero(lit_any))
+        need = (self.n_cells + found) * lit_cell_bytes(self.count)
+        if need > self.limit:
+            check_memory(
+                need,
+                f"the lit cells of {self.label} (more than {self.n_cells + found} of them)",
+                option="coarsen or crop the raster (or set its unlit cells to 0)",
+            )
+        self.n_cells += found
         rows, cols = np.nonzero(lit_any)
         values = block[:, rows, cols].astype(np.float64)
         if missing is not None:
@@ -667,7 +703,9 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
     """Read a raster file window by window, keeping only its lit cells.
 
     Memory holds one window of whole block rows (about :data:`WINDOW_CELLS` cells per band in
-    the file's data type) and the lit cells, never the whole raster.
+    the file's data type) and the lit cells, never the whole raster; the lit cells found so far
+    are checked against the memory limit (:func:`lit_cell_bytes` each) before a window's are
+    kept.
 
     Parameters
     ----------
@@ -683,6 +721,8 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
     ------
     InputError
         The file does not exist or GDAL cannot read it.
+    ResourceError
+        A window, or the lit cells found, would pass the memory limit.
     """
     source = Path(path)
     if not source.exists():
@@ -693,7 +733,7 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
             rasterio.Env(GDAL_CACHEMAX=READ_CACHE_MB, GDAL_NUM_THREADS="ALL_CPUS"),
             rasterio.open(source) as dataset,
         ):
-            collector = _LitCollector(dataset.count)
+            collector = _LitCollector(dataset.count, str(source))
             height, width = _window_shape(dataset)
             itemsize = np.dtype(dataset.dtypes[0]).itemsize
             check_memory(

@@ -19,6 +19,7 @@ from typing import Any, cast
 import numpy as np
 import xarray as xr
 
+from nightlights._resources import check_memory
 from nightlights._typing import PathLike
 from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import InputError
@@ -29,8 +30,22 @@ from nightlights.nightsky.tonemap import ToneMapping, tone_map
 from nightlights.sky.forward import panorama_coords
 from nightlights.sky.observer import Observer
 
-__all__ = ["SkyRenderResult", "legend_text", "png_bytes", "read_panorama", "sky_render"]
+__all__ = [
+    "SkyRenderResult",
+    "legend_text",
+    "png_bytes",
+    "read_panorama",
+    "sky_memory",
+    "sky_render",
+]
 
+#: Bytes per image pixel that ``sky_render`` holds at its peak, by projection: the pixel
+#: directions and solid angles, the natural sky, the Moon's and the stars' light, the XYZ and
+#: luminance images, the tone-mapped picture and the PNG's rows. Measured (peak resident memory
+#: over a 256-pixel-wide picture's): equirectangular 45-50 B (PNG, with or without a panorama;
+#: 31 B to NetCDF) at 20000 x 512; fisheye 100 B at 4000 x 4000; perspective 94 B at
+#: 4000 x 2500 [B].
+BYTES_PER_PIXEL = {"equirectangular": 64.0, "fisheye": 128.0, "perspective": 128.0}
 #: Output formats by file suffix.
 FORMATS = {".png": "png", ".nc": "netcdf"}
 #: Default image size (width, height) [pixel] by projection; a fisheye is width x width.
@@ -222,7 +237,9 @@ def sky_render(
     projection
         ``equirectangular``, ``fisheye`` or ``perspective``.
     width, height
-        Image size [pixel] (defaults by projection in :data:`DEFAULT_SIZE`).
+        Image size [pixel] (defaults by projection in :data:`DEFAULT_SIZE`); a picture whose
+        memory (:func:`sky_memory`) exceeds the limit (:mod:`nightlights._resources`) is
+        refused before anything is drawn.
     view_azimuth, view_elevation, field_of_view
         Perspective view direction and horizontal field of view [deg].
     tone_mapping
@@ -304,6 +321,12 @@ def sky_render(
         elevation=view_elevation,
         field_of_view=field_of_view,
     )
+    rows, cols = view.shape
+    check_memory(
+        sky_memory(view),
+        f"the sky picture of {cols} x {rows} pixels",
+        option="use a smaller width= or height=",
+    )
     options = SkyOptions(
         natural=not artificial_only,
         artificial=not natural_only,
@@ -325,6 +348,29 @@ def sky_render(
                 outputs.temporary(target), engine="h5netcdf"
             )
     return SkyRenderResult(image, (lon, lat), text, target)
+
+
+def sky_memory(view: View) -> float:
+    """Estimated peak memory of :func:`sky_render` for a view [B]: its pixels times
+    :data:`BYTES_PER_PIXEL` (the star catalogue and the panorama are small beside them).
+
+    Parameters
+    ----------
+    view
+        The picture's projection and size.
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(sky_memory(View("equirectangular", 2048, 512)) / 2**20)
+    64
+    """
+    rows, cols = view.shape
+    return float(rows) * float(cols) * BYTES_PER_PIXEL[view.projection]
 
 
 def sky_dataset(image: SkyImage, time: Any, lonlat: tuple[float, float]) -> xr.Dataset:

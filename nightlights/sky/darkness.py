@@ -59,11 +59,12 @@ import scipy.fft
 from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from nightlights._parallel import TaskProgress, compute_distributed
+from nightlights._parallel import TaskProgress, check_scheduler, compute_distributed
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.ground.checks import raster_header
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
@@ -91,6 +92,14 @@ log = logging.getLogger(__name__)
 DEFAULT_CHUNK_SIZE = 4096
 #: Sub-points per cell side at most, as the polar map (:func:`polar_cells`) [1].
 MAX_SAMPLES = 16
+#: Bytes per cell of the whole-raster arrays besides 24 B per emission band (its float64
+#: copy, the NaN-free flux density and the flux): the lit mask, the ground, eye and source
+#: altitudes, the luminance and the two output bands with their float32 copies written; 90 B
+#: measured (peak resident memory over a 40 x 40 map's) for a 3000 x 3000 single-band map [B].
+BYTES_PER_CELL = 72.0
+#: Bytes per cell that a DEM adds: its heights sampled under every cell centre (coordinates,
+#: indices, masks, the interpolation's copies) and the per-cell level weights [B].
+TERRAIN_BYTES_PER_CELL = 96.0
 #: An observer this far outside a given kernel's observer levels is warned about [m] (the
 #: panorama's rule, :func:`~nightlights.sky.panorama.kernel_slice`).
 LEVEL_TOLERANCE = 5.0
@@ -366,16 +375,18 @@ def darkness(
     >>> bool(zenith[5, 15] == zenith.max()), bool(np.all(zenith > 0))
     (True, True)
     """
+    scheduler = check_scheduler(scheduler)  # an address is parsed and probed before any work
     target = _check_output(output, scene)
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
+    chunk = _check_chunk_size(chunk_size)
+    _check_memory_early(emission, dem, chunk, label)  # from the headers, before any read
     raster = as_raster(emission)
     data = _check_emission(raster, label)
     # each band's emission function (its tag, or the default), read as the skyglow stage does
     functions, notes = band_emission_functions(raster, data.shape[0], label=label)
     if not (math.isfinite(observer_height) and observer_height >= 0):
         raise InputError(f"height={observer_height!r} m; expected a finite value >= 0")
-    chunk = _check_chunk_size(chunk_size)
     cell = raster.resolution
     rows, cols = raster.shape
     lit = np.any(data != 0, axis=0)
@@ -412,17 +423,20 @@ def darkness(
     zenith = [[zenith_per_lumen(t)[: data.shape[0]] for t in slices] for slices in by_level]
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
+    estimate = darkness_memory(
+        (rows, cols),
+        half,
+        chunk,
+        bands=data.shape[0],
+        planes=levels.size * data.shape[0],
+        observer_levels=observer_levels.size,
+        terrain=dem is not None,
+    )
+    whole = _raster_memory((rows, cols), bands=data.shape[0], terrain=dem is not None)
     check_memory(
-        darkness_memory(
-            (rows, cols),
-            half,
-            chunk,
-            bands=data.shape[0],
-            planes=levels.size * data.shape[0],
-            observer_levels=observer_levels.size,
-        ),
+        estimate,
         f"the darkness map of {rows} x {cols} cells",
-        option="lower chunk_size= (or coarsen the emission raster)",
+        option=_memory_hint(estimate, whole),
     )
     plan = _Plan(
         stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),
@@ -476,6 +490,38 @@ def darkness(
     return DarknessResult(result, seconds, target)
 
 
+def _check_memory_early(
+    emission: RasterInput, dem: RasterInput | None, chunk: int, label: str
+) -> None:
+    """Refuse a map whose whole-raster arrays alone exceed the limit, from the headers of the
+    emission and the DEM, before either is read or a kernel is built (the stencil's reach is
+    known only then: :func:`darkness` checks the full estimate again before it computes)."""
+    header = raster_header(emission)
+    if header is None:
+        return  # the reader names what is wrong with it
+    dem_header = raster_header(dem) if dem is not None else None
+    rows, cols = header.rows, header.cols
+    dem_cells = 0 if dem_header is None else dem_header.rows * dem_header.cols
+    estimate = darkness_memory(
+        (rows, cols),
+        (0, 0),
+        chunk,
+        bands=header.count,
+        planes=header.count,
+        observer_levels=1,
+        terrain=dem is not None,
+        dem_cells=dem_cells,
+    )
+    whole = _raster_memory(
+        (rows, cols), bands=header.count, terrain=dem is not None, dem_cells=dem_cells
+    )
+    check_memory(
+        estimate,
+        f"the darkness map of {rows} x {cols} cells of {label}",
+        option=_memory_hint(estimate, whole),
+    )
+
+
 def darkness_memory(
     shape: tuple[int, int],
     half: tuple[int, int],
@@ -484,13 +530,18 @@ def darkness_memory(
     bands: int,
     planes: int,
     observer_levels: int,
+    terrain: bool = False,
+    dem_cells: int = 0,
 ) -> float:
     """Estimated peak memory of :func:`darkness` [B].
 
-    The raster and its per-cell arrays (flux, terrain and eye altitudes, output), the stencil,
-    and the FFT grids of the chunks in flight (one FFT without chunks, otherwise one chunk per
-    thread): per chunk its padded inputs and the spectra held at once (the fewer of the
-    source planes and the observer levels, and three working ones).
+    The raster and its per-cell arrays (the float64 emission and its NaN-free copy, flux, lit
+    mask, terrain and eye altitudes, the output's two bands and their float32 copies written:
+    :data:`BYTES_PER_CELL`; over terrain the DEM and the arrays that sample it,
+    :data:`TERRAIN_BYTES_PER_CELL`), the stencil, and the FFT grids of the chunks in flight
+    (one FFT without chunks, otherwise one chunk per thread): per chunk its padded inputs, the
+    source planes, the level weights over terrain, and the spectra held at once (the fewer of
+    the source planes and the observer levels, and three working ones).
 
     Parameters
     ----------
@@ -506,6 +557,10 @@ def darkness_memory(
         Source levels x bands [1].
     observer_levels
         Observer levels of the kernel [1].
+    terrain
+        Whether a DEM gives the ground under every cell.
+    dem_cells
+        Cells of the DEM raster, read whole [1].
 
     Returns
     -------
@@ -516,19 +571,36 @@ def darkness_memory(
     --------
     >>> round(darkness_memory((1000, 1000), (50, 50), 4096, bands=1, planes=1,
     ...                       observer_levels=1) / 2**20)
-    149
+    166
     """
+    raster = _raster_memory(shape, bands=bands, terrain=terrain, dem_cells=dem_cells)
     rows, cols = shape
     a, b = half
     chunk = max(chunk_size, 2 * a, 2 * b, 1)
-    raster = 8.0 * rows * cols * (3 * bands + 8)
     stencil = 10.0 * (2 * a + 1) * (2 * b + 1)
     fft_rows, fft_cols = min(rows, chunk) + 2 * a + 1, min(cols, chunk) + 2 * b + 1
     held = min(planes, observer_levels) + 3
-    per_chunk = 8.0 * fft_rows * fft_cols * (held + bands + 2)
+    weights = planes // max(bands, 1) + observer_levels if terrain else 0
+    per_chunk = 8.0 * fft_rows * fft_cols * (held + bands + 2 + planes + weights)
     n_chunks = -(-rows // chunk) * -(-cols // chunk)
     in_flight = 1 if n_chunks == 1 else min(n_chunks, os.cpu_count() or 1)
     return raster + stencil + in_flight * per_chunk
+
+
+def _raster_memory(
+    shape: tuple[int, int], *, bands: int, terrain: bool, dem_cells: int = 0
+) -> float:
+    """The whole-raster part of :func:`darkness_memory` [B] (no chunk size lowers it)."""
+    per_cell = BYTES_PER_CELL + 24.0 * bands + (TERRAIN_BYTES_PER_CELL if terrain else 0.0)
+    return float(shape[0]) * float(shape[1]) * per_cell + 8.0 * dem_cells
+
+
+def _memory_hint(estimate: float, whole_raster: float) -> str:
+    """How to lower a darkness map's need: smaller chunks, unless the whole-raster arrays
+    make most of it."""
+    if whole_raster > estimate / 2:
+        return "coarsen or crop the emission raster"
+    return "lower chunk_size= (or coarsen the emission raster)"
 
 
 def _compute(

@@ -50,6 +50,7 @@ import pandas as pd
 import xarray as xr
 from pyproj import CRS
 
+from nightlights._parallel import check_scheduler
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_magnitude
@@ -77,7 +78,14 @@ from nightlights.sky.setup import (
 )
 from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
-__all__ = ["SCHEDULERS", "SUMMARY_FIELDS", "SUMMARY_LAYER", "ObserversResult", "observers"]
+__all__ = [
+    "MAX_TOP_CELLS",
+    "SCHEDULERS",
+    "SUMMARY_FIELDS",
+    "SUMMARY_LAYER",
+    "ObserversResult",
+    "observers",
+]
 
 #: Layer name of the summary GeoPackage.
 SUMMARY_LAYER = "observers"
@@ -94,9 +102,24 @@ SUMMARY_FIELDS: dict[str, str] = {
     "brightest_elevation": "deg",
     "brightest_luminance": "cd m-2 (artificial)",
 }
+#: Columns of a GeoPackage table at most, its feature id and geometry among them (SQLite's
+#: ``SQLITE_MAX_COLUMN``, which GDAL's GeoPackage driver keeps) [1].
+GPKG_MAX_COLUMNS = 2000
+#: Most lit cells per observer the summary GeoPackage can list: three columns each, beside the
+#: feature id, the geometry, :data:`SUMMARY_FIELDS` and ``panorama`` [1].
+MAX_TOP_CELLS = (GPKG_MAX_COLUMNS - 2 - len(SUMMARY_FIELDS) - 1) // 3
 #: Bytes per panorama pixel held until the files are written (luminance, sky brightness and
 #: the terrain mask in the written dataset, plus the array returned by the task) [B].
 _PANORAMA_PIXEL_BYTES = 3 * 8 + 1
+#: Bytes per lit cell of a task in flight: the cells' distances, centres and polar bins, the
+#: masks and the exact parts of the cells near the top (besides 16 B per level and band for
+#: the bounds of their parts); 152 B measured per task with one level and band (peak resident
+#: memory, 257 400 lit cells, one and two tasks at once) [B].
+_TASK_CELL_BYTES = 160.0
+#: Bytes per number of the summary: the task's result, the stacked table, the data frame, the
+#: GeoDataFrame and the GeoPackage writer's copies; 92 B measured with 200 observers x 600 top
+#: cells [B].
+_SUMMARY_BYTES = 128.0
 #: Characters kept from an observer's name in its panorama's file name.
 _SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
@@ -162,7 +185,8 @@ def observers(
         Folder for one panorama NetCDF per observer (``<name>.nc``, the ``skyglow`` stage's
         format, which ``nightlights sky render --panorama`` reads); None writes none.
     top_cells
-        Lit cells listed per observer, by their part of the artificial zenith [1].
+        Lit cells listed per observer, by their part of the artificial zenith; with an
+        ``output``, at most :data:`MAX_TOP_CELLS` (the GeoPackage's column limit) [1].
     scheduler
         ``threads``, ``processes`` or ``synchronous`` (local Dask schedulers), a
         ``distributed.Client`` or a scheduler address (``tcp://host:8786``).
@@ -183,7 +207,8 @@ def observers(
     ------
     InputError
         Observers that are not points, have no CRS, repeat a name, stand outside the DEM or
-        farther from every lit cell than the kernel reaches; an unknown scheduler; the
+        farther from every lit cell than the kernel reaches; more ``top_cells`` than the
+        summary layer holds; a scheduler that is unknown or does not answer; the
         emission refused by :func:`~nightlights.sky.setup.prepare_scene`.
     OutputError
         An output (the summary, a panorama) is one of the inputs (the observers' layer, the
@@ -206,9 +231,15 @@ def observers(
     >>> result.summary["name"].tolist(), result.summary["top1_share"].tolist()
     (['observer_1', 'observer_2'], [1.0, 1.0])
     """
-    _check_scheduler(scheduler)
+    scheduler = check_scheduler(scheduler, local=SCHEDULERS)  # parsed and probed first
     if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
+    if output is not None and top_cells > MAX_TOP_CELLS:
+        raise InputError(
+            f"top_cells={top_cells}: the summary GeoPackage holds at most {MAX_TOP_CELLS} top "
+            f"cells (3 columns each, {GPKG_MAX_COLUMNS} columns per table); expected 0 to "
+            f"{MAX_TOP_CELLS}"
+        )
     emission, dem = scene.emission, scene.dem
     label = scene.label
     # no output is an input (the observers' layer, the scene's files), overwrite or not
@@ -221,6 +252,8 @@ def observers(
     xy = positions(sites, cells.crs)
     labels = _names([site.name for site in sites])
     heights = np.array([site.height for site in sites])
+    workers = _workers(scheduler, num_workers)
+    _check_memory(cells, len(xy), top_cells, workers, levels=1)  # before a kernel is built
     if dem is None and np.ptp(heights) > 0:
         raise InputError(
             f"observers at eye heights {heights.min():g}-{heights.max():g} m; without a DEM "
@@ -257,6 +290,7 @@ def observers(
         progress=progress,
     )
     _check_reaches(setup.emission, xy, labels, label, setup.table)
+    _check_memory(setup.emission, len(xy), top_cells, workers, levels=len(setup.levels))
     engine = _engine(setup, relief is not None, top_cells, folder is not None)
     if folder is not None:
         first = setup.slices[0]
@@ -283,19 +317,66 @@ def observers(
 # --- inputs -----------------------------------------------------------------------------------
 
 
-def _check_scheduler(scheduler: Any) -> None:
-    if isinstance(scheduler, str):
-        if scheduler in SCHEDULERS or "://" in scheduler:
-            return
-        raise InputError(
-            f"scheduler {scheduler!r}; expected one of {', '.join(SCHEDULERS)}, a "
-            "distributed.Client or a scheduler address (tcp://host:8786)"
-        )
-    if type(scheduler).__name__ != "Client":
-        raise InputError(
-            f"scheduler of type {type(scheduler).__name__}; expected one of "
-            f"{', '.join(SCHEDULERS)}, a distributed.Client or a scheduler address"
-        )
+def observers_memory(
+    n_cells: int, bands: int, levels: int, n_observers: int, top_cells: int, workers: int
+) -> float:
+    """Estimated peak memory of :func:`observers` besides the kernel and the panoramas [B].
+
+    The engine every task shares (per lit cell its indices, flux density and flux per band
+    and source-level weights), the arrays of each task in flight over every lit cell (its
+    distance, polar bins and the bounds of its part of the zenith per level and band:
+    :data:`_TASK_CELL_BYTES` and 16 B per level and band), and the summary (per observer its
+    fields and ``top_cells`` x 3 numbers, held as results, as a table and as written:
+    :data:`_SUMMARY_BYTES` per number).
+
+    Parameters
+    ----------
+    n_cells
+        Lit cells of the emission [1].
+    bands
+        Emission bands [1].
+    levels
+        Source levels of the kernel [1].
+    n_observers
+        Observers [1].
+    top_cells
+        Lit cells listed per observer [1].
+    workers
+        Tasks computed at once [1].
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> round(observers_memory(10**6, 1, 1, 1000, 5, 4) / 2**20)
+    713
+    """
+    engine = float(n_cells) * (16.0 + 16.0 * bands + 8.0 * levels)
+    tasks = float(workers) * n_cells * (_TASK_CELL_BYTES + 16.0 * levels * bands)
+    summary = float(n_observers) * (len(SUMMARY_FIELDS) + 3 + 3 * top_cells) * _SUMMARY_BYTES
+    return engine + tasks + summary
+
+
+def _workers(scheduler: Any, num_workers: int | None) -> int:
+    """Tasks that run at once in this process: one for ``synchronous``, the local workers
+    for ``threads`` and ``processes`` (each process holds its own), one for a cluster (its
+    workers hold theirs)."""
+    if scheduler == "synchronous" or not isinstance(scheduler, str) or scheduler not in SCHEDULERS:
+        return 1
+    return num_workers or os.cpu_count() or 1
+
+
+def _check_memory(cells: Any, n_observers: int, top_cells: int, workers: int, levels: int) -> None:
+    """Refuse a run whose estimate (:func:`observers_memory`) exceeds the limit."""
+    check_memory(
+        observers_memory(cells.n_cells, cells.count, levels, n_observers, top_cells, workers),
+        f"computing the skies of {n_observers} observers over {cells.n_cells} lit cells "
+        f"({top_cells} top cells each, {workers} at once)",
+        option="give fewer observers or top_cells= at once, or fewer num_workers=",
+    )
 
 
 def _as_observers(source: Any) -> tuple[Observer, ...]:

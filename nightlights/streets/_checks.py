@@ -1,4 +1,5 @@
-"""Checks shared by the street stages: seeds, vertex coordinates and value ranges.
+"""Checks shared by the street stages: seeds, line geometries, vertex coordinates and value
+ranges.
 
 Impossible values (outside the allowed range of
 :data:`~nightlights.streets.schema.VALUE_RANGES`) are errors that name the street and the
@@ -56,6 +57,45 @@ def rng_from_seed(seed: object) -> np.random.Generator:
         if value < 0:
             raise InputError(f"seed {seed!r}; expected an integer >= 0")
     return np.random.default_rng(seed)  # type: ignore[arg-type]
+
+
+def check_lines(frame: pd.DataFrame, source: str) -> None:
+    """Refuse a street layer with geometries other than lines (points, polygons).
+
+    Parameters
+    ----------
+    frame
+        The streets (a GeoDataFrame); missing geometries are left to the stage.
+    source
+        Name of the layer, used in the message.
+
+    Raises
+    ------
+    InputError
+        A geometry that is not a LineString or MultiLineString: the message names the first
+        such type and how many features have it.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> from shapely import Point
+    >>> check_lines(gpd.GeoDataFrame(geometry=[Point(0, 0)]), "stops.gpkg")
+    Traceback (most recent call last):
+    ...
+    nightlights.errors.InputError: stops.gpkg: the streets layer holds Point geometries (1 of 1 \
+features); expected lines (LineString or MultiLineString), the normalised streets of \
+`nightlights streets normalize`
+    """
+    kinds = frame.geometry.geom_type
+    wrong = kinds.notna() & ~kinds.isin(["LineString", "MultiLineString"])
+    if wrong.any():
+        found = str(kinds[wrong].iloc[0])
+        count = int((kinds == found).sum())
+        raise InputError(
+            f"{source}: the streets layer holds {found} geometries ({count} of {len(frame)} "
+            "features); expected lines (LineString or MultiLineString), the normalised streets "
+            "of `nightlights streets normalize`"
+        )
 
 
 def finite_vertices(geometries: np.ndarray) -> np.ndarray:

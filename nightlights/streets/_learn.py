@@ -50,7 +50,7 @@ from nightlights.io import as_vector, write_gpkg
 from nightlights.io.jsonfile import dumps_json
 from nightlights.io.outputs import refuse_replacing_inputs
 from nightlights.io.vector import FieldType
-from nightlights.streets._checks import finite_vertices, rng_from_seed
+from nightlights.streets._checks import check_lines, finite_vertices, rng_from_seed
 from nightlights.streets._fit import network_folder
 from nightlights.streets._learn_assign import (
     CENTRE_TOLERANCE,
@@ -68,6 +68,7 @@ from nightlights.streets._learn_evidence import MIN_GAP as MIN_GAP
 from nightlights.streets._learn_evidence import PAIRING_FRACTION as PAIRING_FRACTION
 from nightlights.streets._learn_fit import (
     DEFAULT_ITERATIONS,
+    check_learn_memory,
     learn_lighting_network,
     spacing_ratio_states,
     with_occupancy,
@@ -322,7 +323,8 @@ def learn(
     ------
     InputError
         ``max_distance`` not positive and finite; layers without a projected CRS (the
-        lamps are reprojected to the streets' CRS); a negative seed.
+        lamps are reprojected to the streets' CRS); streets that are not lines; a negative
+        seed.
     EmptyInputError
         No streets, no lamps, or no street with enough lamps to derive a field.
     OutputError
@@ -371,12 +373,14 @@ def learn(
             f"{source}: streets must be in a projected CRS [m] (run `nightlights streets "
             "normalize` first)"
         )
+    check_lines(frame, source)
     points, lamp_source = _read_lamps(lamps, lamps_layer, frame.crs)
     frame = frame.reset_index(drop=True)
     if network is None:
         # the base network for where the streets lie, as streets sample chooses it
         network, _ = network_by_location(frame, source=str(source))
     base = resolve_network(network)
+    check_learn_memory(points.geometry.to_numpy(), frame, base, float(max_distance))
     rank = _street_rank(frame)
     lit = frame["lit"].astype("boolean") if "lit" in frame else pd.Series(pd.NA, index=frame.index)
     unlit = (lit == False).fillna(False).to_numpy(bool)  # noqa: E712 (nullable boolean)

@@ -21,13 +21,28 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-__all__ = ["CENTRE_TOLERANCE", "DEFAULT_MAX_DISTANCE", "LampAssignment", "assign_lamps"]
+__all__ = [
+    "CENTRE_TOLERANCE",
+    "DEFAULT_MAX_DISTANCE",
+    "PAIR_BYTES",
+    "LampAssignment",
+    "assign_lamps",
+    "estimate_pairs",
+]
 
 #: Default reach of a lamp [m]: half a wide carriageway plus a pavement and a setback.
 DEFAULT_MAX_DISTANCE = 25.0
 #: Lamps closer than this to the centreline stand on it [m]: span-wire lamps over the
 #: carriageway, mapped on the way, and twin-arm poles on a median.
 CENTRE_TOLERANCE = 1.5
+
+
+#: Bytes per (lamp, street) pair within reach while lamps are assigned: the pair indices
+#: (found and kept), the geometries gathered, distances, positions, lengths, ranks, the
+#: interior mask and the sort order [B].
+PAIR_BYTES = 160.0
+#: Lamps queried to estimate the pairs within reach of all of them [1].
+PAIR_SAMPLE = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,6 +165,50 @@ def assign_lamps(
             np.int64
         )
     return LampAssignment(street, distance, along, offset, side, interior)
+
+
+def estimate_pairs(lamps: np.ndarray, streets: np.ndarray, *, max_distance: float) -> float:
+    """The number of (lamp, street) pairs within ``max_distance`` that :func:`assign_lamps`
+    would hold, estimated from up to :data:`PAIR_SAMPLE` lamps spread over the layer (queried
+    a few at a time, so that the estimate itself holds little).
+
+    Parameters
+    ----------
+    lamps
+        Point geometries, shape ``(n_lamps,)`` [m].
+    streets
+        LineString geometries, shape ``(n_streets,)`` [m].
+    max_distance
+        Largest lamp-to-street distance [m].
+
+    Returns
+    -------
+    float
+        Estimated pairs [1] (exact when there are at most :data:`PAIR_SAMPLE` lamps).
+
+    Examples
+    --------
+    >>> from shapely import LineString, Point
+    >>> streets = np.array([LineString([(0, 0), (100, 0)]), LineString([(0, 50), (100, 50)])])
+    >>> lamps = np.array([Point(x, 5) for x in range(0, 100, 10)])
+    >>> estimate_pairs(lamps, streets, max_distance=10.0), estimate_pairs(
+    ...     lamps, streets, max_distance=1e9)
+    (10.0, 20.0)
+    """
+    lamps = np.asarray(lamps, dtype=object)
+    streets = np.asarray(streets, dtype=object)
+    if len(lamps) == 0 or len(streets) == 0:
+        return 0.0
+    tree = shapely.STRtree(streets)
+    sample = np.unique(np.linspace(0, len(lamps) - 1, min(len(lamps), PAIR_SAMPLE)).astype(int))
+    step = max(1, min(16, 1_000_000 // len(streets)))
+    found = 0
+    for start in range(0, sample.size, step):
+        pairs, _ = tree.query(
+            lamps[sample[start : start + step]], predicate="dwithin", distance=max_distance
+        )
+        found += pairs.size
+    return found / sample.size * len(lamps)
 
 
 #: Half-length of the chord giving the local street direction at a lamp's projection [m].

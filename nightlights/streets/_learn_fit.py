@@ -35,12 +35,16 @@ import pandas as pd
 from bayesnets import BayesNet, fit_network
 from bayesnets.binding import Binding
 from bayesnets.errors import BayesNetError, BayesNetWarning
+from bayesnets.sampling import sampling_memory
+from nightlights._resources import check_memory
 from nightlights.errors import InputError
+from nightlights.streets._learn_assign import PAIR_BYTES, estimate_pairs
 from nightlights.streets._sample import fill_lighting, network_for_streets
 from nightlights.streets.schema import STREET_FIELDS, VALUE_RANGES, observed_field
 
 __all__ = [
     "DEFAULT_ITERATIONS",
+    "check_learn_memory",
     "learn_lighting_network",
     "spacing_ratio_states",
     "with_occupancy",
@@ -192,6 +196,46 @@ def with_occupancy(network: BayesNet) -> BayesNet:
                 OCCUPANCY_VARIABLE, "occupancy", "float", labels, OCCUPANCY_STATES, (), nearest=True
             ),
         },
+    )
+
+
+def check_learn_memory(
+    lamps: np.ndarray, streets: gpd.GeoDataFrame, network: BayesNet, max_distance: float
+) -> None:
+    """Refuse a ``streets learn`` whose memory estimate exceeds the limit, before the lamps are
+    assigned: the (lamp, street) pairs within reach (:func:`estimate_pairs`, :data:`PAIR_BYTES`
+    each), the imputation's stacked copies of the streets (:data:`IMPUTATION_DRAWS` rows per
+    street, 64 B per field) and its likelihood-weighted sampling
+    (:func:`bayesnets.sampling.sampling_memory`, :data:`IMPUTATION_CANDIDATES` per row).
+
+    Parameters
+    ----------
+    lamps
+        Point geometries [m].
+    streets
+        The street layer.
+    network
+        The base network.
+    max_distance
+        Largest lamp-to-street distance [m].
+
+    Raises
+    ------
+    ResourceError
+        The estimate is over the limit.
+    """
+    pairs = estimate_pairs(lamps, streets.geometry.to_numpy(), max_distance=max_distance)
+    records = IMPUTATION_DRAWS * len(streets)
+    estimate = (
+        pairs * PAIR_BYTES
+        + records * 64.0 * (len(streets.columns) + 2 * len(network.variables))
+        + sampling_memory(network, records, IMPUTATION_CANDIDATES)
+    )
+    check_memory(
+        estimate,
+        f"learning from {len(lamps)} lamps (about {pairs:.3g} lamp-street pairs within "
+        f"{max_distance:g} m) and {len(streets)} streets",
+        option="lower max_distance= (or learn from a smaller area)",
     )
 
 

@@ -172,6 +172,58 @@ def test_errors_are_one_line(files: SimpleNamespace, fake_serve: Recorder, args,
     assert fake_serve.calls == []
 
 
+GOOD_EDIT = {"op": "erase", "points": [[400_500.0, 6_599_500.0]], "radius": 300.0, "value": None}
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        ({"edits": [{"op": "erase", "points": [[400_500.0, 6_599_500.0]]}]},
+         ["edit 1 of 1: missing field 'radius'", "expected op, points, radius and value"]),
+        ({"edits": [GOOD_EDIT, {"points": [[1.0, 2.0]], "radius": 5.0}]},
+         ["edit 2 of 2: missing field 'op'"]),
+        ({"edits": [{**GOOD_EDIT, "op": "burn"}]}, ["edit 1 of 1: op 'burn'", "paint, erase"]),
+        ({"edits": [{**GOOD_EDIT, "points": [[1.0]]}]}, ["edit 1 of 1: points [[1.0]]"]),
+        ({"edits": [{**GOOD_EDIT, "points": []}]}, ["edit 1 of 1: points []"]),
+        ({"edits": [{**GOOD_EDIT, "radius": "wide"}]}, ["edit 1 of 1: radius 'wide'", "> 0"]),
+        ({"edits": [{**GOOD_EDIT, "radius": -5}]}, ["edit 1 of 1: radius -5"]),
+        ({"edits": [{**GOOD_EDIT, "op": "paint"}]}, ["edit 1 of 1: value None", "paint needs"]),
+        ({"edits": [{**GOOD_EDIT, "brush": 3}]}, ["edit 1 of 1: unknown field 'brush'"]),
+        ({"edits": [17]}, ["edit 1 of 1: a number"]),
+        ({"edits": {"op": "erase"}}, ["edits is a object; expected a list"]),
+        ({"observer_height": "tall"}, ["observer_height 'tall'; expected a number"]),
+        ({"observer": [1.0]}, ["observer [1.0]; expected null or [x, y]"]),
+        ({"edits": [{**GOOD_EDIT, "op": "scale", "value": -1}]},
+         ["edit 1 of 1: value -1", "scale needs a number >= 0"]),
+        ({"edits": [{**GOOD_EDIT, "radius": float("inf")}]}, ["edit 1 of 1: radius inf"]),
+    ],
+    ids=["no-radius", "no-op", "op", "point", "no-points", "radius-text", "radius-negative",
+         "paint-no-value", "unknown-field", "not-an-object", "edits-object", "height", "observer",
+         "scale-negative", "radius-infinity"],
+)  # fmt: skip
+def test_a_session_file_with_a_bad_edit_names_it(
+    files: SimpleNamespace, fake_serve: Recorder, tmp_path: Path, change: dict, words: list
+) -> None:
+    """Each saved edit is checked field by field (was a KeyError), the rest of the file too."""
+    import json
+    import shutil
+
+    shutil.copy(files.emission, tmp_path / "emission.tif")
+    shutil.copy(files.kernel, tmp_path / "kernel.nc")
+    content = {
+        "format": "nightlights-explore",
+        "version": 1,
+        "emission": "emission.tif",
+        "kernel": "kernel.nc",
+        "edits": [GOOD_EDIT],
+        **change,
+    }
+    saved = tmp_path / "s.json"
+    saved.write_text(json.dumps(content))
+    one_line_error(invoke("--session", saved, "--port", 0), 1, "InputError", str(saved), *words)
+    assert fake_serve.calls == []
+
+
 def test_serves_until_interrupted(files: SimpleNamespace, tmp_path: Path) -> None:
     """A real run: the URL on stdout answers, Ctrl-C ends it with status 0."""
     command = [sys.executable, "-m", "nightlights_cli", "explore"]

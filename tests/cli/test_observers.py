@@ -66,6 +66,13 @@ def test_summary_and_panoramas(scene: dict[str, Path], tmp_path: Path) -> None:
     ("extra", "code", "message"),
     [
         (["--scheduler", "fast"], 2, "'fast'; expected one of threads"),
+        (["--scheduler", "tcp://"], 2, "'tcp://': not a scheduler address (no host name"),
+        (["--scheduler", "tcp://127.0.0.1:1"], 1, "connection refused by 127.0.0.1:1"),
+        (
+            ["--top-cells", "10000"],
+            1,
+            "--top-cells=10000: the summary GeoPackage holds at most 662",
+        ),
         (["--top-cells", "-1"], 2, "-1 is not in the range"),
         (["--observers-layer", "nowhere"], 1, "cannot read vector layer 'nowhere'"),
         (["--observer-height", "-1"], 1, "observer height -1.0 m"),

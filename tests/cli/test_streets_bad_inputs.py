@@ -293,6 +293,51 @@ CASES = [
 ]
 
 
+def _not_lines(kind: str):
+    """A layer of points or polygons given as the streets of ``streets learn``."""
+
+    def make(t: Path) -> Path:
+        shapes = {
+            "point": [shapely.Point(10 * i, 0) for i in range(3)],
+            "polygon": [shapely.box(0, 40 * i, 200, 40 * i + 8) for i in range(3)],
+        }[kind]
+        path = t / f"{kind}s.gpkg"
+        gpd.GeoDataFrame({"source_id": ["a", "b", "c"]}, geometry=shapes, crs="EPSG:3067").to_file(
+            path, driver="GPKG"
+        )
+        return path
+
+    return make
+
+
+def _lamps(t: Path) -> dict[str, str]:
+    path = t / "lamps.gpkg"
+    lamps = [shapely.Point(x, -6) for x in range(10, 200, 20)]
+    gpd.GeoDataFrame(geometry=lamps, crs="EPSG:3067").to_file(path, driver="GPKG")
+    return {"lamps": str(path)}
+
+
+LEARN = ["streets", "learn", "{in}", "{lamps}", "{tmp}/net", "--network", "europe"]
+CASES += [
+    Case(
+        "learn-point-streets",
+        LEARN,
+        _not_lines("point"),
+        1,
+        ["InputError", "points.gpkg: the streets layer holds Point geometries (3 of 3", "lines"],
+        extra=_lamps,
+    ),
+    Case(
+        "learn-polygon-streets",
+        LEARN,
+        _not_lines("polygon"),
+        1,
+        ["InputError", "polygons.gpkg", "Polygon geometries", "LineString or MultiLineString"],
+        extra=_lamps,
+    ),
+]
+
+
 def _nan_sampled(path: Path) -> Path:
     _sampled(path)
     frame = gpd.read_file(path)

@@ -599,8 +599,28 @@ def test_bad_requests(
         (b'{"x": 1e400, "y": 1}', ["x=inf", "finite"]),
         (b"\xff\xfe", ["not JSON"]),
         (b"[" * 100_000 + b"]" * 100_000, []),
+        # integers beyond a float: the field named, the digits counted (was HTTP 500)
+        (b'{"x": ' + b"9" * 400 + b', "y": 1}', ["x=99999", "(400 digits)", "finite"]),
+        (b'{"x": 1, "y": -' + b"9" * 400 + b"}", ["y=-9999", "(401 digits)"]),
+        (
+            b'{"x": 1, "y": 1, "region": [[0, 5], [90, 5], [' + b"9" * 400 + b", 5]]}",
+            ["region[2]", "finite"],
+        ),
+        (b'{"x": ' + b"9" * 5000 + b', "y": 1}', ["not JSON"]),
     ],
-    ids=["truncated", "array", "nan", "infinity", "overflow", "binary", "deep"],
+    ids=[
+        "truncated",
+        "array",
+        "nan",
+        "infinity",
+        "overflow",
+        "binary",
+        "deep",
+        "int-400-digits",
+        "negative-int-400-digits",
+        "int-in-a-pair",
+        "int-5000-digits",
+    ],
 )
 def test_bodies_that_are_not_json_objects(
     client: TestClient, content: bytes, words: list[str]
@@ -622,6 +642,8 @@ def test_a_body_over_the_limit_is_413(shared_session: Any, tmp_path: Path) -> No
                 yield big[start : start + 100]
 
         error_of(test_client.post("/api/edit", content=chunks()), 413)
+        huge = {"content-length": "9" * 5000}  # int() of it would raise: was HTTP 500
+        error_of(test_client.post("/api/edit", content=big, headers=huge), 413, "(5000 digits)")
         lying = {"content-length": "10"}
         response = test_client.post("/api/edit", content=big, headers=lying)
         assert response.status_code in (400, 413)

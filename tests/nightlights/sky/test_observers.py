@@ -298,7 +298,8 @@ def _layer(points) -> gpd.GeoDataFrame:
             InputError,
             "1 names for 4 observers",
         ),
-        (sites, {"scheduler": "fast"}, InputError, "scheduler 'fast'"),
+        (sites, {"scheduler": "fast"}, InputError, "scheduler='fast'; expected one of threads"),
+        (sites, {"scheduler": "tcp://127.0.0.1"}, InputError, "no port"),
         (sites, {"top_cells": -1}, InputError, "top_cells=-1"),
         (lambda: sites(height=-2.0), {}, InputError, "observer height -2.0"),
         (
@@ -313,6 +314,22 @@ def _layer(points) -> gpd.GeoDataFrame:
 def test_bad_inputs_are_one_line_errors(small_kernel, people, options, error, message) -> None:
     with pytest.raises(error, match=message):
         run(town(), small_kernel, people(), **options)
+
+
+def test_top_cells_up_to_the_geopackage_column_limit(small_kernel, tmp_path) -> None:
+    """The summary layer holds MAX_TOP_CELLS top cells (panoramas named too); one more is
+    refused before any work, naming the largest allowed value."""
+    assert module.MAX_TOP_CELLS == 662
+    with pytest.raises(InputError, match=r"top_cells=663: .* at most 662 top cells"):
+        run(town(), small_kernel, output=tmp_path / "refused.gpkg", top_cells=663)
+    assert not (tmp_path / "refused.gpkg").exists()
+    (tmp_path / "panoramas").mkdir()
+    out = tmp_path / "s.gpkg"
+    run(town(), small_kernel, output=out, top_cells=662, panoramas=tmp_path / "panoramas")
+    written = gpd.read_file(out, layer="observers")
+    assert "top662_share" in written and "panorama" in written
+    # without a file the summary is not limited
+    assert "top700_x" in run(town(), small_kernel, top_cells=700).summary
 
 
 def test_layers_that_are_not_usable_points(small_kernel: xr.Dataset) -> None:
