@@ -25,6 +25,9 @@ Lamps are the layer's points (for OpenStreetMap layers, ``highway=street_lamp`` 
 tagged heights read from :data:`HEIGHT_FIELDS` or GDAL's ``other_tags``. The report gives,
 per derived field, the number of streets with evidence and the share of them whose
 agreement is at least :data:`AGREEMENT_THRESHOLD`.
+
+Length: just over 600 lines, because the stage checks both layers (geometry types, CRS,
+memory) before any work and writes the network folder and the report together.
 """
 
 from __future__ import annotations
