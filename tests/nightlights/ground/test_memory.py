@@ -107,7 +107,7 @@ def test_stages_stay_within_twice_their_estimate(tmp_path: Path) -> None:
     )
     runs = {
         kind: subprocess.Popen(
-            [sys.executable, "-c", SCRIPT, kind, str(source), str(tmp_path / f"{kind}.tif")],
+            [sys.executable, "-c", SCRIPT, kind, str(source), str(tmp_path / f"{kind}_out.tif")],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -122,4 +122,4 @@ def test_stages_stay_within_twice_their_estimate(tmp_path: Path) -> None:
         assert estimate > 30 * 2**20, (kind, measured)  # large enough to measure
         assert peak <= 2 * estimate, (kind, measured)
         assert estimate <= 4 * peak, (kind, measured)
-        assert (tmp_path / f"{kind}.tif").exists()
+        assert (tmp_path / f"{kind}_out.tif").exists()
