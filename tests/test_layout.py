@@ -219,7 +219,7 @@ FLOORS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("ground", ("nightlights.streets", "nightlights.ground")),
     ("sky", ("nightlights.sky",)),
     ("inverse and night sky", ("nightlights.inverse", "nightlights.nightsky")),
-    ("explore", ("nightlights.explore",)),
+    ("explore and meters", ("nightlights.explore", "nightlights.meter")),
     ("maps", ("nightlights.maps",)),
     ("project", ("nightlights.project",)),
     ("front", ("nightlights.qgis", "nightlights.demo")),

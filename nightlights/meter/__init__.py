@@ -1,0 +1,29 @@
+"""Meet the measured sky: photometer readings in, which readings count, validation against them.
+
+Sky Quality Meter, TESS-W and naked-eye readings are read into one table
+(:mod:`nightlights.meter.readings`), the clear, moonless, astronomical-night ones are kept and
+reduced to one value per station (:mod:`nightlights.meter.conditions`), and the model's sky is
+predicted as each instrument sees it and compared with them (:mod:`nightlights.meter.validate`).
+
+The names are imported on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: Public name -> the module that defines it (imported on first access).
+_LAZY: dict[str, str] = {}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
