@@ -47,6 +47,7 @@ COMMAND_MODULES = (
     ".init",
     ".explore",
     ".sky",
+    ".validate",
     ".qgis",
 )
 

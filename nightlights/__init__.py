@@ -86,6 +86,10 @@ _LAZY: dict[str, str] = {
     # many observers at once: one styled summary point layer
     "observers": "nightlights.sky.observers",
     "ObserversResult": "nightlights.sky.observers",
+    # the measured sky: photometer readings, validation and calibration against them
+    "read_readings": "nightlights.meter",
+    "validate": "nightlights.meter",
+    "ValidationResult": "nightlights.meter",
     # projects: one TOML file, every stage, cached
     "run": "nightlights.project",
     "load_project": "nightlights.project",
@@ -113,6 +117,7 @@ if TYPE_CHECKING:
         least_dimming,
     )
     from nightlights.io import Raster
+    from nightlights.meter import ValidationResult, read_readings, validate
     from nightlights.nightsky import SkyRenderResult, sky_render
     from nightlights.project import ProjectResult, load_project, run
     from nightlights.sky import (
@@ -183,6 +188,7 @@ __all__ = [
     "SkyRegion",
     "SkyRenderResult",
     "SkyglowResult",
+    "ValidationResult",
     "__version__",
     "build_kernel",
     "darkness",
@@ -199,8 +205,10 @@ __all__ = [
     "normalize",
     "observers",
     "place",
+    "read_readings",
     "run",
     "sample",
     "sky_render",
     "skyglow",
+    "validate",
 ]

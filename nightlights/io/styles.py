@@ -977,6 +977,64 @@ def observers_style(*, field: str = "zenith_mag", label_field: str | None = "nam
     )
 
 
+#: Class edges of the residual style [mag arcsec-2]: within +-0.1 the model is as good as a
+#: meter's repeatability; beyond +-0.5 it is off by more than the World Atlas's stated scatter
+#: (Falchi et al. 2016 report 0.2-0.3 mag between the atlas and SQM readings).
+RESIDUAL_EDGES = (-99.0, -0.5, -0.25, -0.1, 0.1, 0.25, 0.5, 99.0)
+#: Their colours: brighter than predicted in reds, darker in blues (ColorBrewer RdBu).
+RESIDUAL_COLOURS = ("#b2182b", "#ef8a62", "#fddbc7", "#f7f7f7", "#d1e5f0", "#67a9cf", "#2166ac")
+
+
+def residual_style(*, field: str = "residual", label_field: str | None = "station") -> LayerStyle:
+    """Style of a validation's stations: each point coloured by its residual (measured -
+    predicted [mag arcsec-2]) in :data:`RESIDUAL_EDGES` classes, labelled with its name.
+
+    Parameters
+    ----------
+    field
+        Field with the residual [mag arcsec-2].
+    label_field
+        Field of the point labels; None for no labels.
+
+    Returns
+    -------
+    LayerStyle
+        A graduated renderer on ``field``, red where the sky is brighter than predicted.
+    """
+    edges = RESIDUAL_EDGES
+    names = [
+        "brighter by > 0.5",
+        "brighter by 0.25-0.5",
+        "brighter by 0.1-0.25",
+        "within 0.1",
+        "darker by 0.1-0.25",
+        "darker by 0.25-0.5",
+        "darker by > 0.5",
+    ]
+    ranges = "\n".join(
+        f'      <range lower="{edges[i]!r}" upper="{edges[i + 1]!r}" symbol="{i}" '
+        f'label={quoteattr(names[i])} render="true"/>'
+        for i in range(len(names))
+    )
+    symbols = "\n".join(
+        _marker_symbol(str(i), colour, shape="circle", size=OBSERVER_SIZE_MM, rotation_field=None)
+        for i, colour in enumerate(RESIDUAL_COLOURS)
+    )
+    renderer = f"""  <renderer-v2 type="graduatedSymbol" attr={quoteattr(field)} graduatedMethod="GraduatedColor" symbollevels="0" enableorderby="0" forceraster="0">
+    <ranges>
+{ranges}
+    </ranges>
+    <symbols>
+{symbols}
+    </symbols>
+  </renderer-v2>"""  # noqa: E501
+    labeling = _labels(label_field) if label_field else ""
+    description = f"stations: {field} (measured - predicted, mag arcsec-2)"
+    return LayerStyle(
+        "stations by residual", _vector_document(renderer, description, labeling), description
+    )
+
+
 def _labels(field: str) -> str:
     return f"""  <labeling type="simple">
     <settings calloutType="simple">

@@ -14,7 +14,12 @@ import importlib
 from typing import Any
 
 #: Public name -> the module that defines it (imported on first access).
-_LAZY: dict[str, str] = {}
+_LAZY: dict[str, str] = {
+    "validate": "nightlights.meter.validate",
+    "ValidationResult": "nightlights.meter.validate",
+    "natural_reading": "nightlights.meter.natural",
+    "Calibration": "nightlights.meter.calibrate",
+}
 
 __all__ = sorted(_LAZY)
 
