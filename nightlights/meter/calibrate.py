@@ -378,6 +378,7 @@ def fit(
             f"({', '.join(names)}); a calibration needs at least {k + 1} (one more for the "
             "held-out check)"
         )
+    label, parts = _folds(n, folds, seed)
     finite = np.isfinite(model.measured)
     if not finite.all():
         raise InputError(f"{int((~finite).sum())} stations without a finite measured value")
@@ -408,7 +409,6 @@ def fit(
                 stacklevel=2,
             )
     predicted = model.predict(values["scale"], values.get("turbidity"))
-    label, parts = _folds(n, folds, seed)
     held = np.full(n, math.nan)
     per_fold: dict[str, list[float]] = {name: [] for name in names}
     with warnings.catch_warnings():
