@@ -14,7 +14,11 @@ import importlib
 from typing import Any
 
 #: Public name -> the module that defines it (imported on first access).
-_LAZY: dict[str, str] = {}
+_LAZY: dict[str, str] = {
+    "READING_COLUMNS": "nightlights.meter.readings",
+    "limiting_magnitude_to_sky_brightness": "nightlights.meter.readings",
+    "read_readings": "nightlights.meter.readings",
+}
 
 __all__ = sorted(_LAZY)
 
