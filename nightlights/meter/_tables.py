@@ -98,14 +98,17 @@ def globe_at_night_table(
 
 
 def rows_of(label: str, offset: int) -> Where:
+    """Rows named by line (``offset`` 2: a CSV under its header line) or by index (0)."""
     return lambda index: f"{label}:{index + offset}" if offset else f"{label}: row {index}"
 
 
 def features_of(label: str) -> Where:
+    """Rows named as the features of a vector layer, counted from 1."""
     return lambda index: f"{label}: feature {index + 1}"
 
 
 def read_csv(path: Path, label: str) -> pd.DataFrame:
+    """A CSV file as text columns (``,`` or ``;`` separated, as its first line shows)."""
     with path.open(encoding="utf-8", errors="replace") as handle:
         first = handle.readline()
     separator = ";" if first.count(";") > first.count(",") else ","
@@ -146,6 +149,7 @@ def table_readings(
     crs: CRS | None,
     instrument: str | None,
 ) -> gpd.GeoDataFrame:
+    """Point readings of a table or layer (columns named as :data:`ALIASES`) as readings."""
     table = canonical(frame.reset_index(drop=True), label)
     points = positions_of(table, label, where, crs)
     for needed in ("time", "magnitude"):
@@ -183,11 +187,19 @@ def table_readings(
     out["cloud_cover"] = (
         numbers_of(table["cloud_cover"], "cloud_cover", where) if "cloud_cover" in table else np.nan
     )
+    outside = ~(out["cloud_cover"].isna() | out["cloud_cover"].between(0.0, 1.0)).to_numpy()
+    if outside.any():
+        first = int(np.flatnonzero(outside)[0])
+        raise InputError(
+            f"{where(first)}: cloud_cover {out['cloud_cover'].iloc[first]:g}; expected a "
+            "fraction of the sky, 0 to 1"
+        )
     check_pointing(out, where)
     return gpd.GeoDataFrame(out, geometry=points.to_numpy(), crs=points.crs)
 
 
 def positions_of(table: pd.DataFrame, label: str, where: Where, crs: CRS | None) -> gpd.GeoSeries:
+    """The readings' points: a layer's geometry, lon/lat (WGS84) or x/y in ``crs``."""
     if isinstance(table, gpd.GeoDataFrame) and table.geometry.name in table:
         layer_crs = table.crs
         if layer_crs is not None and crs is not None and CRS.from_user_input(layer_crs) != crs:

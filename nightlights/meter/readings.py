@@ -221,6 +221,15 @@ def read_readings(
     geopandas.GeoDataFrame
         The readings, sorted by station and time; ``attrs["sources"]`` lists what was read.
 
+    Notes
+    -----
+    A table's columns (any case): ``lon``/``longitude``, ``lat``/``latitude`` (or ``x``, ``y``
+    with ``crs=``, or a layer's point geometry), ``time``/``datetime``/``timestamp``,
+    ``magnitude``/``mag``/``msas``/``mpsas``/``sqm`` [mag arcsec-2], ``instrument``; optional
+    ``station``, ``fov`` [deg], ``pointing_elevation``/``altitude`` and
+    ``pointing_azimuth``/``azimuth`` [deg] (empty: 90 and 0), ``sky_temperature``,
+    ``ambient_temperature`` [degC], ``cloud_cover`` [1]. Other columns are ignored.
+
     Raises
     ------
     InputError

@@ -377,6 +377,7 @@ TABLE_ERRORS = [
     ("unknown format", table(), {"format": "xlsx"}, InputError, "format='xlsx': unknown"),
     ("bad crs", table(x=[1.0], y=[2.0]), {"crs": "garbage"}, CRSError, "crs='garbage'"),
     ("lon/lat with crs", table(), {"crs": "EPSG:3067"}, CRSError, "crs= is for x, y"),
+    ("cloud percent", table(cloud_cover=[50.0]), {}, InputError, "cloud_cover 50; expected a"),
     (
         "below the horizon",
         table(pointing_elevation=[-5.0]),
