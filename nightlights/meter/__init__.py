@@ -15,6 +15,11 @@ from typing import Any
 
 #: Public name -> the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
+    # readings in
+    "READING_COLUMNS": "nightlights.meter.readings",
+    "limiting_magnitude_to_sky_brightness": "nightlights.meter.readings",
+    "read_readings": "nightlights.meter.readings",
+    # predicted against measured
     "validate": "nightlights.meter.validate",
     "ValidationResult": "nightlights.meter.validate",
     "natural_reading": "nightlights.meter.natural",
