@@ -61,6 +61,7 @@ from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
 from nightlights.io.atomic import atomic_output
 from nightlights.io.vector import read_vector
 from nightlights.meter import _ida, _tables
+from nightlights.sky.instruments import INSTRUMENTS
 
 #: The readings table: column -> (dtype, unit, meaning). ``cloud_cover`` is NaN but for
 #: naked-eye reports that state their clouds.
@@ -90,7 +91,7 @@ READING_COLUMNS: dict[str, tuple[str, str, str]] = {
 }
 
 #: The instruments a reading may name: the keys of ``nightlights.sky.instruments.INSTRUMENTS``.
-INSTRUMENT_NAMES = ("sqm", "sqm-l", "tess-w", "eye")
+INSTRUMENT_NAMES = tuple(INSTRUMENTS)
 
 #: The formats :func:`read_readings` reads.
 FORMATS = ("ida", "csv", "gpkg", "globe-at-night")
