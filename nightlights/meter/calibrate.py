@@ -55,6 +55,7 @@ __all__ = [
     "ROBUST_SCALE",
     "Calibration",
     "Model",
+    "check_station_count",
     "fit",
     "residual_statistics",
 ]
@@ -254,6 +255,24 @@ def _check_parameters(parameters: Sequence[str], model: Model) -> tuple[str, ...
     return names
 
 
+def check_station_count(n: int, parameters: Sequence[str]) -> None:
+    """Refuse fewer stations than parameters + 1 (a fit and a held-out check need one more).
+
+    Raises
+    ------
+    InputError
+        ``n`` below ``len(parameters) + 1``.
+    """
+    names = tuple(dict.fromkeys(parameters))
+    k = len(names)
+    if n < k + 1:
+        raise InputError(
+            f"{n} station{'s' if n != 1 else ''} for {k} parameter{'s' if k > 1 else ''} "
+            f"({', '.join(names)}); a calibration needs at least {k + 1} (one more for the "
+            "held-out check)"
+        )
+
+
 def _solve(model: Model, names: tuple[str, ...]) -> tuple[FloatArray, FloatArray]:
     """The robust least-squares parameters (ln s[, tau]) and their standard errors."""
     from scipy.optimize import least_squares
@@ -372,12 +391,7 @@ def fit(
     """
     names = _check_parameters(parameters, model)
     n, k = len(model), len(names)
-    if n < k + 1:
-        raise InputError(
-            f"{n} station{'s' if n != 1 else ''} for {k} parameter{'s' if k > 1 else ''} "
-            f"({', '.join(names)}); a calibration needs at least {k + 1} (one more for the "
-            "held-out check)"
-        )
+    check_station_count(n, names)
     label, parts = _folds(n, folds, seed)
     finite = np.isfinite(model.measured)
     if not finite.all():

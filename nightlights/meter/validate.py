@@ -50,7 +50,14 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputE
 from nightlights.io import Raster, as_raster
 from nightlights.io.jsonfile import dumps_json
 from nightlights.io.outputs import OutputSet, refuse_replacing_inputs
-from nightlights.meter.calibrate import LEAVE_ONE_OUT, Calibration, Model, fit, residual_statistics
+from nightlights.meter.calibrate import (
+    LEAVE_ONE_OUT,
+    Calibration,
+    Model,
+    check_station_count,
+    fit,
+    residual_statistics,
+)
 from nightlights.meter.natural import natural_reading
 from nightlights.sky.instruments import Instrument, angular_weights, get_instrument
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
@@ -211,6 +218,8 @@ def validate(
     if emission.crs is None or not emission.crs.is_projected:
         raise CRSError(f"{scene.label}: the emission raster needs a projected CRS in metres")
     stations = _inside(stations, emission, scene.label)
+    if parameters:
+        check_station_count(len(stations), parameters)  # before any map is computed
     scene = scene.replace(emission=emission)
     start = _time.perf_counter()
     measured = stations["magnitude"].to_numpy(dtype=float)
