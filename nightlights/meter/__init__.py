@@ -14,7 +14,19 @@ import importlib
 from typing import Any
 
 #: Public name -> the module that defines it (imported on first access).
-_LAZY: dict[str, str] = {}
+_LAZY: dict[str, str] = {
+    "sky_conditions": "nightlights.meter.conditions",
+    "select_readings": "nightlights.meter.conditions",
+    "station_values": "nightlights.meter.conditions",
+    "station_statistic": "nightlights.meter.conditions",
+    "plot_statistic": "nightlights.meter.conditions",
+    "local_night": "nightlights.meter.conditions",
+    "SUN_LIMIT": "nightlights.meter.conditions",
+    "MOON_LIMIT": "nightlights.meter.conditions",
+    "CLOUD_LIMIT": "nightlights.meter.conditions",
+    "STATISTICS": "nightlights.meter.conditions",
+    "DEFAULT_STATISTIC": "nightlights.meter.conditions",
+}
 
 __all__ = sorted(_LAZY)
 
