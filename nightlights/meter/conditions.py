@@ -9,7 +9,7 @@ with its reason (:func:`select_readings`):
 - ``"sun"``: the Sun's centre at or above :data:`SUN_LIMIT` = -18 deg (geometric elevation):
   the end of astronomical twilight. There Schaefer's (1993) twilight adds 3 % (0.03 mag) to a
   22.0 mag arcsec-2 zenith and less to any brighter one; Patat et al. (2006) measured the V
-  twilight at Paranal down to this depth.
+  twilight at Paranal down to and beyond this depth.
 - ``"moon"``: the Moon's centre at or above :data:`MOON_LIMIT` = -10 deg (geometric). Below
   the horizon the Moon still lights the sky as the Sun does in twilight: Schaefer's (1993)
   twilight, ``m = m_source + 32.5 - h - ...`` (one magnitude per degree of depression), with
@@ -33,16 +33,18 @@ with its reason (:func:`select_readings`):
 Readings without temperatures (SQM, eye) keep their clouds: the per-station statistic
 (:func:`station_values`) is chosen to see through them. Clouds brighten a light-polluted sky
 (up to 15 times, Posch et al. 2018; 18 times, Kyba et al. 2015) and darken a pristine one (by
-up to 1 mag, Posch et al. 2018; a third, Jechow et al. 2016), so neither the darkest nor the
+up to 1 mag, Posch et al. 2018; to a third, Jechow et al. 2016), so neither the darkest nor the
 brightest readings are the clear sky. A clear sky, however, is steady: its readings pile up
 in one narrow peak night after night, while broken clouds spread theirs over a wide range.
 The default statistic is therefore the **mode** of the kept readings, the peak of their
-histogram, as Posch et al. (2018) read the clear-sky level off mean-NSB histograms of long SQM
-series. Each local night (noon to noon in the station's mean solar time, ``UTC + lon / 15 h``)
-weighs the same, so a long winter night does not outvote a short summer one, and the peak is
-found on a Gaussian kernel density of bandwidth :data:`MODE_BANDWIDTH` = 0.05 mag (half the
-0.10 mag arcsec-2 precision Unihedron states for the SQM: narrow enough to separate a clear
-peak from a cloud state 0.2 mag away, wide enough to smooth the readings' 0.01 mag steps).
+histogram: in the year-long SQM series of Posch et al. (2018) the readings of a light-polluted
+site gather in two clusters, the clear nights and the overcast ones, and the clear cluster is
+the higher peak wherever clear nights are the commoner. Each local night (noon to noon in the
+station's mean solar time, ``UTC + lon / 15 h``) weighs the same, so a long winter night does
+not outvote a short summer one, and the peak is found on a Gaussian kernel density of
+bandwidth :data:`MODE_BANDWIDTH` = 0.05 mag (half the 0.10 mag arcsec-2 precision Unihedron
+states for the SQM: narrow enough to separate a clear peak from a cloud state 0.2 mag away,
+wide enough to smooth the readings' 0.01 mag steps).
 Where overcast nights (which are steady too) outnumber clear ones the mode finds the overcast
 level; the spread of the station (the night-weighted, normalised median absolute deviation
 about its value) and :func:`plot_statistic` show such a station. Alternatives:
@@ -86,7 +88,7 @@ References
 8. Jechow, A. et al. 2016, "Evaluating the summer night sky brightness at a research field
    site on Lake Stechlin in northeastern Germany", JQSRT 181, 24.
 9. Bará, S. 2016, "Anthropogenic disruption of the night sky darkness in urban and rural
-    areas", R. Soc. Open Sci. 3, 160541.
+   areas", R. Soc. Open Sci. 3, 160541.
 10. Alarcon, M. R., Serra-Ricart, M., Lemes-Perera, S. & Mallorquín, M. 2021, "Natural night
     sky brightness during solar minimum", AJ 162, 25.
 11. Unihedron, SQM user manuals, Specifications: precision 10 % (0.10 mag arcsec-2).
@@ -155,6 +157,9 @@ _NODE_STEP_NS = 3_600_000_000_000
 _NODE_OFFSETS = np.arange(-3, 5)
 #: Normal-consistent scale of the median absolute deviation.
 _MAD_SCALE = 1.4826
+#: Reach of the kernel density's grid around the weighted median [mag arcsec-2]: 10 mag is a
+#: factor 10^4 in luminance, beyond any sky state of one station.
+_MODE_REACH = 10.0
 #: Grid step of the binned kernel density [mag arcsec-2].
 _DENSITY_STEP = 0.005
 _NS_PER_HOUR = 3_600_000_000_000
@@ -462,7 +467,14 @@ def _weighted_quantile(values: FloatArray, weights: FloatArray, q: float) -> flo
 
 
 def _weighted_mode(values: FloatArray, weights: FloatArray, bandwidth: float) -> float:
-    """Peak of the weighted Gaussian kernel density (binned on a fine grid, then refined)."""
+    """Peak of the weighted Gaussian kernel density (binned on a fine grid, then refined).
+
+    Readings more than :data:`_MODE_REACH` from the weighted median are left out of the grid:
+    they cannot hold the peak, and a wild value would make the grid huge.
+    """
+    centre = _weighted_quantile(values, weights, 0.5)
+    near = np.abs(values - centre) <= _MODE_REACH
+    values, weights = values[near], weights[near]
     if values.size == 1 or np.ptp(values) == 0.0:
         return float(values[0])
     start = values.min() - 4.0 * bandwidth

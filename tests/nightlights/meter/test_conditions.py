@@ -312,6 +312,13 @@ def test_statistics_by_hand() -> None:
     assert station_statistic(values, night)[0] == pytest.approx(21.0, abs=0.01)
 
 
+def test_a_wild_reading_does_not_move_or_stall_the_mode() -> None:
+    magnitude, night = _series(19.8, (17.0, 19.5))
+    wild = np.r_[magnitude, 1e9, -1e9]
+    value, _ = station_statistic(wild, np.r_[night, 0, 0])
+    assert value == pytest.approx(station_statistic(magnitude, night)[0], abs=0.01)
+
+
 def test_local_night_runs_noon_to_noon_at_the_stations_longitude() -> None:
     times = pd.Series(pd.to_datetime(["2024-03-01T11:59Z", "2024-03-01T12:01Z"], utc=True))
     assert np.diff(local_night(times, 0.0)).tolist() == [1]
