@@ -19,6 +19,18 @@ _LAZY: dict[str, str] = {
     "READING_COLUMNS": "nightlights.meter.readings",
     "limiting_magnitude_to_sky_brightness": "nightlights.meter.readings",
     "read_readings": "nightlights.meter.readings",
+    # which readings count
+    "sky_conditions": "nightlights.meter.conditions",
+    "select_readings": "nightlights.meter.conditions",
+    "station_values": "nightlights.meter.conditions",
+    "station_statistic": "nightlights.meter.conditions",
+    "plot_statistic": "nightlights.meter.conditions",
+    "local_night": "nightlights.meter.conditions",
+    "SUN_LIMIT": "nightlights.meter.conditions",
+    "MOON_LIMIT": "nightlights.meter.conditions",
+    "CLOUD_LIMIT": "nightlights.meter.conditions",
+    "STATISTICS": "nightlights.meter.conditions",
+    "DEFAULT_STATISTIC": "nightlights.meter.conditions",
     # predicted against measured
     "validate": "nightlights.meter.validate",
     "ValidationResult": "nightlights.meter.validate",

@@ -262,6 +262,6 @@ def test_existing_outputs_refused(cache: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
     (out / "validation.json").write_text("{}")
-    with pytest.raises(OutputError, match="validation.json: exists"):
+    with pytest.raises(OutputError, match=r"validation\.json: exists"):
         validate(scene, stations, out, natural="typical", progress=False)
     assert (out / "validation.json").read_text() == "{}"
