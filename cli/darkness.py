@@ -8,6 +8,7 @@ from .kinds import RASTER
 from .options import (
     dem_option,
     files_argument,
+    instrument_option,
     kernel_option,
     observer_height_option,
     output_option,
@@ -15,6 +16,7 @@ from .options import (
     resolve_inout,
     scene_grid_options,
     scene_of,
+    spectrum_option,
     turbidity_option,
 )
 from .resources import max_memory_option, scheduler_option
@@ -28,6 +30,8 @@ from .resources import max_memory_option, scheduler_option
 @dem_option
 @kernel_option
 @turbidity_option
+@instrument_option
+@spectrum_option
 @click.option(
     "--chunk-size",
     type=click.IntRange(min=1),
@@ -46,6 +50,8 @@ def darkness(
     dem: str | None,
     kernel: str | None,
     turbidity: float | None,
+    instrument: str | None,
+    spectrum: str | None,
     chunk_size: int | None,
     scheduler: str | None,
     n_distance: int | None,
@@ -53,7 +59,7 @@ def darkness(
     n_azimuth: int | None,
 ) -> None:
     """Zenith sky brightness (cd m-2, mag arcsec-2) with the observer at every cell of
-    EMISSION [lm m-2]; write OUTPUT (COG, 2 bands)."""
+    EMISSION [lm m-2], or what --instrument reads there; write OUTPUT (COG, 2 bands)."""
     import nightlights as nl
 
     (emission,), out = resolve_inout(
@@ -69,7 +75,13 @@ def darkness(
         n_distance=n_distance,
     )
     result = nl.darkness(
-        scene, out, height=observer_height, chunk_size=chunk_size, scheduler=scheduler
+        scene,
+        out,
+        height=observer_height,
+        instrument=instrument,
+        spectrum=spectrum,
+        chunk_size=chunk_size,
+        scheduler=scheduler,
     )
     import numpy as np
     from rich.console import Console
@@ -83,9 +95,13 @@ def darkness(
         if finite.size
         else "no artificial light reaches any cell"
     )
+    what = (
+        "zenith over {} x {} cells: {} (artificial skyglow only)"
+        if result.instrument is None
+        else f"{result.instrument} over {{}} x {{}} cells: {{}} (its band, with the natural sky)"
+    )
     Console(stderr=True).print(
-        f"zenith over {rows} x {cols} cells: {summary} (artificial skyglow only); "
-        f"{result.seconds:.1f} s -> {out}",
+        f"{what.format(rows, cols, summary)}; {result.seconds:.1f} s -> {out}",
         soft_wrap=True,
     )
 

@@ -118,6 +118,9 @@ OBSERVER_SCHEDULERS = FromLibrary("nightlights.sky.observers", "SCHEDULERS")
 SKY_PROJECTIONS = FromLibrary("nightlights.nightsky.render", "PROJECTIONS")
 TONE_MODES = FromLibrary("nightlights.nightsky.tonemap", "MODES")
 PROJECT_STAGES = FromLibrary("nightlights.project", "STAGES")
+INSTRUMENT_NAMES = FromLibrary("nightlights.sky.instruments", "INSTRUMENTS")
+SPECTRA = FromLibrary("ies.spectra", "SPDS")
+DEFAULT_SPECTRUM = FromLibrary("nightlights.sky.instrument_units", "DEFAULT_SPECTRUM")
 
 
 def kernel_default(field: str) -> FromLibrary:

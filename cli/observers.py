@@ -11,6 +11,7 @@ from .options import (
     dem_option,
     deprecated_option,
     files_argument,
+    instrument_option,
     kernel_option,
     num_workers_option,
     observer_crs_option,
@@ -20,6 +21,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
     scene_of,
+    spectrum_option,
     turbidity_option,
 )
 from .resources import SchedulerText, max_memory_option
@@ -40,6 +42,8 @@ from .resources import SchedulerText, max_memory_option
 @kernel_option
 @dem_option
 @turbidity_option
+@instrument_option
+@spectrum_option
 @click.option(
     "--panoramas",
     type=KindPath(FOLDER, file_okay=False),
@@ -80,6 +84,8 @@ def observers(
     kernel: str | None,
     dem: str | None,
     turbidity: float | None,
+    instrument: str | None,
+    spectrum: str | None,
     panoramas: str | None,
     top_cells: int,
     scheduler: str,
@@ -115,6 +121,8 @@ def observers(
         scheduler=scheduler,
         num_workers=num_workers,
         overwrite=overwrite,
+        instrument=instrument,
+        spectrum=spectrum,
     )
     import numpy as np
     from rich.console import Console
@@ -129,6 +137,13 @@ def observers(
         f"{bortle.max()}; {result.seconds:.1f} s -> {out}{extra}",
         soft_wrap=True,
     )
+    if instrument is not None:
+        read = summary["instrument_sky_brightness"].to_numpy()
+        Console(stderr=True).print(
+            f"{instrument} pointing at the zenith: {read.min():.2f} to {read.max():.2f} mag "
+            f"arcsec-2 in its band (median {np.median(read):.2f}; with the natural sky)",
+            soft_wrap=True,
+        )
 
 
 commands = [observers]

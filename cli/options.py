@@ -127,6 +127,15 @@ from .library import (
     LibraryHelpOption as LibraryHelpOption,
 )
 from .library import (
+    DEFAULT_SPECTRUM as DEFAULT_SPECTRUM,
+)
+from .library import (
+    INSTRUMENT_NAMES as INSTRUMENT_NAMES,
+)
+from .library import (
+    SPECTRA as SPECTRA,
+)
+from .library import (
     atmosphere_default as atmosphere_default,
 )
 from .library import (
@@ -686,6 +695,24 @@ scene_options = options(
     kernel_option,
     turbidity_option,
     scene_grid_options,
+)
+#: What an instrument reads (``instrument=``, ``spectrum=``): ``darkness``, ``skyglow`` and
+#: ``sky observers``.
+instrument_option = click.option(
+    "--instrument",
+    type=LibraryChoice(INSTRUMENT_NAMES),
+    default=None,
+    help="Also report what this instrument reads pointing at the zenith: its angular response "
+    "and band, with a moonless natural sky (default: none, the zenith luminance alone).",
+)
+spectrum_option = click.option(
+    "--spectrum",
+    cls=LibraryHelpOption,
+    type=LibraryChoice(SPECTRA),
+    default=None,
+    help="Spectrum of the artificial light: the colour term of --instrument (and the colours "
+    "of skyglow --bands RGB); default: the emission raster's spectrum tag, else {default}.",
+    help_values={"default": DEFAULT_SPECTRUM},
 )
 components_option = click.option(
     "--components",

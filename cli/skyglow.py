@@ -13,6 +13,7 @@ from .options import (
     components_option,
     deprecated_option,
     files_argument,
+    instrument_option,
     observer_of,
     one_of,
     output_option,
@@ -21,6 +22,7 @@ from .options import (
     resolve_inout,
     scene_of,
     scene_options,
+    spectrum_option,
 )
 from .resources import max_memory_option
 
@@ -70,12 +72,8 @@ PANORAMA = file_kind("nc", "tif")
     show_default=True,
     help="V: luminance; RGB: CIE XYZ with wavelength-dependent scattering.",
 )
-@click.option(
-    "--spectrum",
-    default="LED_4000K",
-    show_default=True,
-    help="Luminaire spectrum for --bands RGB (HPS, LED_3000K, LED_4000K, ...).",
-)
+@spectrum_option
+@instrument_option
 @click.pass_context
 @max_memory_option
 def skyglow(
@@ -97,7 +95,8 @@ def skyglow(
     old_polar_out: str | None,
     dem: str | None,
     bands: str,
-    spectrum: str,
+    spectrum: str | None,
+    instrument: str | None,
     n_azimuth: int | None,
     n_elevation: int | None,
     n_distance: int | None,
@@ -134,6 +133,7 @@ def skyglow(
         polar_output=polar_output,
         bands=bands,
         spectrum=spectrum,
+        instrument=instrument,
     )
     from rich.console import Console
 
@@ -153,6 +153,14 @@ def skyglow(
         f"{total['bortle_class_zenith']} (a given night: nightlights sky render)",
         soft_wrap=True,
     )
+    if result.instrument is not None:
+        spectrum_used = result.panorama.attrs["instrument_spectrum"]
+        Console(stderr=True).print(
+            f"{result.instrument} pointing at the zenith: {result.instrument_magnitude:.2f} mag "
+            f"arcsec-2 in its band with the natural sky (artificial part "
+            f"{result.instrument_luminance:.3g} cd m-2 V-equivalent, {spectrum_used} light)",
+            soft_wrap=True,
+        )
 
 
 commands = [skyglow]

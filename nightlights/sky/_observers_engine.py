@@ -6,7 +6,8 @@ for any eye altitude); an observer then costs one compiled pass over the lit cel
 (:func:`~nightlights.sky._polar_numba.polar_flux_levels`), the PCA panorama (Dobashi et al.
 2023, Eqs. 7-9), the terrain horizon when a DEM is given, and the lit cells' parts of the zenith
 (Eqs. 13-14 with zenith weights), bounded first so that only the candidates for the top cells are
-summed exactly (:class:`_Zenith`). :func:`_run` splits the observers into chunks, one Dask task
+summed exactly (:class:`_Zenith`), and with an instrument the panorama read with its angular
+weights (:meth:`~nightlights.sky.instrument_units.InstrumentSky.read`, before its colour term). :func:`_run` splits the observers into chunks, one Dask task
 each, on the local threads, processes, in the calling thread, or on a ``dask.distributed``
 cluster.
 """
@@ -72,6 +73,8 @@ class _Engine:
     natural: float  # natural zenith luminance [cd m-2]
     top_cells: int
     keep_panoramas: bool
+    reading_weights: FloatArray | None = None  # (n_el, n_az) an instrument's angular weights
+
 
     def sky(self, xy: tuple[float, float], eye: float, levels: _Levels) -> dict[str, Any]:
         """One observer's figures (and panorama when kept) at eye altitude ``eye`` [m]."""
@@ -100,6 +103,9 @@ class _Engine:
             luminance = np.where(below, np.nan, luminance)
         zenith = panorama_zenith(luminance, below)
         out: dict[str, Any] = {"zenith": zenith, **_brightest(luminance, self.elevation)}
+        if self.reading_weights is not None:
+            # the angular-weighted artificial sky; hidden pixels (NaN) add nothing
+            out["instrument"] = float(np.sum(self.reading_weights * np.nan_to_num(luminance)))
         if self.top_cells:
             out["top"] = self._top_cells(xy, maps, levels.zenith(slices))
         if self.keep_panoramas:
@@ -264,7 +270,11 @@ def _observe_chunk(
         numba.set_num_threads(previous)
 
 
-def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> _Engine:
+def _engine(
+    setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool, reader: Any = None
+) -> _Engine:
+    """The engine of a prepared scene (``reader``: an
+    :class:`~nightlights.sky.instrument_units.InstrumentSky`, or None)."""
     from nightlights.brightness import zenith_summary
 
     cells = setup.emission
@@ -294,6 +304,11 @@ def _engine(setup: Any, terrain: bool, top_cells: int, keep_panoramas: bool) -> 
         natural=float(zenith_summary(0.0)["zenith_natural_cd_m2"]),
         top_cells=int(top_cells),
         keep_panoramas=keep_panoramas,
+        reading_weights=None
+        if reader is None
+        else reader.panorama_weights(
+            first.elevation, (np.arange(first.n_az) + 0.5) * 360.0 / first.n_az
+        ),
     )
 
 

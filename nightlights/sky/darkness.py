@@ -30,6 +30,21 @@ transform per plane and stencil, one inverse per observer level), chunked with
 :func:`dask.array.map_overlap` (depth = the stencil radius in cells) on local threads or a
 ``dask.distributed`` cluster. Beyond Dobashi et al. 2023, who render one observer at a time.
 
+In an instrument's units (``instrument=``) the top row gives way to every row weighted by the
+instrument's elevation weights :math:`w_i` (its angular response times the rows' solid angles,
+summing to 1, :func:`~nightlights.sky.instruments.elevation_weights`), and the result is scaled
+by the colour term of the light's spectrum (:mod:`nightlights.sky.instrument_units`):
+
+.. math::
+
+    z^w_b(d) = \\sum_i w_i \\frac{1}{n_\\phi} \\sum_j b_b(d, \\theta_i, \\phi_j), \\qquad
+    L_\\mathrm{inst}(o) = 10^{-0.4\\, C(S)} \\sum_b \\sum_s F_b(s)\\, W^w_b(s - o)
+    \\quad [\\mathrm{cd\\,m^{-2}}],
+
+:math:`W^w_b` the stencil of :math:`z^w_b`. For an azimuth-symmetric instrument pointing at
+the zenith this is the panorama read with its angular weights
+(:func:`~nightlights.sky.instruments.angular_weights`), as exact as the zenith is.
+
 Length: the stage, the stencil geometry, the FFT plan every chunk receives and the Dask
 scheduling share that private plan; apart, each piece would serve only this stage.
 
@@ -56,7 +71,7 @@ import dask
 import dask.array as da
 import numpy as np
 import scipy.fft
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._parallel import TaskProgress, check_scheduler, compute_distributed
@@ -70,6 +85,8 @@ from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.horizon import terrain_under
+from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
+from nightlights.sky.instruments import Instrument
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
@@ -114,49 +131,84 @@ class DarknessResult:
     raster
         Two bands on the emission grid: ``zenith_luminance`` [cd m-2] and
         ``zenith_sky_brightness`` [mag arcsec-2] (+inf where no flux reaches).
+        With an instrument: ``instrument_luminance`` [cd m-2] (the V-equivalent luminance
+        its reading of the artificial sky stands for) and ``instrument_sky_brightness``
+        [mag arcsec-2] (its band, artificial + natural sky).
     seconds
         Time of the map once the kernel is loaded: stencils and convolutions [s].
     path
         The COG written, or None.
+    instrument
+        The instrument's name (:data:`~nightlights.sky.instruments.INSTRUMENTS`), or None.
     """
 
     raster: Raster
     seconds: float
     path: Path | None = None
+    instrument: str | None = None
 
 
-def zenith_per_lumen(tables: KernelSlice) -> FloatArray:
-    """Zenith luminance per lumen in each distance bin: the azimuth mean of the top kernel row.
+def zenith_per_lumen(tables: KernelSlice, weights: ArrayLike | None = None) -> FloatArray:
+    """Zenith luminance per lumen in each distance bin: the azimuth mean of the top kernel row,
+    or of every row weighted by an instrument's elevation weights.
 
     .. math:: z_b(d) = \\frac{1}{n_\\phi}\\sum_j b_b(d, \\theta_0, \\phi_j)
         = \\frac{1}{n_\\phi}\\sum_k c_{b,d,k}\\, \\mathrm{Re}\\,\\hat B_k(\\theta_0, 0)
 
     (the raw tables when the kernel stores them, else the DC term of the PCA bases, Dobashi
-    et al. 2023, Eq. 4).
+    et al. 2023, Eq. 4); with elevation weights :math:`w_i` (summing to 1)
+
+    .. math:: z_b^w(d) = \\sum_i w_i \\frac{1}{n_\\phi}\\sum_j b_b(d, \\theta_i, \\phi_j)
+        = \\frac{1}{n_\\phi}\\sum_k c_{b,d,k} \\sum_i w_i\\, \\mathrm{Re}\\,\\hat B_k(\\theta_i, 0),
+
+    the reading of an azimuth-symmetric, zenith-pointing instrument
+    (:func:`~nightlights.sky.instruments.elevation_weights`) per lumen.
 
     Parameters
     ----------
     tables
         A kernel slice (:func:`~nightlights.sky.panorama.kernel_slice`).
+    weights
+        ``(n_el,)`` weights of the slice's elevation rows, in the order of
+        ``tables.elevation`` (zenith first), summing to 1 [1]; None: the top row alone.
 
     Returns
     -------
     numpy.ndarray
         ``(bands, n_r)`` [cd m-2 lm-1].
 
+    Raises
+    ------
+    InputError
+        ``weights`` of another length than the slice's rows, or not finite.
+
     Examples
     --------
     >>> from nightlights.sky import KernelSpec, build_kernel
     >>> from nightlights.sky.panorama import kernel_slice
     >>> spec = KernelSpec(r_max=3000.0, n_distance=8, n_elevation=8, n_azimuth=16)
-    >>> z = zenith_per_lumen(kernel_slice(build_kernel(spec, progress=False).kernel,
-    ...                                   observer_altitude=0.0))
+    >>> tables = kernel_slice(build_kernel(spec, progress=False).kernel, observer_altitude=0.0)
+    >>> z = zenith_per_lumen(tables)
     >>> z.shape, bool(z[0, 0] > z[0, -1] > 0)
     ((1, 8), True)
+    >>> top = np.eye(8)[0]  # all the weight on the top row: the zenith
+    >>> bool(np.allclose(zenith_per_lumen(tables, top), z, rtol=1e-12))
+    True
     """
+    if weights is None:
+        if tables.has_tables:
+            return np.asarray(tables.kernel[:, :, 0, :].mean(axis=-1), dtype=float)
+        dc = tables.basis_fft[:, 0, 0].real  # (components,)
+        return np.asarray(tables.coefficient @ dc / tables.n_az, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    if w.shape != tables.elevation.shape or not np.isfinite(w).all():
+        raise InputError(
+            f"weights of shape {w.shape}; expected {tables.elevation.size} finite weights, one "
+            "per elevation row of the kernel"
+        )
     if tables.has_tables:
-        return np.asarray(tables.kernel[:, :, 0, :].mean(axis=-1), dtype=float)
-    dc = tables.basis_fft[:, 0, 0].real  # (components,)
+        return np.asarray(tables.kernel.mean(axis=-1) @ w, dtype=float)
+    dc = tables.basis_fft[:, :, 0].real @ w  # (components,): the weighted DC terms
     return np.asarray(tables.coefficient @ dc / tables.n_az, dtype=float)
 
 
@@ -321,6 +373,9 @@ def darkness(
     output: PathLike | None = None,
     *,
     height: float = OBSERVER_HEIGHT,
+    instrument: str | Instrument | None = None,
+    spectrum: str | None = None,
+    natural_luminance: float | None = None,
     chunk_size: int | None = None,
     scheduler: str | Any | None = None,
     progress: bool = True,
@@ -344,6 +399,19 @@ def darkness(
         COG to write atomically (2 bands); None writes nothing.
     height
         Eye height above the ground of the observer at every cell [m].
+    instrument
+        Report what this instrument reads, pointing at the zenith: a key of
+        :data:`~nightlights.sky.instruments.INSTRUMENTS` (``sqm``, ``sqm-l``, ``tess-w``,
+        ``eye``) or an :class:`~nightlights.sky.instruments.Instrument`; None: the zenith
+        luminance (the kernel's top row).
+    spectrum
+        With an instrument: the artificial light's spectrum for its colour term, a name of
+        :data:`ies.spectra.SPDS`; None: the emission raster's ``spectrum`` tag, else
+        :data:`~nightlights.sky.instrument_units.DEFAULT_SPECTRUM` (LED_4000K).
+    natural_luminance
+        With an instrument: the natural sky's reading, V-equivalent with its colour term
+        [cd m-2]; None: a uniform moonless sky of 22.0 mag arcsec-2 (V) seen by the
+        instrument (:func:`~nightlights.sky.instrument_units.instrument_sky`).
     chunk_size
         Chunk edge [cells]; default :data:`DEFAULT_CHUNK_SIZE`. A raster within one chunk is
         one FFT in memory; larger ones are chunked (never below twice the stencil radius).
@@ -355,8 +423,9 @@ def darkness(
     Returns
     -------
     DarknessResult
-        Zenith luminance [cd m-2] and sky brightness [mag arcsec-2] at every cell, the time and
-        the written path.
+        Zenith luminance [cd m-2] and sky brightness [mag arcsec-2] at every cell (with an
+        instrument: its V-equivalent reading of the artificial sky [cd m-2] and its sky
+        brightness with the natural sky [mag arcsec-2]), the time and the written path.
 
     Examples
     --------
@@ -383,6 +452,13 @@ def darkness(
     _check_memory_early(emission, dem, chunk, label)  # from the headers, before any read
     raster = as_raster(emission)
     data = _check_emission(raster, label)
+    reader = instrument_sky(
+        instrument,
+        spectrum=spectrum,
+        natural_luminance=natural_luminance,
+        emission=raster,
+        label=label,
+    )
     # each band's emission function (its tag, or the default), read as the skyglow stage does
     functions, notes = band_emission_functions(raster, data.shape[0], label=label)
     if not (math.isfinite(observer_height) and observer_height >= 0):
@@ -420,7 +496,10 @@ def darkness(
     by_level = [kernel_levels(table, observer_altitude=h) for h in observer_levels]
     functions, notes = kernel_band_functions(functions, notes, by_level[0][0].emissions, label)
     by_level = [[band_slice(s, functions) for s in slices] for slices in by_level]
-    zenith = [[zenith_per_lumen(t)[: data.shape[0]] for t in slices] for slices in by_level]
+    weights = None if reader is None else reader.elevation_weights(by_level[0][0].elevation)
+    zenith = [
+        [zenith_per_lumen(t, weights)[: data.shape[0]] for t in slices] for slices in by_level
+    ]
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
     estimate = darkness_memory(
@@ -473,21 +552,64 @@ def darkness(
         + scattering_note(table.attrs),
         "reference": "Dobashi et al. 2023, Sec. 3.3-3.4 (zenith of the forward panorama)",
     }
-    result = Raster(
-        np.stack([luminance, luminance_to_magnitude(luminance)]),
-        raster.transform,
-        raster.crs,
-        descriptions=("zenith_luminance", "zenith_sky_brightness"),
-        units=("cd m-2", "mag arcsec-2"),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=(
+    if reader is None:
+        bands = np.stack([luminance, luminance_to_magnitude(luminance)])
+        descriptions = ("zenith_luminance", "zenith_sky_brightness")
+        band_tags: tuple[dict[str, str], ...] = (
             {"long_name": "artificial zenith sky luminance, observer at the cell centre"},
             {"long_name": "zenith sky brightness, -2.5 log10(L / 1.08e5)"},
-        ),
+        )
+    else:
+        bands, descriptions, band_tags = _instrument_bands(reader, luminance)
+        tags.update(
+            {
+                "method": "FFT convolution of the flux per cell with the instrument's stencil "
+                "(azimuth means of the kernel's rows weighted by its elevation weights, cells "
+                "sampled as the polar map); terrain: per source and observer level; "
+                f"{n_chunks} chunk(s) of {used_chunk} cells",
+                "note": "artificial skyglow in the instrument's units, plus the natural sky in "
+                "the sky-brightness band; " + scattering_note(table.attrs),
+                **reader.tags(),
+            }
+        )
+    result = Raster(
+        bands,
+        raster.transform,
+        raster.crs,
+        descriptions=descriptions,
+        units=("cd m-2", "mag arcsec-2"),
+        tags={key: str(value) for key, value in tags.items()},
+        band_tags=band_tags,
     )
     if target is not None:
         result.write(target)
-    return DarknessResult(result, seconds, target)
+    return DarknessResult(result, seconds, target, None if reader is None else reader.instrument.name)
+
+
+def _instrument_bands(
+    reader: InstrumentSky, weighted: FloatArray
+) -> tuple[FloatArray, tuple[str, str], tuple[dict[str, str], ...]]:
+    """The two bands of a map in an instrument's units, their names and long names.
+
+    ``weighted``, the angular-weighted artificial luminance [cd m-2], becomes the instrument's
+    V-equivalent reading in place: the colour term is one factor
+    (:func:`~nightlights.sky.instruments.instrument_luminance` is linear in the luminance), so
+    the map needs no more memory than in plain luminance.
+    """
+    name = reader.instrument.name
+    weighted *= float(reader.artificial(1.0))
+    bands = np.stack([weighted, reader.magnitude(weighted)])
+    long_names = (
+        {
+            "long_name": f"V-equivalent luminance of the {name} reading of the artificial sky, "
+            f"{reader.spectrum} light, observer at the cell centre"
+        },
+        {
+            "long_name": f"{name} sky brightness, artificial + natural sky, "
+            "-2.5 log10(L / 1.08e5) in its band"
+        },
+    )
+    return bands, ("instrument_luminance", "instrument_sky_brightness"), long_names
 
 
 def _check_memory_early(

@@ -29,6 +29,8 @@ from nightlights.errors import InputError
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
+from nightlights.sky.instrument_units import DEFAULT_SPECTRUM, emission_spectrum, instrument_sky
+from nightlights.sky.instruments import Instrument
 from nightlights.sky.kernel import UPLIGHT_EXPONENT
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import Observer
@@ -76,7 +78,9 @@ def skyglow_panorama(
     mode: str = "pca",
     components: int | None = None,
     bands: str = "V",
-    spectrum: str = "LED_4000K",
+    spectrum: str | None = None,
+    instrument: str | Instrument | None = None,
+    natural_luminance: float | None = None,
     progress: bool = True,
 ) -> SkyglowScene:
     """What an observer sees: the skyglow panorama of an emission raster, in memory.
@@ -105,7 +109,18 @@ def skyglow_panorama(
         scattering and the emission colour of ``spectrum`` (needs scene kernels, so a scene
         without ``kernel``).
     spectrum
-        Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
+        Luminaire spectrum for ``RGB`` and for the colour term of ``instrument`` (a name in
+        :data:`ies.spectra.SPDS`); None: the emission raster's ``spectrum`` tag, else
+        :data:`~nightlights.sky.instrument_units.DEFAULT_SPECTRUM` (LED_4000K).
+    instrument
+        Also report what this instrument reads pointing at the zenith (a key of
+        :data:`~nightlights.sky.instruments.INSTRUMENTS` or an
+        :class:`~nightlights.sky.instruments.Instrument`): the panorama read with its
+        angular weights, in its band, and with the natural sky
+        (:mod:`nightlights.sky.instrument_units`); None: no instrument figures.
+    natural_luminance
+        With an instrument: the natural sky's reading, V-equivalent with its colour term
+        [cd m-2]; None: a uniform moonless sky of 22.0 mag arcsec-2 (V).
     progress
         Progress bar while building a kernel.
 
@@ -116,7 +131,10 @@ def skyglow_panorama(
         [mag arcsec-2] and ``terrain_mask`` over (elevation, azimuth) [deg] (and ``X``, ``Y``,
         ``Z`` [cd m-2] for ``RGB``), with the observer, kernel and zenith figures and each
         band's emission function (``emission_functions``, ``emission_function_sources``) in
-        the attributes; ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
+        the attributes (with an instrument also ``instrument``, ``instrument_spectrum``,
+        ``instrument_luminance_cd_m2``, ``instrument_natural_cd_m2`` and
+        ``instrument_sky_brightness`` [mag arcsec-2]: :meth:`InstrumentSky.summary
+        <nightlights.sky.instrument_units.InstrumentSky.summary>`); ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
         the panorama after the polar map [s].
 
     Examples
@@ -143,6 +161,15 @@ def skyglow_panorama(
             "bands='RGB' builds one scene kernel per tristimulus band: give a scene without "
             "kernel= and use mode='pca' or 'exact'"
         )
+    reader = instrument_sky(
+        instrument,
+        spectrum=spectrum,
+        natural_luminance=natural_luminance,
+        emission=scene.emission,
+        label=scene.label,
+    )
+    if spectrum is None:
+        spectrum = reader.spectrum if reader is not None else _colour_spectrum(bands, scene)
     setup = prepare_scene(scene, observer, progress=progress)
     xy, table, levels = setup.xy, setup.table, setup.levels
     label, terrain, spec = setup.label, setup.terrain, setup.spec
@@ -241,7 +268,19 @@ def skyglow_panorama(
     if xyz is not None:
         dataset.attrs["spectrum"] = spectrum
     dataset.attrs["bands"] = bands
+    if reader is not None:
+        weights = reader.panorama_weights(tables.elevation, dataset["azimuth"].values)
+        dataset.attrs.update(reader.summary(reader.read(luminance, weights)))
     return SkyglowScene(dataset, polar, seconds)
+
+
+def _colour_spectrum(bands: str, scene: Scene) -> str:
+    """The spectrum of an ``RGB`` panorama without ``spectrum=``: the emission raster's tag,
+    else :data:`~nightlights.sky.instrument_units.DEFAULT_SPECTRUM` (a ``V`` panorama needs
+    none, and its emission is not opened for it)."""
+    if bands != "RGB":
+        return DEFAULT_SPECTRUM
+    return emission_spectrum(scene.emission) or DEFAULT_SPECTRUM
 
 
 def _panorama_dataset(

@@ -17,7 +17,10 @@ Every observer becomes one point of the summary layer (:data:`SUMMARY_FIELDS`): 
 luminance, artificial, natural and total, its sky brightness and Bortle class, the brightest
 direction of the artificial skyglow, and the lit cells that give most of the artificial zenith
 luminance, in numbered columns (``top1_x``, ``top1_y``, ``top1_share``, ...: plain numeric
-fields that QGIS filters, labels and styles directly).
+fields that QGIS filters, labels and styles directly). With an instrument (``instrument=``) the
+summary adds what it reads pointing at the zenith (:data:`INSTRUMENT_FIELDS`): each observer's
+panorama read with its angular weights and colour term, and with the natural sky
+(:mod:`nightlights.sky.instrument_units`).
 
 The observers are read by :class:`~nightlights.sky.observer.Observer` (from coordinates in any
 CRS or from a point layer); the engine a Dask task receives and the scheduling live in
@@ -67,6 +70,8 @@ from nightlights.sky._observers_engine import _engine as _engine  # for benchmar
 from nightlights.sky._observers_engine import _Levels as _Levels
 from nightlights.sky.forward import _panorama_dataset
 from nightlights.sky.horizon import ground_height, scene_terrain
+from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
+from nightlights.sky.instruments import Instrument
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import Observer, positions
 from nightlights.sky.scene import Scene
@@ -79,6 +84,7 @@ from nightlights.sky.setup import (
 from nightlights.sky.spec import MAX_KERNEL_RANGE, source_levels
 
 __all__ = [
+    "INSTRUMENT_FIELDS",
     "MAX_TOP_CELLS",
     "SCHEDULERS",
     "SUMMARY_FIELDS",
@@ -89,7 +95,8 @@ __all__ = [
 
 #: Layer name of the summary GeoPackage.
 SUMMARY_LAYER = "observers"
-#: Fields of the summary layer, before the ``top<i>_*`` columns, with their units.
+#: Fields of the summary layer, before the ``top<i>_*`` columns, with their units. With an
+#: instrument, :data:`INSTRUMENT_FIELDS` follow them.
 SUMMARY_FIELDS: dict[str, str] = {
     "name": "",
     "observer_altitude": "m above sea level (eye)",
@@ -101,6 +108,14 @@ SUMMARY_FIELDS: dict[str, str] = {
     "brightest_azimuth": "deg clockwise from north",
     "brightest_elevation": "deg",
     "brightest_luminance": "cd m-2 (artificial)",
+}
+#: Fields the summary layer adds after :data:`SUMMARY_FIELDS` with an instrument
+#: (``instrument=``), pointing at the zenith: its reading of the artificial sky (the
+#: V-equivalent luminance it stands for, colour term of ``spectrum`` included) and its sky
+#: brightness with the natural sky, in its band.
+INSTRUMENT_FIELDS: dict[str, str] = {
+    "instrument_luminance": "cd m-2 (V-equivalent reading of the artificial sky)",
+    "instrument_sky_brightness": "mag arcsec-2 (the instrument's band, artificial + natural)",
 }
 #: Columns of a GeoPackage table at most, its feature id and geometry among them (SQLite's
 #: ``SQLITE_MAX_COLUMN``, which GDAL's GeoPackage driver keeps) [1].
@@ -159,6 +174,9 @@ def observers(
     scheduler: str | Any = "threads",
     num_workers: int | None = None,
     overwrite: bool = False,
+    instrument: str | Instrument | None = None,
+    spectrum: str | None = None,
+    natural_luminance: float | None = None,
     progress: bool = True,
 ) -> ObserversResult:
     """The skies of many observers in parallel: one summary point layer, panoramas on request.
@@ -195,13 +213,26 @@ def observers(
         [1].
     overwrite
         Replace existing outputs.
+    instrument
+        Also report what this instrument reads pointing at the zenith
+        (:data:`INSTRUMENT_FIELDS`): a key of :data:`~nightlights.sky.instruments.INSTRUMENTS`
+        (``sqm``, ``sqm-l``, ``tess-w``, ``eye``) or an
+        :class:`~nightlights.sky.instruments.Instrument`; None: no such columns.
+    spectrum
+        With an instrument: the artificial light's spectrum for its colour term, a name of
+        :data:`ies.spectra.SPDS`; None: the emission raster's ``spectrum`` tag, else
+        LED_4000K (:data:`~nightlights.sky.instrument_units.DEFAULT_SPECTRUM`).
+    natural_luminance
+        With an instrument: the natural sky's reading, V-equivalent with its colour term
+        [cd m-2]; None: a uniform moonless sky of 22.0 mag arcsec-2 (V).
     progress
         Progress bars (kernel build, observers).
 
     Returns
     -------
     ObserversResult
-        The summary layer, the panorama files and the time taken.
+        The summary layer (with an instrument, :data:`INSTRUMENT_FIELDS` too), the panorama
+        files and the time taken.
 
     Raises
     ------
@@ -234,14 +265,22 @@ def observers(
     scheduler = check_scheduler(scheduler, local=SCHEDULERS)  # parsed and probed first
     if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")
-    if output is not None and top_cells > MAX_TOP_CELLS:
-        raise InputError(
-            f"top_cells={top_cells}: the summary GeoPackage holds at most {MAX_TOP_CELLS} top "
-            f"cells (3 columns each, {GPKG_MAX_COLUMNS} columns per table); expected 0 to "
-            f"{MAX_TOP_CELLS}"
-        )
     emission, dem = scene.emission, scene.dem
     label = scene.label
+    reader = instrument_sky(
+        instrument,
+        spectrum=spectrum,
+        natural_luminance=natural_luminance,
+        emission=emission,
+        label=label,
+    )
+    most = _max_top_cells(0 if reader is None else len(INSTRUMENT_FIELDS))
+    if output is not None and top_cells > most:
+        raise InputError(
+            f"top_cells={top_cells}: the summary GeoPackage holds at most {most} top "
+            f"cells (3 columns each, {GPKG_MAX_COLUMNS} columns per table); expected 0 to "
+            f"{most}"
+        )
     # no output is an input (the observers' layer, the scene's files), overwrite or not
     inputs = {**scene.inputs, "observers": observers}
     refuse_replacing_inputs([output], inputs)
@@ -291,7 +330,7 @@ def observers(
     )
     _check_reaches(setup.emission, xy, labels, label, setup.table)
     _check_memory(setup.emission, len(xy), top_cells, workers, levels=len(setup.levels))
-    engine = _engine(setup, relief is not None, top_cells, folder is not None)
+    engine = _engine(setup, relief is not None, top_cells, folder is not None, reader)
     if folder is not None:
         first = setup.slices[0]
         check_memory(
@@ -303,15 +342,27 @@ def observers(
     points = np.column_stack([xy, eyes])
     skies = _run(engine, points, scheduler, num_workers, progress)
     seconds = time.perf_counter() - start
-    summary = _summary(skies, xy, eyes, labels, setup.crs, engine, files)
+    summary = _summary(skies, xy, eyes, labels, setup.crs, engine, files, reader)
     with outputs:
         for name, path in files.items():
             index = labels.index(name)
             dataset = _panorama(skies[index], setup, xy[index], eyes[index], heights[index], engine)
+            if reader is not None:
+                dataset.attrs.update(reader.summary(float(summary[_READING].iloc[index])))
             dataset.to_netcdf(outputs.temporary(path), engine="h5netcdf")
         if output is not None:
             _write_summary(summary, outputs.temporary(output))
     return ObserversResult(summary, files, seconds, Path(output) if output is not None else None)
+
+
+#: The summary column of the instrument's reading of the artificial sky.
+_READING = "instrument_luminance"
+
+
+def _max_top_cells(extra_fields: int) -> int:
+    """Most top cells the summary GeoPackage holds beside ``extra_fields`` optional fields
+    (:data:`MAX_TOP_CELLS` without them) [1]."""
+    return (GPKG_MAX_COLUMNS - 2 - len(SUMMARY_FIELDS) - extra_fields - 1) // 3
 
 
 # --- inputs -----------------------------------------------------------------------------------
@@ -490,6 +541,7 @@ def _summary(
     crs: CRS,
     engine: _Engine,
     files: dict[str, Path],
+    reader: InstrumentSky | None = None,
 ) -> gpd.GeoDataFrame:
     artificial = np.array([s["zenith"] for s in skies], dtype=float)
     broken = [name for name, value in zip(names, artificial, strict=True) if not np.isfinite(value)]
@@ -512,6 +564,10 @@ def _summary(
             for field in ("brightest_azimuth", "brightest_elevation", "brightest_luminance")
         },
     }
+    if reader is not None:
+        reading = reader.artificial(np.array([s["instrument"] for s in skies], dtype=float))
+        columns[_READING] = reading
+        columns["instrument_sky_brightness"] = reader.magnitude(reading)
     if engine.top_cells:
         top = np.stack([s["top"] for s in skies])  # (n, top_cells, 3)
         for i in range(engine.top_cells):

@@ -31,6 +31,7 @@ from nightlights.sky._flat import flat_keywords
 from nightlights.sky.build import compute_kernel
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, render_colour_panorama
 from nightlights.sky.forward import skyglow_panorama
+from nightlights.sky.instruments import Instrument
 from nightlights.sky.observer import Observer
 from nightlights.sky.polar import PolarMap
 from nightlights.sky.render import render_panorama
@@ -80,6 +81,14 @@ class SkyglowResult:
         Time of the panorama computation after the polar map [s].
     path
         The panorama NetCDF written, or None when nothing was written.
+    instrument
+        The instrument whose reading is reported (``instrument=``), or None.
+    instrument_luminance
+        Its reading of the artificial sky: the V-equivalent luminance it stands for
+        [cd m-2]; None without an instrument.
+    instrument_magnitude
+        Its sky brightness, artificial + natural sky, in its band [mag arcsec-2]; None
+        without an instrument.
     """
 
     panorama: xr.Dataset
@@ -88,6 +97,9 @@ class SkyglowResult:
     bortle: int
     seconds: float
     path: Path | None = None
+    instrument: str | None = None
+    instrument_luminance: float | None = None
+    instrument_magnitude: float | None = None
 
 
 def _check_output(output: PathLike | None) -> Path | None:
@@ -159,7 +171,9 @@ def skyglow(
     projection: str = "equirectangular",
     polar_output: PathLike | None = None,
     bands: str = "V",
-    spectrum: str = "LED_4000K",
+    spectrum: str | None = None,
+    instrument: str | Instrument | None = None,
+    natural_luminance: float | None = None,
     progress: bool = True,
 ) -> SkyglowResult:
     """Compute what an observer sees: the skyglow panorama of an emission raster.
@@ -193,14 +207,23 @@ def skyglow(
         without ``kernel``);
         the PNG is then a colour picture (equirectangular).
     spectrum
-        Luminaire spectrum for ``RGB`` (a name in :data:`ies.spectra.SPDS`).
+        Luminaire spectrum for ``RGB`` and for the colour term of ``instrument`` (a name in
+        :data:`ies.spectra.SPDS`); None: the emission raster's ``spectrum`` tag, else
+        LED_4000K (:data:`~nightlights.sky.instrument_units.DEFAULT_SPECTRUM`).
+    instrument
+        Also report what this instrument (``sqm``, ``sqm-l``, ``tess-w``, ``eye``, or an
+        :class:`~nightlights.sky.instruments.Instrument`) reads pointing at the zenith: the
+        panorama read with its angular weights, in its band, and with the natural sky.
+    natural_luminance
+        With an instrument: the natural sky's reading, V-equivalent with its colour term
+        [cd m-2]; None: a uniform moonless sky of 22.0 mag arcsec-2 (V).
     progress
         Progress bar while building a kernel.
 
     Returns
     -------
     SkyglowResult
-        The panorama, its zenith figures and the written path.
+        The panorama, its zenith figures (and the instrument's) and the written path.
 
     Examples
     --------
@@ -228,6 +251,8 @@ def skyglow(
         components=components,
         bands=bands,
         spectrum=spectrum,
+        instrument=instrument,
+        natural_luminance=natural_luminance,
         progress=progress,
     )
     dataset = sky.panorama
@@ -247,7 +272,9 @@ def skyglow(
         elif polar_output is not None:
             _polar_dataset(sky.polar).to_netcdf(outputs.temporary(polar_output), engine="h5netcdf")
         if png is not None:
-            _render(dataset, outputs.temporary(png), bands, spectrum, projection, zenith_mag)
+            shown = str(dataset.attrs.get("spectrum", spectrum))
+            _render(dataset, outputs.temporary(png), bands, shown, projection, zenith_mag)
+    reading = dataset.attrs.get("instrument_luminance_cd_m2")
     return SkyglowResult(
         dataset,
         zenith,
@@ -255,6 +282,11 @@ def skyglow(
         int(dataset.attrs["bortle_class_zenith"]),
         sky.seconds,
         target,
+        instrument=None if instrument is None else str(dataset.attrs["instrument"]),
+        instrument_luminance=None if reading is None else float(reading),
+        instrument_magnitude=(
+            None if reading is None else float(dataset.attrs["instrument_sky_brightness"])
+        ),
     )
 
 

@@ -1,6 +1,7 @@
 """The zenith darkness map: equal to the forward panorama's zenith at every cell (flat terrain
 and terrain, same kernel), chunked and distributed runs equal to one FFT, scene kernels, output
-and one-line errors."""
+and one-line errors; in an instrument's units, equal to the panorama read with its angular
+weights."""
 
 from __future__ import annotations
 
@@ -13,12 +14,14 @@ import xarray as xr
 from affine import Affine
 from distributed import Client, LocalCluster
 
-from nightlights.brightness import luminance_to_magnitude
+from nightlights.brightness import NATURAL_ZENITH_LUMINANCE, luminance_to_magnitude
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
 from nightlights.sky.darkness import DarknessResult, darkness, zenith_per_lumen
 from nightlights.sky.forward import skyglow_panorama
+from nightlights.sky.instrument_units import DEFAULT_SPECTRUM
+from nightlights.sky.instruments import angular_weights, elevation_weights, instrument_luminance
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import kernel_slice
 from nightlights.sky.spec import MAX_KERNEL_RANGE
@@ -64,6 +67,21 @@ def kernel() -> xr.Dataset:
         r_max=6000.0,
         n_distance=16,
         n_elevation=8,
+        n_azimuth=32,
+        uplight=True,
+        observer_altitudes=(0.0, 10.0),
+    )
+    return build_kernel(spec, progress=False).kernel
+
+
+@pytest.fixture(scope="module")
+def fine_kernel() -> xr.Dataset:
+    """As ``kernel`` with 24 rows of 3.75 deg: fine enough for the lensed instruments' 17-20
+    deg responses (the kernel's rows are coarser than half their FWHM otherwise)."""
+    spec = KernelSpec(
+        r_max=6000.0,
+        n_distance=16,
+        n_elevation=24,
         n_azimuth=32,
         uplight=True,
         observer_altitudes=(0.0, 10.0),
@@ -369,3 +387,177 @@ def test_uplight_band_needs_an_uplight_kernel() -> None:
 def test_eyes_outside_the_kernel_levels_warn(kernel: xr.Dataset) -> None:
     with pytest.warns(DataQualityWarning, match="outside the kernel's observer levels"):
         darkness(Scene(emission(n=10), kernel=kernel), height=30.0, progress=False)
+
+
+# --- in instrument units ------------------------------------------------------------------------
+
+
+def instrument_reading(
+    scene: Scene, cell: tuple[int, int], instrument: str, *, height: float, mode: str = "exact"
+) -> float:
+    """The panorama of an observer at a cell centre read with the instrument's angular weights
+    (hidden pixels: no artificial light) [cd m-2], before the colour term."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        sky = skyglow_panorama(
+            scene, Observer(*centre(*cell), height=height), mode=mode, progress=False
+        )
+    panorama = sky.panorama
+    weights = angular_weights(
+        instrument, panorama["elevation"].values, panorama["azimuth"].values
+    )
+    return float(np.sum(weights * np.nan_to_num(panorama["luminance"].values)))
+
+
+def test_without_weights_the_zenith_table_is_the_top_row_bit_for_bit(kernel: xr.Dataset) -> None:
+    tables = kernel_slice(kernel, observer_altitude=0.0)
+    np.testing.assert_array_equal(zenith_per_lumen(tables), tables.kernel[:, :, 0, :].mean(-1))
+    top = np.zeros(tables.elevation.size)
+    top[0] = 1.0  # the kernel's rows descend: the first is the zenith's
+    assert tables.elevation[0] == tables.elevation.max()
+    np.testing.assert_allclose(zenith_per_lumen(tables, top), zenith_per_lumen(tables), rtol=1e-15)
+
+
+def test_weighted_tables_and_their_pca_form_agree(kernel: xr.Dataset) -> None:
+    tables = kernel_slice(kernel, observer_altitude=0.0)
+    weights = elevation_weights("sqm", tables.elevation)
+    from_tables = zenith_per_lumen(tables, weights)
+    expected = np.einsum("brea,e->br", tables.kernel, weights) / tables.n_az
+    np.testing.assert_allclose(from_tables, expected, rtol=1e-12)
+    without = type(tables)(
+        tables.kernel[..., :0],
+        tables.coefficient,
+        tables.basis_fft,
+        tables.distance_edges,
+        tables.elevation,
+    )
+    # pca_energy 0.999999 of the whole table: the weighted rows are within a few 1e-3
+    np.testing.assert_allclose(zenith_per_lumen(without, weights), from_tables, rtol=5e-3)
+    with pytest.raises(InputError, match="expected 8 finite weights"):
+        zenith_per_lumen(tables, weights[:-1])
+
+
+@pytest.mark.parametrize(
+    ("instrument", "observer_height"), [("sqm", 0.0), ("sqm", 6.0), ("tess-w", 1.7)]
+)
+def test_flat_map_equals_the_panorama_read_with_the_angular_weights(
+    fine_kernel: xr.Dataset, instrument: str, observer_height: float
+) -> None:
+    """Exact: the panorama's rows are the kernel's, the instrument pointing at the zenith
+    weighs every column of a row alike, and the colour term is one factor."""
+    scene = Scene(emission(bands=2), kernel=fine_kernel)
+    result = darkness(scene, height=observer_height, instrument=instrument, progress=False)
+    assert result.instrument == instrument
+    assert result.raster.descriptions == ("instrument_luminance", "instrument_sky_brightness")
+    factor = float(instrument_luminance(1.0, instrument, DEFAULT_SPECTRUM))
+    for cell in CELLS:
+        expected = factor * instrument_reading(scene, cell, instrument, height=observer_height)
+        assert result.raster.data[0][cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL), cell
+
+
+def test_pca_only_map_equals_the_pca_panorama_read_with_the_angular_weights() -> None:
+    spec = KernelSpec(r_max=6000.0, n_distance=16, n_elevation=8, n_azimuth=32, store_tables=False)
+    scene = Scene(emission(n=30), kernel=build_kernel(spec, progress=False).kernel)
+    result = darkness(scene, height=0.0, instrument="sqm", progress=False)
+    factor = float(instrument_luminance(1.0, "sqm", DEFAULT_SPECTRUM))
+    for cell in [(11, 21), (0, 0), (29, 29)]:
+        expected = factor * instrument_reading(scene, cell, "sqm", height=0.0, mode="pca")
+        assert result.raster.data[0][cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL)
+
+
+def test_terrain_map_equals_per_cell_panoramas_read_with_the_angular_weights(
+    terrain_kernel: xr.Dataset,
+) -> None:
+    """Over terrain as on flat ground; the hills stay below the panorama's lowest row (5.6 deg),
+    so no pixel is hidden that the map would count."""
+    raster, dem = emission(), hills()
+    scene = Scene(raster, kernel=terrain_kernel, dem=dem)
+    result = darkness(scene, instrument="sqm", progress=False)
+    factor = float(instrument_luminance(1.0, "sqm", DEFAULT_SPECTRUM))
+    for cell in CELLS:
+        expected = factor * instrument_reading(scene, cell, "sqm", height=OBSERVER_HEIGHT)
+        assert result.raster.data[0][cell] == pytest.approx(expected, rel=SAME_KERNEL_RTOL), cell
+
+
+def test_a_narrow_instrument_reads_nearly_the_zenith(fine_kernel: xr.Dataset) -> None:
+    """The SQM-L's 20 deg response reads within a few % of the zenith luminance (before its
+    colour term); the wide SQM takes in the brighter sky towards the lights and the horizon."""
+    scene = Scene(emission(), kernel=fine_kernel)
+    zenith = darkness(scene, progress=False).raster.data[0]
+    narrow = darkness(scene, instrument="sqm-l", progress=False).raster.data[0]
+    wide = darkness(scene, instrument="sqm", progress=False).raster.data[0]
+    narrow = narrow / float(instrument_luminance(1.0, "sqm-l", DEFAULT_SPECTRUM))
+    wide = wide / float(instrument_luminance(1.0, "sqm", DEFAULT_SPECTRUM))
+    np.testing.assert_allclose(narrow, zenith, rtol=0.1)
+    assert np.median(wide / zenith) > np.median(narrow / zenith)
+
+
+def test_the_brightness_band_adds_the_natural_sky_in_the_instruments_band(
+    kernel: xr.Dataset, tmp_path: Path
+) -> None:
+    scene = Scene(emission(), kernel=kernel)
+    result = darkness(scene, tmp_path / "sqm.tif", instrument="sqm", progress=False)
+    natural = float(instrument_luminance(NATURAL_ZENITH_LUMINANCE, "sqm", "natural_sky"))
+    reading, magnitude = result.raster.data
+    np.testing.assert_allclose(magnitude, luminance_to_magnitude(reading + natural), rtol=1e-12)
+    assert np.all(np.isfinite(magnitude)) and magnitude.max() <= float(
+        luminance_to_magnitude(natural)
+    )
+    written = Raster.read(tmp_path / "sqm.tif")
+    assert written.descriptions == ("instrument_luminance", "instrument_sky_brightness")
+    assert written.units == ("cd m-2", "mag arcsec-2")
+    tags = written.tags
+    assert (tags["instrument"], tags["instrument_spectrum"]) == ("sqm", DEFAULT_SPECTRUM)
+    assert tags["instrument_spectrum_source"] == "default"
+    assert float(tags["instrument_natural_cd_m2"]) == pytest.approx(natural, rel=1e-12)
+    assert "uniform" in tags["instrument_natural_source"]
+    given = darkness(scene, instrument="sqm", natural_luminance=2e-4, progress=False)
+    np.testing.assert_allclose(given.raster.data[0], reading, rtol=1e-15)
+    np.testing.assert_allclose(
+        given.raster.data[1], luminance_to_magnitude(reading + 2e-4), rtol=1e-12
+    )
+
+
+def test_the_spectrum_is_given_else_the_emissions_tag_else_the_default(kernel: xr.Dataset) -> None:
+    raster = emission()
+    tagged = Raster(raster.data, TRANSFORM, CRS, raster.descriptions, tags={"spectrum": "HPS"})
+    plain = darkness(Scene(raster, kernel=kernel), instrument="sqm", progress=False)
+    by_tag = darkness(Scene(tagged, kernel=kernel), instrument="sqm", progress=False)
+    given = darkness(
+        Scene(tagged, kernel=kernel), instrument="sqm", spectrum="LED_3000K", progress=False
+    )
+    for result, spectrum, source in [
+        (plain, DEFAULT_SPECTRUM, "default"),
+        (by_tag, "HPS", "emission tag"),
+        (given, "LED_3000K", "spectrum="),
+    ]:
+        assert result.raster.tags["instrument_spectrum"] == spectrum
+        assert result.raster.tags["instrument_spectrum_source"] == source
+        ratio = float(instrument_luminance(1.0, "sqm", spectrum)) / float(
+            instrument_luminance(1.0, "sqm", DEFAULT_SPECTRUM)
+        )
+        np.testing.assert_allclose(result.raster.data[0], ratio * plain.raster.data[0], rtol=1e-12)
+
+
+def test_instrument_errors_are_one_line_and_come_before_the_kernel(
+    kernel: xr.Dataset, tmp_path: Path
+) -> None:
+    raster = emission(n=10)
+    wrong_tag = Raster(raster.data, TRANSFORM, CRS, tags={"spectrum": "sodium"})
+    cases = [
+        ({}, {"instrument": "sqm-xl"}, "instrument='sqm-xl'; expected one of sqm"),
+        ({}, {"instrument": "sqm", "spectrum": "LED"}, "spectrum='LED': not a known spectrum"),
+        ({"emission": wrong_tag}, {"instrument": "sqm"}, "spectrum tag 'sodium'.*spectrum="),
+        ({}, {"instrument": "sqm", "natural_luminance": -1.0}, "natural_luminance=-1.0"),
+        ({}, {"instrument": "sqm", "natural_luminance": np.nan}, "natural_luminance=nan"),
+    ]
+    for fields, options, message in cases:
+        # no kernel given and none cached: a refusal before the kernel is built
+        scene = Scene(**{"emission": raster, "cache_dir": tmp_path, **fields})
+        with pytest.raises(InputError, match=message) as info:
+            darkness(scene, progress=False, **options)
+        assert "\n" not in str(info.value)
+    assert not list(tmp_path.glob("kernel-*.nc"))
+    # without an instrument the spectrum and the natural sky are not read
+    plain = darkness(Scene(wrong_tag, kernel=kernel), progress=False)
+    assert plain.instrument is None and "instrument" not in plain.raster.tags
