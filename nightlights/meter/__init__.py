@@ -3,7 +3,7 @@
 Sky Quality Meter, TESS-W and naked-eye readings are read into one table
 (:mod:`nightlights.meter.readings`), the clear, moonless, astronomical-night ones are kept and
 reduced to one value per station (:mod:`nightlights.meter.conditions`), and the model's sky is
-predicted as each instrument sees it and compared with them (:mod:`nightlights.meter.validate`).
+predicted as each instrument sees it and compared with them (:mod:`nightlights.meter.validation`).
 
 The names are imported on first use.
 """
@@ -32,8 +32,8 @@ _LAZY: dict[str, str] = {
     "STATISTICS": "nightlights.meter.conditions",
     "DEFAULT_STATISTIC": "nightlights.meter.conditions",
     # predicted against measured
-    "validate": "nightlights.meter.validate",
-    "ValidationResult": "nightlights.meter.validate",
+    "validate": "nightlights.meter.validation",
+    "ValidationResult": "nightlights.meter.validation",
     "natural_reading": "nightlights.meter.natural",
     "Calibration": "nightlights.meter.calibrate",
 }

@@ -61,7 +61,7 @@ from nightlights.meter.calibrate import (
 from nightlights.meter.natural import natural_reading
 from nightlights.sky.instruments import Instrument, angular_weights, get_instrument
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
-from nightlights.sky.scene import DEFAULT_TURBIDITY, Scene
+from nightlights.sky.scene import DEFAULT_TURBIDITY, KernelInput, Scene
 
 __all__ = [
     "METHODS",
@@ -144,6 +144,7 @@ def validate(
     method: str = "map",
     calibrate: bool | Sequence[str] = False,
     turbidities: Sequence[float] | None = None,
+    kernels: Sequence[KernelInput] | None = None,
     folds: str | int = LEAVE_ONE_OUT,
     overwrite: bool = False,
     progress: bool = True,
@@ -179,6 +180,9 @@ def validate(
     turbidities
         The turbidities a turbidity calibration tabulates (None: :data:`TURBIDITY_GRID` around
         the scene's) [1].
+    kernels
+        Precomputed kernels at two or more turbidities (each its own) for a turbidity
+        calibration, in place of scene kernels built at ``turbidities``.
     folds
         Cross-validation of a calibration: ``"station"`` (leave one station out) or k.
     overwrite
@@ -224,7 +228,7 @@ def validate(
     start = _time.perf_counter()
     measured = stations["magnitude"].to_numpy(dtype=float)
     natural_values = _natural(stations, natural)
-    base = scene.turbidity
+    base = _scene_turbidity(scene)
     artificial = _artificial(scene, stations, height, spectrum, method, progress)
     stations = stations.assign(
         measured=measured,
@@ -239,30 +243,15 @@ def validate(
         grid = None
         table: FloatArray = artificial
         if "turbidity" in parameters:
-            grid = _turbidity_grid(turbidities, base)
+            tabulated = _turbidity_scenes(scene, turbidities, kernels, base)
+            grid = np.array([t for t, _ in tabulated])
             table = np.stack(
                 [
-                    artificial
-                    if np.isclose(t, base if base is not None else DEFAULT_TURBIDITY)
-                    and scene.kernel is None
-                    else _artificial(
-                        scene.replace(turbidity=float(t), kernel=None),
-                        stations,
-                        height,
-                        spectrum,
-                        method,
-                        progress,
-                    )
-                    for t in grid
+                    _artificial(other, stations, height, spectrum, method, progress)
+                    for _, other in tabulated
                 ]
             )
-        model = Model(
-            measured,
-            table,
-            natural_values,
-            grid,
-            float(base) if base is not None else DEFAULT_TURBIDITY,
-        )
+        model = Model(measured, table, natural_values, grid, base)
         calibration = fit(model, parameters, folds=folds)
         stations["calibrated"] = calibration.predicted
         stations["calibrated_residual"] = measured - calibration.predicted
@@ -436,7 +425,7 @@ def _from_map(
     raster = result.raster
     band = raster.band("instrument_luminance")
     inverse = ~raster.transform
-    cols, rows = inverse * (stations["x"].to_numpy(float), stations["y"].to_numpy(float))
+    cols, rows = inverse @ (stations["x"].to_numpy(float), stations["y"].to_numpy(float))
     # cell centres at integer + 0.5: map_coordinates samples at the centres' indices
     values = map_coordinates(
         np.nan_to_num(band),
@@ -462,9 +451,9 @@ def _from_panorama(
     observer = Observer(float(row["x"]), float(row["y"]), height=height)
     sky = skyglow_panorama(scene, observer, progress=False)
     panorama = sky.panorama
-    luminance = np.nan_to_num(panorama["luminance"].to_numpy(dtype=float))
-    elevation = panorama["elevation"].to_numpy(dtype=float)
-    azimuth = panorama["azimuth"].to_numpy(dtype=float)
+    luminance = np.nan_to_num(np.asarray(panorama["luminance"].values, dtype=float))
+    elevation = np.asarray(panorama["elevation"].values, dtype=float)
+    azimuth = np.asarray(panorama["azimuth"].values, dtype=float)
     if elevation[0] > elevation[-1]:
         elevation, luminance = elevation[::-1], luminance[::-1]
     weights = angular_weights(device, elevation, azimuth, pointing=pointing)
@@ -474,17 +463,47 @@ def _from_panorama(
 
 
 def _emission_spectrum(scene: Scene) -> str:
-    from nightlights.sky.darkness import DEFAULT_SPECTRUM
+    from nightlights.sky.instrument_units import DEFAULT_SPECTRUM, emission_spectrum
 
-    raster = scene.emission
-    tags = getattr(raster, "tags", {}) or {}
-    return str(tags.get("spectrum", DEFAULT_SPECTRUM))
+    return emission_spectrum(scene.emission) or DEFAULT_SPECTRUM
 
 
-def _turbidity_grid(turbidities: Sequence[float] | None, base: float | None) -> FloatArray:
-    centre = base if base is not None else DEFAULT_TURBIDITY
+def _scene_turbidity(scene: Scene) -> float:
+    """The scene's turbidity: given, else its kernel's, else the default [1]."""
+    if scene.turbidity is not None:
+        return float(scene.turbidity)
+    table = scene.kernel_dataset()
+    if table is not None and "turbidity" in table.attrs:
+        return float(table.attrs["turbidity"])
+    return DEFAULT_TURBIDITY
+
+
+def _turbidity_scenes(
+    scene: Scene,
+    turbidities: Sequence[float] | None,
+    kernels: Sequence[KernelInput] | None,
+    base: float,
+) -> list[tuple[float, Scene]]:
+    """The scene at each turbidity a turbidity calibration tabulates, ascending."""
+    if kernels is not None:
+        from nightlights.sky.store import load_kernel
+
+        tabulated = []
+        for kernel in kernels:
+            table = load_kernel(kernel)
+            tabulated.append(
+                (float(table.attrs["turbidity"]), scene.replace(kernel=table, turbidity=None))
+            )
+        tabulated.sort(key=lambda pair: pair[0])
+        values = [t for t, _ in tabulated]
+        if len(values) < 2 or len(set(values)) < len(values):
+            raise InputError(
+                f"kernels at turbidities {values}; a turbidity calibration needs kernels at two "
+                "or more different turbidities"
+            )
+        return tabulated
     if turbidities is None:
-        grid = np.array([centre + step for step in TURBIDITY_GRID])
+        grid = np.array([base + step for step in TURBIDITY_GRID])
         grid = grid[grid >= MIN_TURBIDITY]
     else:
         grid = np.unique(np.asarray(turbidities, dtype=float))
@@ -492,7 +511,7 @@ def _turbidity_grid(turbidities: Sequence[float] | None, base: float | None) -> 
             raise InputError(
                 f"turbidities={list(turbidities)!r}; expected two or more finite values > 0"
             )
-    return np.asarray(grid, dtype=float)
+    return [(float(t), scene.replace(turbidity=float(t), kernel=None)) for t in grid]
 
 
 # --- outputs ----------------------------------------------------------------------------------
