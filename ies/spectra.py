@@ -15,8 +15,11 @@ V-weighted irradiance, the definition of the lumen.
 Named spectra come from colour-science's shipped datasets (CIE 15:2018 illuminants HP1-HP5
 and LED-B1..B5, the light-source library of Ohno/NIST), the CIE 1924 photopic and CIE 1951
 scotopic luminous efficiency functions and the CIE 1931 2 degree colour-matching functions.
-Two responses ship as CSV in ``ies/data`` (see ``ies/data/README.md``): the CIE S 026
-melanopic action spectrum and a MIL-STD-3009-style NVIS goggle model (class A and B).
+Responses shipped as CSV in ``ies/data`` (see ``ies/data/README.md``): the CIE S 026
+melanopic action spectrum, a MIL-STD-3009-style NVIS goggle model (class A and B), the
+Johnson V passband of Bessell (1990, Table 2), and the Sky Quality Meter and TESS-W
+photometer responses, reconstructed from their published components (a TSL237 photodiode
+behind a HOYA CM-500 glass or a 740 nm dichroic), not measured curves.
 """
 
 from __future__ import annotations
@@ -204,6 +207,21 @@ _SENSOR_SOURCES: dict[str, tuple[Callable[[], object], str]] = {
     "nvis_class_b": (
         _csv("nvis_response.csv", "nvis_class_b"),
         "NVIS class B goggle response, MIL-STD-3009-style model (ies/data)",
+    ),
+    "johnson_v": (
+        _csv("johnson_v.csv", "johnson_v"),
+        "Johnson V passband, Bessell (1990) PASP 102, 1181, Table 2 (ies/data)",
+    ),
+    "sqm": (
+        _csv("photometer_response.csv", "sqm"),
+        "Sky Quality Meter (TAOS TSL237 behind a HOYA CM-500 filter, Cinzano 2005): a "
+        "reconstruction from the published components, not a measurement (ies/data)",
+    ),
+    "tess_w": (
+        _csv("photometer_response.csv", "tess_w"),
+        "TESS-W photometer (TSL237 behind a dichroic filter cutting near 740 nm, Zamorano "
+        "et al. 2016): a reconstruction from the published components, not a measurement "
+        "(ies/data)",
     ),
 }
 

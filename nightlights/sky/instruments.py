@@ -18,9 +18,20 @@ instrument (theta > 90 deg):
 
 .. math:: R(\\theta) = 2^{-(2\\theta / \\mathrm{FWHM})^2}.
 
+Sources of the angular widths: the lensed SQM-L / -LE / -LU, about 20 deg FWHM, as the
+manufacturer declares it [2, 5]; the wide-angle SQM, about 84 deg FWHM (42 deg HWHM) [1, 2],
+which Cinzano measured on a rotation table [1]; the TESS-W, about 17 deg FWHM [3]. The
+Gaussian is a model for all of them: Cinzano's measured SQM response is reported to fall
+faster in the wings than a Gaussian of the same FWHM (a secondary account of [1] gives a
+factor-10 attenuation near 55 deg, where the Gaussian still gives 0.30), so the Gaussian
+over-weights the SQM's low sky; lensed units measured in the laboratory showed wider
+responses than declared, with double peaks [5]. A file that states another FOV gives its
+instrument :meth:`Instrument.with_fwhm`.
+
 The spectral side: an instrument reports a magnitude in its own band. For light of spectral
 power distribution S the colour term (:func:`colour_term`) is the synthetic-photometry
-difference between the instrument's magnitude and Johnson V (Cinzano 2005, Sec. 4),
+difference between the instrument's magnitude and Johnson V, as Cinzano (2005) relates the
+SQM to Johnson V,
 
 .. math::
 
@@ -28,9 +39,23 @@ difference between the instrument's magnitude and Johnson V (Cinzano 2005, Sec. 
         \\frac{\\int S R_X\\, d\\lambda / \\int S_0 R_X\\, d\\lambda}
               {\\int S R_V\\, d\\lambda / \\int S_0 R_V\\, d\\lambda},
 
-with S_0 the spectrum at which the instrument's zero point makes m_X = V (see
-:data:`ZERO_POINT_SPECTRUM`). :func:`instrument_luminance` converts luminance of a spectrum
-into the V-equivalent luminance that the instrument's magnitude stands for.
+energy-weighted over :data:`ies.spectra.WAVELENGTHS` (360-950 nm), with R_V the Johnson V
+passband of Bessell (1990, Table 2; sensor ``"johnson_v"``) and S_0 the spectrum at which the
+instrument's zero point makes m_X = V: Vega, approximated by a blackbody at Vega's effective
+temperature (:data:`ZERO_POINT_SPECTRUM`; Unihedron's manuals give Vega as the reference of
+the SQM's magnitudes). The responses R_X are the sensors ``"sqm"`` and ``"tess_w"`` of
+:mod:`ies.spectra`, **reconstructions from the published components** (a TSL237 photodiode
+behind a HOYA CM-500 glass, or behind a 740 nm dichroic; see
+``ies/data/build_photometer_response.py``), not measured curves; the eye uses the CIE 1924
+photopic V(lambda) (sensor ``"photopic"``), so its colour term is photopic minus Johnson V.
+Cinzano's (2005) and Sánchez de Miguel et al.'s (2017) tables of SQM - V could not be read
+for this module, so the colour terms are not validated against them: treat them as uncertain
+by a few tenths of a magnitude (see the tests). :func:`instrument_luminance` converts the
+luminance of light of a spectrum into the V-equivalent luminance that the instrument's
+magnitude stands for, and :func:`instrument_magnitude` sums several spectra.
+
+Length: one registry (:data:`INSTRUMENTS`) ties each instrument's angular response to its band;
+the two halves share it and are read together.
 
 References
 ----------
@@ -38,19 +63,25 @@ References
    v1.4: the SQM (TAOS TSL237 behind a HOYA CM-500 filter), its measured angular sensitivity
    and its synthetic photometry against Johnson B and V and the CIE photopic and scotopic
    responses.
-2. Unihedron. SQM-L, SQM-LE and SQM-LU operator's manuals / data sheets: the lensed meters'
-   angular response, about 10 deg half width at half maximum (20 deg FWHM); the wide-angle
-   SQM, about 42 deg HWHM (84 deg FWHM).
+2. Unihedron. Sky Quality Meter operator's manuals (SQM-L, SQM-LE, SQM-LU): a lensed field of
+   about 20 deg FWHM (10 deg HWHM); the wide-angle SQM about 84 deg FWHM; Vega as the
+   reference point of the magnitudes.
 3. Zamorano, J. et al. (2016). Testing sky brightness models against radial dependency: a dense
    two dimensional survey around the city of Madrid. J. Quant. Spectrosc. Radiat. Transf. 181,
-   52-66: the TESS photometer (TSL237 behind a dichroic filter), field of view about 17 deg
-   FWHM.
+   52-66: the TESS photometer (TSL237 behind a dichroic filter), about 17 deg FWHM.
 4. Sánchez de Miguel, A. et al. (2017). Sky Quality Meter measurements in a colour changing
    world. MNRAS 467, 2966-2979.
+5. Verification of angular response of Sky Quality Meter with quasi-punctual light sources.
+   Sensors 21(22), 7544 (2021): the manufacturer's declared 20 deg FWHM for the SQM-LE and
+   measured responses wider than declared.
+6. Bessell, M. S. (1990). UBVRI passbands. PASP 102, 1181-1199, Table 2.
+7. Castelli, F. & Kurucz, R. L. (1994). Model atmospheres for Vega. A&A 281, 817-832
+   (T_eff = 9550 K).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Mapping
@@ -82,6 +113,8 @@ SUBSAMPLES_PER_FWHM = 8
 GAUSS_NODES = 3
 #: Most sub-samples per pixel side [1] (bounds the work for a tiny FWHM on a coarse grid).
 MAX_SUBSAMPLES = 64
+#: Name of the Johnson V passband in :data:`ies.spectra.SENSORS` (Bessell 1990, Table 2).
+JOHNSON_V = "johnson_v"
 #: Pixels at the pointing coarser than FWHM / RESOLUTION_FACTOR draw a warning [1]: the
 #: luminance is then taken as uniform over a pixel as wide as the response's core.
 RESOLUTION_FACTOR = 2.0
@@ -430,22 +463,106 @@ def elevation_weights(instrument: str | Instrument, elevation: ArrayLike) -> Flo
     return angular_weights(instrument, elevation, np.array([180.0]))[:, 0]
 
 
+#: Effective temperature of Vega [K], the Castelli & Kurucz (1994) model atmosphere; its
+#: blackbody stands for Vega's spectrum in the zero point (:data:`ZERO_POINT_SPECTRUM`).
+VEGA_TEMPERATURE = 9550.0
+#: The spectrum at which every instrument's magnitude equals V: Vega, approximated by a
+#: blackbody at :data:`VEGA_TEMPERATURE`. Unihedron's SQM manuals give Vega as the reference
+#: point of the SQM's magnitudes; the same convention is assumed for the TESS-W and the eye.
+ZERO_POINT_SPECTRUM = "vega_blackbody"
+#: The natural night sky's spectrum: sunlight, a blackbody at the Sun's nominal effective
+#: temperature (IAU 2015 Resolution B3, 5772 K), as :mod:`nightlights.nightsky.background`
+#: colours it (zodiacal light is scattered sunlight, integrated starlight is dominated by
+#: Sun-like stars). The airglow's emission lines (O I 557.7 and 630 nm, Na 589 nm, the OH
+#: bands in the red) are not modelled.
+NATURAL_SKY = "natural_sky"
+#: Sun's nominal effective temperature [K] (IAU 2015 Resolution B3; Mamajek et al. 2015).
+SUN_TEMPERATURE = 5772.0
+
+
+def _planck(wavelength_nm: FloatArray, temperature: float) -> FloatArray:
+    """Relative blackbody spectral radiance per unit wavelength at ``temperature`` [K]."""
+    c2 = 1.438776877e7  # second radiation constant [nm K] (CODATA 2018)
+    x = c2 / (wavelength_nm * temperature)
+    return np.asarray(wavelength_nm**-5.0 / np.expm1(x), dtype=float)
+
+
+def _source(spectrum: str) -> FloatArray:
+    """A named source spectrum on :data:`ies.spectra.WAVELENGTHS` (relative power)."""
+    from ies.errors import PhotometryError
+    from ies.spectra import SPDS, WAVELENGTHS, get_spd
+
+    if spectrum == NATURAL_SKY:
+        return _planck(WAVELENGTHS, SUN_TEMPERATURE)
+    if spectrum == ZERO_POINT_SPECTRUM:
+        return _planck(WAVELENGTHS, VEGA_TEMPERATURE)
+    try:
+        return get_spd(spectrum).on(WAVELENGTHS)
+    except PhotometryError:
+        raise InputError(
+            f"spectrum={spectrum!r}; expected one of {', '.join((*SPDS, NATURAL_SKY))}"
+        ) from None
+
+
+def _band_signal(spectrum: str, sensor: str) -> float:
+    """Energy-integrated signal of a relative source spectrum in a sensor's band [1]."""
+    from ies.spectra import WAVELENGTHS, get_sensor
+
+    response = get_sensor(sensor).on(WAVELENGTHS)
+    return float(np.trapezoid(_source(spectrum) * response, WAVELENGTHS))
+
+
+@functools.cache
+def _colour_term(sensor: str, spectrum: str) -> float:
+    ratio = _band_signal(spectrum, sensor) / _band_signal(spectrum, JOHNSON_V)
+    zero = _band_signal(ZERO_POINT_SPECTRUM, sensor) / _band_signal(ZERO_POINT_SPECTRUM, JOHNSON_V)
+    if not (ratio > 0.0 and math.isfinite(ratio)):
+        raise InputError(
+            f"spectrum={spectrum!r} gives no signal in the {sensor!r} or V band; "
+            "its colour term is undefined"
+        )
+    return -2.5 * math.log10(ratio / zero)
+
+
 def colour_term(instrument: str | Instrument, spectrum: str) -> float:
     """m_instrument - V [mag] for light of a spectrum, by synthetic photometry (Cinzano 2005).
+
+    .. math::
+
+        m_X - V = -2.5 \\log_{10} \\frac{\\int S R_X / \\int S R_V}
+                                         {\\int S_0 R_X / \\int S_0 R_V}
+
+    with the energy-weighted integrals over :data:`ies.spectra.WAVELENGTHS`, R_X the
+    instrument's sensor response, R_V Bessell's (1990) Johnson V, and S_0 the zero-point
+    spectrum (Vega as a blackbody, :data:`ZERO_POINT_SPECTRUM`). Positive: the instrument
+    reads the light fainter than V.
 
     Parameters
     ----------
     instrument
         A name of :data:`INSTRUMENTS` or an :class:`Instrument`.
     spectrum
-        A name of :data:`ies.spectra.SPDS` or ``"natural_sky"``.
+        A name of :data:`ies.spectra.SPDS`, ``"natural_sky"`` (:data:`NATURAL_SKY`) or
+        ``"vega_blackbody"`` (the zero point, whose colour term is 0 by definition).
 
     Returns
     -------
     float
         Colour term [mag].
+
+    Raises
+    ------
+    InputError
+        For an unknown spectrum.
+
+    Examples
+    --------
+    >>> abs(colour_term("sqm", "vega_blackbody")) < 1e-12
+    True
+    >>> colour_term("sqm", "LPS") > colour_term("sqm", "LED_4000K")
+    True
     """
-    raise NotImplementedError("the spectral responses follow in the next commit")
+    return _colour_term(get_instrument(instrument).sensor, str(spectrum))
 
 
 def instrument_luminance(

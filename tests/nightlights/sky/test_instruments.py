@@ -8,13 +8,20 @@ import warnings
 import numpy as np
 import pytest
 
+from ies.spectra import SENSORS, get_sensor, sensor_factor
+from nightlights.brightness import luminance_to_magnitude
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.sky.instruments import (
     INSTRUMENTS,
+    NATURAL_SKY,
+    ZERO_POINT_SPECTRUM,
     Instrument,
     angular_weights,
+    colour_term,
     elevation_weights,
     get_instrument,
+    instrument_luminance,
+    instrument_magnitude,
 )
 
 
@@ -172,3 +179,70 @@ def test_malformed_azimuth_and_pointing_are_refused() -> None:
             (np.arange(36) + 0.5) * 10.0,
             pointing=(-60.0, 0.0),
         )
+
+
+# -- spectral side -------------------------------------------------------------------------
+
+
+def test_the_zero_point_spectrum_has_no_colour_term() -> None:
+    for name in INSTRUMENTS:
+        assert colour_term(name, ZERO_POINT_SPECTRUM) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_colour_term_differences_match_sensor_factor_ratios() -> None:
+    # the same synthetic photometry through ies.spectra.sensor_factor (k = int S R / 683 int S V):
+    # differences of colour terms do not depend on the zero point
+    for instrument in ("eye", "sqm", "tess-w"):
+        sensor = get_instrument(instrument).sensor
+        for first, second in (("LPS", "LED_5000K"), ("mercury", "incandescent")):
+            ratios = [
+                sensor_factor(spectrum, sensor) / sensor_factor(spectrum, "johnson_v")
+                for spectrum in (first, second)
+            ]
+            expected = -2.5 * np.log10(ratios[0] / ratios[1])
+            difference = colour_term(instrument, first) - colour_term(instrument, second)
+            assert difference == pytest.approx(expected, abs=1e-9)
+
+
+def test_sodium_light_reads_fainter_than_white_light_in_the_sqm_band() -> None:
+    # the SQM reaches further into the blue than V: relative to V it sees less of sodium's
+    # 589 nm light than of a white LED's blue peak (Sanchez de Miguel et al. 2017)
+    for name in ("sqm", "sqm-l"):
+        low_pressure = colour_term(name, "LPS")
+        assert low_pressure > colour_term(name, "LED_4000K") > colour_term(name, "LED_5000K")
+    assert colour_term("sqm", "LPS") == colour_term("sqm-l", "LPS")  # one sensor
+
+
+def test_instrument_luminance_and_magnitude() -> None:
+    luminance = np.array([1e-4, 2e-4])
+    term = colour_term("sqm", "HPS")
+    np.testing.assert_allclose(
+        instrument_luminance(luminance, "sqm", "HPS"), luminance * 10 ** (-0.4 * term)
+    )
+    single = instrument_magnitude({"HPS": 171e-6}, "sqm")
+    assert isinstance(single, float)
+    assert single == pytest.approx(float(luminance_to_magnitude(171e-6)) + term, abs=1e-12)
+    mixed = instrument_magnitude({"HPS": luminance, NATURAL_SKY: 171e-6}, "tess-w")
+    assert mixed.shape == (2,)
+    expected = luminance_to_magnitude(
+        instrument_luminance(luminance, "tess-w", "HPS")
+        + instrument_luminance(171e-6, "tess-w", NATURAL_SKY)
+    )
+    np.testing.assert_allclose(mixed, expected, rtol=1e-12)
+
+
+def test_unknown_spectrum_and_empty_parts_are_refused() -> None:
+    with pytest.raises(InputError, match="spectrum='sodium'"):
+        colour_term("sqm", "sodium")
+    with pytest.raises(InputError, match="parts"):
+        instrument_magnitude({}, "sqm")
+
+
+def test_sensors_are_registered_in_ies() -> None:
+    for sensor in {instrument.sensor for instrument in INSTRUMENTS.values()} | {"johnson_v"}:
+        assert sensor in SENSORS
+        response = get_sensor(sensor)
+        assert response.values.max() == pytest.approx(1.0)
+    johnson_v = get_sensor("johnson_v")
+    assert johnson_v.wavelengths[np.argmax(johnson_v.values)] == 530.0  # Bessell 1990, Table 2
+    assert "reconstruction" in get_sensor("sqm").description
