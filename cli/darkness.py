@@ -97,8 +97,8 @@ def darkness(
     )
     what = (
         "zenith over {} x {} cells: {} (artificial skyglow only)"
-        if result.instrument is None
-        else f"{result.instrument} over {{}} x {{}} cells: {{}} (its band, with the natural sky)"
+        if instrument is None
+        else f"{instrument} over {{}} x {{}} cells: {{}} (its band, with the natural sky)"
     )
     Console(stderr=True).print(
         f"{what.format(rows, cols, summary)}; {result.seconds:.1f} s -> {out}",

@@ -70,7 +70,13 @@ from .library import (
     DEFAULT_MERGE_FRACTION as DEFAULT_MERGE_FRACTION,
 )
 from .library import (
+    DEFAULT_SPECTRUM as DEFAULT_SPECTRUM,
+)
+from .library import (
     DEFAULT_VIIRS_SPECTRUM as DEFAULT_VIIRS_SPECTRUM,
+)
+from .library import (
+    INSTRUMENT_NAMES as INSTRUMENT_NAMES,
 )
 from .library import (
     IRRADIANCE_BACKENDS as IRRADIANCE_BACKENDS,
@@ -115,6 +121,9 @@ from .library import (
     SKYGLOW_MODES as SKYGLOW_MODES,
 )
 from .library import (
+    SPECTRA as SPECTRA,
+)
+from .library import (
     TONE_MODES as TONE_MODES,
 )
 from .library import (
@@ -125,15 +134,6 @@ from .library import (
 )
 from .library import (
     LibraryHelpOption as LibraryHelpOption,
-)
-from .library import (
-    DEFAULT_SPECTRUM as DEFAULT_SPECTRUM,
-)
-from .library import (
-    INSTRUMENT_NAMES as INSTRUMENT_NAMES,
-)
-from .library import (
-    SPECTRA as SPECTRA,
 )
 from .library import (
     atmosphere_default as atmosphere_default,

@@ -153,10 +153,10 @@ def skyglow(
         f"{total['bortle_class_zenith']} (a given night: nightlights sky render)",
         soft_wrap=True,
     )
-    if result.instrument is not None:
+    if instrument is not None:
         spectrum_used = result.panorama.attrs["instrument_spectrum"]
         Console(stderr=True).print(
-            f"{result.instrument} pointing at the zenith: {result.instrument_magnitude:.2f} mag "
+            f"{instrument} pointing at the zenith: {result.instrument_magnitude:.2f} mag "
             f"arcsec-2 in its band with the natural sky (artificial part "
             f"{result.instrument_luminance:.3g} cd m-2 V-equivalent, {spectrum_used} light)",
             soft_wrap=True,

@@ -7,9 +7,9 @@ for any eye altitude); an observer then costs one compiled pass over the lit cel
 2023, Eqs. 7-9), the terrain horizon when a DEM is given, and the lit cells' parts of the zenith
 (Eqs. 13-14 with zenith weights), bounded first so that only the candidates for the top cells are
 summed exactly (:class:`_Zenith`), and with an instrument the panorama read with its angular
-weights (:meth:`~nightlights.sky.instrument_units.InstrumentSky.read`, before its colour term). :func:`_run` splits the observers into chunks, one Dask task
-each, on the local threads, processes, in the calling thread, or on a ``dask.distributed``
-cluster.
+weights (:meth:`~nightlights.sky.instrument_units.InstrumentSky.read`, before its colour
+term). :func:`_run` splits the observers into chunks, one Dask task each, on the local threads,
+processes, in the calling thread, or on a ``dask.distributed`` cluster.
 """
 
 from __future__ import annotations
@@ -74,7 +74,6 @@ class _Engine:
     top_cells: int
     keep_panoramas: bool
     reading_weights: FloatArray | None = None  # (n_el, n_az) an instrument's angular weights
-
 
     def sky(self, xy: tuple[float, float], eye: float, levels: _Levels) -> dict[str, Any]:
         """One observer's figures (and panorama when kept) at eye altitude ``eye`` [m]."""

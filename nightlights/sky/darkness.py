@@ -583,7 +583,9 @@ def darkness(
     )
     if target is not None:
         result.write(target)
-    return DarknessResult(result, seconds, target, None if reader is None else reader.instrument.name)
+    return DarknessResult(
+        result, seconds, target, None if reader is None else reader.instrument.name
+    )
 
 
 def _instrument_bands(

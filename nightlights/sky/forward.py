@@ -134,8 +134,8 @@ def skyglow_panorama(
         the attributes (with an instrument also ``instrument``, ``instrument_spectrum``,
         ``instrument_luminance_cd_m2``, ``instrument_natural_cd_m2`` and
         ``instrument_sky_brightness`` [mag arcsec-2]: :meth:`InstrumentSky.summary
-        <nightlights.sky.instrument_units.InstrumentSky.summary>`); ``polar``: the observer's polar flux map [lm]; ``seconds``: the time of
-        the panorama after the polar map [s].
+        <nightlights.sky.instrument_units.InstrumentSky.summary>`); ``polar``: the observer's
+        polar flux map [lm]; ``seconds``: the time of the panorama after the polar map [s].
 
     Examples
     --------

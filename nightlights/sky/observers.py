@@ -27,6 +27,11 @@ CRS or from a point layer); the engine a Dask task receives and the scheduling l
 :mod:`nightlights.sky._observers_engine`; this module checks the inputs, runs the engine and
 writes the two outputs (summary layer, panoramas).
 
+Length: a little over 600 lines, because the stage checks every input before any work (the
+observers' names, places and reach, the top-cell limit of the GeoPackage, the memory, the
+outputs) and writes both outputs, each of which needs those checks' results; the per-observer
+computation lives apart, in the engine module.
+
 References
 ----------
 1. Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution

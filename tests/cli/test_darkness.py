@@ -77,6 +77,29 @@ def test_darkness_command_writes_the_zenith_map(
     assert float(Raster.read(out).tags["observer_height_m"]) == 5.0
 
 
+def test_darkness_command_in_instrument_units(
+    stage: None, emission: Path, kernel: Path, tmp_path: Path
+) -> None:
+    from nightlights.brightness import luminance_to_magnitude
+
+    out = tmp_path / "sqm.tif"
+    args = ["darkness", str(emission), str(out), "--kernel", str(kernel)]
+    result = CliRunner().invoke(
+        command_group(), [*args, "--instrument", "sqm", "--spectrum", "HPS"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "sqm over 20 x 20 cells" in result.output and "natural sky" in result.output
+    written = Raster.read(out)
+    assert written.descriptions == ("instrument_luminance", "instrument_sky_brightness")
+    assert (written.tags["instrument"], written.tags["instrument_spectrum"]) == ("sqm", "HPS")
+    natural = float(written.tags["instrument_natural_cd_m2"])
+    np.testing.assert_allclose(
+        written.data[1], luminance_to_magnitude(written.data[0] + natural), atol=1e-5
+    )  # float32 bands
+    unknown = CliRunner().invoke(command_group(), [*args, "--overwrite", "--instrument", "sqm-x"])
+    assert unknown.exit_code == 2 and "sqm-x" in unknown.output and "tess-w" in unknown.output
+
+
 def test_darkness_command_passes_its_options(fake_stage, emission: Path, tmp_path: Path) -> None:
     dem = write_emission(tmp_path / "dem.tif")
     raster = Raster(np.ones((2, 3, 4)), TRANSFORM, "EPSG:32635")
@@ -93,6 +116,7 @@ def test_darkness_command_passes_its_options(fake_stage, emission: Path, tmp_pat
     kwargs = recorder.kwargs
     assert kwargs["chunk_size"] == 512 and kwargs["height"] == 1.7
     assert kwargs["scheduler"] == "tcp://127.0.0.1:8786"
+    assert kwargs["instrument"] is None and kwargs["spectrum"] is None
     assert "3 x 4 cells" in result.output
 
 

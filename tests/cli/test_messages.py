@@ -26,12 +26,14 @@ LIBRARY = ("nightlights", "bayesnets", "ies")
 NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: Names a message may hold that are parameters of the Python API alone (no command sets them:
 #: the kernel's quadrature details, the atmosphere's switches, the night-sky helpers' inputs,
-#: the explore page's web API) or names of an object (``Atmosphere(extinction=True)``).
+#: an instrument's response and natural sky, the explore page's web API) or names of an object
+#: (``Atmosphere(extinction=True)``).
 API_ONLY = {
     "emission",
     "replace",
     "extinction",
     "extinction_coefficient",
+    "fwhm",
     "iterations",
     "lat",
     "leg_nodes",
@@ -39,7 +41,10 @@ API_ONLY = {
     "max_body",
     "max_size",
     "name",
+    "natural_luminance",
     "options",
+    "parts",
+    "pointing",
     "pressure_hpa",
     "star",
     "sub_pixels",

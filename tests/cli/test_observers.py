@@ -100,3 +100,14 @@ def test_an_observer_out_of_reach_is_named(scene: dict[str, Path], tmp_path: Pat
     assert result.exit_code == 1
     assert "InputError: observer 'moon': observer (600000.0, 6600000.0) lies" in result.output
     assert not (tmp_path / "s.gpkg").exists()
+
+
+def test_summary_with_an_instruments_reading(scene: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "sqm.gpkg"
+    common = [str(scene["emission"]), str(scene["observers"]), "--kernel", str(scene["kernel"])]
+    result = invoke(*common, str(out), "--instrument", "sqm", "--scheduler", "synchronous")
+    assert result.exit_code == 0, result.output
+    assert "sqm pointing at the zenith" in result.output
+    summary = gpd.read_file(out, layer="observers")
+    assert {"instrument_luminance", "instrument_sky_brightness"} <= set(summary.columns)
+    assert np.all(summary["instrument_sky_brightness"] < 22.0)

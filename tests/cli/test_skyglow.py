@@ -66,6 +66,23 @@ def test_skyglow_command_prints_zenith_and_writes_outputs(emission: Path, tmp_pa
     assert png.stat().st_size > 5000
 
 
+def test_skyglow_command_reports_an_instruments_reading(emission: Path, tmp_path: Path) -> None:
+    kernel = tmp_path / "kernel.nc"
+    spec = nl.KernelSpec(r_min=5, r_max=6000, n_distance=16, n_elevation=8, n_azimuth=32)
+    nl.build_kernel(spec, kernel, progress=False)
+    out = tmp_path / "pano.nc"
+    args = ["skyglow", str(emission), str(out), *OBSERVER, "--kernel", str(kernel)]
+    result = CliRunner().invoke(cli, [*args, "--instrument", "sqm", "--spectrum", "LED_3000K"])
+    assert result.exit_code == 0, result.output
+    assert "sqm pointing at the zenith" in result.output and "LED_3000K light" in result.output
+    with xr.open_dataset(out, engine="h5netcdf") as pano:
+        assert pano.attrs["instrument"] == "sqm"
+        assert pano.attrs["instrument_spectrum"] == "LED_3000K"
+        assert pano.attrs["instrument_sky_brightness"] < 22.0
+    wrong = CliRunner().invoke(cli, [*args, "--overwrite", "--spectrum", "sodium"])
+    assert wrong.exit_code == 2 and "sodium" in wrong.output
+
+
 def test_skyglow_command_errors_are_one_line(emission: Path, tmp_path: Path) -> None:
     result = CliRunner().invoke(
         cli,

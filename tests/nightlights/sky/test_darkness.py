@@ -403,9 +403,7 @@ def instrument_reading(
             scene, Observer(*centre(*cell), height=height), mode=mode, progress=False
         )
     panorama = sky.panorama
-    weights = angular_weights(
-        instrument, panorama["elevation"].values, panorama["azimuth"].values
-    )
+    weights = angular_weights(instrument, panorama["elevation"].values, panorama["azimuth"].values)
     return float(np.sum(weights * np.nan_to_num(panorama["luminance"].values)))
 
 
