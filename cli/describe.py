@@ -55,6 +55,7 @@ TOOLBOX: dict[str, tuple[str, str]] = {
     "inverse s": ("Skyglow in a region of the sky by cell", "Inverse"),
     "inverse dim": ("Dim by light pollution (dimming rule)", "Inverse"),
     "inverse plan": ("Least dimming for a sky-brightness target", "Inverse"),
+    "validate": ("Validate against photometer readings", "Sky"),
     "run": ("Run a project file", "Project"),
 }
 #: The commands that are not stages, and why the plugin does not offer them.

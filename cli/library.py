@@ -121,6 +121,11 @@ PROJECT_STAGES = FromLibrary("nightlights.project", "STAGES")
 INSTRUMENT_NAMES = FromLibrary("nightlights.sky.instruments", "INSTRUMENTS")
 SPECTRA = FromLibrary("ies.spectra", "SPDS")
 DEFAULT_SPECTRUM = FromLibrary("nightlights.sky.instrument_units", "DEFAULT_SPECTRUM")
+READING_FORMATS = FromLibrary("nightlights.meter.readings", "FORMATS")
+VALIDATION_METHODS = FromLibrary("nightlights.meter.validation", "METHODS")
+NATURAL_SKIES = FromLibrary("nightlights.meter.validation", "NATURAL_SKIES")
+CALIBRATION_PARAMETERS = FromLibrary("nightlights.meter.calibrate", "PARAMETERS")
+DEFAULT_STATISTIC = FromLibrary("nightlights.meter.conditions", "DEFAULT_STATISTIC")
 
 
 def kernel_default(field: str) -> FromLibrary:

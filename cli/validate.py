@@ -5,6 +5,15 @@ from __future__ import annotations
 import click
 
 from .kinds import FOLDER, RASTER, file_kind
+from .library import (
+    CALIBRATION_PARAMETERS,
+    DEFAULT_STATISTIC,
+    NATURAL_SKIES,
+    READING_FORMATS,
+    VALIDATION_METHODS,
+    LibraryChoice,
+    LibraryHelpOption,
+)
 from .options import (
     dem_option,
     files_argument,
@@ -15,14 +24,13 @@ from .options import (
     resolve_inout,
     scene_grid_options,
     scene_of,
+    spectrum_option,
     turbidity_option,
 )
 from .resources import max_memory_option
 
 #: Readings: the community-standard skyglow text format, CSV, a GeoPackage of points.
 READINGS = file_kind("dat", "txt", "csv", "gpkg")
-#: The parameters --calibrate may fit beside the flux scale.
-CALIBRATE_CHOICES = ("scale", "turbidity")
 
 
 def _folds(value: str) -> str | int:
@@ -36,6 +44,17 @@ def _folds(value: str) -> str | int:
         ) from None
 
 
+def _numbers(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise click.BadParameter(
+            f"{text!r}; expected numbers separated by commas", param_hint="--turbidities"
+        ) from None
+
+
 @click.command("validate")
 @files_argument("EMISSION READINGS OUTPUT_DIR", RASTER, READINGS, FOLDER)
 @output_option
@@ -44,7 +63,7 @@ def _folds(value: str) -> str | int:
     "--calibrate",
     "calibrate",
     multiple=True,
-    type=click.Choice(CALIBRATE_CHOICES),
+    type=LibraryChoice(CALIBRATION_PARAMETERS),
     help="Fit the emission's flux scale (and, repeated, --calibrate turbidity) to the "
     "readings; writes emission_calibrated.tif and the held-out figures.",
 )
@@ -56,26 +75,50 @@ def _folds(value: str) -> str | int:
     "(k-fold).",
 )
 @click.option(
-    "--spectrum",
+    "--turbidities",
     default=None,
-    help="Spectrum of the artificial light (HPS, LED_4000K, ...; default: the emission's "
-    "spectrum tag, else the darkness map's default).",
+    metavar="T1,T2,...",
+    help="Turbidities the --calibrate turbidity fit tabulates (default: -1 to +2 around the "
+    "scene's).",
 )
 @click.option(
-    "--statistic",
+    "--format",
+    "format",
+    type=LibraryChoice(READING_FORMATS),
     default=None,
-    help="Station statistic of the clear moonless readings (default: the documented one).",
+    help="Format of READINGS (default: told from the file).",
+)
+@click.option(
+    "--time-zone",
+    default=None,
+    metavar="ZONE",
+    help="IANA time zone of readings whose times carry no UTC offset (e.g. Europe/Helsinki).",
+)
+@click.option(
+    "--station",
+    default=None,
+    help="Station name of every reading in READINGS (default: from the file).",
+)
+@spectrum_option
+@click.option(
+    "--statistic",
+    cls=LibraryHelpOption,
+    default=None,
+    metavar="NAME",
+    help="Station statistic of the clear moonless readings: mode, median, darkest_third or "
+    "percentile:P (default {default}).",
+    help_values={"default": DEFAULT_STATISTIC},
 )
 @click.option(
     "--natural",
-    type=click.Choice(["time", "typical"]),
+    type=LibraryChoice(NATURAL_SKIES),
     default="time",
     show_default=True,
     help="Natural sky at each station's time and place, or a typical moonless night.",
 )
 @click.option(
     "--method",
-    type=click.Choice(["map", "panorama"]),
+    type=LibraryChoice(VALIDATION_METHODS),
     default="map",
     show_default=True,
     help="Artificial sky from one darkness map per instrument, or each station's panorama "
@@ -93,6 +136,10 @@ def validate(
     overwrite: bool,
     calibrate: tuple[str, ...],
     folds: str,
+    turbidities: str | None,
+    format: str | None,
+    time_zone: str | None,
+    station: str | None,
     spectrum: str | None,
     statistic: str | None,
     natural: str,
@@ -109,6 +156,7 @@ def validate(
     READINGS (SQM / TESS-W community-standard files, CSV or GeoPackage points, Globe at Night
     CSV); write to OUTPUT_DIR a styled stations GeoPackage, validation.json (n, bias, RMS,
     MAD per instrument), the scatter plot and the residual map."""
+    from nightlights.meter import read_readings
     from nightlights.meter import validate as run_validation
 
     (emission, readings), out = resolve_inout(
@@ -123,9 +171,10 @@ def validate(
         n_azimuth=n_azimuth,
         n_distance=n_distance,
     )
+    table = read_readings(readings, format=format, time_zone=time_zone, station=station)
     result = run_validation(
         scene,
-        readings,
+        table,
         out,
         height=observer_height,
         spectrum=spectrum,
@@ -134,6 +183,7 @@ def validate(
         method=method,
         calibrate=tuple(calibrate) if calibrate else False,
         folds=_folds(folds),
+        turbidities=_numbers(turbidities),
         overwrite=overwrite,
     )
     from rich.console import Console

@@ -65,6 +65,7 @@ from nightlights.sky.scene import DEFAULT_TURBIDITY, KernelInput, Scene
 
 __all__ = [
     "METHODS",
+    "NATURAL_SKIES",
     "OUTPUT_FILES",
     "STATION_FIELDS",
     "TURBIDITY_GRID",
@@ -75,6 +76,9 @@ __all__ = [
 #: How the artificial sky at the stations is computed: ``map`` (one darkness map per
 #: instrument, sampled at the stations) or ``panorama`` (each station's own panorama).
 METHODS = ("map", "panorama")
+#: The natural sky a prediction adds: at each station's representative time and place, or a
+#: typical moonless night.
+NATURAL_SKIES = ("time", "typical")
 #: The files a validation writes in its output folder.
 OUTPUT_FILES = {
     "stations": "stations.gpkg",
@@ -204,8 +208,8 @@ def validate(
     """
     if method not in METHODS:
         raise InputError(f"method={method!r}; expected one of {', '.join(METHODS)}")
-    if natural not in ("time", "typical"):
-        raise InputError(f"natural={natural!r}; expected 'time' or 'typical'")
+    if natural not in NATURAL_SKIES:
+        raise InputError(f"natural={natural!r}; expected one of {', '.join(NATURAL_SKIES)}")
     parameters = _parameters(calibrate)
     folder = Path(output_dir) if output_dir is not None else None
     files = {kind: folder / name for kind, name in OUTPUT_FILES.items()} if folder else {}

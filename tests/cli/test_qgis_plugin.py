@@ -110,6 +110,7 @@ STAGE_IDS = {
     "emission",
     "emissionviirs",
     "skyglow",
+    "validate",
     "inverseq",
     "darkness",
     "inverses",
