@@ -10,6 +10,8 @@ from .options import (
     files_argument,
     instrument_option,
     kernel_option,
+    natural_of,
+    night_option,
     observer_height_option,
     output_option,
     overwrite_option,
@@ -32,6 +34,7 @@ from .resources import max_memory_option, scheduler_option
 @turbidity_option
 @instrument_option
 @spectrum_option
+@night_option
 @click.option(
     "--chunk-size",
     type=click.IntRange(min=1),
@@ -52,6 +55,7 @@ def darkness(
     turbidity: float | None,
     instrument: str | None,
     spectrum: str | None,
+    night: str | None,
     chunk_size: int | None,
     scheduler: str | None,
     n_distance: int | None,
@@ -74,12 +78,22 @@ def darkness(
         n_azimuth=n_azimuth,
         n_distance=n_distance,
     )
+    natural = None
+    if night is not None:
+        import rasterio
+
+        with rasterio.open(emission) as source:
+            west, south, east, north = source.bounds
+            natural = natural_of(
+                instrument, night, ((west + east) / 2, (south + north) / 2), source.crs
+            )
     result = nl.darkness(
         scene,
         out,
         height=observer_height,
         instrument=instrument,
         spectrum=spectrum,
+        natural_luminance=natural,
         chunk_size=chunk_size,
         scheduler=scheduler,
     )

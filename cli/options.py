@@ -705,6 +705,44 @@ instrument_option = click.option(
     help="Also report what this instrument reads pointing at the zenith: its angular response "
     "and band, with a moonless natural sky (default: none, the zenith luminance alone).",
 )
+#: The natural sky of a given night in an instrument's reading (``natural_luminance=``).
+night_option = click.option(
+    "--night",
+    default=None,
+    metavar="TIME",
+    help="With --instrument: add the moonless natural sky of this UTC instant "
+    "(2026-01-18T21:00Z; the Milky Way and the airglow where they stand then) in place of a "
+    "typical moonless night.",
+)
+
+
+def natural_of(
+    instrument: str | None, night: str | None, xy: tuple[float, float], crs: Any
+) -> float | None:
+    """The natural sky an instrument reads at ``night`` over the point ``xy`` (in ``crs``)
+    [cd m-2]: ``natural_luminance=`` of ``--night`` (None without it)."""
+    if night is None:
+        return None
+    if instrument is None:
+        raise click.UsageError(
+            "--night gives the natural sky of an --instrument reading; add --instrument"
+        )
+    import pandas as pd
+    from pyproj import Transformer
+
+    try:
+        when = pd.Timestamp(night)
+    except ValueError:
+        raise click.BadParameter(
+            f"{night!r}; expected an ISO time such as 2026-01-18T21:00Z", param_hint="--night"
+        ) from None
+    when = when.tz_localize("UTC") if when.tzinfo is None else when.tz_convert("UTC")
+    lon, lat = Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(*xy)
+    from nightlights.meter import natural_reading
+
+    return natural_reading(instrument, when, float(lon), float(lat))
+
+
 spectrum_option = click.option(
     "--spectrum",
     cls=LibraryHelpOption,

@@ -14,6 +14,8 @@ from .options import (
     deprecated_option,
     files_argument,
     instrument_option,
+    natural_of,
+    night_option,
     observer_of,
     one_of,
     output_option,
@@ -74,6 +76,7 @@ PANORAMA = file_kind("nc", "tif")
 )
 @spectrum_option
 @instrument_option
+@night_option
 @click.pass_context
 @max_memory_option
 def skyglow(
@@ -97,6 +100,7 @@ def skyglow(
     bands: str,
     spectrum: str | None,
     instrument: str | None,
+    night: str | None,
     n_azimuth: int | None,
     n_elevation: int | None,
     n_distance: int | None,
@@ -122,9 +126,16 @@ def skyglow(
         n_azimuth=n_azimuth,
         n_distance=n_distance,
     )
+    site = observer_of(observer, observer_crs, observer_height)
+    natural = None
+    if night is not None:
+        import rasterio
+
+        with rasterio.open(emission) as source:
+            natural = natural_of(instrument, night, (site.x, site.y), site.crs or source.crs)
     result = nl.skyglow(
         scene,
-        observer_of(observer, observer_crs, observer_height),
+        site,
         out,
         mode=mode,
         components=components,
@@ -134,6 +145,7 @@ def skyglow(
         bands=bands,
         spectrum=spectrum,
         instrument=instrument,
+        natural_luminance=natural,
     )
     from rich.console import Console
 

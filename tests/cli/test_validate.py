@@ -158,3 +158,43 @@ def test_bad_folds_is_a_usage_error(files: dict[str, Path], tmp_path: Path) -> N
         ],
     )
     assert result.exit_code == 2 and "--folds" in result.output
+
+
+def test_darkness_reports_the_natural_sky_of_a_night(
+    files: dict[str, Path], tmp_path: Path
+) -> None:
+    """``darkness --instrument sqm-l --night``: the natural sky of that instant (read by the
+    instrument over the raster's centre) replaces the typical night's in the instrument band,
+    and is recorded in the tags."""
+    from nightlights.io import Raster
+
+    typical = tmp_path / "typical.tif"
+    night = tmp_path / "night.tif"
+    base = [
+        "darkness",
+        str(files["emission"]),
+        "--kernel",
+        str(files["kernel"]),
+        "--instrument",
+        "sqm-l",
+    ]
+    assert CliRunner().invoke(cli, [*base[:2], str(typical), *base[2:]]).exit_code == 0
+    result = CliRunner().invoke(
+        cli, [*base[:2], str(night), *base[2:], "--night", "2026-01-18T21:00Z"]
+    )
+    assert result.exit_code == 0, result.output
+    a, b = Raster.read(typical), Raster.read(night)
+    np.testing.assert_array_equal(a.data[0], b.data[0])  # the artificial part is the same
+    assert not np.allclose(a.data[1], b.data[1])  # the natural sky differs
+    missing = CliRunner().invoke(
+        cli,
+        [
+            *base[:2],
+            str(tmp_path / "x.tif"),
+            "--kernel",
+            str(files["kernel"]),
+            "--night",
+            "2026-01-18T21:00Z",
+        ],
+    )
+    assert missing.exit_code == 2 and "--instrument" in missing.output
