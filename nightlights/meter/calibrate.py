@@ -295,7 +295,7 @@ def _solve(model: Model, names: tuple[str, ...]) -> tuple[FloatArray, FloatArray
     start = [math.log(float(np.median(ratio))) if ratio.size else 0.0]
     lower, upper = [-np.inf], [np.inf]
     if with_turbidity and grid is not None:
-        start.append(float(start_t))
+        start.append(float(start_t if start_t is not None else grid.mean()))
         lower.append(float(grid[0]))
         upper.append(float(grid[-1]))
         # keep the start strictly inside the bounds

@@ -405,8 +405,9 @@ def _artificial(
             out[members] = _from_map(
                 scene, stations.iloc[members], devices[members[0]], height, spectrum, progress
             )
-    for i in np.flatnonzero(~np.isfinite(out)):
-        out[i] = _from_panorama(scene, rows[i], devices[i], pointings[i], height, spectrum)
+    for k in np.flatnonzero(~np.isfinite(out)):
+        j = int(k)
+        out[j] = _from_panorama(scene, rows[j], devices[j], pointings[j], height, spectrum)
     return out
 
 
@@ -597,4 +598,5 @@ def _write_calibrated(emission: Raster, calibration: Calibration, path: Path) ->
         )
         for i in range(emission.count)
     ]
-    write_cog(path, bands, transform=emission.transform, crs=emission.crs, tags=tags)
+    crs = emission.projected_crs(source="emission raster")
+    write_cog(path, bands, transform=emission.transform, crs=crs, tags=tags)
