@@ -40,7 +40,15 @@ from nightlights.nightsky.background import (
 )
 from nightlights.sky.instruments import Instrument, angular_weights, colour_term, get_instrument
 
-__all__ = ["NATURAL_SPECTRUM", "SKY_GRID_STEP", "STARLIGHT_GRID_STEP", "natural_reading"]
+__all__ = [
+    "LATITUDE_STEP",
+    "NATURAL_SPECTRUM",
+    "SIDEREAL_STEP",
+    "SKY_GRID_STEP",
+    "STARLIGHT_GRID_STEP",
+    "natural_reading",
+    "natural_readings",
+]
 
 #: The spectrum whose colour term the natural sky takes (see
 #: :func:`~nightlights.sky.instruments.colour_term`).
@@ -52,6 +60,16 @@ SKY_GRID_STEP = 2.0
 #: Spacing of the nodes the starlight density is evaluated on [deg]: three quarters of its
 #: smoothing (8 deg), a quarter of the cost of the renderer's 4 deg nodes.
 STARLIGHT_GRID_STEP = 6.0
+#: Many readings share one natural sky when their local sidereal times fall in one step of this
+#: width [deg] (8 minutes of time) and their latitudes in one of :data:`LATITUDE_STEP`: the
+#: moonless natural sky depends on the place and time only through the sidereal time and the
+#: latitude (the Milky Way's position), and moves by a quarter of the starlight's 8 deg
+#: smoothing within a step. Against each reading's own sky the shared one was within 0.001 mag
+#: arcsec-2 for the SQM, SQM-L and TESS-W at 60 readings of a March night over 20-28 E,
+#: 58-64 N (tested within 0.01).
+SIDEREAL_STEP = 2.0
+#: See :data:`SIDEREAL_STEP` [deg].
+LATITUDE_STEP = 1.0
 
 
 @functools.cache
@@ -130,6 +148,65 @@ def natural_reading(
     weights = angular_weights(device, elevation, azimuth, pointing=pointing)
     reading = float(np.sum(weights * luminance))
     return reading * 10.0 ** (-0.4 * colour_term(device, NATURAL_SPECTRUM))
+
+
+def natural_readings(
+    instrument: str | Instrument,
+    times: Any,
+    lon: Any,
+    lat: Any,
+    *,
+    pointing: tuple[float, float] = (90.0, 0.0),
+    sky: NaturalSky | None = None,
+) -> FloatArray:
+    """The natural sky's readings at many instants and places, shared where they coincide.
+
+    Each reading takes the sky of the centre of its cell of local sidereal time
+    (:data:`SIDEREAL_STEP`) and latitude (:data:`LATITUDE_STEP`), computed once per cell by
+    :func:`natural_reading`.
+
+    Parameters
+    ----------
+    instrument
+        A name of :data:`~nightlights.sky.instruments.INSTRUMENTS` or an instrument.
+    times
+        UTC instants (pandas timestamps with a zone, or numpy datetime64 in UTC).
+    lon, lat
+        The stations [deg], one per instant.
+    pointing
+        Elevation and azimuth the instrument points at [deg].
+    sky
+        The natural sky's parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        The V-equivalent luminances [cd m-2], one per instant.
+    """
+    from nightlights.nightsky.astro import apparent_sidereal_time, julian_date
+
+    stamps = [_utc(t) for t in list(times)]
+    lons = np.asarray(lon, dtype=float).ravel()
+    lats = np.asarray(lat, dtype=float).ravel()
+    out = np.empty(len(stamps))
+    shared: dict[tuple[int, int], float] = {}
+    for i, stamp in enumerate(stamps):
+        local = (apparent_sidereal_time(julian_date(stamp)) + lons[i]) % 360.0
+        key = (round(local / SIDEREAL_STEP), round(float(lats[i]) / LATITUDE_STEP))
+        if key not in shared:
+            # the cell's centre: the same instant seen from the longitude that puts its
+            # sidereal time there, at the cell's latitude
+            centre = key[0] * SIDEREAL_STEP
+            shared[key] = natural_reading(
+                instrument,
+                stamp,
+                float((lons[i] + centre - local + 180.0) % 360.0 - 180.0),
+                float(np.clip(key[1] * LATITUDE_STEP, -90.0, 90.0)),
+                pointing=pointing,
+                sky=sky,
+            )
+        out[i] = shared[key]
+    return out
 
 
 def _utc(time: Any) -> Any:

@@ -58,7 +58,7 @@ from nightlights.meter.calibrate import (
     fit,
     residual_statistics,
 )
-from nightlights.meter.natural import natural_reading
+from nightlights.meter.natural import natural_reading, natural_readings
 from nightlights.sky.instruments import Instrument, angular_weights, get_instrument
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.scene import DEFAULT_TURBIDITY, KernelInput, Scene
@@ -360,21 +360,31 @@ def _pointing(row: Any) -> tuple[float, float]:
 
 
 def _natural(stations: gpd.GeoDataFrame, natural: str) -> FloatArray:
-    """Each station's natural sky reading [cd m-2, V-equivalent]."""
+    """Each station's natural sky reading [cd m-2, V-equivalent]: per instrument and pointing,
+    shared between stations of one sidereal time and latitude
+    (:func:`~nightlights.meter.natural.natural_readings`)."""
     out = np.empty(len(stations))
-    typical: dict[tuple[str, float, tuple[float, float]], float] = {}
-    for i, row in enumerate(stations.to_dict("records")):
+    rows = stations.to_dict("records")
+    groups: dict[tuple[str, float, tuple[float, float]], list[int]] = {}
+    devices: dict[tuple[str, float, tuple[float, float]], Instrument] = {}
+    for i, row in enumerate(rows):
         device = _instrument(row)
-        pointing = _pointing(row)
-        when = row.get("time") if natural == "time" else None
-        if when is None or (isinstance(when, float) and math.isnan(when)) or pd.isna(when):
-            key = (device.name, device.fwhm, pointing)
-            if key not in typical:
-                typical[key] = natural_reading(device, pointing=pointing)
-            out[i] = typical[key]
-        else:
-            out[i] = natural_reading(
-                device, when, float(row["lon"]), float(row["lat"]), pointing=pointing
+        key = (device.name, device.fwhm, _pointing(row))
+        groups.setdefault(key, []).append(i)
+        devices[key] = device
+    for key, members in groups.items():
+        device, pointing = devices[key], key[2]
+        timed = [i for i in members if natural == "time" and not pd.isna(rows[i].get("time"))]
+        untimed = sorted(set(members) - set(timed))
+        if untimed:
+            out[untimed] = natural_reading(device, pointing=pointing)
+        if timed:
+            out[timed] = natural_readings(
+                device,
+                [rows[i]["time"] for i in timed],
+                [rows[i]["lon"] for i in timed],
+                [rows[i]["lat"] for i in timed],
+                pointing=pointing,
             )
     return out
 
