@@ -49,7 +49,10 @@ def test_shared_skies_match_each_readings_own() -> None:
     lat = rng.uniform(58.0, 64.0, 200)
     shared = natural_readings("sqm-l", times, lon, lat)
     own = np.array(
-        [natural_reading("sqm-l", t, x, y) for t, x, y in zip(times[:40], lon[:40], lat[:40], strict=True)]
+        [
+            natural_reading("sqm-l", t, x, y)
+            for t, x, y in zip(times[:40], lon[:40], lat[:40], strict=True)
+        ]
     )
     error = luminance_to_magnitude(shared[:40]) - luminance_to_magnitude(own)
     assert np.abs(error).max() < 0.01
