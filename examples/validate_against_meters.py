@@ -4,12 +4,13 @@ No sky-brightness readings of Helsinki are bundled (none with a licence that all
 example makes its own, and says so: 24 SQM-L stations across the scene, each with three nights
 of readings every 15 minutes from dusk to dawn in the community-standard text format, made from
 the model's own sky at a "true" emission scale of 0.6 (the real city emitting 60 % of what the
-streets predict) with 0.08 mag of scatter, plus what real series carry: twilight and a rising
-Moon (which the selection removes) and a cloudy night that brightens the sky (which the station
-statistic sees through). ``nl.validate`` then reads the files, keeps the clear moonless
-astronomical-night readings, reduces each station to one value, predicts each meter's reading
-and fits the emission's flux scale with leave-one-station-out cross-validation. It should find
-about 0.6 and a held-out RMS near 0.08 mag.
+streets predict) with 0.08 mag of scatter per reading, plus what real series carry: twilight
+and a setting Moon (which the selection removes) and a cloudy night that brightens the sky
+(which the station statistic sees through). ``nl.validate`` then reads the files, keeps the
+clear moonless astronomical-night readings, reduces each station to one value, predicts each
+meter's reading and fits the emission's flux scale with leave-one-station-out
+cross-validation. It should find about 0.6, and a held-out RMS well below the 0.08 mag of one
+reading: a station's value is the mode of some hundred readings.
 
 Writes ``examples/figures/helsinki_validation.png`` (predicted against measured, before and
 after), ``helsinki_validation_residuals.png`` (the residual map), ``helsinki_station.png`` (one
@@ -44,8 +45,9 @@ from nightlights.meter.readings import write_ida
 TRUE_SCALE = 0.6
 #: Scatter of the made-up readings about the truth [mag arcsec-2].
 NOISE = 0.08
-#: Three January nights near new Moon (2026-01-18); readings every 15 minutes, 14-06 UTC.
-NIGHTS = ("2026-01-16", "2026-01-17", "2026-01-18")
+#: Three January nights: new Moon (2026-01-18), then a waxing crescent that sets in the
+#: evening (2026-01-21, -23); readings every 15 minutes, 14-06 UTC.
+NIGHTS = ("2026-01-18", "2026-01-21", "2026-01-23")
 #: The darkness map's kernel grid (the demo's).
 KERNEL_GRID = {"n_distance": 48, "n_elevation": 32, "n_azimuth": 128}
 
@@ -67,7 +69,7 @@ def stations(raster: Raster, count: int, rng: np.random.Generator) -> pd.DataFra
             "n_nights": 1,
             "spread": 0.0,
             "statistic": "mode",
-            "time": pd.Timestamp("2026-01-17T22:00Z"),
+            "time": pd.Timestamp("2026-01-18T22:00Z"),
             "pointing_elevation": 90.0,
             "pointing_azimuth": 0.0,
             "fov": np.nan,

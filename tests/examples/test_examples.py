@@ -101,3 +101,42 @@ def test_least_flux_dimming_removes_no_more_than_uniform_dimming(
     assert zenith_b == pytest.approx(zenith_a, abs=0.01)
     assert removed_b <= removed_a
     assert removed_a == pytest.approx(40.0)
+
+
+def test_validation_example_recovers_the_scale_it_was_made_with(
+    cache: Path, tmp_path: Path
+) -> None:
+    """The made-up readings of the bundled scene: twilight and the evening Moon rejected, the
+    cloudy night seen through, the emission scale they were made with (0.6) recovered."""
+    env = {**os.environ, "MPLBACKEND": "Agg", "NIGHTLIGHTS_CACHE": str(cache)}
+    figures = tmp_path / "figures"
+    completed = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "examples" / "validate_against_meters.py"),
+            "--out",
+            str(figures),
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    assert completed.returncode == 0, completed.stderr[-4000:]
+    out = completed.stdout
+    selection = re.search(r"readings: \{'kept': (\d+), 'sun': (\d+), 'moon': (\d+)\}", out)
+    assert selection is not None, out
+    assert all(int(count) > 0 for count in selection.groups())
+    scale = re.search(r"calibrated scale ([\d.]+) \+- ([\d.]+)", out)
+    assert scale is not None, out
+    assert float(scale.group(1)) == pytest.approx(0.6, rel=0.02)
+    held_out = re.search(r"held out: bias ([-+\d.]+), RMS ([\d.]+)", out)
+    assert held_out is not None and float(held_out.group(2)) < 0.08
+    assert sorted(path.name for path in figures.iterdir()) == [
+        "helsinki_station.png",
+        "helsinki_validation.json",
+        "helsinki_validation.png",
+        "helsinki_validation_residuals.png",
+    ]
