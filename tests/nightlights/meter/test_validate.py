@@ -323,3 +323,22 @@ def test_existing_outputs_refused(cache: Path, tmp_path: Path) -> None:
     with pytest.raises(OutputError, match=r"validation\.json: exists"):
         validate(scene, stations, out, natural="typical", progress=False)
     assert (out / "validation.json").read_text() == "{}"
+
+
+def test_viirs_emission_and_terrain() -> None:
+    """An emission from a VIIRS radiance raster (its spectrum tag sets the colour term) and the
+    same scene over hills: predictions for every station, the terrain changing them."""
+    from nightlights import emission_from_viirs
+
+    rows, cols = np.mgrid[0:N, 0:N]
+    radiance = 40.0 * np.exp(-((rows - 30) ** 2 + (cols - 35) ** 2) / 30.0) + 0.3
+    viirs = Raster(radiance[None], TRANSFORM, CRS, ("radiance",), ("nW cm-2 sr-1",))
+    upward = emission_from_viirs(viirs, spectrum="HPS").raster
+    stations = station_table(6, "sqm-l", seed=4).assign(magnitude=20.0)
+    flat = validate(Scene(upward, **GRID), stations, natural="typical", progress=False)
+    assert flat.summary["model"]["spectrum"] == "HPS"
+    assert np.all(np.isfinite(flat.stations["predicted"]))
+    hills = Raster((150 + 120 * np.sin(cols / 9.0) * np.cos(rows / 13.0))[None], TRANSFORM, CRS)
+    over = validate(Scene(upward, dem=hills, **GRID), stations, natural="typical", progress=False)
+    assert np.all(np.isfinite(over.stations["predicted"]))
+    assert not np.allclose(over.stations["predicted"], flat.stations["predicted"], atol=1e-3)
