@@ -160,3 +160,30 @@ def test_site_loads_nothing_from_the_network() -> None:
         assert not entry.startswith(("http://", "https://", "//")), entry
         assert (DOCS / entry).is_file(), entry
     assert re.search(r"^\s+font: false", config, re.M), "web fonts would load from a CDN"
+
+
+def test_meters_page_colour_terms_are_the_librarys() -> None:
+    """The instrument table of the validation page holds the colour terms the models compute."""
+    from nightlights.sky.instruments import INSTRUMENTS, colour_term
+
+    page = _text(DOCS / "meters.md")
+    header = next(line for line in page.splitlines() if line.startswith("| instrument | FWHM"))
+    spectra = {
+        "natural sky": "natural_sky",
+        "HPS": "HPS",
+        "LPS": "LPS",
+        "LED 2700 K": "LED_2700K",
+        "LED 4000 K": "LED_4000K",
+        "metal halide 4000 K": "metal_halide_4000K",
+        "mercury": "mercury",
+        "incandescent": "incandescent",
+    }
+    columns = [cell.strip() for cell in header.strip("|").split("|")][3:]
+    assert [spectra[c] for c in columns]
+    for name, instrument in INSTRUMENTS.items():
+        row = next(line for line in page.splitlines() if line.startswith(f"| `{name}` |"))
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        assert float(cells[1]) == instrument.fwhm
+        shown = [float(cell) for cell in cells[3:]]
+        expected = [round(colour_term(instrument, spectra[c]), 2) for c in columns]
+        assert shown == pytest.approx(expected, abs=0.006), name
