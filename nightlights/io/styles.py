@@ -932,6 +932,30 @@ def streets_style(arrangements: Sequence[str], *, field: str = "arrangement") ->
     )
 
 
+def _graduated_points(
+    field: str, edges: Sequence[float], labels: Sequence[str], colours: Sequence[str]
+) -> str:
+    """A graduated renderer of circles on ``field``: class i from ``edges[i]`` to
+    ``edges[i + 1]``, labelled ``labels[i]``, in ``colours[i]``."""
+    ranges = "\n".join(
+        f'      <range lower="{edges[i]!r}" upper="{edges[i + 1]!r}" symbol="{i}" '
+        f'label={quoteattr(labels[i])} render="true"/>'
+        for i in range(len(labels))
+    )
+    symbols = "\n".join(
+        _marker_symbol(str(i), colour, shape="circle", size=OBSERVER_SIZE_MM, rotation_field=None)
+        for i, colour in enumerate(colours)
+    )
+    return f"""  <renderer-v2 type="graduatedSymbol" attr={quoteattr(field)} graduatedMethod="GraduatedColor" symbollevels="0" enableorderby="0" forceraster="0">
+    <ranges>
+{ranges}
+    </ranges>
+    <symbols>
+{symbols}
+    </symbols>
+  </renderer-v2>"""  # noqa: E501
+
+
 def observers_style(*, field: str = "zenith_mag", label_field: str | None = "name") -> LayerStyle:
     """Style of a points summary layer of observers: each point in the Bortle colour of its
     zenith sky brightness (:func:`sky_brightness_qml`'s classes), labelled with its name.
@@ -949,25 +973,7 @@ def observers_style(*, field: str = "zenith_mag", label_field: str | None = "nam
         A graduated renderer on ``field`` with the nine Bortle classes.
     """
     edges = [0.0, *_bortle_upper_edges()]
-    labels = _bortle_labels()
-    colours = list(reversed(BORTLE_COLOURS))
-    ranges = "\n".join(
-        f'      <range lower="{edges[i]!r}" upper="{edges[i + 1]!r}" symbol="{i}" '
-        f'label={quoteattr(labels[i])} render="true"/>'
-        for i in range(len(labels))
-    )
-    symbols = "\n".join(
-        _marker_symbol(str(i), colour, shape="circle", size=OBSERVER_SIZE_MM, rotation_field=None)
-        for i, colour in enumerate(colours)
-    )
-    renderer = f"""  <renderer-v2 type="graduatedSymbol" attr={quoteattr(field)} graduatedMethod="GraduatedColor" symbollevels="0" enableorderby="0" forceraster="0">
-    <ranges>
-{ranges}
-    </ranges>
-    <symbols>
-{symbols}
-    </symbols>
-  </renderer-v2>"""  # noqa: E501
+    renderer = _graduated_points(field, edges, _bortle_labels(), list(reversed(BORTLE_COLOURS)))
     labeling = _labels(label_field) if label_field else ""
     description = f"observers: Bortle colour of {field}"
     return LayerStyle(
@@ -1011,23 +1017,7 @@ def residual_style(*, field: str = "residual", label_field: str | None = "statio
         "darker by 0.25-0.5",
         "darker by > 0.5",
     ]
-    ranges = "\n".join(
-        f'      <range lower="{edges[i]!r}" upper="{edges[i + 1]!r}" symbol="{i}" '
-        f'label={quoteattr(names[i])} render="true"/>'
-        for i in range(len(names))
-    )
-    symbols = "\n".join(
-        _marker_symbol(str(i), colour, shape="circle", size=OBSERVER_SIZE_MM, rotation_field=None)
-        for i, colour in enumerate(RESIDUAL_COLOURS)
-    )
-    renderer = f"""  <renderer-v2 type="graduatedSymbol" attr={quoteattr(field)} graduatedMethod="GraduatedColor" symbollevels="0" enableorderby="0" forceraster="0">
-    <ranges>
-{ranges}
-    </ranges>
-    <symbols>
-{symbols}
-    </symbols>
-  </renderer-v2>"""  # noqa: E501
+    renderer = _graduated_points(field, edges, names, RESIDUAL_COLOURS)
     labeling = _labels(label_field) if label_field else ""
     description = f"stations: {field} (measured - predicted, mag arcsec-2)"
     return LayerStyle(
