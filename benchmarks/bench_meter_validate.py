@@ -4,9 +4,11 @@ and the error of the darkness-map method against each station's own panorama.
 Knob: ``method`` of :func:`nightlights.meter.validate`: ``map`` (one darkness map per
 instrument in its units, sampled bilinearly at the stations) against ``panorama`` (each
 station's own panorama at its exact position, read with the instrument's angular weights: the
-reference). Error: the predicted instrument reading's difference [mag arcsec-2] at stations
-of a 400 x 400-cell scene of 100 m cells with 12 towns, same kernel for both, for the wide SQM
-(84 deg) and the lensed SQM-L (20 deg).
+reference, each with its own scene kernel reaching from the station to the farthest lit
+cell, as ``skyglow`` sizes it). Error: the predicted instrument reading's difference
+[mag arcsec-2] at 40 stations of a 400 x 400-cell scene of 100 m cells with 12 towns, for the
+wide SQM (84 deg) and the lensed SQM-L (20 deg). The panorama's time includes building each
+station's kernel on first use (the SQM row); the SQM-L row finds them in the cache.
 
 Speed: 1,000 SQM-L stations with 12 readings each (one moonless January night near Helsinki),
 read through the whole chain (Sun and Moon per reading, selection, station statistic, the
