@@ -265,18 +265,19 @@ def validate(
     summary = _summary(stations, calibration, scene, spectrum, method, natural, height)
     paths: dict[str, Path] = {}
     if folder is not None:
+        from nightlights.meter._figures import residual_map, scatter
+        from nightlights.meter._outputs import write_calibrated, write_stations
+
         folder.mkdir(parents=True, exist_ok=True)
         with OutputSet(*files.values(), inputs=inputs) as outputs:
-            _write_stations(stations, outputs.temporary(files["stations"]))
+            write_stations(stations, outputs.temporary(files["stations"]), STATIONS_LAYER)
             outputs.temporary(files["summary"]).write_text(
                 dumps_json(summary, indent=2) + "\n", encoding="utf-8"
             )
-            from nightlights.meter._figures import residual_map, scatter
-
             scatter(stations, outputs.temporary(files["scatter"]), calibration)
             residual_map(stations, outputs.temporary(files["residual_map"]), emission)
             if calibration is not None:
-                _write_calibrated(emission, calibration, outputs.temporary(files["calibrated"]))
+                write_calibrated(emission, calibration, outputs.temporary(files["calibrated"]))
         paths = dict(files)
     return ValidationResult(stations, summary, calibration, paths, seconds)
 
@@ -566,47 +567,3 @@ def _summary(
             for name, group in stations.groupby("instrument", sort=True)
         }
     return summary
-
-
-def _write_stations(stations: gpd.GeoDataFrame, path: Path) -> None:
-    from nightlights.io.styles import residual_style
-    from nightlights.io.vector import write_gpkg
-
-    frame = stations.copy()
-    for column in frame.columns:
-        if pd.api.types.is_datetime64_any_dtype(frame[column]):
-            frame[column] = frame[column].dt.strftime("%Y-%m-%dT%H:%M:%SZ")
-    schema: dict[str, Any] = {
-        name: "float"
-        for name in frame.columns
-        if name != "geometry" and pd.api.types.is_float_dtype(frame[name])
-    }
-    write_gpkg(frame, path, layer=STATIONS_LAYER, schema=schema, style=residual_style())
-
-
-def _write_calibrated(emission: Raster, calibration: Calibration, path: Path) -> None:
-    from nightlights.io.raster import RasterBand, write_cog
-
-    scale = calibration.parameters["scale"]
-    tags = dict(emission.tags)
-    tags.update(
-        {
-            "calibration_scale": f"{scale:.6g}",
-            "calibration_scale_error": f"{calibration.uncertainties['scale']:.3g}",
-            "calibration_folds": calibration.folds,
-            "calibration_held_out_rms": f"{calibration.held_out['rms']}",
-        }
-    )
-    if "turbidity" in calibration.parameters:
-        tags["calibration_turbidity"] = f"{calibration.parameters['turbidity']:.4g}"
-    bands = [
-        RasterBand(
-            emission.data[i] * scale,
-            emission.descriptions[i] if i < len(emission.descriptions) else f"band_{i + 1}",
-            emission.units[i] if i < len(emission.units) else "lm m-2",
-            dict(emission.band_tags[i]) if i < len(emission.band_tags) else {},
-        )
-        for i in range(emission.count)
-    ]
-    crs = emission.projected_crs(source="emission raster")
-    write_cog(path, bands, transform=emission.transform, crs=crs, tags=tags)
