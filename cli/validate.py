@@ -64,8 +64,9 @@ def _numbers(text: str | None) -> list[float] | None:
     "calibrate",
     multiple=True,
     type=LibraryChoice(CALIBRATION_PARAMETERS),
-    help="Fit the emission's flux scale (and, repeated, --calibrate turbidity) to the "
-    "readings; writes emission_calibrated.tif and the held-out figures.",
+    help="Fit the emission's flux scale to the readings; repeat to fit the turbidity and the "
+    "share of a two-band emission's low-angle (uplight) band too; writes "
+    "emission_calibrated.tif and the held-out figures.",
 )
 @click.option(
     "--folds",

@@ -31,11 +31,19 @@ def write_stations(stations: gpd.GeoDataFrame, path: Path, layer: str) -> None:
     write_gpkg(frame, path, layer=layer, schema=schema, style=residual_style())
 
 
-def write_calibrated(emission: Raster, calibration: Calibration, path: Path) -> None:
-    """The emission times the calibrated scale, the fit in its tags."""
+def write_calibrated(
+    emission: Raster, calibration: Calibration, path: Path, share: float | None = None
+) -> None:
+    """The emission times the calibrated scale (each band by its new share of the flux when the
+    low-angle band's ``share`` was fitted, from the emission's own ``share``), the fit in its
+    tags."""
     from nightlights.io.raster import RasterBand, write_cog
 
     scale = calibration.parameters["scale"]
+    factors = [scale] * emission.count
+    if share is not None and "share" in calibration.parameters:
+        fitted = calibration.parameters["share"]
+        factors = [scale * (1.0 - fitted) / (1.0 - share), scale * fitted / share]
     tags = dict(emission.tags)
     tags.update(
         {
@@ -47,9 +55,11 @@ def write_calibrated(emission: Raster, calibration: Calibration, path: Path) -> 
     )
     if "turbidity" in calibration.parameters:
         tags["calibration_turbidity"] = f"{calibration.parameters['turbidity']:.4g}"
+    if "share" in calibration.parameters:
+        tags["calibration_low_angle_share"] = f"{calibration.parameters['share']:.4g}"
     bands = [
         RasterBand(
-            emission.data[i] * scale,
+            emission.data[i] * factors[i],
             emission.descriptions[i] if i < len(emission.descriptions) else f"band_{i + 1}",
             emission.units[i] if i < len(emission.units) else "lm m-2",
             dict(emission.band_tags[i]) if i < len(emission.band_tags) else {},

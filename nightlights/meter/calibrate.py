@@ -10,8 +10,12 @@ plus the natural sky:
 
 with ``A_i(tau)`` the artificial sky the instrument reads at turbidity ``tau`` (one darkness map
 per turbidity of a grid, interpolated linearly in ``ln A`` between them), ``N_i`` the natural
-sky it reads and ``s`` a flux scale of the emission (Cinzano 2005 for ``L_0``). The parameters
-``p = (ln s, tau)`` (``tau`` only when asked) minimise the robust sum
+sky it reads and ``s`` a flux scale of the emission (Cinzano 2005 for ``L_0``). With the
+share ``f`` of an emission's low-angle band (the direct uplight, which leaves near the horizontal
+and lights the sky far away) fitted too, ``A = A_o (1 - f) / (1 - f_0) + A_l f / f_0``: the two
+bands' parts of the reading (``A_o``, ``A_l``) rescaled from the emission's own share ``f_0``,
+the flux held. The parameters ``p = (ln s, tau, f)`` (``tau`` and ``f`` only when asked)
+minimise the robust sum
 
 .. math:: \\sum_i \\rho\\big((m_i - \\hat m_i(p)) / f\\big)
 
@@ -60,8 +64,11 @@ __all__ = [
     "residual_statistics",
 ]
 
-#: The parameters a calibration may fit: the emission's flux scale, and the turbidity.
-PARAMETERS = ("scale", "turbidity")
+#: The parameters a calibration may fit: the emission's flux scale, the turbidity, and the
+#: share of the emission's low-angle (direct uplight) band in its flux.
+PARAMETERS = ("scale", "turbidity", "share")
+#: A fitted share stays this far inside (0, 1) [1].
+SHARE_MARGIN = 1e-3
 #: Residual [mag] beyond which the soft-L1 loss counts about linearly: about twice the scatter
 #: of repeated clear-night readings of one SQM (0.05-0.1 mag, den Outer et al. 2011 found
 #: 0.5 % to 9 % between intercalibrated meters), so ordinary noise is fitted as least squares
@@ -98,6 +105,11 @@ class Model:
         The turbidity grid of a 2-D ``artificial`` (ascending) [1]; None for one turbidity.
     turbidity
         The scene's turbidity, the starting point of a fit [1].
+    low_angle
+        The part of ``artificial`` from the emission's low-angle band, same shape; None when
+        the share is not fitted.
+    share
+        The low-angle band's share of the emission's flux [1], with ``low_angle``.
     """
 
     measured: FloatArray
@@ -105,6 +117,8 @@ class Model:
     natural: FloatArray
     turbidities: FloatArray | None = None
     turbidity: float = math.nan
+    low_angle: FloatArray | None = None
+    share: float = math.nan
 
     def __post_init__(self) -> None:
         measured = np.asarray(self.measured, dtype=float)
@@ -128,6 +142,14 @@ class Model:
             )
         if natural.shape != measured.shape:
             raise InputError(f"natural of shape {natural.shape}; expected ({measured.size},)")
+        if self.low_angle is not None:
+            low = np.asarray(self.low_angle, dtype=float)
+            object.__setattr__(self, "low_angle", low)
+            if low.shape != artificial.shape or not 0.0 < self.share < 1.0:
+                raise InputError(
+                    f"low_angle of shape {low.shape} with share {self.share}; expected the "
+                    f"shape of artificial {artificial.shape} and a share in (0, 1)"
+                )
 
     def __len__(self) -> int:
         return int(self.measured.size)
@@ -135,20 +157,25 @@ class Model:
     def subset(self, index: ArrayLike) -> Model:
         """The same model on some stations."""
         index = np.asarray(index)
-        artificial = self.artificial[..., index]
         return Model(
-            self.measured[index], artificial, self.natural[index], self.turbidities, self.turbidity
+            self.measured[index],
+            self.artificial[..., index],
+            self.natural[index],
+            self.turbidities,
+            self.turbidity,
+            None if self.low_angle is None else self.low_angle[..., index],
+            self.share,
         )
 
-    def artificial_at(self, turbidity: float | None) -> FloatArray:
-        """The artificial readings at a turbidity, linear in ``ln A`` between grid nodes."""
+    def _at(self, table: FloatArray, turbidity: float | None) -> FloatArray:
+        """A table of readings at a turbidity, linear in ``ln A`` between grid nodes."""
         if self.turbidities is None or turbidity is None:
-            return np.asarray(self.artificial if self.artificial.ndim == 1 else self.artificial[0])
+            return np.asarray(table if table.ndim == 1 else table[0])
         grid = self.turbidities
         t = float(np.clip(turbidity, grid[0], grid[-1]))
         k = int(np.clip(np.searchsorted(grid, t, side="right") - 1, 0, grid.size - 2))
         w = (t - grid[k]) / (grid[k + 1] - grid[k])
-        low, high = self.artificial[k], self.artificial[k + 1]
+        low, high = table[k], table[k + 1]
         with np.errstate(divide="ignore", invalid="ignore"):
             logs = (1.0 - w) * np.log(low) + w * np.log(high)
         out = np.exp(logs)
@@ -157,9 +184,20 @@ class Model:
         out[plain] = (1.0 - w) * low[plain] + w * high[plain]
         return np.asarray(out)
 
-    def predict(self, scale: float = 1.0, turbidity: float | None = None) -> FloatArray:
-        """The model's readings [mag arcsec-2] at a flux scale and turbidity."""
-        total = scale * self.artificial_at(turbidity) + self.natural
+    def artificial_at(self, turbidity: float | None, share: float | None = None) -> FloatArray:
+        """The artificial readings at a turbidity (and a low-angle share of the flux)."""
+        total = self._at(self.artificial, turbidity)
+        if share is None or self.low_angle is None:
+            return total
+        low = self._at(self.low_angle, turbidity)
+        f0 = self.share
+        return np.asarray((total - low) * (1.0 - share) / (1.0 - f0) + low * share / f0)
+
+    def predict(
+        self, scale: float = 1.0, turbidity: float | None = None, share: float | None = None
+    ) -> FloatArray:
+        """The model's readings [mag arcsec-2] at a flux scale, turbidity and share."""
+        total = scale * self.artificial_at(turbidity, share) + self.natural
         with np.errstate(divide="ignore"):
             return np.asarray(-2.5 * np.log10(total / ZERO_POINT_LUMINANCE))
 
@@ -171,7 +209,7 @@ class Calibration:
     Attributes
     ----------
     parameters
-        The fitted values by name (``scale`` [1], ``turbidity`` [1]).
+        The fitted values by name (``scale`` [1], ``turbidity`` [1], ``share`` [1]).
     uncertainties
         Their standard errors, same names.
     in_sample
@@ -252,6 +290,11 @@ def _check_parameters(parameters: Sequence[str], model: Model) -> tuple[str, ...
         raise InputError(
             "calibrate='turbidity' needs the artificial sky at two turbidities or more"
         )
+    if "share" in names and model.low_angle is None:
+        raise InputError(
+            "calibrate='share' needs the low-angle band's part of the artificial sky (an "
+            "emission of two bands)"
+        )
     return names
 
 
@@ -274,19 +317,23 @@ def check_station_count(n: int, parameters: Sequence[str]) -> None:
 
 
 def _solve(model: Model, names: tuple[str, ...]) -> tuple[FloatArray, FloatArray]:
-    """The robust least-squares parameters (ln s[, tau]) and their standard errors."""
+    """The robust least-squares parameters (ln s[, tau][, f]) and their standard errors."""
     from scipy.optimize import least_squares
 
-    with_turbidity = "turbidity" in names
     grid = model.turbidities
+    fitted = [name for name in PARAMETERS if name in names]
+
+    def unpack(p: FloatArray) -> dict[str, float]:
+        return dict(zip(fitted, (float(v) for v in p), strict=True))
 
     def residual(p: FloatArray) -> FloatArray:
-        turbidity = float(p[1]) if with_turbidity else None
-        return np.asarray(model.measured - model.predict(math.exp(p[0]), turbidity))
+        v = unpack(p)
+        prediction = model.predict(math.exp(v["scale"]), v.get("turbidity"), v.get("share"))
+        return np.asarray(model.measured - prediction)
 
     # start: the scale that matches the median artificial excess at the scene's turbidity
     start_t = model.turbidity if np.isfinite(model.turbidity) else None
-    if with_turbidity and grid is not None:
+    if "turbidity" in fitted and grid is not None:
         start_t = float(np.clip(start_t if start_t is not None else grid.mean(), grid[0], grid[-1]))
     excess = 10.0 ** (-0.4 * model.measured) * ZERO_POINT_LUMINANCE - model.natural
     artificial = model.artificial_at(start_t)
@@ -294,12 +341,16 @@ def _solve(model: Model, names: tuple[str, ...]) -> tuple[FloatArray, FloatArray
     ratio = ratio[ratio > 0]
     start = [math.log(float(np.median(ratio))) if ratio.size else 0.0]
     lower, upper = [-np.inf], [np.inf]
-    if with_turbidity and grid is not None:
-        start.append(float(start_t if start_t is not None else grid.mean()))
+    if "turbidity" in fitted and grid is not None:
+        # strictly inside the bounds
+        first = start_t if start_t is not None else float(grid.mean())
+        start.append(float(np.clip(first, grid[0] + 1e-9, grid[-1] - 1e-9)))
         lower.append(float(grid[0]))
         upper.append(float(grid[-1]))
-        # keep the start strictly inside the bounds
-        start[1] = float(np.clip(start[1], grid[0] + 1e-9, grid[-1] - 1e-9))
+    if "share" in fitted:
+        start.append(float(np.clip(model.share, 2 * SHARE_MARGIN, 1 - 2 * SHARE_MARGIN)))
+        lower.append(SHARE_MARGIN)
+        upper.append(1.0 - SHARE_MARGIN)
     solution = least_squares(
         residual,
         np.array(start),
@@ -320,13 +371,14 @@ def _solve(model: Model, names: tuple[str, ...]) -> tuple[FloatArray, FloatArray
     return np.asarray(solution.x), np.asarray(errors)
 
 
-def _named(x: FloatArray, errors: FloatArray) -> tuple[dict[str, float], dict[str, float]]:
-    scale = math.exp(float(x[0]))
-    values = {"scale": scale}
-    uncertainty = {"scale": scale * float(errors[0])}  # d s = s d(ln s)
-    if x.size > 1:
-        values["turbidity"] = float(x[1])
-        uncertainty["turbidity"] = float(errors[1])
+def _named(
+    x: FloatArray, errors: FloatArray, names: tuple[str, ...]
+) -> tuple[dict[str, float], dict[str, float]]:
+    fitted = [name for name in PARAMETERS if name in names]
+    values = {name: float(v) for name, v in zip(fitted, x, strict=True)}
+    uncertainty = {name: float(e) for name, e in zip(fitted, errors, strict=True)}
+    values["scale"] = math.exp(values["scale"])
+    uncertainty["scale"] = values["scale"] * uncertainty["scale"]  # d s = s d(ln s)
     return values, uncertainty
 
 
@@ -356,7 +408,7 @@ def fit(
     model
         The stations' readings and the model's artificial and natural parts (:class:`Model`).
     parameters
-        ``("scale",)`` or ``("scale", "turbidity")``.
+        ``("scale",)``, with ``"turbidity"`` and/or ``"share"``.
     folds
         ``"station"``: leave one station out; an integer k: k-fold cross-validation.
     seed
@@ -404,8 +456,8 @@ def fit(
             DataQualityWarning,
             stacklevel=2,
         )
-    share = model.artificial_at(model.turbidity if model.turbidities is not None else None)
-    if np.all(share < MIN_ARTIFICIAL_SHARE * model.natural):
+    reading = model.artificial_at(model.turbidity if model.turbidities is not None else None)
+    if np.all(reading < MIN_ARTIFICIAL_SHARE * model.natural):
         warnings.warn(
             f"every station's artificial sky is under {MIN_ARTIFICIAL_SHARE:.0%} of its natural "
             "sky; the scale is poorly constrained (add stations nearer the lights)",
@@ -413,7 +465,7 @@ def fit(
             stacklevel=2,
         )
     x, errors = _solve(model, names)
-    values, uncertainty = _named(x, errors)
+    values, uncertainty = _named(x, errors, names)
     for name, value in values.items():
         if not uncertainty[name] <= MAX_RELATIVE_ERROR * abs(value):
             warnings.warn(
@@ -422,7 +474,7 @@ def fit(
                 DataQualityWarning,
                 stacklevel=2,
             )
-    predicted = model.predict(values["scale"], values.get("turbidity"))
+    predicted = model.predict(values["scale"], values.get("turbidity"), values.get("share"))
     held = np.full(n, math.nan)
     per_fold: dict[str, list[float]] = {name: [] for name in names}
     with warnings.catch_warnings():
@@ -432,11 +484,11 @@ def fit(
             if train.size < k:
                 continue
             xf, _ = _solve(model.subset(train), names)
-            fold_values, _ = _named(xf, np.zeros_like(xf))
+            fold_values, _ = _named(xf, np.zeros_like(xf), names)
             for name in names:
                 per_fold[name].append(fold_values[name])
             held[test] = model.subset(test).predict(
-                fold_values["scale"], fold_values.get("turbidity")
+                fold_values["scale"], fold_values.get("turbidity"), fold_values.get("share")
             )
     return Calibration(
         parameters=values,

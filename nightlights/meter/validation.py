@@ -32,6 +32,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time as _time
 import warnings
@@ -179,8 +180,9 @@ def validate(
     method
         ``"map"`` or ``"panorama"`` (:data:`METHODS`; module docstring).
     calibrate
-        False; True or ``("scale",)``: fit the emission's flux scale; ``("scale",
-        "turbidity")``: and the turbidity.
+        False; True or ``("scale",)``: fit the emission's flux scale; with ``"turbidity"``:
+        and the turbidity; with ``"share"``: and the share of a two-band emission's second,
+        low-angle (direct uplight) band in its flux, the total held.
     turbidities
         The turbidities a turbidity calibration tabulates (None: :data:`TURBIDITY_GRID` around
         the scene's) [1].
@@ -228,6 +230,15 @@ def validate(
     stations = _inside(stations, emission, scene.label)
     if parameters:
         check_station_count(len(stations), parameters)  # before any map is computed
+        from nightlights.meter.calibrate import PARAMETERS
+
+        unknown = [name for name in parameters if name not in PARAMETERS]
+        if unknown:
+            raise InputError(
+                f"calibrate={list(parameters)!r}; expected 'scale', optionally with "
+                f"{', '.join(repr(p) for p in PARAMETERS[1:])}"
+            )
+    share = _low_angle_share(emission, scene.label) if "share" in parameters else None
     scene = scene.replace(emission=emission)
     start = _time.perf_counter()
     measured = stations["magnitude"].to_numpy(dtype=float)
@@ -245,17 +256,31 @@ def validate(
     calibration = None
     if parameters:
         grid = None
-        table: FloatArray = artificial
+        tabulated = [(base, scene)]
         if "turbidity" in parameters:
             tabulated = _turbidity_scenes(scene, turbidities, kernels, base)
             grid = np.array([t for t, _ in tabulated])
-            table = np.stack(
-                [
-                    _artificial(other, stations, height, spectrum, method, progress)
-                    for _, other in tabulated
-                ]
-            )
-        model = Model(measured, table, natural_values, grid, base)
+
+        def readings(emission_of: Any) -> FloatArray:
+            table = [
+                _artificial(emission_of(other), stations, height, spectrum, method, progress)
+                for _, other in tabulated
+            ]
+            return np.stack(table) if grid is not None else table[0]
+
+        table = artificial if grid is None else readings(lambda other: other)
+        low = None
+        if share is not None:
+            low = readings(lambda other: other.replace(emission=_low_angle_band(emission)))
+        model = Model(
+            measured,
+            table,
+            natural_values,
+            grid,
+            base,
+            low,
+            share if share is not None else math.nan,
+        )
         calibration = fit(model, parameters, folds=folds)
         stations["calibrated"] = calibration.predicted
         stations["calibrated_residual"] = measured - calibration.predicted
@@ -277,7 +302,9 @@ def validate(
             scatter(stations, outputs.temporary(files["scatter"]), calibration)
             residual_map(stations, outputs.temporary(files["residual_map"]), emission)
             if calibration is not None:
-                write_calibrated(emission, calibration, outputs.temporary(files["calibrated"]))
+                write_calibrated(
+                    emission, calibration, outputs.temporary(files["calibrated"]), share
+                )
         paths = dict(files)
     return ValidationResult(stations, summary, calibration, paths, seconds)
 
@@ -482,6 +509,29 @@ def _emission_spectrum(scene: Scene) -> str:
     from nightlights.sky.instrument_units import DEFAULT_SPECTRUM, emission_spectrum
 
     return emission_spectrum(scene.emission) or DEFAULT_SPECTRUM
+
+
+def _low_angle_share(emission: Raster, label: str) -> float:
+    """The share of an emission's second band (its low-angle, direct-uplight band) in its flux."""
+    if emission.count != 2:
+        raise InputError(
+            f"calibrate='share' fits the share of the low-angle band of a two-band emission; "
+            f"{label} has {emission.count} band{'s' if emission.count > 1 else ''}"
+        )
+    flux = np.nansum(emission.data, axis=(1, 2))
+    if not (flux[0] > 0 and flux[1] > 0):
+        raise InputError(
+            f"calibrate='share': {label} has no flux in one of its bands ({flux[0]:.3g}, "
+            f"{flux[1]:.3g}); both are needed to fit their shares"
+        )
+    return float(flux[1] / flux.sum())
+
+
+def _low_angle_band(emission: Raster) -> Raster:
+    """The emission with its first band dark: what the low-angle band alone lights."""
+    data = emission.data.copy()
+    data[0] = 0.0
+    return dataclasses.replace(emission, data=data)
 
 
 def _scene_turbidity(scene: Scene) -> float:

@@ -153,3 +153,36 @@ def test_residual_statistics() -> None:
     stats = residual_statistics([0.3, -0.1, 0.1, np.nan])
     assert stats == {"n": 3, "bias": 0.1, "rms": pytest.approx(0.19149, abs=1e-5), "mad": 0.2}
     assert residual_statistics([])["n"] == 0
+
+
+def test_low_angle_share_recovered() -> None:
+    """The low-angle band lights far stations more than near ones: a share of 0.3 against the
+    emission's 0.1 is recovered within 0.03 with the scale within 2 %, 0.05 mag of noise."""
+    n = 300
+    artificial, distance = stations(n, seed=6)
+    low_part = 0.1 * artificial * (distance / 10.0) ** 0.8  # reaches farther
+    total = artificial + low_part
+    natural = np.full(n, NATURAL)
+    model = Model(np.zeros(n), total, natural, low_angle=low_part, share=0.1)
+    truth = model.predict(scale=0.8, share=0.3)
+    measured = truth + np.random.default_rng(9).normal(0.0, 0.05, n)
+    calibration = fit(
+        Model(measured, total, natural, low_angle=low_part, share=0.1), ("scale", "share"), folds=5
+    )
+    assert calibration.parameters["share"] == pytest.approx(0.3, abs=0.03)
+    assert calibration.parameters["scale"] == pytest.approx(0.8, rel=0.02)
+    assert calibration.held_out["rms"] == pytest.approx(0.05, rel=0.10)
+
+
+def test_share_without_a_low_angle_band_refused() -> None:
+    artificial, _ = stations(6)
+    with pytest.raises(InputError, match="two bands"):
+        fit(Model(np.full(6, 20.0), artificial, np.full(6, NATURAL)), ("scale", "share"))
+
+
+def test_share_keeps_the_emission_when_unchanged() -> None:
+    """At the emission's own share the two-band model is the one-band model."""
+    artificial, distance = stations(10)
+    low = 0.2 * artificial * distance / 20.0
+    model = Model(np.zeros(10), artificial + low, np.full(10, NATURAL), low_angle=low, share=0.25)
+    np.testing.assert_allclose(model.predict(1.3, share=0.25), model.predict(1.3), rtol=1e-12)
