@@ -115,7 +115,7 @@ def speed(quick: bool) -> dict[str, Any]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
         start = time.perf_counter()
-        validate(scene, table.iloc[:12 * 4], progress=False)  # builds or finds the kernel
+        validate(scene, table.iloc[: 12 * 4], progress=False)  # builds or finds the kernel
         first = time.perf_counter() - start
         start = time.perf_counter()
         result = validate(scene, table, progress=False)
