@@ -4,9 +4,10 @@ A sky-brightness meter reads the sky through its angular response and in its own
 panorama of artificial luminance :math:`L_{ij}` (elevation rows i, azimuth columns j) the
 reading is the response-weighted mean (:func:`~nightlights.sky.instruments.angular_weights`,
 weights :math:`A_{ij}` summing to 1), and the V-equivalent luminance the instrument's magnitude
-stands for scales it by the colour term :math:`C = m_\\mathrm{instrument} - V` of the light's
-spectrum (:func:`~nightlights.sky.instruments.instrument_luminance`, synthetic photometry as in
-Cinzano 2005):
+stands for scales it by the colour term :math:`C = m_\\mathrm{instrument} - m_\\mathrm{photopic}`
+of the light's spectrum (the model's luminance is photopic;
+:func:`~nightlights.sky.instruments.instrument_luminance`, synthetic photometry as in Cinzano
+2005):
 
 .. math::
 
@@ -16,7 +17,8 @@ Cinzano 2005):
 
 with :math:`L_\\mathrm{nat}` the natural sky's reading in the same units. The natural sky is
 taken by default as a uniform sky of :data:`~nightlights.brightness.NATURAL_ZENITH_LUMINANCE`
-(22.0 mag arcsec-2 in V, a typical moonless night) with the natural-sky colour term: a uniform
+(22.0 mag arcsec-2 in V, a typical moonless night) with the natural sky's colour term
+:math:`m_\\mathrm{instrument} - V`: a uniform
 approximation (the real natural sky brightens towards the horizon by van Rhijn's law, so a
 wide-field meter reads it somewhat brighter); the meter layer computes the natural sky of a
 given date and time. Pixels that the terrain hides add no artificial light (the ground is
@@ -266,7 +268,7 @@ def instrument_sky(
             spectrum, source = DEFAULT_SPECTRUM, "default"
     if natural_luminance is None:
         natural = float(
-            instrument_luminance(NATURAL_ZENITH_LUMINANCE, chosen, NATURAL_SKY_SPECTRUM)
+            instrument_luminance(NATURAL_ZENITH_LUMINANCE, chosen, NATURAL_SKY_SPECTRUM, band="V")
         )
         natural_source = (
             f"uniform moonless sky of {NATURAL_ZENITH_LUMINANCE:.4g} cd m-2 (V) with the "

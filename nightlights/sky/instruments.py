@@ -96,6 +96,7 @@ from nightlights.errors import DataQualityWarning, InputError
 
 __all__ = [
     "INSTRUMENTS",
+    "LUMINANCE_BANDS",
     "Instrument",
     "angular_weights",
     "colour_term",
@@ -476,6 +477,9 @@ ZERO_POINT_SPECTRUM = "vega_blackbody"
 #: Sun-like stars). The airglow's emission lines (O I 557.7 and 630 nm, Na 589 nm, the OH
 #: bands in the red) are not modelled.
 NATURAL_SKY = "natural_sky"
+#: The eye's photopic response in :data:`ies.spectra.SENSORS`: the band of a luminance in
+#: candela.
+PHOTOPIC = "photopic"
 #: Sun's nominal effective temperature [K] (IAU 2015 Resolution B3; Mamajek et al. 2015).
 SUN_TEMPERATURE = 5772.0
 
@@ -565,10 +569,26 @@ def colour_term(instrument: str | Instrument, spectrum: str) -> float:
     return _colour_term(get_instrument(instrument).sensor, str(spectrum))
 
 
+#: The bands a luminance may stand in: ``"photopic"`` (candela from lumens: the modelled
+#: artificial sky) or ``"V"`` (the luminance of a Johnson V surface brightness by the
+#: 1.08e5 cd m-2 zero point: the natural sky's 22.0 mag arcsec-2).
+LUMINANCE_BANDS = ("photopic", "V")
+
+
 def instrument_luminance(
-    luminance: ArrayLike, instrument: str | Instrument, spectrum: str
+    luminance: ArrayLike,
+    instrument: str | Instrument,
+    spectrum: str,
+    *,
+    band: str | None = None,
 ) -> FloatArray:
     """The V-equivalent luminance an instrument's magnitude stands for: L 10^(-0.4 c).
+
+    A photopic luminance (the model's artificial sky, candela from lumens) is carried into the
+    instrument's band by ``c = (m_X - V) - (m_photopic - V)`` of its spectrum, the difference
+    of the instrument's and the eye's colour terms: an instrument with the eye's photopic
+    response reads a photopic luminance as it is. A luminance that stands for a V magnitude
+    (the natural sky's 22.0 mag arcsec-2) takes ``c = m_X - V``.
 
     Parameters
     ----------
@@ -578,14 +598,28 @@ def instrument_luminance(
         A name of :data:`INSTRUMENTS` or an :class:`Instrument`.
     spectrum
         A name of :data:`ies.spectra.SPDS` or ``"natural_sky"``.
+    band
+        What the luminance is measured in (:data:`LUMINANCE_BANDS`); None: ``"V"`` for the
+        natural sky, ``"photopic"`` for a lamp spectrum.
 
     Returns
     -------
     numpy.ndarray
         Luminance [cd m-2] whose :func:`~nightlights.brightness.luminance_to_magnitude` is the
         instrument's magnitude.
+
+    Examples
+    --------
+    >>> float(instrument_luminance(1e-3, "eye", "HPS"))  # the eye reads photopic light as is
+    0.001
     """
+    if band is None:
+        band = "V" if spectrum == NATURAL_SKY else "photopic"
+    if band not in LUMINANCE_BANDS:
+        raise InputError(f"band={band!r}; expected one of {', '.join(LUMINANCE_BANDS)}")
     term = colour_term(instrument, spectrum)
+    if band == "photopic":
+        term -= _colour_term(PHOTOPIC, str(spectrum))
     return np.asarray(luminance, dtype=float) * 10.0 ** (-0.4 * term)
 
 
@@ -594,13 +628,16 @@ def instrument_magnitude(
 ) -> float | FloatArray:
     """What an instrument reads for light made of parts of several spectra [mag arcsec-2].
 
-    .. math:: m_X = -2.5 \\log_{10}\\Big(\\sum_s L_s 10^{-0.4 (m_X - V)_s} / 1.08\\times10^5\\Big)
+    .. math:: m_X = -2.5 \\log_{10}\\Big(\\sum_s L_s 10^{-0.4 c_s} / 1.08\\times10^5\\Big)
+
+    with each part's colour term as :func:`instrument_luminance` takes it (a lamp's photopic
+    luminance, the natural sky's V luminance).
 
     Parameters
     ----------
     parts
         Luminance of each part [cd m-2] (scalars or arrays of one shape), keyed by its spectrum
-        (a name of :data:`ies.spectra.SPDS` or ``"natural_sky"``).
+        (a name of :data:`ies.spectra.SPDS`, photopic, or ``"natural_sky"``, V).
     instrument
         A name of :data:`INSTRUMENTS` or an :class:`Instrument`.
 

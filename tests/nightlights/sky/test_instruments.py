@@ -214,11 +214,25 @@ def test_sodium_light_reads_fainter_than_white_light_in_the_sqm_band() -> None:
 
 
 def test_instrument_luminance_and_magnitude() -> None:
+    """A lamp's photopic luminance takes m_X - m_photopic (the eye reads it as it is), a V
+    luminance m_X - V."""
     luminance = np.array([1e-4, 2e-4])
-    term = colour_term("sqm", "HPS")
+    term = colour_term("sqm", "HPS") - colour_term("eye", "HPS")
     np.testing.assert_allclose(
         instrument_luminance(luminance, "sqm", "HPS"), luminance * 10 ** (-0.4 * term)
     )
+    np.testing.assert_allclose(
+        instrument_luminance(luminance, "sqm", "HPS", band="V"),
+        luminance * 10 ** (-0.4 * colour_term("sqm", "HPS")),
+    )
+    for spectrum in ("HPS", "LPS", "LED_4000K"):
+        np.testing.assert_allclose(instrument_luminance(luminance, "eye", spectrum), luminance)
+    natural = colour_term("sqm", NATURAL_SKY)
+    assert float(instrument_luminance(1.0, "sqm", NATURAL_SKY)) == pytest.approx(
+        10 ** (-0.4 * natural)
+    )
+    with pytest.raises(InputError, match="band='B'"):
+        instrument_luminance(luminance, "sqm", "HPS", band="B")
     single = instrument_magnitude({"HPS": 171e-6}, "sqm")
     assert isinstance(single, float)
     assert single == pytest.approx(float(luminance_to_magnitude(171e-6)) + term, abs=1e-12)
