@@ -8,6 +8,7 @@ from .kinds import FOLDER, RASTER, file_kind
 from .library import (
     CALIBRATION_PARAMETERS,
     DEFAULT_STATISTIC,
+    INSTRUMENT_NAMES,
     NATURAL_SKIES,
     READING_FORMATS,
     VALIDATION_METHODS,
@@ -15,6 +16,7 @@ from .library import (
     LibraryHelpOption,
 )
 from .options import (
+    crs_option,
     dem_option,
     files_argument,
     kernel_option,
@@ -30,7 +32,7 @@ from .options import (
 from .resources import max_memory_option
 
 #: Readings: the community-standard skyglow text format, CSV, a GeoPackage of points.
-READINGS = file_kind("dat", "txt", "csv", "gpkg")
+READINGS = file_kind("dat", "txt", "csv", "gpkg", "geojson", "shp")
 
 
 def _folds(value: str) -> str | int:
@@ -96,6 +98,14 @@ def _numbers(text: str | None) -> list[float] | None:
     help="IANA time zone of readings whose times carry no UTC offset (e.g. Europe/Helsinki).",
 )
 @click.option(
+    "--instrument",
+    "reading_instrument",
+    type=LibraryChoice(INSTRUMENT_NAMES),
+    default=None,
+    help="Instrument of every reading in READINGS whose file or table does not name one.",
+)
+@crs_option
+@click.option(
     "--station",
     default=None,
     help="Station name of every reading in READINGS (default: from the file).",
@@ -140,6 +150,8 @@ def validate(
     turbidities: str | None,
     format: str | None,
     time_zone: str | None,
+    reading_instrument: str | None,
+    crs: str | None,
     station: str | None,
     spectrum: str | None,
     statistic: str | None,
@@ -172,7 +184,14 @@ def validate(
         n_azimuth=n_azimuth,
         n_distance=n_distance,
     )
-    table = read_readings(readings, format=format, time_zone=time_zone, station=station)
+    table = read_readings(
+        readings,
+        format=format,
+        time_zone=time_zone,
+        station=station,
+        instrument=reading_instrument,
+        crs=crs,
+    )
     result = run_validation(
         scene,
         table,

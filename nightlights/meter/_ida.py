@@ -227,8 +227,7 @@ def _header(
             "(one magnitude per reading line)"
         )
     fov_numbers = _numbers(_entry(entries, "field of view"))
-    direction = _numbers(_entry(entries, "measurement direction"))
-    azimuth, zenith_angle = (direction[0], direction[1]) if len(direction) >= 2 else (0.0, 0.0)
+    azimuth, zenith_angle = _direction(_entry(entries, "measurement direction"), source)
     return IdaHeader(
         device_type=_entry(entries, "device type"),
         instrument_id=_entry(entries, "instrument id"),
@@ -242,6 +241,33 @@ def _header(
         fields=fields,
         entries=entries,
     )
+
+
+def _direction(text: str, source: str) -> tuple[float, float]:
+    """Azimuth and zenith angle [deg] of ``# Measurement direction per channel:`` (zenith when
+    not given). Each of the two comma-separated values may be written as a difference
+    (``90.0 - 90.0``, as the TESS-W network's files give the zenith angle)."""
+    values = [part for part in re.sub(r"\(.*?[a-zA-Z].*?\)", "", text).split(",") if part.strip()]
+    parsed = []
+    for part in values:
+        numbers = _numbers(part.replace(" - ", " -"))
+        if not numbers:
+            continue
+        parsed.append(sum(numbers) if len(numbers) > 1 else numbers[0])
+    if not parsed:
+        return 0.0, 0.0
+    if len(parsed) != 2:
+        raise InputError(
+            f"{source}: measurement direction {text.strip()!r}; expected 'AZIMUTH, ZENITH "
+            "ANGLE' in degrees"
+        )
+    azimuth, zenith_angle = parsed
+    if not 0.0 <= zenith_angle <= 90.0:
+        raise InputError(
+            f"{source}: measurement direction {text.strip()!r}: zenith angle {zenith_angle:g} "
+            "outside 0-90 deg"
+        )
+    return azimuth, zenith_angle
 
 
 def _numbers(text: str) -> list[float]:

@@ -38,7 +38,8 @@ ALIASES = {
     "instrument": ("instrument",),
     "station": ("station",),
     "fov": ("fov",),
-    "pointing_elevation": ("pointing_elevation", "altitude"),
+    # not "altitude": in a table of sites that is usually the height above sea level [m]
+    "pointing_elevation": ("pointing_elevation", "elevation_angle"),
     "pointing_azimuth": ("pointing_azimuth", "azimuth"),
     "sky_temperature": ("sky_temperature",),
     "ambient_temperature": ("ambient_temperature",),

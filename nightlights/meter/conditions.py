@@ -116,6 +116,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
+    "CLOUD_COVER_LIMIT",
     "CLOUD_LIMIT",
     "DEFAULT_STATISTIC",
     "MODE_BANDWIDTH",
@@ -140,6 +141,11 @@ MOON_LIMIT = -10.0
 #: Sky-minus-ambient infrared temperature above which a reading is cloudy [degC]: the bound
 #: between "few or high clouds" and "some clouds" of the Calar Alto cloud sensor (CAHA).
 CLOUD_LIMIT = -24.0
+#: Reported cloud cover (a naked-eye report's ``cloud_cover``) above which a reading is cloudy
+#: [1]: any cloud reported. Globe at Night asks for the cloud cover as clear, a quarter, a
+#: half or more of the sky; a one-report station has no night series for its statistic to see
+#: through the clouds with, so only clear reports count.
+CLOUD_COVER_LIMIT = 0.0
 #: Gaussian bandwidth of the kernel density whose peak is the mode [mag arcsec-2]: half the
 #: SQM's stated 0.10 mag arcsec-2 precision (Unihedron).
 MODE_BANDWIDTH = 0.05
@@ -343,6 +349,7 @@ def select_readings(
     sun_limit: float = SUN_LIMIT,
     moon_limit: float = MOON_LIMIT,
     cloud_limit: float = CLOUD_LIMIT,
+    cloud_cover_limit: float = CLOUD_COVER_LIMIT,
 ) -> gpd.GeoDataFrame:
     """Mark the readings taken in astronomical night, without the Moon, under a clear sky.
 
@@ -358,6 +365,8 @@ def select_readings(
     cloud_limit : float, optional
         Where ``sky_temperature`` and ``ambient_temperature`` are both given, their difference
         must be below this [degC]; readings without them are not tested for clouds.
+    cloud_cover_limit : float, optional
+        Where a ``cloud_cover`` is reported (naked-eye reports), it must not exceed this [1].
 
     Returns
     -------
@@ -384,17 +393,20 @@ def select_readings(
     sun_limit = _limit("sun_limit", sun_limit, -90.0, 90.0, "deg")
     moon_limit = _limit("moon_limit", moon_limit, -90.0, 90.0, "deg")
     cloud_limit = _limit("cloud_limit", cloud_limit, -100.0, 100.0, "degC")
+    cloud_cover_limit = _limit("cloud_cover_limit", cloud_cover_limit, 0.0, 1.0, "")
     table = readings if "sun_elevation" in readings.columns else sky_conditions(readings)
     table = gpd.GeoDataFrame(table.copy())
     if "magnitude" not in table.columns:
         raise InputError("readings have no 'magnitude' column; expected the reading [mag arcsec-2]")
     magnitude = _column(table, "magnitude")
     cloud_index = _column(table, "sky_temperature") - _column(table, "ambient_temperature")
+    cover = _column(table, "cloud_cover")
     failed = {
         "invalid": ~np.isfinite(magnitude),
         "sun": ~(_column(table, "sun_elevation") < sun_limit),
         "moon": ~(_column(table, "moon_elevation") < moon_limit),
-        "cloud": np.isfinite(cloud_index) & ~(cloud_index < cloud_limit),
+        "cloud": (np.isfinite(cloud_index) & ~(cloud_index < cloud_limit))
+        | (np.isfinite(cover) & (cover > cloud_cover_limit)),
     }
     reason = np.full(len(table), "", dtype=object)
     for name in reversed(REASONS):  # the first failed test in REASONS' order wins
@@ -588,8 +600,15 @@ def station_values(
     """
     _parse_statistic(statistic)
     table = readings if "kept" in readings.columns else select_readings(readings)
+    if "reason" not in table.columns:  # a selection made elsewhere: kept or not, no reason
+        table = table.assign(reason=np.where(table["kept"].astype(bool), "", "invalid"))
     if "station" not in table.columns:
         raise InputError("readings have no 'station' column; expected a station id per reading")
+    if table["station"].isna().any():
+        raise InputError(
+            f"readings: {int(table['station'].isna().sum())} without a station id; expected one "
+            "on every reading"
+        )
     if not len(table):
         raise EmptyInputError("no readings; expected at least one clear moonless reading")
     rows: list[dict[str, Any]] = []

@@ -13,7 +13,7 @@ natural sky's spectrum, :func:`~nightlights.sky.instruments.colour_term`):
     \\quad [\\mathrm{cd\\,m^{-2}}].
 
 Without a time the integrated starlight takes its all-sky mean (a "typical moonless night":
-22.0 mag arcsec-2 at the zenith for the photopic band), so the reading depends on the
+22.0 mag arcsec-2 in V at the zenith), so the reading depends on the
 instrument's field alone.
 
 References

@@ -389,8 +389,12 @@ def _guess_format(path: Path) -> str | None:
     lines = [line for line in head.decode("utf-8", errors="replace").splitlines() if line.strip()]
     if not lines:
         return "csv" if path.suffix.lower() == ".csv" else None
-    if lines[0].lstrip().startswith("#"):
+    if _ida.is_ida("\n".join(lines)):
         return "ida"
+    while lines and lines[0].lstrip().startswith("#"):  # a commented table
+        lines = lines[1:]
+    if not lines:
+        return None
     names = {name.strip().strip('"') for name in re.split(r"[,;]", lines[0])}
     if "LimitingMag" in names and ({"UTDate", "ObsDateTime"} & names):
         return "globe-at-night"

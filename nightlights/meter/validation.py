@@ -333,7 +333,8 @@ def _stations(readings: Any, statistic: str | None) -> gpd.GeoDataFrame:
         from nightlights.meter.readings import read_readings
 
         readings = read_readings(readings)
-    selected = select_readings(sky_conditions(readings))
+    # a table already selected (``kept``) keeps its selection and its limits
+    selected = readings if "kept" in readings.columns else select_readings(sky_conditions(readings))
     options = {} if statistic is None else {"statistic": statistic}
     return station_values(selected, **options).reset_index(drop=True)
 

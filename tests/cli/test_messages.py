@@ -29,6 +29,7 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: an instrument's response and natural sky, the explore page's web API) or names of an object
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "band",
     "emission",
     "replace",
     "extinction",

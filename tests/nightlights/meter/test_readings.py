@@ -150,7 +150,7 @@ def test_csv_with_aliases_offsets_and_default_stations():
     readings = read_readings(POINTS_CSV)
     check_schema(readings)
     helsinki = readings[readings["instrument"] == "sqm-l"]
-    # 21:00+02:00 is 19:00 UTC; 'mpsas', 'altitude', 'azimuth' are aliases
+    # 21:00+02:00 is 19:00 UTC; 'mpsas' is an alias
     assert helsinki["time"].tolist() == [
         pd.Timestamp("2024-01-10T19:00Z"),
         pd.Timestamp("2024-01-10T20:00Z"),

@@ -70,7 +70,9 @@ def read(panorama: xr.Dataset, instrument: str, spectrum: str = DEFAULT_SPECTRUM
 
 def natural(instrument: str) -> float:
     """The default natural sky in the instrument's units [cd m-2]."""
-    return float(instrument_luminance(NATURAL_ZENITH_LUMINANCE, instrument, "natural_sky", band="V"))
+    return float(
+        instrument_luminance(NATURAL_ZENITH_LUMINANCE, instrument, "natural_sky", band="V")
+    )
 
 
 # --- skyglow ---------------------------------------------------------------------------------
