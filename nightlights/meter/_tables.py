@@ -109,12 +109,21 @@ def features_of(label: str) -> Where:
 
 
 def read_csv(path: Path, label: str) -> pd.DataFrame:
-    """A CSV file as text columns (``,`` or ``;`` separated, as its first line shows)."""
+    """A CSV file as text columns (``,`` or ``;`` separated, as its header line shows), after
+    any leading ``#`` comment lines; ``attrs["first_line"]`` is the file line of its first row."""
+    comments = 0
     with path.open(encoding="utf-8", errors="replace") as handle:
         first = handle.readline()
+        while first.lstrip().startswith("#"):
+            comments += 1
+            first = handle.readline()
     separator = ";" if first.count(";") > first.count(",") else ","
     try:
-        return pd.read_csv(path, sep=separator, dtype=str, skipinitialspace=True)
+        frame = pd.read_csv(
+            path, sep=separator, dtype=str, skipinitialspace=True, skiprows=comments
+        )
+        frame.attrs["first_line"] = comments + 2
+        return frame
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise InputError(f"{label}: not a readable table: {' '.join(str(exc).split())}") from exc
     except pd.errors.EmptyDataError:

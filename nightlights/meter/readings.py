@@ -421,7 +421,8 @@ def _read_one(
     elif kind == "gpkg":
         frame, where = read_vector(item), _tables.features_of(label)
     else:
-        frame, where = _tables.read_csv(item, label), _tables.rows_of(label, 2)
+        frame = _tables.read_csv(item, label)
+        where = _tables.rows_of(label, int(frame.attrs.get("first_line", 2)))
     if frame.empty:
         return _no_readings(label)
     if kind == "globe-at-night":

@@ -465,3 +465,26 @@ def _rank_within(night: np.ndarray) -> np.ndarray:
         where = np.flatnonzero(night == k)
         rank[where] = np.arange(where.size)
     return rank
+
+
+def test_naked_eye_reports_of_clouds_are_rejected() -> None:
+    """Globe at Night reports: clear (0) and unknown (NaN) cover kept, any cloud rejected; a
+    looser cloud_cover_limit keeps a quarter-clouded report."""
+    midnight = datetime(2026, 1, 18, 22, 0, tzinfo=UTC)  # new Moon, dark at 60 N
+    table = _readings([midnight] * 4, 24.9, 60.2, station=["a", "b", "c", "d"], instrument="eye")
+    table["cloud_cover"] = [0.0, np.nan, 0.25, 0.75]
+    selected = select_readings(table)
+    assert selected["reason"].tolist() == ["", "", "cloud", "cloud"]
+    looser = select_readings(table, cloud_cover_limit=0.25)
+    assert looser["reason"].tolist() == ["", "", "", "cloud"]
+
+
+def test_a_selection_without_reasons_is_kept() -> None:
+    """A table selected elsewhere (``kept`` without ``reason``) keeps its selection."""
+    midnight = datetime(2026, 1, 18, 22, 0, tzinfo=UTC)
+    times = [midnight + timedelta(minutes=5 * i) for i in range(6)]
+    table = _readings(times, 24.9, 60.2, magnitude=[20.0, 20.0, 20.0, 18.0, 18.0, 18.0])
+    table["kept"] = [True, True, True, False, False, False]
+    values = station_values(table)
+    assert values["magnitude"].iloc[0] == pytest.approx(20.0, abs=0.01)
+    assert values["n_readings"].iloc[0] == 3

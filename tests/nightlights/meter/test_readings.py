@@ -533,3 +533,54 @@ def test_reading_columns_document_dtype_unit_and_meaning():
     for column, entry in READING_COLUMNS.items():
         assert len(entry) == 3 and entry[0] and entry[2], column
     assert READING_COLUMNS["magnitude"][1] == "mag arcsec-2"
+
+
+@pytest.mark.parametrize(
+    ("line", "elevation", "azimuth"),
+    [
+        ("0.0, 90.0 - 90.0", 90.0, 0.0),  # the TESS-W network's template: a difference
+        ("120.0, 90.0 - 60.0", 60.0, 120.0),
+        ("0,0 (Zenith)", 90.0, 0.0),
+    ],
+)
+def test_measurement_direction_forms(tmp_path, line, elevation, azimuth):
+    text = TESS_W.read_text().replace(
+        "# Measurement direction per channel: (0.0, 0.0)",
+        f"# Measurement direction per channel: {line}",
+    )
+    path = tmp_path / "tess.dat"
+    path.write_text(text)
+    frame = read_readings(path)
+    assert frame["pointing_elevation"].unique().tolist() == [elevation]
+    assert frame["pointing_azimuth"].unique().tolist() == [azimuth]
+
+
+@pytest.mark.parametrize(
+    ("line", "fragment"), [("1, 2, 3", "expected 'AZIMUTH, ZENITH ANGLE'"), ("0, 120", "0-90")]
+)
+def test_bad_measurement_direction_refused(tmp_path, line, fragment):
+    text = TESS_W.read_text().replace(
+        "# Measurement direction per channel: (0.0, 0.0)",
+        f"# Measurement direction per channel: {line}",
+    )
+    path = tmp_path / "tess.dat"
+    path.write_text(text)
+    with pytest.raises(InputError, match=fragment):
+        read_readings(path)
+
+
+def test_altitude_column_is_not_a_pointing(tmp_path):
+    """A table's 'altitude' is a site height: ignored, the meter points at the zenith."""
+    path = tmp_path / "sites.csv"
+    path.write_text(
+        "lon,lat,time,magnitude,instrument,altitude\n24.9,60.2,2026-01-18T21:00:00Z,20.1,sqm,25\n"
+    )
+    assert read_readings(path)["pointing_elevation"].tolist() == [90.0]
+
+
+def test_commented_table_is_a_table(tmp_path):
+    path = tmp_path / "commented.csv"
+    path.write_text(
+        "# my meters\nlon,lat,time,magnitude,instrument\n24.9,60.2,2026-01-18T21:00:00Z,20.1,sqm\n"
+    )
+    assert len(read_readings(path)) == 1

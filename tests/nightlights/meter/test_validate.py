@@ -394,3 +394,30 @@ def test_share_needs_two_bands() -> None:
             calibrate=("share",),
             progress=False,
         )
+
+
+def test_a_given_selection_is_kept(cache: Path) -> None:
+    """Readings already selected (``kept``, e.g. with the user's own limits) are not selected
+    again with the default limits: twilight readings marked kept are used."""
+    from nightlights.errors import EmptyInputError
+    from nightlights.meter import select_readings, sky_conditions
+
+    station = station_table(1, "sqm-l", seed=2).iloc[0]
+    twilight = pd.date_range("2026-01-18T15:00", periods=6, freq="10min", tz="UTC")
+    frame = pd.DataFrame(
+        {
+            "station": "dusk",
+            "time": twilight,
+            "magnitude": 19.0,
+            "instrument": "sqm-l",
+            "lon": station["lon"],
+            "lat": station["lat"],
+        }
+    )
+    readings = read_readings(frame)
+    scene = Scene(emission(), turbidity=2.0, cache_dir=cache, **GRID)
+    with pytest.raises(EmptyInputError, match="sun"):
+        validate(scene, readings, natural="typical", progress=False)
+    mine = select_readings(sky_conditions(readings), sun_limit=0.0)
+    result = validate(scene, mine, natural="typical", progress=False)
+    assert result.stations["station"].tolist() == ["dusk"]
