@@ -32,7 +32,6 @@ References
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time as _time
 import warnings
@@ -51,6 +50,13 @@ from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputE
 from nightlights.io import Raster, as_raster
 from nightlights.io.jsonfile import dumps_json
 from nightlights.io.outputs import OutputSet, refuse_replacing_inputs
+from nightlights.meter._variants import (
+    TURBIDITY_GRID,
+    low_angle_band,
+    low_angle_share,
+    scene_turbidity,
+    turbidity_scenes,
+)
 from nightlights.meter.calibrate import (
     LEAVE_ONE_OUT,
     Calibration,
@@ -62,7 +68,7 @@ from nightlights.meter.calibrate import (
 from nightlights.meter.natural import natural_reading, natural_readings
 from nightlights.sky.instruments import Instrument, angular_weights, get_instrument
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
-from nightlights.sky.scene import DEFAULT_TURBIDITY, KernelInput, Scene
+from nightlights.sky.scene import KernelInput, Scene
 
 __all__ = [
     "METHODS",
@@ -90,11 +96,6 @@ OUTPUT_FILES = {
 }
 #: The stations layer's name in its GeoPackage.
 STATIONS_LAYER = "stations"
-#: Turbidities a turbidity calibration tabulates the artificial sky at, relative to the
-#: scene's (a darkness map each); the fit interpolates in ln A between them [1].
-TURBIDITY_GRID = (-1.0, -0.5, 0.0, 0.5, 1.0, 2.0)
-#: Lowest turbidity tabulated (Preetham's model starts at 2; the kernels accept lower) [1].
-MIN_TURBIDITY = 1.2
 
 #: The stations layer's fields beyond the station table's: what the model predicts.
 STATION_FIELDS: dict[str, str] = {
@@ -238,12 +239,12 @@ def validate(
                 f"calibrate={list(parameters)!r}; expected 'scale', optionally with "
                 f"{', '.join(repr(p) for p in PARAMETERS[1:])}"
             )
-    share = _low_angle_share(emission, scene.label) if "share" in parameters else None
+    share = low_angle_share(emission, scene.label) if "share" in parameters else None
     scene = scene.replace(emission=emission)
     start = _time.perf_counter()
     measured = stations["magnitude"].to_numpy(dtype=float)
     natural_values = _natural(stations, natural)
-    base = _scene_turbidity(scene)
+    base = scene_turbidity(scene)
     artificial = _artificial(scene, stations, height, spectrum, method, progress)
     stations = stations.assign(
         measured=measured,
@@ -258,7 +259,7 @@ def validate(
         grid = None
         tabulated = [(base, scene)]
         if "turbidity" in parameters:
-            tabulated = _turbidity_scenes(scene, turbidities, kernels, base)
+            tabulated = turbidity_scenes(scene, turbidities, kernels, base)
             grid = np.array([t for t, _ in tabulated])
 
         def readings(emission_of: Any) -> FloatArray:
@@ -271,7 +272,7 @@ def validate(
         table = artificial if grid is None else readings(lambda other: other)
         low = None
         if share is not None:
-            low = readings(lambda other: other.replace(emission=_low_angle_band(emission)))
+            low = readings(lambda other: other.replace(emission=low_angle_band(emission)))
         model = Model(
             measured,
             table,
@@ -510,75 +511,6 @@ def _emission_spectrum(scene: Scene) -> str:
     from nightlights.sky.instrument_units import DEFAULT_SPECTRUM, emission_spectrum
 
     return emission_spectrum(scene.emission) or DEFAULT_SPECTRUM
-
-
-def _low_angle_share(emission: Raster, label: str) -> float:
-    """The share of an emission's second band (its low-angle, direct-uplight band) in its flux."""
-    if emission.count != 2:
-        raise InputError(
-            f"calibrate='share' fits the share of the low-angle band of a two-band emission; "
-            f"{label} has {emission.count} band{'s' if emission.count > 1 else ''}"
-        )
-    flux = np.nansum(emission.data, axis=(1, 2))
-    if not (flux[0] > 0 and flux[1] > 0):
-        raise InputError(
-            f"calibrate='share': {label} has no flux in one of its bands ({flux[0]:.3g}, "
-            f"{flux[1]:.3g}); both are needed to fit their shares"
-        )
-    return float(flux[1] / flux.sum())
-
-
-def _low_angle_band(emission: Raster) -> Raster:
-    """The emission with its first band dark: what the low-angle band alone lights."""
-    data = emission.data.copy()
-    data[0] = 0.0
-    return dataclasses.replace(emission, data=data)
-
-
-def _scene_turbidity(scene: Scene) -> float:
-    """The scene's turbidity: given, else its kernel's, else the default [1]."""
-    if scene.turbidity is not None:
-        return float(scene.turbidity)
-    table = scene.kernel_dataset()
-    if table is not None and "turbidity" in table.attrs:
-        return float(table.attrs["turbidity"])
-    return DEFAULT_TURBIDITY
-
-
-def _turbidity_scenes(
-    scene: Scene,
-    turbidities: Sequence[float] | None,
-    kernels: Sequence[KernelInput] | None,
-    base: float,
-) -> list[tuple[float, Scene]]:
-    """The scene at each turbidity a turbidity calibration tabulates, ascending."""
-    if kernels is not None:
-        from nightlights.sky.store import load_kernel
-
-        tabulated = []
-        for kernel in kernels:
-            table = load_kernel(kernel)
-            tabulated.append(
-                (float(table.attrs["turbidity"]), scene.replace(kernel=table, turbidity=None))
-            )
-        tabulated.sort(key=lambda pair: pair[0])
-        values = [t for t, _ in tabulated]
-        if len(values) < 2 or len(set(values)) < len(values):
-            raise InputError(
-                f"kernels at turbidities {values}; a turbidity calibration needs kernels at two "
-                "or more different turbidities"
-            )
-        return tabulated
-    if turbidities is None:
-        grid = np.array([base + step for step in TURBIDITY_GRID])
-        grid = grid[grid >= MIN_TURBIDITY]
-    else:
-        grid = np.unique(np.asarray(turbidities, dtype=float))
-        if grid.size < 2 or not np.all(np.isfinite(grid)) or grid[0] <= 0:
-            raise InputError(
-                f"turbidities={list(turbidities)!r}; expected two or more finite values > 0"
-            )
-    return [(float(t), scene.replace(turbidity=float(t), kernel=None)) for t in grid]
 
 
 # --- outputs ----------------------------------------------------------------------------------
