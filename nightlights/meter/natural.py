@@ -38,7 +38,13 @@ from nightlights.nightsky.background import (
     natural_sky_luminance,
     starlight_density,
 )
-from nightlights.sky.instruments import Instrument, angular_weights, colour_term, get_instrument
+from nightlights.sky.instruments import (
+    NATURAL_SKY,
+    Instrument,
+    angular_weights,
+    get_instrument,
+    instrument_luminance,
+)
 
 __all__ = [
     "LATITUDE_STEP",
@@ -52,7 +58,7 @@ __all__ = [
 
 #: The spectrum whose colour term the natural sky takes (see
 #: :func:`~nightlights.sky.instruments.colour_term`).
-NATURAL_SPECTRUM = "natural_sky"
+NATURAL_SPECTRUM = NATURAL_SKY
 #: Spacing of the grid of directions the natural sky is read on [deg]: the narrowest field
 #: (TESS-W, 17 deg FWHM) spans eight pixels across, and the natural sky varies on scales of
 #: tens of degrees (the airglow's van Rhijn brightening, the Milky Way smoothed by 8 deg).
@@ -61,15 +67,15 @@ SKY_GRID_STEP = 2.0
 #: smoothing (8 deg), a quarter of the cost of the renderer's 4 deg nodes.
 STARLIGHT_GRID_STEP = 6.0
 #: Many readings share one natural sky when their local sidereal times fall in one step of this
-#: width [deg] (8 minutes of time) and their latitudes in one of :data:`LATITUDE_STEP`: the
+#: width [deg] (32 minutes of time) and their latitudes in one of :data:`LATITUDE_STEP`: the
 #: moonless natural sky depends on the place and time only through the sidereal time and the
-#: latitude (the Milky Way's position), and moves by a quarter of the starlight's 8 deg
-#: smoothing within a step. Against each reading's own sky the shared one was within 0.001 mag
-#: arcsec-2 for the SQM, SQM-L and TESS-W at 60 readings of a March night over 20-28 E,
-#: 58-64 N (tested within 0.01).
-SIDEREAL_STEP = 2.0
+#: latitude (the Milky Way's position), smoothed by the starlight's 8 deg. Chosen by
+#: ``benchmarks/bench_meter_natural.py``: against each reading's own sky on a 0.5 deg grid, 200
+#: readings of a March night over 20-28 E, 58-64 N are within 0.0034 mag arcsec-2 (SQM-L) and
+#: 0.0023 (SQM) at 8 deg, 5 times faster than at 2 deg (0.0009), far below a meter's 0.05-0.1.
+SIDEREAL_STEP = 8.0
 #: See :data:`SIDEREAL_STEP` [deg].
-LATITUDE_STEP = 1.0
+LATITUDE_STEP = 4.0
 
 
 @functools.cache
@@ -147,7 +153,7 @@ def natural_reading(
     luminance = natural_sky_luminance(el, starlight=starlight, sky=sky)["total"]
     weights = angular_weights(device, elevation, azimuth, pointing=pointing)
     reading = float(np.sum(weights * luminance))
-    return reading * 10.0 ** (-0.4 * colour_term(device, NATURAL_SPECTRUM))
+    return float(instrument_luminance(reading, device, NATURAL_SPECTRUM, band="V"))
 
 
 def natural_readings(

@@ -93,6 +93,10 @@ READING_COLUMNS: dict[str, tuple[str, str, str]] = {
 #: The instruments a reading may name: the keys of ``nightlights.sky.instruments.INSTRUMENTS``.
 INSTRUMENT_NAMES = tuple(INSTRUMENTS)
 
+#: The ``Device type`` a community-standard file names each photometer by (what
+#: :func:`write_ida` writes; a type read is matched by its prefix: SQM-LE, SQM-LU are lensed).
+DEVICE_TYPES = {"sqm": "SQM", "sqm-l": "SQM-L", "tess-w": "TESS-W"}
+
 #: The formats :func:`read_readings` reads.
 FORMATS = ("ida", "csv", "gpkg", "globe-at-night")
 
@@ -292,7 +296,7 @@ def write_ida(
     _tables.zone_of(time_zone)
     stations = pd.unique(readings["station"])
     instruments = pd.unique(readings["instrument"])
-    devices = {"sqm": "SQM", "sqm-l": "SQM-L", "tess-w": "TESS-W"}
+    devices = DEVICE_TYPES
     if len(stations) != 1 or len(instruments) != 1 or instruments[0] not in devices:
         raise InputError(
             f"write_ida: {len(stations)} stations, instruments {list(instruments)}; expected one "
@@ -441,15 +445,11 @@ def _no_readings(label: str) -> gpd.GeoDataFrame:
 
 
 def _instrument_of_device(device_type: str) -> str | None:
-    """The instrument a ``Device type`` names: SQM-L* lensed, other SQM wide, TESS TESS-W."""
+    """The instrument a ``Device type`` names (:data:`DEVICE_TYPES` as prefixes, the longest
+    first): SQM-L* lensed, other SQM wide, TESS* the TESS-W."""
     name = device_type.strip().upper()
-    if name.startswith("TESS"):
-        return "tess-w"
-    if name.startswith("SQM-L"):
-        return "sqm-l"
-    if name.startswith("SQM"):
-        return "sqm"
-    return None
+    prefixes = {"tess-w": "TESS", "sqm-l": DEVICE_TYPES["sqm-l"], "sqm": DEVICE_TYPES["sqm"]}
+    return next((key for key, prefix in prefixes.items() if name.startswith(prefix)), None)
 
 
 def _read_ida(path: Path, label: str, instrument: str | None) -> gpd.GeoDataFrame:

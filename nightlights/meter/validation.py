@@ -38,7 +38,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import geopandas as gpd
 import numpy as np
@@ -66,7 +66,7 @@ from nightlights.meter.calibrate import (
     residual_statistics,
 )
 from nightlights.meter.natural import natural_reading, natural_readings
-from nightlights.sky.instruments import Instrument, angular_weights, get_instrument
+from nightlights.sky.instruments import Instrument, get_instrument
 from nightlights.sky.observer import OBSERVER_HEIGHT, Observer
 from nightlights.sky.scene import KernelInput, Scene
 
@@ -491,20 +491,18 @@ def _from_panorama(
 ) -> float:
     """A station's own panorama read with the instrument's response (the reference)."""
     from nightlights.sky.forward import skyglow_panorama
-    from nightlights.sky.instruments import instrument_luminance
+    from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
 
     observer = Observer(float(row["x"]), float(row["y"]), height=height)
-    sky = skyglow_panorama(scene, observer, progress=False)
-    panorama = sky.panorama
-    luminance = np.nan_to_num(np.asarray(panorama["luminance"].values, dtype=float))
-    elevation = np.asarray(panorama["elevation"].values, dtype=float)
-    azimuth = np.asarray(panorama["azimuth"].values, dtype=float)
-    if elevation[0] > elevation[-1]:
-        elevation, luminance = elevation[::-1], luminance[::-1]
-    weights = angular_weights(device, elevation, azimuth, pointing=pointing)
-    reading = float(np.sum(weights * luminance))
-    light = spectrum if spectrum is not None else _emission_spectrum(scene)
-    return float(instrument_luminance(reading, device, light))
+    panorama = skyglow_panorama(scene, observer, progress=False).panorama
+    sky = cast(
+        "InstrumentSky",
+        instrument_sky(device, spectrum=spectrum, emission=scene.emission, label=scene.label),
+    )  # not None: an instrument is given
+    weights = sky.panorama_weights(
+        panorama["elevation"].values, panorama["azimuth"].values, pointing=pointing
+    )
+    return sky.read(panorama["luminance"].values, weights)
 
 
 def _emission_spectrum(scene: Scene) -> str:

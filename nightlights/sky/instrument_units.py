@@ -53,6 +53,7 @@ from nightlights.errors import InputError
 from nightlights.io import Raster
 from nightlights.io.raster import LitCells
 from nightlights.sky.instruments import (
+    NATURAL_SKY,
     Instrument,
     angular_weights,
     elevation_weights,
@@ -78,7 +79,7 @@ __all__ = [
 DEFAULT_SPECTRUM = "LED_4000K"
 #: The spectrum name of the natural night sky for the colour term
 #: (:func:`~nightlights.sky.instruments.colour_term`).
-NATURAL_SKY_SPECTRUM = "natural_sky"
+NATURAL_SKY_SPECTRUM = NATURAL_SKY
 #: Dataset tag of an emission raster naming its light's spectrum (written by
 #: :func:`~nightlights.ground.upward.emission_from_viirs`).
 SPECTRUM_TAG = "spectrum"
@@ -145,7 +146,13 @@ class InstrumentSky:
         weights[order] = elevation_weights(self.instrument, el[order])
         return weights
 
-    def panorama_weights(self, elevation: ArrayLike, azimuth: ArrayLike) -> FloatArray:
+    def panorama_weights(
+        self,
+        elevation: ArrayLike,
+        azimuth: ArrayLike,
+        *,
+        pointing: tuple[float, float] = (90.0, 0.0),
+    ) -> FloatArray:
         """``(n_el, n_az)`` angular weights over a panorama's pixels, in its row order [1].
 
         Parameters
@@ -154,12 +161,14 @@ class InstrumentSky:
             Row pixel centres, zenith first (the panorama's order) or ascending [deg].
         azimuth
             Column pixel centres, uniform [deg].
+        pointing
+            Elevation and azimuth the instrument points at [deg].
         """
         el = np.asarray(elevation, dtype=float)
         order = np.argsort(el, kind="stable")
         weights = np.empty((el.size, np.size(azimuth)))
         weights[order] = angular_weights(
-            self.instrument, el[order], np.asarray(azimuth, dtype=float)
+            self.instrument, el[order], np.asarray(azimuth, dtype=float), pointing=pointing
         )
         return weights
 

@@ -41,8 +41,8 @@ def test_milky_way_overhead_brightens_the_reading() -> None:
 
 
 def test_shared_skies_match_each_readings_own() -> None:
-    """200 readings over a night and a region: the shared skies (one per 2 deg of sidereal
-    time and 1 deg of latitude) within 0.01 mag arcsec-2 of each reading's own sky."""
+    """200 readings over a night and a region: the shared skies (one per 8 deg of sidereal
+    time and 4 deg of latitude) within 0.01 mag arcsec-2 of each reading's own sky."""
     rng = np.random.default_rng(0)
     times = pd.Timestamp("2026-03-20T19:00Z") + pd.to_timedelta(rng.uniform(0, 8, 200), "h")
     lon = rng.uniform(20.0, 28.0, 200)
