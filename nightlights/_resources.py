@@ -21,6 +21,7 @@ Examples
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import re
@@ -54,6 +55,8 @@ _CGROUP_LIMITS = (
 _PARAMETER = re.compile(r"[a-z_][a-z0-9_]*=")
 
 _override: int | None = None
+
+log = logging.getLogger(__name__)
 
 
 def parse_size(text: str | int | float, *, source: str = "size") -> int:
@@ -246,6 +249,9 @@ def check_memory(estimate: float, what: str, *, option: str | None = None) -> No
     if math.isfinite(estimate) and estimate <= 0:
         return
     limit = memory_limit()
+    # the estimate each stage checks, for ``-v`` and for the benchmark that charts it against
+    # the measured peak (benchmarks/bench_memory_estimates.py)
+    log.debug("memory estimate: %s needs %.0f B (limit %d B)", what, estimate, limit)
     if math.isfinite(estimate) and estimate <= limit:
         return
     need = (
