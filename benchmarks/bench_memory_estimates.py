@@ -147,8 +147,9 @@ def _utm_raster(path: Path, size: int, *, values: str, seed: int = 0) -> Path:
 
 def measure(sizes: dict[str, list[int]], folder: Path) -> list[dict[str, Any]]:
     """Every stage at every size."""
-    import nightlights as nl
     from bench_irradiance_throughput import scene_frame
+
+    import nightlights as nl
 
     rows: list[dict[str, Any]] = []
 

@@ -10,8 +10,8 @@ that share a floor stand side by side and import each other not at all:
 
 1. base: ``errors`` (the exception root) and ``_typing`` (array and path types).
 2. leaves: ``_validate`` (checks of user input), ``_resources`` (memory bounds), ``_parallel``
-   (Dask helpers), ``_signals`` (Ctrl-C held during compiled work), ``brightness``
-   (sky-brightness units, Bortle, the zenith summary) and
+   (Dask helpers), ``_progress`` (the progress bars' columns), ``_signals`` (Ctrl-C held
+   during compiled work), ``brightness`` (sky-brightness units, Bortle, the zenith summary) and
    ``emission_functions`` (the angular emission shapes and the band tag naming them, the
    vocabulary the ground writes and the sky reads).
 3. io: files in and out (rasters, vectors, styles, terrain).
@@ -210,6 +210,7 @@ FLOORS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "nightlights._validate",
             "nightlights._resources",
             "nightlights._parallel",
+            "nightlights._progress",
             "nightlights._signals",
             "nightlights.brightness",
             "nightlights.emission_functions",

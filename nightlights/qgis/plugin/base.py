@@ -79,9 +79,14 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
                 break
             line = [*command, *arguments]
             feedback.pushCommandInfo(" ".join(_quoted(part) for part in line))
+            words = " ".join(_command_words(arguments))
+            title = f"nightlights {words}"
             if len(steps) > 1:
-                words = " ".join(_command_words(arguments))
-                feedback.setProgressText(f"nightlights {words} ({index + 1} of {len(steps)})")
+                title += f" ({index + 1} of {len(steps)})"
+                feedback.setProgressText(title)
+
+            def remaining(text: str, title: str = title) -> None:
+                feedback.setProgressText(f"{title}: about {text} left")
 
             def progress(fraction: float, index: int = index) -> None:
                 feedback.setProgress(100.0 * (index + fraction) / len(steps))
@@ -92,6 +97,7 @@ class NightlightsAlgorithm(QgsProcessingAlgorithm):
                     on_progress=progress,
                     on_message=lambda line: _log(feedback, line),
                     is_canceled=feedback.isCanceled,
+                    on_remaining=remaining,
                 )
             except (CommandCanceled, CommandError) as exc:
                 raise QgsProcessingException(f"{self.TITLE}: {exc}") from exc

@@ -59,6 +59,8 @@ _ANSI = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]|\x1b[@-Z\\-_]")
 # rich's MofNCompleteColumn or percentage column, followed by its time column
 _STEPS = re.compile(r"(?<![\d/])(\d+)/(\d+)\s+(?:\d+:\d\d:\d\d|-:--:--)")
 _PERCENT = re.compile(r"(?<![\d.])(\d{1,3})%\s+(?:\d+:\d\d:\d\d|-:--:--)")
+# the estimated time left of a bar that shows one (``eta H:MM:SS``)
+_REMAINING = re.compile(r"\beta\s+(\d+:\d\d:\d\d)")
 
 
 class CommandError(Exception):
@@ -101,6 +103,21 @@ def parse_progress(text: str) -> float | None:
     if percent:
         return min(int(percent[-1]) / 100.0, 1.0)
     return None
+
+
+def parse_remaining(text: str) -> str | None:
+    """The estimated time left (``H:MM:SS``) shown by one redraw of a progress bar, or None
+    (no estimate yet, or a bar without one).
+
+    Examples
+    --------
+    >>> parse_remaining("darkness: 40 tiles ━━━━━       3/40 0:00:12 eta 0:02:28")
+    '0:02:28'
+    >>> parse_remaining("darkness: 40 tiles ━━━━━       0/40 0:00:00 eta -:--:--") is None
+    True
+    """
+    found = _REMAINING.findall(_ANSI.sub("", text))
+    return found[-1] if found else None
 
 
 def is_progress_line(text: str) -> bool:
@@ -199,6 +216,7 @@ def run_command(
     on_progress: Callable[[float], None] = lambda fraction: None,
     on_message: Callable[[str], None] = lambda line: None,
     is_canceled: Callable[[], bool] = lambda: False,
+    on_remaining: Callable[[str], None] = lambda text: None,
     env: dict[str, str] | None = None,
     kill_after: float = KILL_AFTER,
 ) -> CommandResult:
@@ -214,6 +232,9 @@ def run_command(
         Called with each line that is not a progress bar (ANSI codes removed).
     is_canceled
         Polled every :data:`POLL_INTERVAL` seconds; True stops the command.
+    on_remaining
+        Called with the estimated time left (``H:MM:SS``) when a bar that shows one
+        changes it (:func:`parse_remaining`).
     env
         Environment of the child (default: :func:`child_environment` of this process's).
     kill_after
@@ -256,7 +277,7 @@ def run_command(
         finished = _wait(process, POLL_INTERVAL)
         if finished:
             reader.join()
-        _report(output, on_progress, on_message)
+        _report(output, on_progress, on_message, on_remaining)
         if finished:
             break
         if not canceled and is_canceled():
@@ -289,6 +310,8 @@ class _Output:
         self.reported = 0
         self.fraction: float | None = None
         self.reported_fraction: float | None = None
+        self.remaining: str | None = None
+        self.reported_remaining: str | None = None
 
     def add(self, segments: list[bytes]) -> None:
         for raw in segments:
@@ -296,11 +319,13 @@ class _Output:
             if not text:
                 continue
             fraction = parse_progress(text)
+            remaining = parse_remaining(text) if fraction is not None else None
             with self.lock:
                 if fraction is None:
                     self.messages.append(text)
                 else:
                     self.fraction = fraction
+                    self.remaining = remaining or self.remaining
 
 
 def _read_output(process: subprocess.Popen[bytes], output: _Output) -> None:
@@ -319,7 +344,10 @@ def _read_output(process: subprocess.Popen[bytes], output: _Output) -> None:
 
 
 def _report(
-    output: _Output, on_progress: Callable[[float], None], on_message: Callable[[str], None]
+    output: _Output,
+    on_progress: Callable[[float], None],
+    on_message: Callable[[str], None],
+    on_remaining: Callable[[str], None] = lambda text: None,
 ) -> None:
     """Pass what arrived since the last call to the callbacks (in the calling thread)."""
     with output.lock:
@@ -327,10 +355,14 @@ def _report(
         output.reported = len(output.messages)
         fraction = output.fraction if output.fraction != output.reported_fraction else None
         output.reported_fraction = output.fraction
+        remaining = output.remaining if output.remaining != output.reported_remaining else None
+        output.reported_remaining = output.remaining
     for line in fresh:
         on_message(line)
     if fraction is not None:
         on_progress(fraction)
+    if remaining is not None:
+        on_remaining(remaining)
 
 
 def _stop(process: subprocess.Popen[bytes], kill_after: float) -> None:

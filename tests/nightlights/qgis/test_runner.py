@@ -20,6 +20,7 @@ from nightlights.qgis.plugin.runner import (
     child_environment,
     find_command,
     parse_progress,
+    parse_remaining,
     run_command,
 )
 
@@ -60,6 +61,38 @@ def test_progress_of_a_real_rich_bar(tmp_path: Path) -> None:
     assert messages == ["starting 4 tiles", "4 tiles -> out.tif"] == result.messages
     assert progress == sorted(progress)
     assert {0.25, 0.5, 0.75, 1.0} <= set(progress)
+
+
+def test_the_toolkits_bar_passes_its_estimated_time_left(tmp_path: Path) -> None:
+    """The bar of the tiled stages (:func:`nightlights._progress.progress_bar`) is read for
+    its fraction and, once rich has an estimate, its time left."""
+    command = _script(
+        tmp_path,
+        """
+        import time
+        from nightlights._progress import progress_bar
+        with progress_bar(True) as bar:
+            task = bar.add_task("darkness: 6 tiles", total=6)
+            for _ in range(6):
+                time.sleep(0.3)
+                bar.advance(task)
+                bar.refresh()
+        """,
+    )
+    progress: list[float] = []
+    left: list[str] = []
+    run_command(command, on_progress=progress.append, on_remaining=left.append)
+    assert {0.5, 1.0} <= set(progress)
+    assert left, "no time left was passed on"
+    assert all(parse_remaining(f"1/6 0:00:01 eta {text}") == text for text in left)
+    assert all(text.startswith("0:00:0") for text in left)  # 6 x 0.3 s in all
+
+
+def test_parse_remaining_reads_the_eta_column_only() -> None:
+    assert parse_remaining("\x1b[2Kdarkness ━━━━  3/40 0:00:12 eta 0:02:28") == "0:02:28"
+    assert parse_remaining("darkness ━━━━  0/40 0:00:00 eta -:--:--") is None
+    assert parse_remaining("kernel ━━━━  1/2 0:00:05") is None  # elapsed time only
+    assert parse_remaining("beta 0:00:01") is None
 
 
 def test_parse_progress_reads_both_rich_columns_and_nothing_else() -> None:
