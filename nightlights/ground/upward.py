@@ -22,20 +22,21 @@ two modules they would import each other's private helpers.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import geopandas as gpd
 import numpy as np
 from affine import Affine
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS
-from rasterio.warp import Resampling, calculate_default_transform, reproject
+from rasterio.warp import calculate_default_transform
 from shapely.geometry import box
 
 from ies import spectra
@@ -44,17 +45,35 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.emission_functions import EMISSION_FUNCTION_TAG, EmissionFunction
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
+from nightlights.ground import _viirs_windows
+from nightlights.ground._viirs_windows import (
+    ArraySource,
+    FileSource,
+    OutputGrid,
+    RadianceSource,
+    scan_source,
+    strips,
+    window_density,
+    window_memory,
+    window_progress,
+)
 from nightlights.ground.checks import (
-    RasterHeader,
+    VIIRS_BYTES_PER_CELL,
     check_finite_raster,
     emission_memory,
     parse_crs,
     raster_header,
-    viirs_memory,
 )
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
-from nightlights.ground.viirs_input import check_radiance_source, clean_radiance, warn_zone_span
+from nightlights.ground.viirs_input import (
+    ZONE_WIDTH,
+    RadianceScan,
+    RasterMetadata,
+    check_radiance_source,
+    warn_zone_span,
+    zone_length_error,
+)
 from nightlights.io import (
     OutputSet,
     Raster,
@@ -64,6 +83,7 @@ from nightlights.io import (
     raster_on_grid,
     source_label,
 )
+from nightlights.io.streamed import CACHE_MB, CogWriter
 from nightlights.io.styles import PRODUCT_TAG
 
 if TYPE_CHECKING:
@@ -79,6 +99,7 @@ __all__ = [
     "emission",
     "emission_from_viirs",
     "flux_density_to_viirs_radiance",
+    "geographic_cell_areas",
     "viirs_radiance_to_flux_density",
 ]
 
@@ -263,29 +284,129 @@ class EmissionResult:
 
     Attributes
     ----------
-    raster
-        Upward luminous flux density [lm m-2]: bands ``reflected`` and ``uplight``
-        (:func:`emission`) or ``upward`` (:func:`emission_from_viirs`); the values of the
-        float32 file.
     path
         The written raster, or ``None`` when no output was asked for.
     total_flux
-        Total upward flux per band [lm].
+        Total upward flux per band [lm]: flux density x cell area, the geodesic area of each
+        cell on a geographic grid (:func:`geographic_cell_areas`).
+    transform
+        Affine transform of the raster's top-left corner [m, or deg on a geographic grid].
+    shape
+        (rows, cols) [cells].
+    crs
+        The raster's CRS: projected, or geographic where a VIIRS raster wider than one UTM
+        zone keeps its own grid (:func:`emission_from_viirs`).
     """
 
-    raster: Raster
-    path: Path | None = None
-    total_flux: Mapping[str, float] = field(default_factory=dict)
+    path: Path | None
+    total_flux: Mapping[str, float]
+    transform: Affine
+    shape: tuple[int, int]
+    crs: CRS
+    _in_memory: Raster | None = field(default=None, repr=False)
+
+    @classmethod
+    def of(
+        cls, raster: Raster, path: Path | None, total_flux: Mapping[str, float]
+    ) -> EmissionResult:
+        """The result of a raster held in memory."""
+        assert raster.crs is not None
+        return cls(path, dict(total_flux), raster.transform, raster.shape, raster.crs, raster)
+
+    @functools.cached_property
+    def raster(self) -> Raster:
+        """Upward luminous flux density [lm m-2]: bands ``reflected`` and ``uplight``
+        (:func:`emission`) or ``upward`` (:func:`emission_from_viirs`); the values of the
+        float32 file.
+
+        A stage that streamed its windows to a file kept no raster: this reads the file
+        (whole, as float64) on first access.
+        """
+        if self._in_memory is not None:
+            return self._in_memory
+        assert self.path is not None
+        return Raster.read(self.path)
+
+    @property
+    def geographic(self) -> bool:
+        """Whether the grid is geographic (cells in degrees, flux density per geodesic area)."""
+        return bool(self.crs.is_geographic)
 
     @property
     def grid(self) -> RasterGrid:
-        """The raster's grid."""
-        return RasterGrid.from_transform(self.raster.transform, self.raster.shape)
+        """The raster's grid (in the CRS's units)."""
+        return RasterGrid.from_transform(self.transform, self.shape)
 
-    @property
-    def crs(self) -> CRS:
-        """The raster's projected CRS."""
-        return self.raster.projected_crs(source="emission")
+
+def geographic_cell_areas(transform: Affine, rows: int, crs: str | CRS) -> FloatArray:
+    """Geodesic area of one cell of each row of a geographic grid, on the CRS's ellipsoid.
+
+    Parameters
+    ----------
+    transform
+        Affine transform of the grid's top-left corner, north up [deg].
+    rows
+        Rows from the transform's top row [1].
+    crs
+        The grid's geographic CRS (its ellipsoid is used).
+
+    Returns
+    -------
+    numpy.ndarray
+        (rows,) area of a cell of each row [m2].
+
+    Raises
+    ------
+    CRSError
+        ``crs`` is not geographic, or the transform is rotated.
+
+    Notes
+    -----
+    A cell between parallels :math:`\\varphi_1 < \\varphi_2` and meridians
+    :math:`\\Delta\\lambda` apart has the area of the same cell on the authalic sphere at the
+    authalic latitudes :math:`\\beta`:
+
+    .. math:: A = R_q^2 \\Delta\\lambda (\\sin\\beta_2 - \\sin\\beta_1)
+        = \\frac{a^2}{2} \\Delta\\lambda (q_2 - q_1),
+
+    .. math:: q(\\varphi) = (1 - e^2) \\left[\\frac{\\sin\\varphi}{1 - e^2\\sin^2\\varphi}
+        - \\frac{1}{2e} \\ln\\frac{1 - e \\sin\\varphi}{1 + e \\sin\\varphi}\\right]
+
+    (Snyder 1987, Eqs. 3-11 to 3-13), exact on the ellipsoid; on a sphere (:math:`e = 0`)
+    :math:`q = 2 \\sin\\varphi`. WGS84's authalic radius :math:`R_q = a \\sqrt{q_p / 2}` is
+    6371007.2 m.
+
+    References
+    ----------
+    Snyder, J. P. (1987). Map Projections: A Working Manual. USGS Prof. Paper 1395, p. 16
+    (Eqs. 3-11, 3-12, 3-13).
+
+    Examples
+    --------
+    >>> from affine import Affine
+    >>> areas = geographic_cell_areas(Affine(1.0, 0, 0, 0, -1.0, 1.0), 1, "EPSG:4326")
+    >>> round(float(areas[0]) / 1e6, 1)  # 1 x 1 deg at the equator [km2]
+    12308.5
+    """
+    geographic = CRS.from_user_input(crs)
+    if not geographic.is_geographic:
+        raise CRSError(f"{geographic.name}: cell areas need a geographic CRS (degrees)")
+    if transform.b or transform.d:
+        raise CRSError(f"transform {tuple(transform)[:6]} is rotated; expected north up")
+    ellipsoid = geographic.ellipsoid
+    assert ellipsoid is not None
+    a = ellipsoid.semi_major_metre
+    flattening = 1.0 / ellipsoid.inverse_flattening if ellipsoid.inverse_flattening else 0.0
+    e = math.sqrt(flattening * (2.0 - flattening))
+    edges = np.radians(np.clip(transform.f + transform.e * np.arange(rows + 1), -90.0, 90.0))
+    sin = np.sin(edges)
+    if e == 0.0:
+        q = 2.0 * sin
+    else:  # Snyder 1987, Eq. 3-12
+        q = (1 - e**2) * (
+            sin / (1 - e**2 * sin**2) - np.log((1 - e * sin) / (1 + e * sin)) / (2 * e)
+        )
+    return np.asarray(0.5 * a**2 * math.radians(abs(transform.a)) * np.abs(np.diff(q)))
 
 
 #: Irradiance pixels aggregated at a time by :func:`emission` (its temporaries: ~ 30 B x
@@ -473,7 +594,7 @@ def emission(
             },
         ),
     )
-    return EmissionResult(result, _write(result, output, outputs), totals)
+    return EmissionResult.of(result, _write(result, output, outputs), totals)
 
 
 def _photopic_band(
@@ -616,6 +737,7 @@ def emission_from_viirs(
     target_crs: str | CRS | None = None,
     band: tuple[float, float] = DNB_BAND,
     emission_function: str = "lambertian",
+    progress: bool = True,
 ) -> EmissionResult:
     """Upward luminous flux density from a VIIRS Day/Night Band radiance raster.
 
@@ -630,10 +752,13 @@ def emission_from_viirs(
     spectrum
         Spectrum of the city's light (``ies.spectra.SPDS``).
     resolution
-        Output cell size [m]; default GDAL's estimate of the native pixel size.
+        Output cell size of a projected output [m]; default GDAL's estimate of the native
+        pixel size.
     target_crs
-        Projected output CRS; default the input's CRS if projected in metres, else the
-        local UTM zone of the raster's centre.
+        Projected output CRS; default the input's CRS if projected in metres, the input's own
+        geographic grid if it spans more than one UTM zone
+        (:data:`~nightlights.ground.viirs_input.ZONE_WIDTH` of longitude), else the local UTM
+        zone of the raster's centre.
     band
         Flat DNB pass band [nm].
     emission_function
@@ -643,24 +768,28 @@ def emission_from_viirs(
         band's ``emission_function`` tag, which the skyglow stage reads. Garstang's
         F = G = 0.15 gives 1 / 0.459 = 2.18 times the Lambertian flux: its low-angle lobe is
         invisible from nadir.
+    progress
+        Show a progress bar (with the time remaining) over the windows.
 
     Returns
     -------
     EmissionResult
-        One band ``upward`` [lm m-2] and its total flux [lm].
+        One band ``upward`` [lm m-2] and its total flux [lm]. With a raster file in and an
+        output file, the windows were streamed to the file and the result holds no raster:
+        its ``raster`` reads the file on first access.
 
     Raises
     ------
     CRSError
         The raster has no CRS, or ``target_crs`` is not a projected CRS.
     InputError
-        Bad resolution, a spectrum without power in the band, infinite radiance, no
-        radiance at all, an output grid that gets no value, or an input that is recognisably
-        not radiance (a raster of this toolkit, a photometric unit:
+        Bad resolution (or one given for a geographic output), a spectrum without power in the
+        band, infinite radiance, no radiance at all, an output grid that gets no value, or an
+        input that is recognisably not radiance (a raster of this toolkit, a photometric unit:
         :func:`~nightlights.ground.viirs_input.check_radiance_source`).
     ResourceError
-        The output grid (``resolution``) would need more memory than allowed (checked
-        before allocating).
+        A window, or the output grid held in memory when no output file is written, would
+        need more memory than allowed (checked before reading).
     OutputError
         ``output`` cannot be written (checked before reading).
 
@@ -672,10 +801,19 @@ def emission_from_viirs(
     file does not declare (65535, -999, 1e20, ...) are nodata, and radiances above
     :data:`~nightlights.ground.viirs_input.MAX_PLAUSIBLE_RADIANCE` are kept; both with a
     :class:`~nightlights.errors.DataQualityWarning`
-    (:func:`~nightlights.ground.viirs_input.clean_radiance`), as is a raster wider than one
-    UTM zone projected into one CRS
+    (:func:`~nightlights.ground.viirs_input.clean_radiance`), one per kind for the whole
+    raster, as is a raster wider than one UTM zone projected into one CRS
     (:func:`~nightlights.ground.viirs_input.warn_zone_span`). Resampling uses the area
     average, so a coarser output conserves flux.
+
+    The raster is computed in windows of the output grid
+    (:mod:`nightlights.ground._viirs_windows`), each reading only the source pixels it needs
+    and written to ``output`` as it is done (:class:`~nightlights.io.CogWriter`): memory is
+    bounded by a window, whatever the raster's size. A geographic raster wider than one UTM
+    zone keeps its grid by default: its cells hold flux density [lm m-2] as a projected
+    grid's do (dataset tags ``grid`` = ``geographic``, ``flux`` = ``density``), and its flux
+    is the density times each cell's geodesic area (:func:`geographic_cell_areas`), which
+    the darkness stage uses in its own local projections.
 
     Examples
     --------
@@ -684,12 +822,14 @@ def emission_from_viirs(
     >>> from nightlights.io import Raster
     >>> dnb = Raster(np.full((1, 4, 4), 20.0), Affine(450, 0, 500_000, 0, -450, 6_700_000),
     ...              "EPSG:32635", ("radiance",), ("nW cm-2 sr-1",))
-    >>> result = emission_from_viirs(dnb, spectrum="LED_4000K")
+    >>> result = emission_from_viirs(dnb, spectrum="LED_4000K", progress=False)
     >>> result.raster.descriptions, result.raster.shape
     (('upward',), (4, 4))
     >>> round(float(result.raster.data[0, 0, 0]), 4)  # [lm m-2]
     0.2543
     """
+    import rasterio
+
     label = source_label(viirs, "VIIRS raster")
     function = EmissionFunction.parse(emission_function, source="emission_function")
     zenith_intensity = float(function.intensity(1.0))
@@ -701,59 +841,10 @@ def emission_from_viirs(
     if resolution is not None:
         resolution = check_resolution(resolution)
     target_crs = parse_crs(target_crs, option="target_crs")
-    outputs = None if output is None else OutputSet(output, inputs={"viirs": viirs})
-    header = raster_header(viirs)
-    if header is not None and header.crs is not None:
-        _check_viirs_memory(header, resolution, target_crs, label)
-    source = as_raster(viirs)
-    check_radiance_source(source, label)
-    radiance = source.data[0]
-    src_crs = source.crs
-    src_transform = source.transform
-    (height, width), bounds = source.shape, source.bounds
-    if src_crs is None:
-        raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
-    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
-    radiance = clean_radiance(radiance, label)
-    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
-    negative = radiance < 0
-    if negative.any():
-        warnings.warn(
-            f"{label}: {negative.sum()} pixels have negative radiance (min "
-            f"{np.nanmin(radiance):.3g} nW cm-2 sr-1); set to 0",
-            DataQualityWarning,
-            stacklevel=2,
-        )
-        radiance = np.where(negative, 0.0, radiance)
+    if output is not None:
+        OutputSet(output, inputs={"viirs": viirs})  # checked before reading
     efficacy = dnb_luminous_efficacy(spectrum, band=band)
-    density = viirs_radiance_to_flux_density(radiance, efficacy, zenith_intensity=zenith_intensity)
-    target = _viirs_target_crs(src_crs, bounds, target_crs, label)
-    grid = _viirs_grid(src_crs, src_transform, (height, width), bounds, target, resolution)
-    if grid is None:
-        out, transform = density, src_transform
-    else:
-        if target != src_crs:
-            warn_zone_span(src_crs, bounds, target, label)
-        transform, rows, cols = grid
-        out = np.full((rows, cols), np.nan)
-        reproject(
-            density,
-            out,
-            src_transform=src_transform,
-            src_crs=src_crs.to_wkt(),
-            src_nodata=np.nan,
-            dst_transform=transform,
-            dst_crs=target.to_wkt(),
-            dst_nodata=np.nan,
-            resampling=Resampling.average,
-        )
-    if not np.isfinite(out).any():
-        raise InputError(
-            f"{label}: no output cell of {abs(transform.a):.4g} m gets a value from the raster "
-            f"({height} x {width} pixels); expected a resolution= finer than the raster's extent"
-        )
-    pixel_area = abs(transform.a * transform.e)
-    total = float(np.nansum(out) * pixel_area)
+    factor = np.pi * NANOWATT_PER_CM2 * efficacy * ((1.0 / math.pi) / zenith_intensity)
     tags = {
         PRODUCT_TAG: "emission",
         "nightlights_stage": "emission_from_viirs",
@@ -761,28 +852,205 @@ def emission_from_viirs(
         "spectrum": spectrum,
         "dnb_band_nm": f"{band[0]}-{band[1]}",
         "dnb_luminous_efficacy_lm_per_W": efficacy,
-        "factor_lm_m2_per_nW_cm2_sr": np.pi
-        * NANOWATT_PER_CM2
-        * efficacy
-        * ((1.0 / math.pi) / zenith_intensity),
+        "factor_lm_m2_per_nW_cm2_sr": factor,
+        EMISSION_FUNCTION_TAG: function.tag,
+        FLUX_TAG: "density",
+    }
+    band_tags = {
+        "quantity": "upward luminous flux density",
+        "model": f"VIIRS DNB, {function.tag}",
         EMISSION_FUNCTION_TAG: function.tag,
     }
-    result = Raster(
-        _as_written(out),
-        transform,
-        target,
-        descriptions=("upward",),
-        units=("lm m-2",),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=(
-            {
-                "quantity": "upward luminous flux density",
-                "model": f"VIIRS DNB, {function.tag}",
-                EMISSION_FUNCTION_TAG: function.tag,
-            },
+    run = _ViirsRun(
+        label,
+        lambda radiance: viirs_radiance_to_flux_density(
+            radiance, efficacy, zenith_intensity=zenith_intensity
         ),
+        resolution,
+        target_crs,
+        progress,
     )
-    return EmissionResult(result, _write(result, output, outputs), {"upward": total})
+    if not isinstance(viirs, (str, os.PathLike)):
+        raster = as_raster(viirs)
+        source = ArraySource(raster.data[0], raster.transform, _source_crs(raster.crs, label))
+        return run.in_memory(source, raster, output, tags, band_tags)
+    path = Path(viirs)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    try:
+        with rasterio.Env(GDAL_CACHEMAX=CACHE_MB), rasterio.open(path) as dataset:
+            crs = None if dataset.crs is None else CRS.from_user_input(dataset.crs.to_wkt())
+            source_file = FileSource(dataset, dataset.transform, _source_crs(crs, label))
+            if output is None:
+                return run.in_memory(source_file, source_file, None, tags, band_tags)
+            return run.streamed(source_file, Path(output), tags, band_tags)
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputError(f"{path}: cannot read raster: {exc}") from exc
+
+
+#: Dataset tag naming the kind of grid of an emission raster: ``geographic`` (cells in
+#: degrees, of unequal area) or ``projected``.
+GRID_TAG = "grid"
+#: Dataset tag naming what an emission raster's cells hold: ``density`` (flux per unit
+#: ground area [lm m-2], on either kind of grid; a cell's flux is density x its area, the
+#: geodesic area on a geographic grid).
+FLUX_TAG = "flux"
+
+
+def _source_crs(crs: CRS | None, label: str) -> CRS:
+    """The VIIRS raster's CRS; refuse a raster without one."""
+    if crs is None:
+        raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
+    return crs
+
+
+@dataclass(frozen=True)
+class _ViirsRun:
+    """One conversion of :func:`emission_from_viirs`: its options and window loop."""
+
+    label: str
+    density: Callable[[FloatArray], FloatArray]
+    resolution: float | None
+    target_crs: CRS | None
+    progress: bool
+
+    def prepare(
+        self, source: RadianceSource, metadata: RasterMetadata, *, in_memory: bool
+    ) -> OutputGrid:
+        """Check the source and the memory; the output grid."""
+        check_radiance_source(metadata, self.label)
+        rows, cols = source.shape
+        bounds = _bounds(source.transform, rows, cols)
+        target = _viirs_target_crs(source.crs, bounds, self.target_crs, self.label)
+        grid = _viirs_grid(
+            source.crs, source.transform, (rows, cols), bounds, target, self.resolution
+        )
+        if target != source.crs:
+            warn_zone_span(source.crs, bounds, target, self.label)
+        out = (
+            OutputGrid(source.transform, rows, cols, target)
+            if grid is None
+            else OutputGrid(grid[0], grid[1], grid[2], target)
+        )
+        _check_viirs_memory(
+            (rows, cols), out, self.label, kept=out.kept(source), in_memory=in_memory
+        )
+        return out
+
+    def run(
+        self,
+        source: RadianceSource,
+        grid: OutputGrid,
+        sink: Callable[[FloatArray, int, int], None],
+    ) -> float:
+        """Compute every window into ``sink``; the total flux [lm]. Warns and raises once."""
+        size = _viirs_windows.WINDOW_CELLS
+        windows = grid.windows(size)
+        kept = grid.kept(source)
+        scan = RadianceScan()
+        total, lit = 0.0, False
+        with window_progress(self.progress) as bar:
+            if not kept:  # overlapping windows: the checks count the source once, first
+                strips_total = sum(1 for _ in strips(source.shape, size * size))
+                task = bar.add_task("checking radiance", total=strips_total)
+                scan_source(source, scan, window=size, advance=lambda: bar.advance(task))
+                scan.report(self.label, stacklevel=5, negative=True)
+            task = bar.add_task("emission windows", total=len(windows))
+            for window in windows:
+                values = window_density(
+                    source, grid, window, scan if kept else RadianceScan(), self.density
+                )
+                total += _window_flux(values, grid, window)
+                lit = lit or bool(np.isfinite(values).any())
+                sink(values, window[0], window[1])
+                bar.advance(task)
+        if kept:
+            scan.report(self.label, stacklevel=5, negative=True)
+        if not lit:
+            raise InputError(
+                f"{self.label}: no output cell of {abs(grid.transform.a):.4g} "
+                f"{'deg' if grid.crs.is_geographic else 'm'} gets a value from the raster "
+                f"({source.shape[0]} x {source.shape[1]} pixels); expected a resolution= finer "
+                "than the raster's extent"
+            )
+        return total
+
+    def in_memory(
+        self,
+        source: RadianceSource,
+        metadata: RasterMetadata,
+        output: str | os.PathLike[str] | None,
+        tags: dict[str, Any],
+        band_tags: dict[str, str],
+    ) -> EmissionResult:
+        """The windows assembled in memory (and written whole when ``output`` is given)."""
+        grid = self.prepare(source, metadata, in_memory=True)
+        out = np.full((grid.rows, grid.cols), np.nan)
+
+        def sink(values: FloatArray, row: int, col: int) -> None:
+            out[row : row + values.shape[0], col : col + values.shape[1]] = values
+
+        total = self.run(source, grid, sink)
+        result = Raster(
+            _as_written(out),
+            grid.transform,
+            grid.crs,
+            descriptions=("upward",),
+            units=("lm m-2",),
+            tags={key: str(value) for key, value in _grid_tags(tags, grid, total).items()},
+            band_tags=(band_tags,),
+        )
+        outputs = None if output is None else OutputSet(output)
+        return EmissionResult.of(result, _write(result, output, outputs), {"upward": total})
+
+    def streamed(
+        self,
+        source: FileSource,
+        output: Path,
+        tags: dict[str, Any],
+        band_tags: dict[str, str],
+    ) -> EmissionResult:
+        """The windows written to ``output`` as they are done; the result holds no raster."""
+        grid = self.prepare(source, source, in_memory=False)
+        writer = CogWriter(
+            output,
+            shape=(1, grid.rows, grid.cols),
+            transform=grid.transform,
+            crs=grid.crs,
+            descriptions=("upward",),
+            units=("lm m-2",),
+            band_tags=(band_tags,),
+            tags=tags,
+        )
+        with writer:
+            total = self.run(
+                source, grid, lambda values, row, col: writer.write(values[None], row=row, col=col)
+            )
+            writer.update_tags(**_grid_tags({}, grid, total))
+        return EmissionResult(
+            output, {"upward": total}, grid.transform, (grid.rows, grid.cols), grid.crs
+        )
+
+
+def _grid_tags(tags: Mapping[str, Any], grid: OutputGrid, total: float) -> dict[str, Any]:
+    """``tags`` with the grid's kind and the total flux."""
+    kind = "geographic" if grid.crs.is_geographic else "projected"
+    return {**tags, GRID_TAG: kind, "total_upward_lm": total}
+
+
+def _window_flux(values: FloatArray, grid: OutputGrid, window: tuple[int, int, int, int]) -> float:
+    """Flux of a window of flux density [lm]: density x cell area, geodesic when geographic."""
+    row, _, rows, _ = window
+    if grid.crs.is_geographic:
+        areas = geographic_cell_areas(grid.transform @ Affine.translation(0, row), rows, grid.crs)
+        return float(np.nansum(values, axis=1) @ areas)
+    return float(np.nansum(values) * abs(grid.transform.a * grid.transform.e))
+
+
+def _bounds(transform: Affine, rows: int, cols: int) -> tuple[float, float, float, float]:
+    """(left, bottom, right, top) of a grid."""
+    xs, ys = zip(transform @ (0, 0), transform @ (cols, rows), strict=True)
+    return min(xs), min(ys), max(xs), max(ys)
 
 
 def _write(
@@ -805,6 +1073,14 @@ def _viirs_grid(
     resolution: float | None,
 ) -> tuple[Affine, int, int] | None:
     """The output transform and shape, or None when the input grid is kept as it is."""
+    if target.is_geographic:
+        if resolution is not None:
+            raise InputError(
+                f"resolution={resolution:g} m for a raster that keeps its geographic grid "
+                "(it spans more than one UTM zone); expected no resolution=, or a projected "
+                "target_crs= with it"
+            )
+        return None
     if target == src_crs and (resolution is None or math.isclose(resolution, src_transform.a)):
         return None
     if resolution is not None:
@@ -825,20 +1101,30 @@ def _viirs_grid(
     return transform, int(rows), int(cols)
 
 
+#: Memory of writing the output file window by window [B]: GDAL's block cache
+#: (:data:`~nightlights.io.streamed.CACHE_MB`, shared by the reads of the input), and making
+#: the COG from the scratch file (the overviews, the style's decimated read).
+_WRITER_BYTES = 2 * CACHE_MB * 2**20
+
+
 def _check_viirs_memory(
-    header: RasterHeader, resolution: float | None, target_crs: CRS | None, label: str
+    in_shape: tuple[int, int], grid: OutputGrid, label: str, *, kept: bool, in_memory: bool
 ) -> None:
-    """Refuse a VIIRS conversion whose estimated peak memory is over the limit."""
-    assert header.crs is not None
-    target = _viirs_target_crs(header.crs, header.bounds, target_crs, label)
-    grid = _viirs_grid(
-        header.crs, header.transform, (header.rows, header.cols), header.bounds, target, resolution
+    """Refuse a VIIRS conversion whose estimated peak memory is over the limit.
+
+    One window's working arrays (:func:`~nightlights.ground._viirs_windows.window_memory`),
+    plus the output grid when it is held in memory (the float64 raster and its float32
+    round trip, :data:`~nightlights.ground.checks.VIIRS_BYTES_PER_CELL`), or the writer's
+    when it is streamed to a file.
+    """
+    cells = float(grid.rows) * grid.cols
+    estimate = window_memory(in_shape, grid, window=_viirs_windows.WINDOW_CELLS, kept=kept) + (
+        cells * VIIRS_BYTES_PER_CELL if in_memory else _WRITER_BYTES
     )
-    rows, cols = (header.rows, header.cols) if grid is None else grid[1:]
     check_memory(
-        viirs_memory(header.rows, header.cols, header.count, rows, cols),
-        f"the emission raster of {rows} x {cols} cells from {label}",
-        option="use a coarser resolution=",
+        estimate,
+        f"the emission raster of {grid.rows} x {grid.cols} cells from {label}",
+        option="use a coarser resolution= or write an output file" if in_memory else None,
     )
 
 
@@ -860,6 +1146,8 @@ def _viirs_target_crs(
         if not target.is_projected:
             raise CRSError(f"target CRS {target.to_string()} is not projected")
         return target
+    if src_crs.is_geographic and zone_length_error(src_crs, bounds, src_crs)[0] > ZONE_WIDTH:
+        return src_crs  # its own grid: no single zone fits it
     footprint = gpd.GeoDataFrame(geometry=[box(*bounds)], crs=src_crs)
     projected = ensure_projected(footprint, source=str(source))
     return CRS.from_user_input(projected.crs)
