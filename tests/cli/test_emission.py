@@ -163,7 +163,9 @@ def test_viirs_options_reach_the_stage(fake_stage, viirs: Path, tmp_path: Path) 
     assert len(stage.calls) == 1
 
 
-def test_a_wide_geographic_mosaic_keeps_its_grid(tmp_path: Path) -> None:
+def test_a_wide_geographic_mosaic_keeps_its_grid(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     source = tmp_path / "mosaic.tif"
     with rasterio.open(
         source,
@@ -178,19 +180,24 @@ def test_a_wide_geographic_mosaic_keeps_its_grid(tmp_path: Path) -> None:
     ) as dataset:
         dataset.write(np.full((1, 20, 140), 4.0, np.float32))
     out = tmp_path / "up.tif"
-    result = CliRunner().invoke(cli, ["emission", "viirs", str(source), str(out)])
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, ["emission", "viirs", str(source), str(out)])
     assert result.exit_code == 0, result.output
     assert "geographic grid, WGS 84" in result.output
-    assert "UTM zone" not in result.output  # no zone-span warning
+    assert not [r for r in caplog.records if "DataQualityWarning" in r.getMessage()]
     with rasterio.open(out) as dataset:
         assert dataset.crs.to_epsg() == 4326 and dataset.shape == (20, 140)
         assert dataset.tags()["grid"] == "geographic" and dataset.tags()["flux"] == "density"
     # --target-crs still projects it, with the warning that one zone does not fit it
     projected = tmp_path / "projected.tif"
     args = ["emission", "viirs", str(source), str(projected), "--target-crs", "EPSG:3035"]
-    result = CliRunner().invoke(cli, [*args, "--resolution", "50000"])
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, [*args, "--resolution", "50000"])
     assert result.exit_code == 0, result.output
-    assert "more than one UTM zone" in result.output and "projected grid" in result.output
+    assert "projected grid" in result.output
+    warned = [r.getMessage() for r in caplog.records if "DataQualityWarning" in r.getMessage()]
+    assert len(warned) == 1 and "spans 70 deg of longitude, more than one UTM zone" in warned[0]
+    assert "--target-crs" in warned[0]  # the flag, not the parameter
     # a resolution in metres needs a projected output
     refused = CliRunner().invoke(
         cli, ["emission", "viirs", str(source), str(tmp_path / "r.tif"), "--resolution", "1000"]

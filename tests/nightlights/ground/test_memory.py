@@ -100,7 +100,7 @@ def test_stages_stay_within_twice_their_estimate(tmp_path: Path) -> None:
     )
     viirs = _write(
         tmp_path / "viirs.tif",
-        rng.gamma(1.0, 10.0, (700, 700)),
+        rng.gamma(1.0, 10.0, (1400, 1400)),
         "EPSG:4326",
         from_origin(24.0, 61.0, 0.004, 0.002),
         "radiance",
