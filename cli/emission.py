@@ -135,7 +135,8 @@ def parse_albedo(text: str) -> float | str:
     "--resolution",
     type=float,
     default=None,
-    help="Output cell size [m] (default: GDAL's estimate of the native pixel size).",
+    help="Output cell size [m] of a projected output (default: GDAL's estimate of the native "
+    "pixel size).",
 )
 @click.option(
     "--target-crs",

@@ -13,10 +13,14 @@ without error and give nonsense, so they are caught here:
   Every such value lies outside the plausible range below, so :func:`clean_radiance` treats
   those pixels as nodata, with a warning naming the values and counts; any other radiance
   above :data:`MAX_PLAUSIBLE_RADIANCE` is kept, with a warning;
-- **extents wider than one projection zone**: a geographic raster is projected into the local
-  UTM zone of its centre; beyond one zone (6 deg of longitude) lengths at its edges are off by
-  the transverse Mercator scale factor (:func:`zone_length_error`), which
-  :func:`warn_zone_span` reports until the raster is processed in tiles of their own zones.
+- **extents wider than one projection zone**: a geographic raster within one zone is projected
+  into the local UTM zone of its centre; a wider one keeps its geographic grid, unless a
+  ``target_crs=`` projects it into one CRS, where lengths at its edges are off by the
+  transverse Mercator scale factor (:func:`zone_length_error`), which :func:`warn_zone_span`
+  reports.
+
+A raster read in windows is checked window by window (:class:`RadianceScan`): every check is
+per pixel, so the counts add up, and each kind of finding is one warning for the whole raster.
 
 References
 ----------
