@@ -59,6 +59,9 @@ HALO_PIXELS = 2
 #: flux density's temporaries; 33.0 B measured (tracemalloc) on a 2048 x 2048 window of the
 #: synthetic mosaic (``benchmarks/_mosaic.py``), rounded up.
 BYTES_PER_SOURCE_PIXEL = 36
+#: GDAL's warp buffers of a reprojected window [B]: its default warp memory limit (64 MB,
+#: ``GDALWarpOptions.dfWarpMemoryLimit``), which ``reproject`` keeps (``warp_mem_limit=0``).
+WARP_BYTES = 64 * 2**20
 #: Bounding box of a reprojected window's source footprint over its mean side [1].
 _FOOTPRINT_MARGIN = 1.2
 #: Bytes per output cell of a window [B]: the float64 window, its float32 copy for the writer.
@@ -302,7 +305,7 @@ def window_progress(progress: bool) -> Progress:
 
 
 def window_memory(in_shape: tuple[int, int], grid: OutputGrid, *, window: int, kept: bool) -> float:
-    """Working memory of one window [B] (source pixels and output cells).
+    """Working memory of one window [B] (source pixels, output cells, GDAL's warp buffers).
 
     Parameters
     ----------
@@ -326,4 +329,7 @@ def window_memory(in_shape: tuple[int, int], grid: OutputGrid, *, window: int, k
         side_rows = min(in_shape[0], _FOOTPRINT_MARGIN * rows * scale + 2 * HALO_PIXELS + 2)
         side_cols = min(in_shape[1], _FOOTPRINT_MARGIN * cols * scale + 2 * HALO_PIXELS + 2)
         source_pixels = side_rows * side_cols
-    return source_pixels * BYTES_PER_SOURCE_PIXEL + float(rows) * cols * BYTES_PER_WINDOW_CELL
+    warp = 0 if kept else min(WARP_BYTES, source_pixels * 8 + float(rows) * cols * 8)
+    return (
+        source_pixels * BYTES_PER_SOURCE_PIXEL + float(rows) * cols * BYTES_PER_WINDOW_CELL + warp
+    )

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import rasterio
 from affine import Affine
-from pyproj import Geod
+from pyproj import CRS, Geod
 
-import nightlights.ground.upward as upward
+import nightlights.ground._viirs_run as viirs_run
 from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.ground import _viirs_windows
 from nightlights.ground.upward import (
@@ -229,7 +229,7 @@ def test_a_failure_midway_leaves_no_output(
     out = tmp_path / "up.tif"
     out.write_bytes(b"the previous output")
     computed = []
-    real = upward.window_density
+    real = viirs_run.window_density
 
     def failing(*args, **kwargs):
         if len(computed) == 5:
@@ -237,7 +237,7 @@ def test_a_failure_midway_leaves_no_output(
         computed.append(args[2])
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(upward, "window_density", failing)
+    monkeypatch.setattr(viirs_run, "window_density", failing)
     with pytest.raises(RuntimeError, match="disk gone"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DataQualityWarning)
@@ -250,11 +250,12 @@ def test_a_failure_midway_leaves_no_output(
 def test_memory_estimate_is_bounded_by_the_window(monkeypatch: pytest.MonkeyPatch) -> None:
     estimates = []
     monkeypatch.setattr(
-        upward, "check_memory", lambda estimate, what, option=None: estimates.append(estimate)
+        viirs_run, "check_memory", lambda estimate, what, option=None: estimates.append(estimate)
     )
-    national = upward.OutputGrid(Affine(ARCSEC15, 0, 70, 0, -ARCSEC15, 53), 8400, 14400, None)
+    transform = Affine(ARCSEC15, 0, 70, 0, -ARCSEC15, 53)
+    national = viirs_run.OutputGrid(transform, 8400, 14400, CRS(4326))
     for in_memory in (False, True):
-        upward._check_viirs_memory(
+        viirs_run.check_viirs_memory(
             (8400, 14400), national, "mosaic", kept=True, in_memory=in_memory
         )
     streamed, whole = estimates
