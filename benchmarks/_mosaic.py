@@ -179,3 +179,10 @@ def _strip(
         values[r0:r1, c0:c1] += peak * np.exp(-0.5 * (dy[:, None] ** 2 + dx[None, :] ** 2))
     values[x[None, :] > _coast_lon(y, coast)[:, None]] = np.nan
     return np.round(values, 2)  # the composites' precision: two decimals
+
+
+if __name__ == "__main__":
+    import sys
+
+    # python benchmarks/_mosaic.py /tmp/mosaic.tif: the default 60 x 35 deg mosaic
+    print(synthetic_mosaic(sys.argv[1] if len(sys.argv) > 1 else "mosaic.tif"))
