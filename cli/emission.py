@@ -6,7 +6,8 @@ Two sources, one subcommand each:
   direct uplight; ``ground`` is the default, so ``nightlights emission IRRADIANCE [LIGHTS]
   OUTPUT`` means the same;
 - ``emission viirs INPUT OUTPUT``: a VIIRS day/night-band radiance raster converted with a
-  light spectrum.
+  light spectrum, window by window; a geographic raster wider than one UTM zone keeps its
+  grid (flux density per geodesic cell area).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import click
 from .kinds import POINTS, RASTER
 from .options import (
     DEFAULT_VIIRS_SPECTRUM,
+    CRSText,
     DefaultCommandGroup,
     catalog_option,
     crs_option,
@@ -26,7 +28,6 @@ from .options import (
     overwrite_option,
     resolve_inout,
     skip_unknown_option,
-    target_crs_option,
 )
 from .resources import max_memory_option
 
@@ -134,9 +135,17 @@ def parse_albedo(text: str) -> float | str:
     "--resolution",
     type=float,
     default=None,
-    help="Output cell size [m] (default: GDAL's estimate of the native pixel size).",
+    help="Output cell size [m] of a projected output (default: GDAL's estimate of the native "
+    "pixel size).",
 )
-@target_crs_option
+@click.option(
+    "--target-crs",
+    default=None,
+    type=CRSText(),
+    metavar="CRS",
+    help="Projected output CRS in metres (default: the input's if projected; a geographic "
+    "input wider than one UTM zone keeps its own grid; else its local UTM zone).",
+)
 @click.option(
     "--emission-function",
     default=None,
@@ -155,7 +164,11 @@ def viirs_command(
     emission_function: str | None,
 ) -> None:
     """Upward flux density of a VIIRS day/night-band radiance raster INPUT [nW cm-2 sr-1];
-    write OUTPUT (COG, band upward [lm m-2])."""
+    write OUTPUT (COG, band upward [lm m-2]).
+
+    The raster is read and written in windows, so a national mosaic fits in memory. A
+    geographic INPUT wider than one UTM zone (6 deg of longitude) stays on its own grid:
+    flux density per geodesic cell area, which `nightlights darkness` reads as it is."""
     import nightlights as nl
     from nightlights.ground.checks import parse_crs
 
@@ -170,7 +183,10 @@ def viirs_command(
     result = nl.emission_from_viirs(viirs, out, **options)
     from rich.console import Console
 
-    Console(stderr=True).print(f"{result.total_flux['upward']:.4g} lm upward -> {out}")
+    grid = "geographic" if result.crs.is_geographic else "projected"
+    Console(stderr=True).print(
+        f"{result.total_flux['upward']:.4g} lm upward -> {out} ({grid} grid, {result.crs.name})"
+    )
 
 
 commands = [emission]

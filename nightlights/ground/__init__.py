@@ -70,6 +70,7 @@ from nightlights.ground.upward import (
     emission,
     emission_from_viirs,
     flux_density_to_viirs_radiance,
+    geographic_cell_areas,
     viirs_radiance_to_flux_density,
 )
 
@@ -103,6 +104,7 @@ __all__ = [
     "emission_from_viirs",
     "flux_density_to_viirs_radiance",
     "flux_profile",
+    "geographic_cell_areas",
     "grid_from_bounds",
     "ground_illuminance",
     "ground_on_grid",

@@ -15,13 +15,14 @@ coarse grid, which the skyglow stages take as their source:
    without street data (see :func:`viirs_radiance_to_flux_density`): one band tagged with
    the emission function that turned its nadir radiance into flux.
 
-Length: about 860 lines, because the two routes to one product share its raster, its
+Length: about 820 lines, because the two routes to one product share its raster, its
 float32 round trip, its checked writing and its memory checks made before reading; split in
 two modules they would import each other's private helpers.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
@@ -35,8 +36,6 @@ import numpy as np
 from affine import Affine
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS
-from rasterio.warp import Resampling, calculate_default_transform, reproject
-from shapely.geometry import box
 
 from ies import spectra
 from nightlights._resources import check_memory
@@ -44,17 +43,23 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.emission_functions import EMISSION_FUNCTION_TAG, EmissionFunction
 from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
+from nightlights.ground._viirs_run import (
+    FLUX_TAG,
+    GRID_TAG,
+    ViirsRun,
+    as_written,
+    geographic_cell_areas,
+    source_crs,
+)
+from nightlights.ground._viirs_windows import ArraySource, FileSource
 from nightlights.ground.checks import (
-    RasterHeader,
     check_finite_raster,
     emission_memory,
     parse_crs,
     raster_header,
-    viirs_memory,
 )
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
-from nightlights.ground.viirs_input import check_radiance_source, clean_radiance, warn_zone_span
 from nightlights.io import (
     OutputSet,
     Raster,
@@ -64,6 +69,7 @@ from nightlights.io import (
     raster_on_grid,
     source_label,
 )
+from nightlights.io.streamed import CACHE_MB
 from nightlights.io.styles import PRODUCT_TAG
 
 if TYPE_CHECKING:
@@ -72,6 +78,8 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_VIIRS_SPECTRUM",
     "DNB_BAND",
+    "FLUX_TAG",
+    "GRID_TAG",
     "EmissionResult",
     "block_aggregate",
     "deposit_flux",
@@ -79,6 +87,7 @@ __all__ = [
     "emission",
     "emission_from_viirs",
     "flux_density_to_viirs_radiance",
+    "geographic_cell_areas",
     "viirs_radiance_to_flux_density",
 ]
 
@@ -263,29 +272,58 @@ class EmissionResult:
 
     Attributes
     ----------
-    raster
-        Upward luminous flux density [lm m-2]: bands ``reflected`` and ``uplight``
-        (:func:`emission`) or ``upward`` (:func:`emission_from_viirs`); the values of the
-        float32 file.
     path
         The written raster, or ``None`` when no output was asked for.
     total_flux
-        Total upward flux per band [lm].
+        Total upward flux per band [lm]: flux density x cell area, the geodesic area of each
+        cell on a geographic grid (:func:`geographic_cell_areas`).
+    transform
+        Affine transform of the raster's top-left corner [m, or deg on a geographic grid].
+    shape
+        (rows, cols) [cells].
+    crs
+        The raster's CRS: projected, or geographic where a VIIRS raster wider than one UTM
+        zone keeps its own grid (:func:`emission_from_viirs`).
     """
 
-    raster: Raster
-    path: Path | None = None
-    total_flux: Mapping[str, float] = field(default_factory=dict)
+    path: Path | None
+    total_flux: Mapping[str, float]
+    transform: Affine
+    shape: tuple[int, int]
+    crs: CRS
+    _in_memory: Raster | None = field(default=None, repr=False)
+
+    @classmethod
+    def of(
+        cls, raster: Raster, path: Path | None, total_flux: Mapping[str, float]
+    ) -> EmissionResult:
+        """The result of a raster held in memory."""
+        assert raster.crs is not None
+        return cls(path, dict(total_flux), raster.transform, raster.shape, raster.crs, raster)
+
+    @functools.cached_property
+    def raster(self) -> Raster:
+        """Upward luminous flux density [lm m-2]: bands ``reflected`` and ``uplight``
+        (:func:`emission`) or ``upward`` (:func:`emission_from_viirs`); the values of the
+        float32 file.
+
+        A stage that streamed its windows to a file kept no raster: this reads the file
+        (whole, as float64) on first access.
+        """
+        if self._in_memory is not None:
+            return self._in_memory
+        assert self.path is not None
+        return Raster.read(self.path)
+
+    @property
+    def geographic(self) -> bool:
+        """Whether the grid is geographic (cells in degrees, flux density per geodesic area)."""
+        return bool(self.crs.is_geographic)
 
     @property
     def grid(self) -> RasterGrid:
-        """The raster's grid."""
-        return RasterGrid.from_transform(self.raster.transform, self.raster.shape)
-
-    @property
-    def crs(self) -> CRS:
-        """The raster's projected CRS."""
-        return self.raster.projected_crs(source="emission")
+        """The raster's grid (in the CRS's units)."""
+        return RasterGrid.from_transform(self.transform, self.shape)
 
 
 #: Irradiance pixels aggregated at a time by :func:`emission` (its temporaries: ~ 30 B x
@@ -454,7 +492,7 @@ def emission(
         "total_uplight_lm": totals["uplight"],
     }
     result = Raster(
-        _as_written(np.stack([reflected, uplight])),
+        as_written(np.stack([reflected, uplight])),
         grid.transform,
         raster_crs,
         descriptions=("reflected", "uplight"),
@@ -473,7 +511,7 @@ def emission(
             },
         ),
     )
-    return EmissionResult(result, _write(result, output, outputs), totals)
+    return EmissionResult.of(result, _write(result, output, outputs), totals)
 
 
 def _photopic_band(
@@ -616,6 +654,7 @@ def emission_from_viirs(
     target_crs: str | CRS | None = None,
     band: tuple[float, float] = DNB_BAND,
     emission_function: str = "lambertian",
+    progress: bool = True,
 ) -> EmissionResult:
     """Upward luminous flux density from a VIIRS Day/Night Band radiance raster.
 
@@ -630,10 +669,13 @@ def emission_from_viirs(
     spectrum
         Spectrum of the city's light (``ies.spectra.SPDS``).
     resolution
-        Output cell size [m]; default GDAL's estimate of the native pixel size.
+        Output cell size of a projected output [m]; default GDAL's estimate of the native
+        pixel size.
     target_crs
-        Projected output CRS; default the input's CRS if projected in metres, else the
-        local UTM zone of the raster's centre.
+        Projected output CRS; default the input's CRS if projected in metres, the input's own
+        geographic grid if it spans more than one UTM zone
+        (:data:`~nightlights.ground.viirs_input.ZONE_WIDTH` of longitude), else the local UTM
+        zone of the raster's centre.
     band
         Flat DNB pass band [nm].
     emission_function
@@ -643,24 +685,28 @@ def emission_from_viirs(
         band's ``emission_function`` tag, which the skyglow stage reads. Garstang's
         F = G = 0.15 gives 1 / 0.459 = 2.18 times the Lambertian flux: its low-angle lobe is
         invisible from nadir.
+    progress
+        Show a progress bar (with the time remaining) over the windows.
 
     Returns
     -------
     EmissionResult
-        One band ``upward`` [lm m-2] and its total flux [lm].
+        One band ``upward`` [lm m-2] and its total flux [lm]. With a raster file in and an
+        output file, the windows were streamed to the file and the result holds no raster:
+        its ``raster`` reads the file on first access.
 
     Raises
     ------
     CRSError
         The raster has no CRS, or ``target_crs`` is not a projected CRS.
     InputError
-        Bad resolution, a spectrum without power in the band, infinite radiance, no
-        radiance at all, an output grid that gets no value, or an input that is recognisably
-        not radiance (a raster of this toolkit, a photometric unit:
+        Bad resolution (or one given for a geographic output), a spectrum without power in the
+        band, infinite radiance, no radiance at all, an output grid that gets no value, or an
+        input that is recognisably not radiance (a raster of this toolkit, a photometric unit:
         :func:`~nightlights.ground.viirs_input.check_radiance_source`).
     ResourceError
-        The output grid (``resolution``) would need more memory than allowed (checked
-        before allocating).
+        A window, or the output grid held in memory when no output file is written, would
+        need more memory than allowed (checked before reading).
     OutputError
         ``output`` cannot be written (checked before reading).
 
@@ -672,10 +718,19 @@ def emission_from_viirs(
     file does not declare (65535, -999, 1e20, ...) are nodata, and radiances above
     :data:`~nightlights.ground.viirs_input.MAX_PLAUSIBLE_RADIANCE` are kept; both with a
     :class:`~nightlights.errors.DataQualityWarning`
-    (:func:`~nightlights.ground.viirs_input.clean_radiance`), as is a raster wider than one
-    UTM zone projected into one CRS
+    (:func:`~nightlights.ground.viirs_input.clean_radiance`), one per kind for the whole
+    raster, as is a raster wider than one UTM zone projected into one CRS
     (:func:`~nightlights.ground.viirs_input.warn_zone_span`). Resampling uses the area
     average, so a coarser output conserves flux.
+
+    The raster is computed in windows of the output grid
+    (:mod:`nightlights.ground._viirs_windows`), each reading only the source pixels it needs
+    and written to ``output`` as it is done (:class:`~nightlights.io.CogWriter`): memory is
+    bounded by a window, whatever the raster's size. A geographic raster wider than one UTM
+    zone keeps its grid by default: its cells hold flux density [lm m-2] as a projected
+    grid's do (dataset tags ``grid`` = ``geographic``, ``flux`` = ``density``), and its flux
+    is the density times each cell's geodesic area (:func:`geographic_cell_areas`), which
+    the darkness stage uses in its own local projections.
 
     Examples
     --------
@@ -684,12 +739,14 @@ def emission_from_viirs(
     >>> from nightlights.io import Raster
     >>> dnb = Raster(np.full((1, 4, 4), 20.0), Affine(450, 0, 500_000, 0, -450, 6_700_000),
     ...              "EPSG:32635", ("radiance",), ("nW cm-2 sr-1",))
-    >>> result = emission_from_viirs(dnb, spectrum="LED_4000K")
+    >>> result = emission_from_viirs(dnb, spectrum="LED_4000K", progress=False)
     >>> result.raster.descriptions, result.raster.shape
     (('upward',), (4, 4))
     >>> round(float(result.raster.data[0, 0, 0]), 4)  # [lm m-2]
     0.2543
     """
+    import rasterio
+
     label = source_label(viirs, "VIIRS raster")
     function = EmissionFunction.parse(emission_function, source="emission_function")
     zenith_intensity = float(function.intensity(1.0))
@@ -701,59 +758,10 @@ def emission_from_viirs(
     if resolution is not None:
         resolution = check_resolution(resolution)
     target_crs = parse_crs(target_crs, option="target_crs")
-    outputs = None if output is None else OutputSet(output, inputs={"viirs": viirs})
-    header = raster_header(viirs)
-    if header is not None and header.crs is not None:
-        _check_viirs_memory(header, resolution, target_crs, label)
-    source = as_raster(viirs)
-    check_radiance_source(source, label)
-    radiance = source.data[0]
-    src_crs = source.crs
-    src_transform = source.transform
-    (height, width), bounds = source.shape, source.bounds
-    if src_crs is None:
-        raise CRSError(f"{label}: the VIIRS raster has no CRS; expected e.g. EPSG:4326")
-    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
-    radiance = clean_radiance(radiance, label)
-    check_finite_raster(radiance, label, "radiance", "nW cm-2 sr-1", negative="ignore")
-    negative = radiance < 0
-    if negative.any():
-        warnings.warn(
-            f"{label}: {negative.sum()} pixels have negative radiance (min "
-            f"{np.nanmin(radiance):.3g} nW cm-2 sr-1); set to 0",
-            DataQualityWarning,
-            stacklevel=2,
-        )
-        radiance = np.where(negative, 0.0, radiance)
+    if output is not None:
+        OutputSet(output, inputs={"viirs": viirs})  # checked before reading
     efficacy = dnb_luminous_efficacy(spectrum, band=band)
-    density = viirs_radiance_to_flux_density(radiance, efficacy, zenith_intensity=zenith_intensity)
-    target = _viirs_target_crs(src_crs, bounds, target_crs, label)
-    grid = _viirs_grid(src_crs, src_transform, (height, width), bounds, target, resolution)
-    if grid is None:
-        out, transform = density, src_transform
-    else:
-        if target != src_crs:
-            warn_zone_span(src_crs, bounds, target, label)
-        transform, rows, cols = grid
-        out = np.full((rows, cols), np.nan)
-        reproject(
-            density,
-            out,
-            src_transform=src_transform,
-            src_crs=src_crs.to_wkt(),
-            src_nodata=np.nan,
-            dst_transform=transform,
-            dst_crs=target.to_wkt(),
-            dst_nodata=np.nan,
-            resampling=Resampling.average,
-        )
-    if not np.isfinite(out).any():
-        raise InputError(
-            f"{label}: no output cell of {abs(transform.a):.4g} m gets a value from the raster "
-            f"({height} x {width} pixels); expected a resolution= finer than the raster's extent"
-        )
-    pixel_area = abs(transform.a * transform.e)
-    total = float(np.nansum(out) * pixel_area)
+    factor = np.pi * NANOWATT_PER_CM2 * efficacy * ((1.0 / math.pi) / zenith_intensity)
     tags = {
         PRODUCT_TAG: "emission",
         "nightlights_stage": "emission_from_viirs",
@@ -761,28 +769,46 @@ def emission_from_viirs(
         "spectrum": spectrum,
         "dnb_band_nm": f"{band[0]}-{band[1]}",
         "dnb_luminous_efficacy_lm_per_W": efficacy,
-        "factor_lm_m2_per_nW_cm2_sr": np.pi
-        * NANOWATT_PER_CM2
-        * efficacy
-        * ((1.0 / math.pi) / zenith_intensity),
+        "factor_lm_m2_per_nW_cm2_sr": factor,
+        EMISSION_FUNCTION_TAG: function.tag,
+        FLUX_TAG: "density",
+    }
+    band_tags = {
+        "quantity": "upward luminous flux density",
+        "model": f"VIIRS DNB, {function.tag}",
         EMISSION_FUNCTION_TAG: function.tag,
     }
-    result = Raster(
-        _as_written(out),
-        transform,
-        target,
-        descriptions=("upward",),
-        units=("lm m-2",),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=(
-            {
-                "quantity": "upward luminous flux density",
-                "model": f"VIIRS DNB, {function.tag}",
-                EMISSION_FUNCTION_TAG: function.tag,
-            },
+    run = ViirsRun(
+        label,
+        lambda radiance: viirs_radiance_to_flux_density(
+            radiance, efficacy, zenith_intensity=zenith_intensity
         ),
+        resolution,
+        target_crs,
+        progress,
     )
-    return EmissionResult(result, _write(result, output, outputs), {"upward": total})
+    if not isinstance(viirs, (str, os.PathLike)):
+        raster = as_raster(viirs)
+        source = ArraySource(raster.data[0], raster.transform, source_crs(raster.crs, label))
+        computed, total = run.in_memory(source, raster, tags, band_tags)
+        outputs = None if output is None else OutputSet(output)
+        return EmissionResult.of(computed, _write(computed, output, outputs), {"upward": total})
+    path = Path(viirs)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    try:
+        with rasterio.Env(GDAL_CACHEMAX=CACHE_MB), rasterio.open(path) as dataset:
+            crs = None if dataset.crs is None else CRS.from_user_input(dataset.crs.to_wkt())
+            source_file = FileSource(dataset, dataset.transform, source_crs(crs, label))
+            if output is None:
+                computed, total = run.in_memory(source_file, source_file, tags, band_tags)
+                return EmissionResult.of(computed, None, {"upward": total})
+            grid, total = run.streamed(source_file, Path(output), tags, band_tags)
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputError(f"{path}: cannot read raster: {exc}") from exc
+    return EmissionResult(
+        Path(output), {"upward": total}, grid.transform, (grid.rows, grid.cols), grid.crs
+    )
 
 
 def _write(
@@ -794,72 +820,3 @@ def _write(
     with outputs:
         raster.write(outputs.temporary(output))
     return Path(output)
-
-
-def _viirs_grid(
-    src_crs: CRS,
-    src_transform: Affine,
-    shape: tuple[int, int],
-    bounds: Sequence[float],
-    target: CRS,
-    resolution: float | None,
-) -> tuple[Affine, int, int] | None:
-    """The output transform and shape, or None when the input grid is kept as it is."""
-    if target == src_crs and (resolution is None or math.isclose(resolution, src_transform.a)):
-        return None
-    if resolution is not None:
-        native, cols, rows = calculate_default_transform(
-            src_crs.to_wkt(), target.to_wkt(), shape[1], shape[0], *bounds
-        )
-        width, height = cols * abs(native.a), rows * abs(native.e)
-        extent = max(width, height)
-        if resolution > extent:
-            raise InputError(
-                f"resolution={resolution:g} m is larger than the raster's extent (about "
-                f"{width:.4g} x {height:.4g} m); expected a resolution= below {extent:.4g} m"
-            )
-    kwargs = {} if resolution is None else {"resolution": resolution}
-    transform, cols, rows = calculate_default_transform(
-        src_crs.to_wkt(), target.to_wkt(), shape[1], shape[0], *bounds, **kwargs
-    )
-    return transform, int(rows), int(cols)
-
-
-def _check_viirs_memory(
-    header: RasterHeader, resolution: float | None, target_crs: CRS | None, label: str
-) -> None:
-    """Refuse a VIIRS conversion whose estimated peak memory is over the limit."""
-    assert header.crs is not None
-    target = _viirs_target_crs(header.crs, header.bounds, target_crs, label)
-    grid = _viirs_grid(
-        header.crs, header.transform, (header.rows, header.cols), header.bounds, target, resolution
-    )
-    rows, cols = (header.rows, header.cols) if grid is None else grid[1:]
-    check_memory(
-        viirs_memory(header.rows, header.cols, header.count, rows, cols),
-        f"the emission raster of {rows} x {cols} cells from {label}",
-        option="use a coarser resolution=",
-    )
-
-
-def _as_written(values: FloatArray) -> FloatArray:
-    """The values as the float32 file holds them, so that the in-memory product and the
-    file are the same numbers."""
-    return values.astype(np.float32).astype(np.float64)
-
-
-def _viirs_target_crs(
-    src_crs: CRS,
-    bounds: Sequence[float],
-    target_crs: str | CRS | None,
-    source: str | os.PathLike[str],
-) -> CRS:
-    if target_crs is not None:
-        target = parse_crs(target_crs, option="target_crs")
-        assert target is not None
-        if not target.is_projected:
-            raise CRSError(f"target CRS {target.to_string()} is not projected")
-        return target
-    footprint = gpd.GeoDataFrame(geometry=[box(*bounds)], crs=src_crs)
-    projected = ensure_projected(footprint, source=str(source))
-    return CRS.from_user_input(projected.crs)

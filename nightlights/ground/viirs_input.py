@@ -13,10 +13,14 @@ without error and give nonsense, so they are caught here:
   Every such value lies outside the plausible range below, so :func:`clean_radiance` treats
   those pixels as nodata, with a warning naming the values and counts; any other radiance
   above :data:`MAX_PLAUSIBLE_RADIANCE` is kept, with a warning;
-- **extents wider than one projection zone**: a geographic raster is projected into the local
-  UTM zone of its centre; beyond one zone (6 deg of longitude) lengths at its edges are off by
-  the transverse Mercator scale factor (:func:`zone_length_error`), which
-  :func:`warn_zone_span` reports until the raster is processed in tiles of their own zones.
+- **extents wider than one projection zone**: a geographic raster within one zone is projected
+  into the local UTM zone of its centre; a wider one keeps its geographic grid, unless a
+  ``target_crs=`` projects it into one CRS, where lengths at its edges are off by the
+  transverse Mercator scale factor (:func:`zone_length_error`), which :func:`warn_zone_span`
+  reports.
+
+A raster read in windows is checked window by window (:class:`RadianceScan`): every check is
+per pixel, so the counts add up, and each kind of finding is one warning for the whole raster.
 
 References
 ----------
@@ -35,7 +39,8 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Protocol
 
 import numpy as np
 from pyproj import CRS, Proj
@@ -44,13 +49,14 @@ from rasterio.warp import transform_bounds
 from nightlights._typing import FloatArray
 from nightlights.emission_functions import EMISSION_FUNCTION_TAG
 from nightlights.errors import DataQualityWarning, InputError
-from nightlights.io import Raster
 from nightlights.io.styles import PRODUCT_TAG
 
 __all__ = [
     "COMMON_FILL_VALUES",
     "MAX_PLAUSIBLE_RADIANCE",
     "ZONE_WIDTH",
+    "RadianceScan",
+    "RasterMetadata",
     "check_radiance_source",
     "clean_radiance",
     "warn_zone_span",
@@ -96,15 +102,49 @@ _NOT_RADIANCE_UNITS = {"lm m-2", "lx", "cd m-2", "cd", "lm", "mag arcsec-2", "w 
 _EMISSION_BANDS = {"reflected", "uplight", "upward"}
 #: Relative tolerance of a fill value read back from float32 [1].
 _FLOAT32_TOLERANCE = 1e-6
+#: Distinct implausible radiances counted per window, the most frequent first [1]: enough for
+#: the five the warning names, bounded for a raster of unscaled values.
+_HIGH_VALUES_KEPT = 64
 
 
-def check_radiance_source(raster: Raster, label: str) -> None:
+class RasterMetadata(Protocol):
+    """What :func:`check_radiance_source` reads of a raster: its metadata, not its pixels
+    (a :class:`~nightlights.io.Raster`, or an open file's)."""
+
+    @property
+    def count(self) -> int:
+        """Bands [1]."""
+        ...
+
+    @property
+    def descriptions(self) -> tuple[str, ...]:
+        """Band names."""
+        ...
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Band units."""
+        ...
+
+    @property
+    def tags(self) -> Mapping[str, str]:
+        """Dataset-level metadata."""
+        ...
+
+    @property
+    def band_tags(self) -> Sequence[Mapping[str, str]]:
+        """Metadata per band."""
+        ...
+
+
+def check_radiance_source(raster: RasterMetadata, label: str) -> None:
     """Refuse a raster that is recognisably not VIIRS radiance; warn about extra bands.
 
     Parameters
     ----------
     raster
-        The input raster (band 1 is read as radiance [nW cm-2 sr-1]).
+        The input raster, or an open file's metadata (band 1 is read as radiance
+        [nW cm-2 sr-1]).
     label
         How messages name it.
 
@@ -147,6 +187,146 @@ def check_radiance_source(raster: Raster, label: str) -> None:
         )
 
 
+class RadianceScan:
+    """The checks of :func:`clean_radiance` and of the stage, gathered window by window.
+
+    A raster read in windows is cleaned window by window (:meth:`clean`); the counts add up
+    over the windows, and :meth:`report` then raises or warns once per kind for the whole
+    raster, with the messages a whole-raster check gives. Every test is per pixel (a value
+    equal to a fill value, above :data:`MAX_PLAUSIBLE_RADIANCE`, below zero, infinite), so the
+    windows' counts add up to the whole raster's exactly as long as each pixel is cleaned in
+    one window only. The most frequent implausible values are kept from each window's
+    :data:`_HIGH_VALUES_KEPT` most frequent (exact unless a window holds more distinct ones).
+
+    Examples
+    --------
+    >>> scan = RadianceScan()
+    >>> scan.clean(np.array([[12.0, 65535.0]])).tolist()
+    [[12.0, nan]]
+    >>> scan.clean(np.array([[65535.0, -0.5]])).tolist()
+    [[nan, -0.5]]
+    >>> int(scan.fills.sum()), scan.negative, scan.lowest
+    (2, 1, -0.5)
+    """
+
+    def __init__(self) -> None:
+        self.infinite = 0
+        self.any_value = False
+        self.any_radiance = False
+        self.fills = np.zeros(len(COMMON_FILL_VALUES), dtype=np.int64)
+        self.high = 0
+        self.high_values: dict[float, int] = {}
+        self.negative = 0
+        self.lowest = math.inf
+
+    def clean(self, radiance: FloatArray) -> FloatArray:
+        """One window's radiance with its fill values as NaN, counted (see :func:`clean_radiance`).
+
+        Parameters
+        ----------
+        radiance
+            Radiance [nW cm-2 sr-1], declared nodata already NaN.
+
+        Returns
+        -------
+        numpy.ndarray
+            The radiance, fill values set to NaN (a copy when there are any).
+        """
+        values = np.asarray(radiance, dtype=float)
+        self.infinite += int(np.isinf(values).sum())
+        self.any_value = self.any_value or bool(np.isfinite(values).any())
+        fills = np.asarray(COMMON_FILL_VALUES)
+        # only pixels at least 999 from zero can be fill: the candidates are few, the test cheap
+        smallest = float(np.min(np.abs(fills))) * (1.0 - _FLOAT32_TOLERANCE)
+        with np.errstate(invalid="ignore"):
+            candidates = np.flatnonzero(
+                (values.ravel() >= smallest) | (values.ravel() <= -smallest)
+            )
+        found = values.ravel()[candidates]
+        match = np.abs(found[:, None] - fills[None, :]) <= _FLOAT32_TOLERANCE * np.abs(fills)
+        hit = match.any(axis=1)
+        if hit.any():
+            self.fills += match[hit].sum(axis=0)
+            values = values.copy()  # the caller's raster stays as it was
+            values.ravel()[candidates[hit]] = np.nan
+        self.any_radiance = self.any_radiance or bool(np.isfinite(values).any())
+        with np.errstate(invalid="ignore"):
+            high = values > MAX_PLAUSIBLE_RADIANCE
+            negative = values < 0
+        if high.any():
+            self.high += int(high.sum())
+            found, counts = np.unique(values[high], return_counts=True)
+            kept = np.argsort(counts)[::-1][:_HIGH_VALUES_KEPT]
+            for value, count in zip(found[kept], counts[kept], strict=True):
+                self.high_values[float(value)] = self.high_values.get(float(value), 0) + int(count)
+        if negative.any():
+            self.negative += int(negative.sum())
+            self.lowest = min(self.lowest, float(np.min(values[negative])))
+        return values
+
+    def report(self, label: str, *, stacklevel: int = 3, negative: bool = False) -> None:
+        """Raise or warn, once per kind, about what the windows held.
+
+        Parameters
+        ----------
+        label
+            How messages name the raster.
+        stacklevel
+            Of the warnings, as :func:`warnings.warn` counts it from this method.
+        negative
+            Warn about negative radiances too (they are set to 0 by the stage).
+
+        Raises
+        ------
+        InputError
+            Infinite radiance; no radiance at all (every pixel nodata, or fill).
+
+        Warns
+        -----
+        DataQualityWarning
+            Fill values (treated as nodata), radiances above :data:`MAX_PLAUSIBLE_RADIANCE`
+            (kept), negative radiances (``negative=True``; set to 0).
+        """
+        expected = "expected radiance values [nW cm-2 sr-1]"
+        if self.infinite:
+            raise InputError(
+                f"{label}: {self.infinite} pixels hold an infinite radiance; expected finite "
+                "values [nW cm-2 sr-1] (NaN for nodata)"
+            )
+        if not self.any_value:
+            raise InputError(f"{label}: every pixel is nodata; {expected}")
+        if self.fills.any():
+            pairs = zip(COMMON_FILL_VALUES, self.fills, strict=True)
+            shown = ", ".join(f"{fill:g} x{n}" for fill, n in pairs if n)
+            warnings.warn(
+                f"{label}: {_pixels(int(self.fills.sum()))} a common fill value the file does "
+                f"not declare as nodata ({shown}); they are treated as nodata, not as radiance",
+                DataQualityWarning,
+                stacklevel=stacklevel,
+            )
+        if not self.any_radiance:
+            raise InputError(f"{label}: every pixel is nodata; {expected}")
+        if self.high:
+            ranked = sorted(self.high_values.items(), key=lambda item: -item[1])[:5]
+            shown = ", ".join(f"{value:g} x{count}" for value, count in ranked)
+            warnings.warn(
+                f"{label}: {_pixels(self.high)} radiances above "
+                f"{MAX_PLAUSIBLE_RADIANCE:g} nW cm-2 sr-1 ({shown}; largest "
+                f"{max(self.high_values):g}), beyond any city's night lights (urban cores: a "
+                "few hundred, the brightest sites: a few thousand); they are taken as "
+                "radiance: check the product's scale factor and nodata value",
+                DataQualityWarning,
+                stacklevel=stacklevel,
+            )
+        if negative and self.negative:
+            warnings.warn(
+                f"{label}: {self.negative} pixels have negative radiance (min "
+                f"{self.lowest:.3g} nW cm-2 sr-1); set to 0",
+                DataQualityWarning,
+                stacklevel=stacklevel,
+            )
+
+
 def clean_radiance(radiance: FloatArray, label: str) -> FloatArray:
     """Radiance with undeclared fill values as nodata, warning about implausible values.
 
@@ -169,6 +349,11 @@ def clean_radiance(radiance: FloatArray, label: str) -> FloatArray:
         Fill values found (their values and counts; treated as nodata), and radiances above
         :data:`MAX_PLAUSIBLE_RADIANCE` that are no fill value (kept as radiance).
 
+    Notes
+    -----
+    The tests are per pixel, so a raster read in windows is cleaned window by window with
+    :class:`RadianceScan`, which gives these warnings once for the whole raster.
+
     Examples
     --------
     >>> import warnings
@@ -180,41 +365,11 @@ def clean_radiance(radiance: FloatArray, label: str) -> FloatArray:
     >>> "65535 x1" in str(caught[0].message)
     True
     """
-    values = np.asarray(radiance, dtype=float)
-    fills = np.asarray(COMMON_FILL_VALUES)
-    # only pixels at least 999 from zero can be fill: the candidates are few, the test cheap
-    smallest = float(np.min(np.abs(fills))) * (1.0 - _FLOAT32_TOLERANCE)
-    with np.errstate(invalid="ignore"):
-        candidates = np.flatnonzero((values.ravel() >= smallest) | (values.ravel() <= -smallest))
-    found = values.ravel()[candidates]
-    match = np.abs(found[:, None] - fills[None, :]) <= _FLOAT32_TOLERANCE * np.abs(fills)
-    hit = match.any(axis=1)
-    if hit.any():
-        counts = match[hit].sum(axis=0)
-        shown = ", ".join(f"{fill:g} x{n}" for fill, n in zip(fills, counts, strict=True) if n)
-        warnings.warn(
-            f"{label}: {_pixels(int(hit.sum()))} a common fill value the file does not "
-            f"declare as nodata ({shown}); they are treated as nodata, not as radiance",
-            DataQualityWarning,
-            stacklevel=3,
-        )
-        values = values.copy()  # the caller's raster stays as it was
-        values.ravel()[candidates[hit]] = np.nan
-    with np.errstate(invalid="ignore"):
-        high = values > MAX_PLAUSIBLE_RADIANCE
-    if high.any():
-        found, counts = np.unique(values[high], return_counts=True)
-        order = np.argsort(counts)[::-1][:5]
-        shown = ", ".join(f"{found[i]:g} x{counts[i]}" for i in order)
-        warnings.warn(
-            f"{label}: {_pixels(int(high.sum()))} radiances above "
-            f"{MAX_PLAUSIBLE_RADIANCE:g} nW cm-2 sr-1 ({shown}; largest "
-            f"{float(found[-1]):g}), beyond any city's night lights (urban cores: a few hundred, "
-            "the brightest sites: a few thousand); they are taken as radiance: check the "
-            "product's scale factor and nodata value",
-            DataQualityWarning,
-            stacklevel=3,
-        )
+    scan = RadianceScan()
+    values = scan.clean(radiance)
+    scan.any_value = scan.any_radiance = True  # the caller checks for nodata
+    scan.infinite = 0
+    scan.report(label, stacklevel=4)
     return values
 
 

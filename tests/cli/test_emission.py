@@ -10,6 +10,7 @@ import pytest
 import rasterio
 from affine import Affine
 from click.testing import CliRunner
+from pyproj import CRS
 
 from nightlights_cli.main import cli
 
@@ -57,7 +58,7 @@ def test_emission_of_irradiance_and_lights(irradiance: Path, lights: Path, tmp_p
 
 
 def _fake_result(**total_flux: float) -> SimpleNamespace:
-    return SimpleNamespace(total_flux=total_flux)
+    return SimpleNamespace(total_flux=total_flux, crs=CRS.from_epsg(3067))
 
 
 def test_ground_options_reach_the_stage(fake_stage, irradiance: Path, tmp_path: Path) -> None:
@@ -160,3 +161,45 @@ def test_viirs_options_reach_the_stage(fake_stage, viirs: Path, tmp_path: Path) 
     refused = CliRunner().invoke(cli, ["emission", "viirs", str(viirs), str(out)])
     assert refused.exit_code == 1 and "give --overwrite" in refused.output
     assert len(stage.calls) == 1
+
+
+def test_a_wide_geographic_mosaic_keeps_its_grid(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    source = tmp_path / "mosaic.tif"
+    with rasterio.open(
+        source,
+        "w",
+        driver="GTiff",
+        height=20,
+        width=140,
+        count=1,
+        dtype="float32",
+        crs="EPSG:4326",
+        transform=Affine(0.5, 0, 10.0, 0, -0.5, 65.0),
+    ) as dataset:
+        dataset.write(np.full((1, 20, 140), 4.0, np.float32))
+    out = tmp_path / "up.tif"
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, ["emission", "viirs", str(source), str(out)])
+    assert result.exit_code == 0, result.output
+    assert "geographic grid, WGS 84" in result.output
+    assert not [r for r in caplog.records if "DataQualityWarning" in r.getMessage()]
+    with rasterio.open(out) as dataset:
+        assert dataset.crs.to_epsg() == 4326 and dataset.shape == (20, 140)
+        assert dataset.tags()["grid"] == "geographic" and dataset.tags()["flux"] == "density"
+    # --target-crs still projects it, with the warning that one zone does not fit it
+    projected = tmp_path / "projected.tif"
+    args = ["emission", "viirs", str(source), str(projected), "--target-crs", "EPSG:3035"]
+    with caplog.at_level("WARNING"):
+        result = CliRunner().invoke(cli, [*args, "--resolution", "50000"])
+    assert result.exit_code == 0, result.output
+    assert "projected grid" in result.output
+    warned = [r.getMessage() for r in caplog.records if "DataQualityWarning" in r.getMessage()]
+    assert len(warned) == 1 and "spans 70 deg of longitude, more than one UTM zone" in warned[0]
+    assert "--target-crs" in warned[0]  # the flag, not the parameter
+    # a resolution in metres needs a projected output
+    refused = CliRunner().invoke(
+        cli, ["emission", "viirs", str(source), str(tmp_path / "r.tif"), "--resolution", "1000"]
+    )
+    assert refused.exit_code == 1 and "keeps its geographic grid" in refused.output

@@ -28,12 +28,13 @@ import nightlights as nl
 import nightlights._resources as resources
 import nightlights.ground.stage as stage
 import nightlights.ground.upward as upward
+import nightlights.ground._viirs_run as viirs_run
 
 estimates = []
 def spy(estimate, what, *, option=None):
     estimates.append(estimate)
     resources.check_memory(estimate, what, option=option)
-stage.check_memory = upward.check_memory = spy
+stage.check_memory = upward.check_memory = viirs_run.check_memory = spy
 
 def status():
     with open("/proc/self/status") as f:
@@ -100,7 +101,7 @@ def test_stages_stay_within_twice_their_estimate(tmp_path: Path) -> None:
     )
     viirs = _write(
         tmp_path / "viirs.tif",
-        rng.gamma(1.0, 10.0, (700, 700)),
+        rng.gamma(1.0, 10.0, (1400, 1400)),
         "EPSG:4326",
         from_origin(24.0, 61.0, 0.004, 0.002),
         "radiance",
