@@ -35,15 +35,9 @@ import numpy as np
 from affine import Affine
 from pyproj import CRS
 from rasterio.warp import Resampling, reproject, transform_bounds
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
+from rich.progress import Progress
 
+from nightlights._progress import progress_bar
 from nightlights._typing import FloatArray
 from nightlights.ground.viirs_input import RadianceScan
 
@@ -293,15 +287,7 @@ def _density(
 
 def window_progress(progress: bool) -> Progress:
     """A transient rich progress bar with the elapsed and remaining time."""
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        transient=True,
-        disable=not progress,
-    )
+    return progress_bar(progress)
 
 
 def window_memory(in_shape: tuple[int, int], grid: OutputGrid, *, window: int, kept: bool) -> float:
