@@ -1,0 +1,194 @@
+"""Benchmark: a plan for the world, from the measured cost of one tile of the darkness map.
+
+The darkness map of a geographic emission raster is computed tile by tile
+(:mod:`nightlights.sky.tiled`): every tile is the same work (read its window and a halo of
+the kernel's range, deposit the flux on a local grid, one FFT per stencil, sample back,
+write), so the world's cost is the number of tiles that hold light within the kernel's reach
+times the cost of one. This benchmark measures
+
+* **the cost of a tile** at 15 arcsec (463 m north-south) with the scene kernel of the
+  largest range (300 km, :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), at default
+  settings, on tiles at the equator, at 45 and at 65 degrees of latitude (the local grid is
+  metric, so the cost barely depends on latitude), lit and unlit (a tile with no light
+  within reach is written as zeros without an FFT);
+* **the scaling with workers**: the same tiles on a ``dask.distributed`` LocalCluster of 1
+  and of 2 single-threaded worker processes (this machine has 2 cores), tiles per second;
+* **the world at 15 arcsec**: 86,400 x 43,200 = 3.7 x 10^9 cells, in tiles of the default
+  edge; the tiles that need an FFT are those within the kernel's range of any light. The
+  plan counts as lit every tile with land within 300 km (GLOBE's 30 arcsec land mask, from
+  the ``global-land-mask`` package, which this benchmark installs with pip when it is
+  missing): an upper bound, since deserts, ice caps and taiga hold no light; the other
+  tiles are cheap empty ones.
+  The extrapolation is N workers x the measured per-worker rate, for N = 1 to 1024;
+* **where the 300 km range stops mattering**: the zenith luminance per lumen of the scene
+  kernel at 10-300 km, and the flux a city must send up to add 1 % of the natural zenith
+  (22.0 mag arcsec-2) at each distance.
+
+Run: ``python benchmarks/bench_world_plan.py [--quick] [--out DIR]`` (``--quick``: one tile
+per latitude and no cluster). Writes ``world_plan.json`` and ``.png``.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import _harness as harness
+import numpy as np
+
+#: Cells of the world at 15 arcsec: 360 x 240 by 180 x 240 [1].
+WORLD_SHAPE = (43_200, 86_400)
+#: Natural zenith sky brightness the flux threshold is set against [mag arcsec-2] (V).
+NATURAL_SKY = 22.0
+#: The added zenith luminance that counts, as a share of the natural sky's [1].
+MATTERS = 0.01
+#: Distances of the range chart [m].
+DISTANCES = (10e3, 25e3, 50e3, 100e3, 150e3, 200e3, 250e3, 295e3)
+
+
+def range_analysis() -> dict[str, Any]:
+    """The zenith per lumen of the 300 km scene kernel at :data:`DISTANCES` and the flux that
+    adds :data:`MATTERS` of the natural zenith at each."""
+    import nightlights as nl
+    from nightlights.brightness import magnitude_to_luminance
+    from nightlights.sky.darkness import zenith_per_lumen
+    from nightlights.sky.panorama import kernel_slice
+    from nightlights.sky.spec import MAX_KERNEL_RANGE
+
+    spec = nl.KernelSpec(r_min=10.0, r_max=MAX_KERNEL_RANGE)
+    kernel = nl.build_kernel(spec, progress=False).kernel
+    tables = kernel_slice(kernel, observer_altitude=0.0)
+    z = zenith_per_lumen(tables)[0]
+    edges = tables.distance_edges
+    centres = np.sqrt(edges[1:] * edges[:-1])
+    natural = float(magnitude_to_luminance(NATURAL_SKY))
+    per_lumen = np.exp(np.interp(np.log(DISTANCES), np.log(centres), np.log(z)))
+    return {
+        "kernel_range_m": float(edges[-1]),
+        "natural_luminance_cd_m2": natural,
+        "distance_m": list(DISTANCES),
+        "zenith_per_lumen_cd_m2_lm": per_lumen.tolist(),
+        "flux_for_one_percent_lm": (MATTERS * natural / per_lumen).tolist(),
+    }
+
+
+def lit_tile_share(tile_edge: int, reach: float) -> dict[str, Any]:
+    """Share of the world's tiles of ``tile_edge`` cells of 15 arcsec that hold land within
+    ``reach`` [m] (GLOBE's 30 arcsec land mask, the ``global-land-mask`` package, installed
+    here with pip when missing): an upper bound on the tiles that need an FFT."""
+    import importlib
+    import subprocess
+    import sys
+
+    try:
+        globe = importlib.import_module("global_land_mask.globe")
+    except ImportError:
+        subprocess.run([sys.executable, "-m", "pip", "install", "-q", "global-land-mask"], check=True)
+        globe = importlib.import_module("global_land_mask.globe")
+    land = ~np.asarray(globe._mask, dtype=bool)  # the mask is the ocean; 21600 x 43200, 30"
+    if globe._lat[0] < globe._lat[-1]:
+        land = land[::-1]  # north first
+    # any land per block of 0.25 deg (30 x 30 cells of 30 arcsec)
+    block = 30
+    coarse = land.reshape(land.shape[0] // block, block, -1, block).any(axis=(1, 3))
+    rows, cols = coarse.shape  # 720 x 1440
+    step = 0.25
+    lat = 90 - (np.arange(rows) + 0.5) * step
+    radius = 6_371_000.0
+    reach_deg = math.degrees(reach / radius)
+    near = np.zeros_like(coarse)
+    dy = math.ceil(reach_deg / step)
+    for i in range(rows):
+        band = coarse[max(0, i - dy) : i + dy + 1].any(axis=0)
+        dx = math.ceil(reach_deg / max(math.cos(math.radians(lat[i])), 1e-3) / step)
+        dx = min(dx, cols // 2)
+        shifted = np.zeros(cols, dtype=bool)
+        for offset in range(-dx, dx + 1):
+            shifted |= np.roll(band, offset)
+        near[i] = shifted
+    # tiles of tile_edge cells of 15 arcsec = tile_edge / 240 deg
+    per_tile = tile_edge / 240 / step
+    tile_rows = math.ceil(rows / per_tile)
+    tile_cols = math.ceil(cols / per_tile)
+    lit = 0
+    for ti in range(tile_rows):
+        r0, r1 = int(ti * per_tile), min(rows, int((ti + 1) * per_tile))
+        for tj in range(tile_cols):
+            c0, c1 = int(tj * per_tile), min(cols, int((tj + 1) * per_tile))
+            lit += bool(near[r0:r1, c0:c1].any())
+    return {
+        "land_share_of_blocks": float(coarse.mean()),
+        "tiles": tile_rows * tile_cols,
+        "lit_tiles": lit,
+        "lit_share": lit / (tile_rows * tile_cols),
+        "mask": "GLOBE 30 arcsec land mask (global-land-mask 1.0.0, NOAA NGDC GLOBE)",
+    }
+
+
+def world_plan(
+    seconds_lit: float, seconds_empty: float, tile_edge: int, rates: dict[int, float]
+) -> dict[str, Any]:
+    """Tiles of the world and the hours for N workers, from the measured per-tile times."""
+    from nightlights.sky.spec import MAX_KERNEL_RANGE
+
+    share = lit_tile_share(tile_edge, MAX_KERNEL_RANGE)
+    tiles, lit = share["tiles"], share["lit_tiles"]
+    one_worker = lit * seconds_lit + (tiles - lit) * seconds_empty
+    speedup = rates.get(2, 1.0) / rates.get(1, 1.0) if rates else 1.0
+    workers = [1, 2, 8, 32, 128, 512, 1024]
+    return {
+        **share,
+        "seconds_one_worker": one_worker,
+        "measured_speedup_1_to_2": speedup,
+        "workers": workers,
+        # ideal scaling beyond what was measured: tiles are independent, reads and writes are
+        # a small share of a tile's time
+        "hours": [one_worker / n / 3600 for n in workers],
+    }
+
+
+def plot(payload: dict[str, Any]) -> Any:
+    plt = harness.pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    plan = payload["world"]
+    left.loglog(plan["workers"], plan["hours"], "o-")
+    left.set_xlabel("workers")
+    left.set_ylabel("hours for the world at 15 arcsec")
+    left.set_title(
+        f"{plan['tiles']} tiles, {plan['lit_tiles']} lit; "
+        f"{payload['tile']['seconds_lit']:.1f} s per lit tile"
+    )
+    left.grid(True, which="both", alpha=0.3)
+    reach = payload["range"]
+    km = np.asarray(reach["distance_m"]) / 1000
+    right.loglog(km, reach["flux_for_one_percent_lm"], "o-")
+    right.set_xlabel("distance of the city [km]")
+    right.set_ylabel("upward flux adding 1 % of the natural zenith [lm]")
+    right.set_title("Where the 300 km range stops mattering")
+    right.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def main() -> None:
+    args = harness.parse_args(
+        harness.argument_parser(__doc__, quick="one tile per latitude and no cluster")
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        tile = measure_tiles(Path(tmp), quick=args.quick)
+        rates = {} if args.quick else measure_scaling(Path(tmp))
+    payload = {
+        "tile": tile,
+        "scaling_tiles_per_second": {str(k): v for k, v in rates.items()},
+        "world": world_plan(tile["seconds_lit"], tile["seconds_empty"], tile["edge"], rates),
+        "range": range_analysis(),
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+    }
+    harness.write_results(args.out, "world_plan", payload, quick=args.quick, plot=plot)
+
+
+if __name__ == "__main__":
+    main()
