@@ -34,6 +34,7 @@ from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import (
     PolarMap,
+    distance_shares,
     lit_polar_cells,
     source_level_weights,
 )
@@ -218,12 +219,13 @@ class _Zenith:
         distance = np.hypot(x - xy[0], y - xy[1])
         half = cell / math.sqrt(2.0)  # sub-points lie within half a diagonal of the centre
         n_r = engine.edges.size - 1
-        # the bins of lit_polar_cells: searchsorted(edges, r, "right") - 1, 0 below the first
-        first = np.searchsorted(engine.edges, np.maximum(distance - half, 0.0), "right") - 1
-        last = np.searchsorted(engine.edges, distance + half, "right") - 1
-        outside = last >= n_r  # some sub-points may lie beyond the kernel: they count 0
+        # the bins of lit_polar_cells (distance_shares): a sub-point at r reads the bins
+        # lower(r) and lower(r) + 1, and lower grows with r
+        first, _ = distance_shares(np.maximum(distance - half, 0.0), engine.edges)
+        outside = distance + half >= engine.edges[-1]  # some sub-points may lie beyond: 0
+        last, _ = distance_shares(np.minimum(distance + half, engine.edges[-1]), engine.edges)
         first = np.clip(first, 0, n_r - 1)
-        last = np.clip(last, 0, n_r - 1)
+        last = np.clip(last + 1, 0, n_r - 1)
         least = self.least[:, :, first, last]  # (levels, bands, n)
         greatest = self.greatest[:, :, first, last]
         least = np.where(outside, np.minimum(least, 0.0), least)
