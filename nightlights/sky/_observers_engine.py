@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 from affine import Affine
+from numpy.typing import NDArray
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from nightlights._typing import FloatArray
@@ -34,6 +35,7 @@ from nightlights.sky.influence import cell_values, region_table, zenith_weights
 from nightlights.sky.panorama import KernelLevels, KernelSlice, band_slice, panorama_pca
 from nightlights.sky.polar import (
     PolarMap,
+    distance_shares,
     lit_polar_cells,
     source_level_weights,
 )
@@ -119,13 +121,14 @@ class _Engine:
         A cell's part is :func:`~nightlights.inverse.inverse_q`'s with ``metric="zenith"``
         (Dobashi et al. 2023, Eqs. 13-14 with the zenith row's weights): its flux on each
         source level times the zenith luminance per lumen of the polar bins its sub-points
-        fall in, summed. The parts of all cells add up to the binned flux times the same
-        table, the panorama's artificial zenith (Eqs. 13-14 are linear), the shares'
-        denominator. Every sub-point of a cell lies within half a cell diagonal of its centre,
-        so the cell's part lies between its flux times the least and the greatest value of
-        the table over the distance bins of that span; only the cells whose upper bound
-        reaches the ``top_cells``-th largest lower bound are split into sub-points
-        (:func:`~nightlights.sky.polar.lit_polar_cells`) and summed exactly, as
+        share their flux between, summed. The parts of all cells add up to the binned flux
+        times the same table, the panorama's artificial zenith (Eqs. 13-14 are linear), the
+        shares' denominator. Every sub-point of a cell lies within half a cell diagonal of its
+        centre, so the cell's part lies between its flux times the least and the greatest
+        value of the table over that span (read as the sub-points read it, linear in ln r
+        between the bin centres: at the span's ends and the centres inside); only the cells
+        whose upper bound reaches the ``top_cells``-th largest lower bound are split into
+        sub-points (:func:`~nightlights.sky.polar.lit_polar_cells`) and summed exactly, as
         :func:`~nightlights.inverse.inverse_q` does for all of them.
         """
         total = float(sum(np.sum(m * t) for m, t in zip(maps, zenith.tables, strict=True)))
@@ -193,6 +196,8 @@ class _Zenith:
     tables: list[FloatArray]  # (bands, n_r, n_az) per level
     least: FloatArray  # (levels, bands, n_r, n_r): [.., first, last] over bins first..last
     greatest: FloatArray
+    low: FloatArray  # (levels, bands, n_r): the least over azimuth of each bin
+    high: FloatArray
 
     @classmethod
     def of(cls, slices: list[KernelSlice]) -> _Zenith:
@@ -207,7 +212,7 @@ class _Zenith:
         for first in range(n_r):
             least[..., first, first:] = np.minimum.accumulate(low[..., first:], axis=-1)
             greatest[..., first, first:] = np.maximum.accumulate(high[..., first:], axis=-1)
-        return cls(tables, least, greatest)
+        return cls(tables, least, greatest, low, high)
 
     def bounds(self, engine: _Engine, xy: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
         """Lower and upper bounds of every lit cell's part of the zenith [cd m-2]."""
@@ -218,14 +223,26 @@ class _Zenith:
         distance = np.hypot(x - xy[0], y - xy[1])
         half = cell / math.sqrt(2.0)  # sub-points lie within half a diagonal of the centre
         n_r = engine.edges.size - 1
-        # the bins of lit_polar_cells: searchsorted(edges, r, "right") - 1, 0 below the first
-        first = np.searchsorted(engine.edges, np.maximum(distance - half, 0.0), "right") - 1
-        last = np.searchsorted(engine.edges, distance + half, "right") - 1
-        outside = last >= n_r  # some sub-points may lie beyond the kernel: they count 0
-        first = np.clip(first, 0, n_r - 1)
-        last = np.clip(last, 0, n_r - 1)
-        least = self.least[:, :, first, last]  # (levels, bands, n)
-        greatest = self.greatest[:, :, first, last]
+        # A sub-point at r reads w z[i] + (1 - w) z[i + 1] (distance_shares), linear in ln r
+        # between the bin centres: over [near, far] the least (greatest) of the bins' least
+        # (greatest) values so read lies at an end or at a centre in between.
+        near = np.maximum(distance - half, 0.0)
+        outside = distance + half >= engine.edges[-1]  # some sub-points may lie beyond: 0
+        far = np.minimum(distance + half, engine.edges[-1])
+        first, w_near = distance_shares(near, engine.edges)
+        last, w_far = distance_shares(far, engine.edges)
+        first = np.minimum(first, n_r - 1)
+        last = np.minimum(last, n_r - 1)
+
+        def read(table: FloatArray, lower: NDArray[np.int64], w: FloatArray) -> FloatArray:
+            return w * table[:, :, lower] + (1 - w) * table[:, :, np.minimum(lower + 1, n_r - 1)]
+
+        inner = first + 1 <= last  # bin centres strictly between near and far
+        a, b = np.minimum(first + 1, n_r - 1), np.maximum(last, np.minimum(first + 1, n_r - 1))
+        least = np.minimum(read(self.low, first, w_near), read(self.low, last, w_far))
+        greatest = np.maximum(read(self.high, first, w_near), read(self.high, last, w_far))
+        least = np.where(inner, np.minimum(least, self.least[:, :, a, b]), least)
+        greatest = np.where(inner, np.maximum(greatest, self.greatest[:, :, a, b]), greatest)
         least = np.where(outside, np.minimum(least, 0.0), least)
         greatest = np.where(outside, np.maximum(greatest, 0.0), greatest)
         beyond = distance - half >= engine.edges[-1]  # every sub-point beyond the kernel

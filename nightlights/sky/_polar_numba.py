@@ -4,7 +4,9 @@ The same map as :meth:`nightlights.sky.polar.PolarCells.binned` per source level
 (:func:`nightlights.sky.polar.level_maps` of :func:`nightlights.sky.polar.lit_polar_cells`),
 which stays the reference the tests compare this to: every lit cell is split into k x k
 sub-points (k from :func:`nightlights.sky.polar.supersampling`), each carrying 1 / k**2 of the
-cell's flux into one (distance, azimuth) bin (Dobashi et al. 2023, Sec. 3.3). Written as one
+cell's flux into one azimuth bin (Dobashi et al. 2023, Sec. 3.3) and two neighbouring distance
+bins, linearly in ln r between the bin centres c (:func:`nightlights.sky.polar.distance_shares`):
+w = (ln c_{i+1} - ln r) / (ln c_{i+1} - ln c_i) to bin i, 1 - w to bin i + 1. Written as one
 loop over the lit cells that scatters straight into the bins, so that no per-sub-point arrays
 are made: a new observer costs one pass over the lit cells.
 """
@@ -20,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from nightlights._typing import FloatArray
 from nightlights.errors import InputError
+from nightlights.sky.polar import distance_centres
 
 __all__ = ["polar_flux_levels"]
 
@@ -39,6 +42,8 @@ def _scatter_parallel(
     ox: float,
     oy: float,
     edges: FloatArray,
+    log_centres: FloatArray,
+    share_bins: bool,
     n_az: int,
     max_samples: int,
     out: FloatArray,
@@ -61,6 +66,8 @@ def _scatter_parallel(
             ox,
             oy,
             edges,
+            log_centres,
+            share_bins,
             n_az,
             max_samples,
             out[chunk],
@@ -81,6 +88,8 @@ def _scatter(
     ox: float,
     oy: float,
     edges: FloatArray,
+    log_centres: FloatArray,
+    share_bins: bool,
     n_az: int,
     max_samples: int,
     out: FloatArray,
@@ -103,29 +112,57 @@ def _scatter(
             for b in range(k):
                 dy = (cy[i] + ((b + 0.5) / k - 0.5) * cell) - oy
                 r = math.sqrt(dx * dx + dy * dy)
-                # searchsorted(edges, r, "right") - 1, clipped below at 0
-                lo, hi = 0, edges.size
-                while lo < hi:
-                    mid = (lo + hi) // 2
-                    if edges[mid] <= r:
-                        lo = mid + 1
-                    else:
-                        hi = mid
-                d_bin = max(lo - 1, 0)
-                if d_bin >= n_r:
+                if r >= edges[n_r]:  # beyond the last edge: left out
                     for band in range(n_bands):
                         dropped[band] += flux[band, i] * share
                     continue
+                d_bin, w = _distance_bin(r, edges, log_centres, share_bins)
                 azimuth = math.degrees(math.atan2(dx, dy))
                 if azimuth < 0.0:
                     azimuth += 360.0
                 a_bin = min(int(azimuth * n_az / 360.0), n_az - 1)
+                lower = share * w
+                upper = share * (1.0 - w)
                 for level in range(n_levels):
-                    w = levels[level, i]
-                    if w == 0.0:
+                    v = levels[level, i]
+                    if v == 0.0:
                         continue
                     for band in range(n_bands):
-                        out[level, band, d_bin, a_bin] += flux[band, i] * share * w
+                        out[level, band, d_bin, a_bin] += flux[band, i] * lower * v
+                        if w < 1.0:
+                            out[level, band, d_bin + 1, a_bin] += flux[band, i] * upper * v
+
+
+@njit(cache=True, nogil=True)
+def _distance_bin(
+    r: float, edges: FloatArray, log_centres: FloatArray, share_bins: bool
+) -> tuple[int, float]:
+    """distance_shares() of one sub-point nearer than the last edge: the lower bin and its
+    weight; with ``share_bins`` False the former rule (the bin holding r takes all)."""
+    n_r = edges.size - 1
+    if not share_bins:
+        # searchsorted(edges, r, "right") - 1, clipped below at 0
+        lo, hi = 0, edges.size
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if edges[mid] <= r:
+                lo = mid + 1
+            else:
+                hi = mid
+        return max(lo - 1, 0), 1.0
+    log_r = math.log(r) if r > 0.0 else -math.inf
+    # searchsorted(log centres, ln r, "right") - 1, clipped to [0, n_r - 1]
+    lo, hi = 0, n_r
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if log_centres[mid] <= log_r:
+            lo = mid + 1
+        else:
+            hi = mid
+    lower = lo - 1
+    if lower < 0 or lower >= n_r - 1:
+        return max(min(lower, n_r - 1), 0), 1.0
+    return lower, (log_centres[lower + 1] - log_r) / (log_centres[lower + 1] - log_centres[lower])
 
 
 def polar_flux_levels(
@@ -140,6 +177,7 @@ def polar_flux_levels(
     n_az: int,
     scale: ArrayLike | None = None,
     max_samples: int = 16,
+    _nearest: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
     """Flux of the lit cells per source level, band, distance and azimuth bin.
 
@@ -165,6 +203,9 @@ def polar_flux_levels(
         [1].
     max_samples
         Largest number of sub-points per cell side [1].
+    _nearest
+        The former one-bin rule (the bin holding a sub-point takes all its flux), kept as the
+        reference of ``benchmarks/bench_sky_distance_bins.py`` [1].
 
     Returns
     -------
@@ -203,6 +244,7 @@ def polar_flux_levels(
     if factor.size != r.size:
         raise InputError(f"scale of {factor.size} values for {r.size} cells")
     edges = np.ascontiguousarray(distance_edges, dtype=float)
+    log_centres = np.ascontiguousarray(np.log(distance_centres(edges)))
     cx = np.asarray(transform.c + transform.a * (c + 0.5), dtype=np.float64)
     cy = np.asarray(transform.f + transform.e * (r + 0.5), dtype=np.float64)
     chunks = max(1, min(get_num_threads(), r.size // _CELLS_PER_CHUNK))
@@ -218,6 +260,8 @@ def polar_flux_levels(
         float(observer[0]),
         float(observer[1]),
         edges,
+        log_centres,
+        not _nearest,
         int(n_az),
         int(max_samples),
         out,

@@ -10,16 +10,18 @@ flux per cell with a radial stencil:
 .. math::
 
     L_z(o) = \\sum_b \\sum_s F_b(s)\\, W_b(s - o), \\qquad
-    W_b(m) = \\frac{1}{k^2} \\sum_p z_b\\big(d(|m + p|)\\big), \\qquad
+    W_b(m) = \\frac{1}{k^2} \\sum_p z_b\\big(|m + p|\\big), \\qquad
     z_b(d) = \\frac{1}{n_\\phi} \\sum_j b_b(d, \\theta_0, \\phi_j)
     \\quad [\\mathrm{cd\\,m^{-2}}],
 
-with ``F_b`` the flux of emission band ``b`` (Lambertian, uplight) in a cell [lm], ``d(r)`` the
-kernel's distance bin of a sub-point at distance ``r`` (sub-points beyond the last edge left
-out) and ``z_b`` the azimuth mean of the kernel's top row [cd m-2 lm-1] (Dobashi et al. 2023,
-Eq. 4: the DC term of its PCA form when no raw tables are stored). The stencil samples every
-cell offset exactly as the polar map samples a cell around an observer at a cell centre, so on
-flat terrain the map equals the panorama's zenith at any cell up to float rounding.
+with ``F_b`` the flux of emission band ``b`` (Lambertian, uplight) in a cell [lm] and ``z_b(r)``
+the azimuth mean of the kernel's top row [cd m-2 lm-1] (Dobashi et al. 2023, Eq. 4: the DC
+term of its PCA form when no raw tables are stored) read at a sub-point's distance ``r`` as the
+polar map reads it: shared between the two distance bins around ``r``, linearly in ln r
+between their centres (:func:`~nightlights.sky.polar.distance_shares`; sub-points beyond the
+last edge left out). The stencil samples every cell offset exactly as the polar map samples a
+cell around an observer at a cell centre, so on flat terrain the map equals the panorama's
+zenith at any cell up to float rounding.
 
 Over terrain the emission is split between the kernel's source levels by each cell's height
 (:func:`~nightlights.sky.polar.source_level_weights`), one convolution is made per (source level,
@@ -63,6 +65,7 @@ import math
 import os
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -90,7 +93,7 @@ from nightlights.sky.instruments import Instrument
 from nightlights.sky.multiple import scattering_note
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import KernelSlice, band_slice, kernel_levels
-from nightlights.sky.polar import source_level_weights, supersampling
+from nightlights.sky.polar import distance_shares, source_level_weights, supersampling
 from nightlights.sky.scene import Scene
 from nightlights.sky.setup import (
     RasterInput,
@@ -216,25 +219,41 @@ class _Stencil:
     """Where the polar map's sub-points of every cell offset fall in the distance bins.
 
     Offsets ``(di, dj)`` (source row, column minus the observer's) up to ``half`` cells; an
-    offset sampled by one sub-point (its centre) keeps one bin index (``n_r`` = beyond the
-    last edge), the few near the centre (k > 1) keep a row of bin shares.
+    offset sampled by one sub-point (its centre) keeps its lower distance bin (``bins``,
+    ``n_r`` = beyond the last edge) and the upper bin's weight (``frac``), as the polar map
+    shares it (:func:`~nightlights.sky.polar.distance_shares`); the few near the centre
+    (k > 1) keep a row of bin shares. ``bins`` selects the distance rule (the former one-bin
+    rule, :func:`~nightlights.sky.polar._nearest_bin`, for the benchmark that compares them).
     """
 
-    def __init__(self, cell: float, edges: FloatArray, n_az: int, half: tuple[int, int]) -> None:
+    def __init__(
+        self,
+        cell: float,
+        edges: FloatArray,
+        n_az: int,
+        half: tuple[int, int],
+        bins: Callable[[ArrayLike, ArrayLike], tuple[NDArray[np.int64], FloatArray]] = (
+            distance_shares
+        ),
+    ) -> None:
         self.half = half
         self.n_r = edges.size - 1
         rows, cols = 2 * half[0] + 1, 2 * half[1] + 1
         dx = (np.arange(cols) - half[1]) * cell  # east
         self.bins = np.empty((rows, cols), dtype=np.uint8 if self.n_r < 255 else np.uint16)
+        # the upper bin's weight [1]; float64: the map equals the panorama to float rounding
+        self.frac = np.zeros((rows, cols))
         near: list[NDArray[np.int64]] = []
         strip = max(1, 2**20 // cols)  # bound the temporaries of a wide stencil
         for top in range(0, rows, strip):
             dy = -(np.arange(top, min(top + strip, rows)) - half[0])[:, None] * cell  # north
             r = np.hypot(dx[None, :], dy)
             k = supersampling(cell, r, n_az, max_samples=MAX_SAMPLES)
-            d_bin = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, self.n_r)
-            self.bins[top : top + dy.shape[0]] = np.where(k == 1, d_bin, self.n_r)
-            near.append(np.flatnonzero(k > 1) + top * cols)
+            lower, weight = bins(r, edges)
+            far = k == 1
+            self.bins[top : top + dy.shape[0]] = np.where(far, lower, self.n_r)
+            self.frac[top : top + dy.shape[0]] = np.where(far & (lower < self.n_r), 1 - weight, 0)
+            near.append(np.flatnonzero(~far) + top * cols)
         self.near = np.concatenate(near)
         self.share = np.zeros((self.near.size, self.n_r))
         if self.near.size == 0:
@@ -248,18 +267,28 @@ class _Stencil:
             ox, oy = np.meshgrid(offsets, offsets)
             px = near_dx[members, None] + ox.ravel()[None, :]
             py = near_dy[members, None] + oy.ravel()[None, :]
-            d_bin = np.clip(np.searchsorted(edges, np.hypot(px, py), side="right") - 1, 0, None)
-            inside = d_bin < self.n_r
-            index = np.repeat(members, samples**2)[inside.ravel()] * self.n_r + d_bin[inside]
-            self.share += np.bincount(index, minlength=self.share.size).reshape(
+            lower, weight = bins(np.hypot(px, py).ravel(), edges)
+            inside = lower < self.n_r
+            shared = inside & (weight < 1.0)
+            member = np.repeat(members, samples**2)
+            index = np.concatenate(
+                [
+                    member[inside] * self.n_r + lower[inside],
+                    member[shared] * self.n_r + lower[shared] + 1,
+                ]
+            )
+            parts = np.concatenate([weight[inside], 1.0 - weight[shared]])
+            self.share += np.bincount(index, weights=parts, minlength=self.share.size).reshape(
                 self.share.shape
             ) / float(samples**2)
 
     def weights(self, per_lumen: FloatArray) -> FloatArray:
-        """The stencil W(m) [cd m-2 lm-1] of a zenith table ``(n_r,)``, indexed by offset."""
-        extended = np.append(np.asarray(per_lumen, dtype=float), 0.0)
+        """The stencil W(m) [cd m-2 lm-1] of a zenith table ``(n_r,)``, indexed by offset:
+        (1 - f) z[lo] + f z[lo + 1] with lo = ``bins`` and f = ``frac``."""
+        extended = np.append(np.asarray(per_lumen, dtype=float), [0.0, 0.0])
         stencil = extended[self.bins]
-        stencil.flat[self.near] = self.share @ extended[:-1]
+        stencil += self.frac * (extended[self.bins + 1] - stencil)
+        stencil.flat[self.near] = self.share @ extended[:-2]
         return stencil
 
 

@@ -20,6 +20,7 @@ from nightlights.inverse import (
 )
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, Observer, Scene, build_kernel, skyglow
+from nightlights.sky.polar import distance_shares
 
 CELL = 100.0
 TRANSFORM = Affine(CELL, 0, 0, 0, -CELL, 4000.0)
@@ -345,3 +346,22 @@ def test_dimming_refuses_a_raster_larger_than_the_memory_limit(kernel, tmp_path:
     finally:
         set_memory_limit(None)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_each_cells_zenith_part_is_its_own_forward_zenith(kernel) -> None:
+    """The inverse is the transpose of the forward map also where a cell's flux is shared
+    between two distance bins: Q_i (zenith) of every cell is the zenith of that cell alone."""
+    cells = [(19, 31), (8, 27), (33, 12)]  # single sub-points between two bin centres
+    edges = kernel.kernel["distance_edges"].values
+    data = np.zeros((2, 40, 40))
+    for row, col in cells:
+        data[:, row, col] = (1.0, 0.3)
+        x, y = TRANSFORM.c + CELL * (col + 0.5), TRANSFORM.f - CELL * (row + 0.5)
+        r = np.hypot(x - OBSERVER.x, y - OBSERVER.y)
+        assert 0.05 < distance_shares(r, edges)[1] < 0.95, r  # shared, not at a centre
+    q = inverse_q(Scene(_raster(data), kernel=kernel), OBSERVER, metric="zenith")
+    for row, col in cells:
+        alone = np.zeros_like(data)
+        alone[:, row, col] = data[:, row, col]
+        forward = skyglow(Scene(_raster(alone), kernel=kernel), OBSERVER).zenith_luminance
+        assert q.raster.data[0, row, col] == pytest.approx(forward, rel=1e-9), (row, col)

@@ -18,12 +18,13 @@ from nightlights.brightness import NATURAL_ZENITH_LUMINANCE, luminance_to_magnit
 from nightlights.errors import CRSError, DataQualityWarning, InputError, OutputError
 from nightlights.io import Raster
 from nightlights.sky import KernelSpec, Observer, Scene, build_kernel
-from nightlights.sky.darkness import DarknessResult, darkness, zenith_per_lumen
+from nightlights.sky.darkness import DarknessResult, _Stencil, darkness, zenith_per_lumen
 from nightlights.sky.forward import skyglow_panorama
 from nightlights.sky.instrument_units import DEFAULT_SPECTRUM
 from nightlights.sky.instruments import angular_weights, elevation_weights, instrument_luminance
 from nightlights.sky.observer import OBSERVER_HEIGHT
 from nightlights.sky.panorama import kernel_slice
+from nightlights.sky.polar import _nearest_bin, distance_shares
 from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import kernel_cache_path
 
@@ -559,3 +560,43 @@ def test_instrument_errors_are_one_line_and_come_before_the_kernel(
     # without an instrument the spectrum and the natural sky are not read
     plain = darkness(Scene(wrong_tag, kernel=kernel), progress=False)
     assert plain.instrument is None and "instrument" not in plain.raster.tags
+
+
+# --- the stencil shares a sub-point between two distance bins, as the polar map does --------
+
+
+def test_a_lone_sources_zenith_is_smooth_along_the_map() -> None:
+    """One lit 100 m cell: the map 3-7 km from it follows a smooth curve in ln r (the stencil
+    shares each offset between two distance bins); the former one-bin stencil saws."""
+    spec = KernelSpec(r_min=10.0, r_max=30_000.0, n_distance=32, n_elevation=4, n_azimuth=8)
+    table = build_kernel(spec, progress=False).kernel
+    flux = np.zeros((1, 3, 75))
+    flux[0, 1, 0] = 1.0
+    zenith = darkness(Scene(Raster(flux, TRANSFORM, CRS), kernel=table), height=0.0, progress=False)
+    along = zenith.raster.data[0, 1, 30:71]  # 3-7 km east of the lit cell
+    tables = kernel_slice(table, observer_altitude=0.0)
+    one_bin = _Stencil(CELL, tables.distance_edges, tables.n_az, (1, 74), bins=_nearest_bin)
+    sawing = one_bin.weights(zenith_per_lumen(tables)[0])[1, 74 + 30 : 74 + 71]
+    distance = np.arange(30, 71) * CELL
+
+    def deviation(luminance: np.ndarray) -> float:
+        x = np.log(distance)
+        fit = np.exp(np.polyval(np.polyfit(x, np.log(luminance), 3), x))
+        return float(np.max(np.abs(luminance / fit - 1.0)))
+
+    assert deviation(along) < 0.03 < deviation(sawing)
+
+
+def test_the_stencil_shares_as_the_polar_map() -> None:
+    """Offsets of one sub-point: the lower bin and the upper bin's weight of distance_shares."""
+    edges = np.geomspace(10.0, 5000.0, 9)
+    stencil = _Stencil(CELL, edges, 8, (30, 30))
+    r = np.hypot(*np.meshgrid(np.arange(-30, 31) * CELL, np.arange(-30, 31) * CELL))
+    lower, weight = distance_shares(r, edges)
+    far = np.ones(r.shape, bool)
+    far.flat[stencil.near] = False
+    np.testing.assert_array_equal(stencil.bins[far], lower[far])
+    inside = far & (lower < edges.size - 1)
+    np.testing.assert_allclose(stencil.frac[inside], 1.0 - weight[inside], atol=1e-15)
+    assert np.all(stencil.frac[far & ~inside] == 0.0)
+    np.testing.assert_allclose(stencil.share.sum(axis=1)[stencil.share.sum(axis=1) > 0], 1.0)

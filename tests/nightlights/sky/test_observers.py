@@ -130,7 +130,11 @@ def test_every_cells_zenith_part_lies_within_its_bounds(small_kernel, xy) -> Non
     lower, upper = zenith.bounds(engine, xy)
     tolerance = 1e-12 * exact.max()
     assert np.all(lower <= exact + tolerance) and np.all(exact <= upper + tolerance)
-    assert np.mean(upper - lower <= 1e-9 * exact.max()) > 0.2  # single-bin cells are tight
+    # the bounds follow the zenith's own change over a cell's span (a sub-point's flux is
+    # shared between two distance bins, linear in ln r): few cells are left to sum exactly
+    assert np.median((upper - lower) / exact) < 0.3
+    threshold = np.sort(lower)[-3]
+    assert np.sum(upper >= threshold) < 0.2 * exact.size
 
 
 def test_fewer_lit_cells_than_asked_leave_nan(small_kernel: xr.Dataset) -> None:
