@@ -28,9 +28,11 @@ References
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
+import threading
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -53,6 +55,17 @@ AUTHALIC_RADIUS = 6371007.2
 SUBPOINT_BATCH = 2**21
 #: Output rows sampled back from the local grid at once [1].
 SAMPLE_ROWS = 256
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_transformer(source: str, target: str, thread: int) -> Transformer:
+    return Transformer.from_crs(source, target, always_xy=True)
+
+
+def _transformer(source: str, target: str) -> Transformer:
+    """A (longitude, latitude)-ordered transformer, made once per thread (pyproj's are not
+    shared between threads): a tile projects to and from its local grid several times."""
+    return _cached_transformer(str(source), str(target), threading.get_ident())
 
 
 def geographic_cell_areas(transform: Affine, rows: int | np.ndarray) -> FloatArray:
@@ -85,9 +98,7 @@ def geographic_cell_areas(transform: Affine, rows: int | np.ndarray) -> FloatArr
     top = np.radians(np.clip(transform.f + transform.e * r, -90.0, 90.0))
     bottom = np.radians(np.clip(transform.f + transform.e * (r + 1.0), -90.0, 90.0))
     dlon = math.radians(abs(transform.a))
-    return np.asarray(
-        AUTHALIC_RADIUS**2 * dlon * np.abs(np.sin(top) - np.sin(bottom)), dtype=float
-    )
+    return np.asarray(AUTHALIC_RADIUS**2 * dlon * np.abs(np.sin(top) - np.sin(bottom)), dtype=float)
 
 
 def tile_windows(shape: tuple[int, int], edge: int) -> list[tuple[int, int, int, int, int, int]]:
@@ -205,6 +216,8 @@ class LocalGrid:
     ----------
     crs
         The azimuthal equidistant projection centred on the tile (PROJ string).
+    centre
+        Its centre (longitude, latitude) [deg].
     left, top
         Corner of the flux grid [m] in that projection.
     cell
@@ -216,6 +229,7 @@ class LocalGrid:
     """
 
     crs: str
+    centre: tuple[float, float]
     left: float
     top: float
     cell: float
@@ -263,8 +277,8 @@ def local_grid(
         Stencil radius (rows, cols) [cells].
     """
     r0, r1, c0, c1 = window
-    to_geo = Transformer.from_crs(output_crs, "EPSG:4326", always_xy=True)
-    cx, cy = output_transform * ((c0 + c1) / 2.0, (r0 + r1) / 2.0)
+    to_geo = _transformer(output_crs, "EPSG:4326")
+    cx, cy = output_transform @ ((c0 + c1) / 2.0, (r0 + r1) / 2.0)
     lon0, lat0 = to_geo.transform(cx, cy)
     crs = aeqd(float(lon0), float(lat0))
     xs, ys = _projected_outline(output_crs, output_transform, window, crs)
@@ -276,6 +290,7 @@ def local_grid(
     a, b = half
     return LocalGrid(
         crs=crs,
+        centre=(float(lon0), float(lat0)),
         left=left - b * cell,
         top=top + a * cell,
         cell=cell,
@@ -293,9 +308,11 @@ def _projected_outline(
     cols = np.arange(c0, c1) + 0.5
     first, last = np.full(cols.size, r0 + 0.5), np.full(cols.size, r1 - 0.5)
     ring_r = np.concatenate([rows, rows, first, last])
-    ring_c = np.concatenate([np.full(rows.size, c0 + 0.5), np.full(rows.size, c1 - 0.5), cols, cols])
-    x, y = transform * (ring_c, ring_r)
-    t = Transformer.from_crs(crs, target, always_xy=True)
+    ring_c = np.concatenate(
+        [np.full(rows.size, c0 + 0.5), np.full(rows.size, c1 - 0.5), cols, cols]
+    )
+    x, y = transform @ (ring_c, ring_r)
+    t = _transformer(crs, target)
     px, py = t.transform(np.asarray(x), np.asarray(y))
     return np.asarray(px, dtype=float), np.asarray(py, dtype=float)
 
@@ -311,18 +328,18 @@ def source_window(emission: Emission, grid: LocalGrid) -> tuple[int, int, int, i
     u = np.linspace(0.0, 1.0, n)
     xs = grid.left + grid.cell * cols * np.concatenate([u, u, np.zeros(n), np.ones(n)])
     ys = grid.top - grid.cell * rows * np.concatenate([np.zeros(n), np.ones(n), u, u])
-    back = Transformer.from_crs(grid.crs, emission.crs, always_xy=True)
+    back = _transformer(grid.crs, emission.crs)
     ex, ey = (np.asarray(v, dtype=float) for v in back.transform(xs, ys))
     inverse = ~emission.transform
     height, width = emission.shape
     if emission.geographic:
-        centre = float(CRS.from_user_input(grid.crs).to_dict()["lon_0"])
+        centre = grid.centre[0]
         ex = centre + (ex - centre + 180.0) % 360.0 - 180.0
-    fc, fr = inverse * (ex, ey)
+    fc, fr = inverse @ (ex, ey)
     r0, r1 = math.floor(float(np.min(fr))) - 1, math.ceil(float(np.max(fr))) + 1
     c0, c1 = math.floor(float(np.min(fc))) - 1, math.ceil(float(np.max(fc))) + 1
     if emission.geographic:
-        to_local = Transformer.from_crs("EPSG:4326", grid.crs, always_xy=True)
+        to_local = _transformer("EPSG:4326", grid.crs)
         for pole, edge in ((90.0, 0), (-90.0, height)):
             px, py = to_local.transform(0.0, pole)
             inside = grid.left <= px <= grid.left + grid.cell * cols
@@ -365,7 +382,7 @@ def deposit(
     sub-points (:func:`subdivision`, k from the cell's row), projected and binned; sub-points
     outside the grid are left out (they lie beyond the stencil's reach of every sampled cell).
     """
-    r0, r1, c0, c1 = window
+    r0, r1, c0, _ = window
     flux = cell_flux(emission, window)
     rows, cols = grid.shape
     out = [np.zeros(rows * cols) for _ in range(emission.bands)]
@@ -374,7 +391,7 @@ def deposit(
         return [o.reshape(rows, cols) for o in out]
     values = flux[:, lit_r, lit_c]  # (bands, n_lit)
     del flux
-    to_local = Transformer.from_crs(emission.crs, grid.crs, always_xy=True)
+    to_local = _transformer(emission.crs, grid.crs)
     t = emission.transform
     # k from the cells' largest size in the window (the row nearest the equator)
     sizes = [_cell_sizes(emission, r) for r in (r0, r1 - 1, _equator_row(t, r0, r1))]
@@ -386,7 +403,7 @@ def deposit(
         stop = min(start + per_batch, lit_r.size)
         fr = (r0 + lit_r[start:stop, None]) + sub_r[None, :]
         fc = (c0 + lit_c[start:stop, None]) + sub_c[None, :]
-        x, y = t * (fc.ravel(), fr.ravel())
+        x, y = t @ (fc.ravel(), fr.ravel())
         px, py = to_local.transform(np.asarray(x), np.asarray(y))
         col = np.floor((np.asarray(px) - grid.left) / grid.cell)
         row = np.floor((grid.top - np.asarray(py)) / grid.cell)
@@ -415,7 +432,7 @@ def sample_back(
     centres, a few rows at a time."""
     r0, r1, c0, c1 = window
     a, _, b, _ = grid.interior
-    to_local = Transformer.from_crs(output_crs, grid.crs, always_xy=True)
+    to_local = _transformer(output_crs, grid.crs)
     out = np.empty((r1 - r0, c1 - c0))
     for top in range(r0, r1, SAMPLE_ROWS):
         bottom = min(top + SAMPLE_ROWS, r1)

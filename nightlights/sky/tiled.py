@@ -22,16 +22,14 @@ geographic out, like the World Atlas, Falchi et al. 2016) or the grid of ``targe
 the input's metres per cell. A raster spanning all 360 degrees of longitude wraps.
 
 **Projection error.** The azimuthal equidistant projection keeps distances from its centre
-exact; the distance between two other points is stretched across the radius by the
-projection's transverse scale :math:`k' = \\rho / (R \\sin(\\rho / R))` at distance
-:math:`\\rho` from the centre (Snyder 1987, Eq. 25-2), at most
-:math:`\\rho^2 / (6R^2)` for :math:`\\rho \\ll R`. With the default tile (2048 cells of
-15 arcsec, 949 km square, half-diagonal 671 km) and a 300 km reach, :math:`\\rho \\le 971`
-km: at most 0.39 % in a source's distance (0.10 % for the 1024-cell tile), measured 0.38 %
-by pyproj for a point 671 km along the tile's diagonal and one 300 km beyond it, about 0.8 %
-in a lone source's zenith contribution there (the zenith falls about as :math:`r^{-2}`);
-within a tile's inner half the error is a quarter of that. A single transverse Mercator
-(UTM) zone stretched 30 degrees of longitude away is off by 8 %.
+exact; a distance between two other points is stretched across the radius by the transverse
+scale :math:`k' = (\rho / R) / \\sin(\rho / R)` at distance :math:`\rho` from the centre
+(Snyder 1987, Eq. 25-2), about :math:`1 + \rho^2 / (6R^2)`: an observer at the corner of the
+default tile (2048 cells of 15 arcsec, 949 km square at the equator, 671 km from its centre)
+sees its sources' distances off by at most 0.19 % (0.05 % for 1024-cell tiles, 335 km), the
+worst over directions measured with pyproj for sources 50-300 km away being 0.186 % (0.046 %)
+at any latitude; the zenith falls about as :math:`r^{-2}`, so a source's contribution is off
+by at most about 0.4 % at the tile's corners and less inside.
 
 **Engines.** Local runs compute the tiles on a thread pool (cores, fewer where the memory of
 the tiles in flight would exceed :data:`PROCESS_MEMORY`); ``scheduler=`` runs them as tasks
@@ -60,9 +58,6 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -70,34 +65,22 @@ import numpy as np
 import scipy.fft
 from affine import Affine
 from pyproj import CRS
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
 
 from nightlights._resources import check_memory, memory_limit
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError
 from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.streamed import CogWriter
+from nightlights.sky import _tile_run
+from nightlights.sky._tile_run import ProgressHook, TiledGrid, run_tiles
 from nightlights.sky._tiles import (
     AUTHALIC_RADIUS,
     SUBPOINT_BATCH,
     Emission,
-    LocalGrid,
     TileStore,
-    cell_flux,
     content_token,
-    deposit,
     file_identity,
-    local_grid,
-    sample_back,
     source_window,
-    tile_windows,
 )
 from nightlights.sky.instrument_units import instrument_sky
 from nightlights.sky.instruments import Instrument
@@ -135,56 +118,6 @@ TILED_ABOVE = PROCESS_MEMORY
 #: (VmRSS after the kernel was loaded) on this toolkit's test machine.
 BASE_MEMORY = 0.3 * 2**30
 
-#: ``progress=`` as a callable: called ``hook(done, total)`` after every tile [1].
-ProgressHook = Callable[[int, int], None]
-
-#: Private hooks for tests: a delay in every tile [s] (travels with the tiles to the
-#: workers), and a call after every tile written (in this process).
-_TILE_DELAY = 0.0
-_AFTER_TILE: Callable[[int], None] | None = None
-
-
-@dataclass(frozen=True)
-class TiledGrid:
-    """Everything a tile needs but the plan (picklable, sent to the workers).
-
-    Attributes
-    ----------
-    emission
-        Where the flux density is read.
-    crs, transform, shape
-        The output grid.
-    local
-        Whether tiles are computed on local metric grids (geographic emission or another
-        output grid), else on the emission's own cells.
-    cell
-        The local grid's cell, or the emission's [m].
-    half
-        Stencil radius (rows, cols) [cells].
-    tile
-        Tile edge [cells of the output grid].
-    delay
-        Seconds to sleep in every tile (tests only) [s].
-    """
-
-    emission: Emission
-    crs: str
-    transform: Affine
-    shape: tuple[int, int]
-    local: bool
-    cell: float
-    half: tuple[int, int]
-    tile: int
-    delay: float = 0.0
-
-    def windows(self) -> list[tuple[int, int, int, int, int, int]]:
-        """The tiles (tile row, tile col, row0, row1, col0, col1)."""
-        return tile_windows(self.shape, self.tile)
-
-    def local_grid(self, window: tuple[int, int, int, int]) -> LocalGrid:
-        """The local metric grid of a tile."""
-        return local_grid(self.crs, self.transform, window, self.cell, self.half)
-
 
 def output_grid(
     emission: Emission, target_crs: Any | None
@@ -196,9 +129,7 @@ def output_grid(
     degrees of latitude of that many metres).
     """
     t = emission.transform
-    cell = (
-        AUTHALIC_RADIUS * math.radians(abs(t.e)) if emission.geographic else abs(float(t.a))
-    )
+    cell = AUTHALIC_RADIUS * math.radians(abs(t.e)) if emission.geographic else abs(float(t.a))
     if target_crs is None:
         return emission.crs, t, emission.shape, cell
     try:
@@ -224,57 +155,6 @@ def output_grid(
         resolution=step,
     )
     return target.to_wkt(), transform, (int(height), int(width)), cell
-
-
-def tile_luminance(grid: TiledGrid, plan: Any, window: tuple[int, int, int, int]) -> FloatArray:
-    """The zenith luminance of one tile [cd m-2] (flat terrain, the plan's levels).
-
-    Parameters
-    ----------
-    grid
-        The map's grids.
-    plan
-        The shared plan (:class:`nightlights.sky.darkness._Plan`).
-    window
-        (row0, row1, col0, col1) of the output grid.
-    """
-    from nightlights.sky.darkness import _convolve
-
-    if grid.delay:
-        time.sleep(grid.delay)
-    r0, r1, c0, c1 = window
-    a, b = plan.depth
-    workers = 1 if _in_pool() else -1
-    if not grid.local:
-        flux = cell_flux(grid.emission, (r0 - a, r1 + a, c0 - b, c1 + b))
-        region = (a, a + r1 - r0, b, b + c1 - c0)
-        return _convolve(list(flux), plan.flat_source, plan.flat_eye, plan, region, workers)
-    local = grid.local_grid(window)
-    planes = deposit(grid.emission, source_window(grid.emission, local), local)
-    values = _convolve(planes, plan.flat_source, plan.flat_eye, plan, local.interior, workers)
-    del planes
-    return sample_back(values, local, grid.crs, grid.transform, window)
-
-
-def _in_pool() -> bool:
-    """Whether this thread is one of several computing tiles (then each FFT uses one)."""
-    import threading
-
-    return threading.current_thread().name.startswith("darkness-tile")
-
-
-def compute_tile(
-    grid: TiledGrid,
-    plan: Any,
-    window: tuple[int, int, int, int, int, int],
-    location: str,
-    token: str,
-) -> tuple[int, int]:
-    """Compute a tile and store it (a task of a distributed run); its index."""
-    tile = (window[0], window[1])
-    values = tile_luminance(grid, plan, window[2:])
-    TileStore(location, token).write(tile, values)
-    return tile
 
 
 def tile_memory(
@@ -355,161 +235,6 @@ def tile_workers(per_tile: float, requested: int | None = None) -> int:
     return max(1, min(cores, fit, requested or cores))
 
 
-# --- the run ------------------------------------------------------------------------------------
-
-
-class _Progress:
-    """A rich tile bar with ETA, or the caller's ``hook(done, total)``, or nothing."""
-
-    def __init__(self, progress: bool | ProgressHook, total: int, description: str) -> None:
-        self.total, self.done = total, 0
-        self._hook = progress if callable(progress) else None
-        columns = (
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-        )
-        self._bar = Progress(*columns, transient=True, disable=progress is not True)
-        self._task = self._bar.add_task(description, total=total)
-
-    def __enter__(self) -> _Progress:
-        self._bar.__enter__()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._bar.__exit__(None, None, None)
-
-    def advance(self) -> None:
-        self.done += 1
-        self._bar.advance(self._task)
-        if self._hook is not None:
-            self._hook(self.done, self.total)
-
-
-def run_tiles(
-    grid: TiledGrid,
-    plan: Any,
-    write: Callable[[int, int, FloatArray], None],
-    *,
-    store: TileStore | None,
-    resume: bool,
-    scheduler: Any | None,
-    workers: int,
-    retries: int,
-    progress: bool | ProgressHook,
-) -> tuple[int, int]:
-    """Compute every tile (or reuse it from the store) and hand it to ``write(row0, col0,
-    luminance)`` in this process; the numbers of tiles computed and reused."""
-    windows = grid.windows()
-    stored = {w[:2] for w in windows if store is not None and resume and store.has(w[:2])}
-    reused = 0
-    description = f"darkness: {len(windows)} tiles"
-    with _Progress(progress, len(windows), description) as bar:
-
-        def finish(window: tuple[int, int, int, int, int, int], values: FloatArray) -> None:
-            write(window[2], window[4], values)
-            bar.advance()
-            if _AFTER_TILE is not None:
-                _AFTER_TILE(bar.done)
-
-        for window in windows:
-            if window[:2] in stored:
-                assert store is not None
-                finish(window, store.read(window[:2]))
-                reused += 1
-        todo = [w for w in windows if w[:2] not in stored]
-        if scheduler is not None:
-            assert store is not None
-            _distributed(grid, plan, todo, store, scheduler, retries, finish)
-        else:
-            _threads(grid, plan, todo, store, workers, finish)
-    return len(windows) - reused, reused
-
-
-def _threads(
-    grid: TiledGrid,
-    plan: Any,
-    todo: list[tuple[int, int, int, int, int, int]],
-    store: TileStore | None,
-    workers: int,
-    finish: Callable[[tuple[int, int, int, int, int, int], FloatArray], None],
-) -> None:
-    """The tiles on a local thread pool (at most ``workers`` in flight, and their results)."""
-
-    def one(window: tuple[int, int, int, int, int, int]) -> FloatArray:
-        values = tile_luminance(grid, plan, window[2:])
-        if store is not None:
-            store.write(window[:2], values)
-        return values
-
-    if workers <= 1:
-        for window in todo:
-            finish(window, one(window))
-        return
-    with ThreadPoolExecutor(workers, thread_name_prefix="darkness-tile") as pool:
-        pending: dict[Future[FloatArray], tuple[int, int, int, int, int, int]] = {}
-        queue = list(reversed(todo))
-        try:
-            while queue or pending:
-                while queue and len(pending) < workers:
-                    window = queue.pop()
-                    pending[pool.submit(one, window)] = window
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    finish(pending.pop(future), future.result())
-        except BaseException:
-            for future in pending:
-                future.cancel()
-            raise
-
-
-def _distributed(
-    grid: TiledGrid,
-    plan: Any,
-    todo: list[tuple[int, int, int, int, int, int]],
-    store: TileStore,
-    scheduler: Any,
-    retries: int,
-    finish: Callable[[tuple[int, int, int, int, int, int], FloatArray], None],
-) -> None:
-    """The tiles as tasks of a ``dask.distributed`` cluster, read back from the store."""
-    from distributed import Client, as_completed
-
-    from nightlights._parallel import _connect
-
-    own = not isinstance(scheduler, Client)
-    client = _connect(scheduler) if own else scheduler
-    try:
-        shared = client.scatter(plan, broadcast=True, hash=False)
-        futures = {
-            client.submit(
-                compute_tile,
-                grid,
-                shared,
-                window,
-                store.location,
-                store.token,
-                key=f"darkness-tile-{store.token}-{window[0]}-{window[1]}",
-                retries=retries,
-                pure=False,
-            ): window
-            for window in todo
-        }
-        try:
-            for future in as_completed(futures):
-                tile = future.result()
-                future.release()
-                finish(futures[future], store.read(tile))
-        except BaseException:
-            client.cancel(list(futures))
-            raise
-    finally:
-        if own:
-            client.close()
-
-
 def map_token(grid: TiledGrid, plan: Any) -> str:
     """The content hash the map's tiles carry in the store: the plan, the grids and the input
     (a file's path, size and modification time; an array's bytes)."""
@@ -568,7 +293,7 @@ def read_overview(path: str | os.PathLike[str], max_cells: int = 2**20) -> Raste
         step = max(1.0, math.sqrt(dataset.height * dataset.width / max_cells))
         shape = (max(1, round(dataset.height / step)), max(1, round(dataset.width / step)))
         data = dataset.read(out_shape=(dataset.count, *shape), resampling=Resampling.nearest)
-        transform = dataset.transform * Affine.scale(
+        transform = dataset.transform @ Affine.scale(
             dataset.width / shape[1], dataset.height / shape[0]
         )
         return Raster(
@@ -586,8 +311,7 @@ def check_tiled_inputs(emission: Emission) -> None:
         raise CRSError(f"{emission.label}: no CRS; expected a projected or geographic CRS")
     if emission.bands > 2:
         raise InputError(
-            f"{emission.label}: {emission.bands} bands; expected 1 or 2 (e.g. Lambertian + "
-            "uplight)"
+            f"{emission.label}: {emission.bands} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
     t = emission.transform
     if t.b != 0 or t.d != 0:
@@ -695,7 +419,8 @@ def tiled_darkness(
         flat_source=-offset,
         flat_eye=float(height - offset),
     )
-    grid = TiledGrid(emission, crs, transform, shape, local, cell, half, edge, _TILE_DELAY)
+    delay = _tile_run._TILE_DELAY  # a test's hook, read at call time
+    grid = TiledGrid(emission, crs, transform, shape, local, cell, half, edge, delay)
     sizes = {"bands": emission.bands, "planes": levels.size * emission.bands}
     sizes["observer_levels"] = observer_levels.size
     per_tile = tile_memory(grid, **sizes, workers=1) - tile_memory(grid, **sizes, workers=0)
@@ -716,9 +441,8 @@ def tiled_darkness(
         location = default_store(output)
     tiles = None if location is None else TileStore(location, map_token(grid, plan))
     windows = grid.windows()
-    layout = (
-        f"{len(windows)} tile(s) of {edge} cells"
-        + (f", each on a local azimuthal equidistant grid of {cell:g} m" if local else "")
+    layout = f"{len(windows)} tile(s) of {edge} cells" + (
+        f", each on a local azimuthal equidistant grid of {cell:g} m" if local else ""
     )
     tags = dk._map_tags(
         label=label,
@@ -756,14 +480,16 @@ def tiled_darkness(
         ) as writer:
 
             def write(row: int, col: int, luminance: FloatArray) -> None:
-                writer.write(dk._map_bands(reader, luminance)[0], row=row, col=col)
+                values = _as_stored(luminance)
+                writer.write(dk._map_bands(reader, values)[0], row=row, col=col)
 
             computed, reused = run_tiles(grid, plan, write, **options)
     else:
         luminance = np.zeros(shape)
 
         def keep(row: int, col: int, values: FloatArray) -> None:
-            luminance[row : row + values.shape[0], col : col + values.shape[1]] = values
+            rows, cols = values.shape
+            luminance[row : row + rows, col : col + cols] = _as_stored(values)
 
         computed, reused = run_tiles(grid, plan, keep, **options)
         bands, _, _ = dk._map_bands(reader, luminance)
@@ -786,6 +512,12 @@ def tiled_darkness(
         tiles=computed,
         reused_tiles=reused,
     )
+
+
+def _as_stored(luminance: FloatArray) -> FloatArray:
+    """A tile's luminance rounded as the store keeps it (float32), so that a resumed map is
+    bit for bit the map of one run."""
+    return np.asarray(luminance, dtype=np.float32).astype(float)
 
 
 def _emission(source: Any, label: str) -> Emission:
