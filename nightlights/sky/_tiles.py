@@ -245,6 +245,12 @@ def aeqd(longitude: float, latitude: float) -> str:
     )
 
 
+def _apply(transform: Affine, x: np.ndarray, y: np.ndarray) -> tuple[FloatArray, FloatArray]:
+    """An affine transform of arrays of points."""
+    a, b, c, d, e, f = tuple(transform)[:6]
+    return a * x + b * y + c, d * x + e * y + f
+
+
 def output_centres(
     transform: Affine, window: tuple[int, int, int, int]
 ) -> tuple[FloatArray, FloatArray]:
@@ -311,7 +317,7 @@ def _projected_outline(
     ring_c = np.concatenate(
         [np.full(rows.size, c0 + 0.5), np.full(rows.size, c1 - 0.5), cols, cols]
     )
-    x, y = transform @ (ring_c, ring_r)
+    x, y = _apply(transform, ring_c, ring_r)
     t = _transformer(crs, target)
     px, py = t.transform(np.asarray(x), np.asarray(y))
     return np.asarray(px, dtype=float), np.asarray(py, dtype=float)
@@ -335,7 +341,7 @@ def source_window(emission: Emission, grid: LocalGrid) -> tuple[int, int, int, i
     if emission.geographic:
         centre = grid.centre[0]
         ex = centre + (ex - centre + 180.0) % 360.0 - 180.0
-    fc, fr = inverse @ (ex, ey)
+    fc, fr = _apply(inverse, ex, ey)
     r0, r1 = math.floor(float(np.min(fr))) - 1, math.ceil(float(np.max(fr))) + 1
     c0, c1 = math.floor(float(np.min(fc))) - 1, math.ceil(float(np.max(fc))) + 1
     if emission.geographic:
@@ -403,7 +409,7 @@ def deposit(
         stop = min(start + per_batch, lit_r.size)
         fr = (r0 + lit_r[start:stop, None]) + sub_r[None, :]
         fc = (c0 + lit_c[start:stop, None]) + sub_c[None, :]
-        x, y = t @ (fc.ravel(), fr.ravel())
+        x, y = _apply(t, fc.ravel(), fr.ravel())
         px, py = to_local.transform(np.asarray(x), np.asarray(y))
         col = np.floor((np.asarray(px) - grid.left) / grid.cell)
         row = np.floor((grid.top - np.asarray(py)) / grid.cell)

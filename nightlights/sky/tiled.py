@@ -58,6 +58,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -314,6 +315,15 @@ def check_tiled_inputs(emission: Emission) -> None:
             f"{emission.label}: {emission.bands} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
     t = emission.transform
+    if emission.geographic:
+        rows, cols = emission.shape
+        lats, lons = (t.f, t.f + t.e * rows), (t.c, t.c + t.a * cols)
+        if max(map(abs, lats)) > 90.0 + 1e-9 or max(map(abs, lons)) > 540.0:
+            raise CRSError(
+                f"{emission.label}: bounds longitude {min(lons):g}..{max(lons):g}, latitude "
+                f"{min(lats):g}..{max(lats):g} in a geographic CRS; expected degrees within "
+                "the globe (or a projected CRS for a grid in metres)"
+            )
     if t.b != 0 or t.d != 0:
         raise InputError(f"{emission.label}: a rotated grid; expected north-up cells")
     if not emission.geographic and not np.isclose(abs(t.a), abs(t.e), rtol=1e-9):
@@ -388,7 +398,8 @@ def tiled_darkness(
     )
     functions, notes = band_emission_functions(source, emission.bands, label=label)
     width, depth = _extent_metres(emission)
-    proxy = Raster(np.zeros((1, 1, 1)), Affine(width, 0, 0, 0, -depth, depth), "EPSG:3857")
+    metres = CRS.from_epsg(3857)
+    proxy = Raster(np.zeros((1, 1, 1)), Affine(width, 0, 0, 0, -depth, depth), metres)
     table, _ = scene.find_kernel(
         proxy,  # a 1-cell stand-in of the region's size in metres: its diagonal sets the range
         (0.0, depth),
@@ -458,14 +469,20 @@ def tiled_darkness(
         reader=reader,
     )
     _, descriptions, band_tags = dk._map_bands(reader, np.zeros((1, 1)))
-    options = {
-        "store": tiles,
-        "resume": resume,
-        "scheduler": scheduler,
-        "workers": workers,
-        "retries": retries,
-        "progress": progress,
-    }
+
+    def run(write: Callable[[int, int, FloatArray], None]) -> tuple[int, int]:
+        return run_tiles(
+            grid,
+            plan,
+            write,
+            store=tiles,
+            resume=resume,
+            scheduler=scheduler,
+            workers=workers,
+            retries=retries,
+            progress=progress,
+        )
+
     raster: Raster | None = None
     if output is not None:
         with CogWriter(
@@ -483,7 +500,7 @@ def tiled_darkness(
                 values = _as_stored(luminance)
                 writer.write(dk._map_bands(reader, values)[0], row=row, col=col)
 
-            computed, reused = run_tiles(grid, plan, write, **options)
+            computed, reused = run(write)
     else:
         luminance = np.zeros(shape)
 
@@ -491,12 +508,12 @@ def tiled_darkness(
             rows, cols = values.shape
             luminance[row : row + rows, col : col + cols] = _as_stored(values)
 
-        computed, reused = run_tiles(grid, plan, keep, **options)
+        computed, reused = run(keep)
         bands, _, _ = dk._map_bands(reader, luminance)
         raster = Raster(
             bands,
             transform,
-            crs,
+            CRS.from_user_input(crs),
             descriptions=descriptions,
             units=("cd m-2", "mag arcsec-2"),
             tags=tags,
