@@ -205,9 +205,9 @@ def tile_memory(
             rows, cols = r1 - r0 + 2 * a, c1 - c0 + 2 * b
             window_cells = float(rows * cols)
             extra = 0.0
+        # the FFT grid of _convolve: the padded window itself (interior + 2 x radius)
         fft = float(
-            scipy.fft.next_fast_len(rows + a + 1, real=True)
-            * scipy.fft.next_fast_len(cols + b + 1, real=True)
+            scipy.fft.next_fast_len(rows, real=True) * scipy.fft.next_fast_len(cols, real=True)
         )
         per_fft = 8.0 * fft * (held + bands + 2 + planes)
         per_window = window_cells * (bands * 20.0 + 1.0)
