@@ -768,7 +768,8 @@ def darkness_memory(
     terrain: bool = False,
     dem_cells: int = 0,
 ) -> float:
-    """Estimated peak memory of :func:`darkness` [B].
+    """Estimated peak memory of :func:`darkness` in memory [B] (the tiled map's, which does
+    not grow with the raster, is :func:`nightlights.sky.tiled.tile_memory`).
 
     The raster and its per-cell arrays (the float64 emission and its NaN-free copy, flux, lit
     mask, terrain and eye altitudes, the output's two bands and their float32 copies written:

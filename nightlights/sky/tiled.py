@@ -114,9 +114,10 @@ PROCESS_MEMORY = 4 * 2**30
 #: An emission file whose in-memory map would need more than this (or more than the memory
 #: limit) is mapped tile by tile [B].
 TILED_ABOVE = PROCESS_MEMORY
-#: Resident memory of the process before any tile (interpreter, numpy, GDAL, pyproj, the
-#: kernel), counted once per process in :func:`tile_memory`'s total [B]: 0.3 GiB measured
-#: (VmRSS after the kernel was loaded) on this toolkit's test machine.
+#: Resident memory of the process before any tile (interpreter, numpy, GDAL, pyproj, dask,
+#: the kernel), counted once per process in :func:`tile_memory`'s total [B]: 0.24 GiB
+#: measured (VmHWM) after the imports alone on this toolkit's test machine, and the kernel,
+#: the COG writer's cache (64 MiB) and the stencil's temporaries on top.
 BASE_MEMORY = 0.3 * 2**30
 
 
@@ -167,11 +168,16 @@ def tile_memory(
     workers: int = 1,
 ) -> float:
     """Estimated peak memory of a tiled map in one process [B]: :data:`BASE_MEMORY`, the
-    stencil, and per tile in flight its FFT grid (padded inputs, source planes and the spectra
-    held at once, as :func:`~nightlights.sky.darkness.darkness_memory`), its emission window
-    (float64 and its flux, the read buffer and lit mask) and, on local grids, the sub-points
-    of one projection batch and the output's coordinates; largest over the tiles nearest the
-    equator and the poles (a geographic window widens with latitude).
+    stencil, and per tile in flight the larger of its two phases, plus its finished cells
+    (24 B each: the tile and its two bands written). On a local grid the phases follow each
+    other: reading and depositing (the window's float32 read, float64 copy and flux, 28 B per
+    cell and band, the local planes, one batch of sub-points at 64 B each) and then the FFT
+    (the padded grid's source planes, inputs and the spectra held at once, 8 B per cell
+    each: the fewer of the source planes and the observer levels, and three working ones).
+    On the emission's own cells the window is the FFT's input, held through it. Largest over
+    the tiles nearest the equator and the poles (a geographic window widens with latitude).
+    Measured (VmHWM, 15 arcsec, 300 km kernel, default tiles; ``bench_darkness_tiles.py``):
+    within 1.5x of the peak.
 
     Parameters
     ----------
@@ -193,25 +199,26 @@ def tile_memory(
     worst = 0.0
     for window in _extreme_tiles(grid):
         r0, r1, c0, c1 = window
-        out_cells = float((r1 - r0) * (c1 - c0))
+        finished = 24.0 * (r1 - r0) * (c1 - c0)
         if grid.local:
             local = grid.local_grid(window)
             rows, cols = local.shape
             w0, w1, v0, v1 = source_window(grid.emission, local)
             window_cells = float(max(w1 - w0, 0) * max(v1 - v0, 0))
-            extra = 64.0 * SUBPOINT_BATCH + 56.0 * min(out_cells, 256.0 * (c1 - c0))
-            extra += 8.0 * out_cells * 2  # the local interior and the samples
         else:
             rows, cols = r1 - r0 + 2 * a, c1 - c0 + 2 * b
             window_cells = float(rows * cols)
-            extra = 0.0
         # the FFT grid of _convolve: the padded window itself (interior + 2 x radius)
         fft = float(
             scipy.fft.next_fast_len(rows, real=True) * scipy.fft.next_fast_len(cols, real=True)
         )
-        per_fft = 8.0 * fft * (held + bands + 2 + planes)
-        per_window = window_cells * (bands * 20.0 + 1.0)
-        worst = max(worst, per_fft + per_window + extra + 12.0 * out_cells)
+        transform = 8.0 * fft * (held + bands + planes)
+        if grid.local:
+            read = window_cells * (28.0 * bands + 1.0) + 8.0 * bands * rows * cols
+            per_tile = max(read + 64.0 * SUBPOINT_BATCH, transform)
+        else:
+            per_tile = transform + window_cells * 20.0 * bands
+        worst = max(worst, per_tile + finished)
     return BASE_MEMORY + stencil + workers * worst
 
 
@@ -435,7 +442,7 @@ def tiled_darkness(
     sizes = {"bands": emission.bands, "planes": levels.size * emission.bands}
     sizes["observer_levels"] = observer_levels.size
     per_tile = tile_memory(grid, **sizes, workers=1) - tile_memory(grid, **sizes, workers=0)
-    workers = 1 if scheduler is not None else tile_workers(per_tile)
+    workers = 1 if scheduler is not None else min(tile_workers(per_tile), len(grid.windows()))
     whole = 0.0 if output is not None else 32.0 * shape[0] * shape[1]
     check_memory(
         tile_memory(grid, **sizes, workers=workers) + whole,
