@@ -86,7 +86,9 @@ class TiledGrid:
         return local_grid(self.crs, self.transform, window, self.cell, self.half)
 
 
-def tile_luminance(grid: TiledGrid, plan: Any, window: tuple[int, int, int, int]) -> FloatArray:
+def tile_luminance(
+    grid: TiledGrid, plan: Any, window: tuple[int, int, int, int], fft_workers: int | None = None
+) -> FloatArray:
     """The zenith luminance of one tile [cd m-2] (flat terrain, the plan's levels).
 
     Parameters
@@ -97,6 +99,8 @@ def tile_luminance(grid: TiledGrid, plan: Any, window: tuple[int, int, int, int]
         The shared plan (:class:`nightlights.sky.darkness._Plan`).
     window
         (row0, row1, col0, col1) of the output grid.
+    fft_workers
+        Threads of each FFT; None: one in a pool of tile threads, else all cores [1].
     """
     from nightlights.sky.darkness import _convolve
 
@@ -104,7 +108,7 @@ def tile_luminance(grid: TiledGrid, plan: Any, window: tuple[int, int, int, int]
         time.sleep(grid.delay)
     r0, r1, c0, c1 = window
     a, b = plan.depth
-    workers = 1 if _in_pool() else -1
+    workers = fft_workers if fft_workers is not None else (1 if _in_pool() else -1)
     if not grid.local:
         flux = cell_flux(grid.emission, (r0 - a, r1 + a, c0 - b, c1 + b))
         region = (a, a + r1 - r0, b, b + c1 - c0)
@@ -128,9 +132,10 @@ def compute_tile(
     location: str,
     token: str,
 ) -> tuple[int, int]:
-    """Compute a tile and store it (a task of a distributed run); its index."""
+    """Compute a tile and store it (a task of a distributed run: one FFT thread, as each of a
+    worker's threads runs a tile); its index."""
     tile = (window[0], window[1])
-    values = tile_luminance(grid, plan, window[2:])
+    values = tile_luminance(grid, plan, window[2:], fft_workers=1)
     TileStore(location, token).write(tile, values)
     return tile
 

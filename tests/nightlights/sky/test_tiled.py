@@ -353,3 +353,21 @@ def test_a_killed_worker_does_not_change_the_map(
     np.testing.assert_allclose(
         read(tmp_path / "many.tif"), read(tmp_path / "one.tif"), rtol=FLOAT32_RTOL
     )
+
+
+def test_the_memory_estimate_does_not_grow_with_the_raster() -> None:
+    """A country and a continent at 15 arcsec: the same tiles in flight, the same estimate;
+    the default tiles of two threads within the 4 GiB a process may use."""
+    step = 15 / 3600
+    cell = AUTHALIC_RADIUS * math.radians(step)
+    half = (math.ceil(300e3 / cell),) * 2
+    estimates = []
+    for rows, cols in [(4000, 8000), (20000, 80000)]:
+        transform = Affine(step, 0, -20.0, 0, -step, 70.0)
+        emission = Emission("x.tif", None, transform, "EPSG:4326", (rows, cols), 1, "x")
+        grid = _tile_run.TiledGrid(
+            emission, "EPSG:4326", transform, (rows, cols), True, cell, half, 2048
+        )
+        estimates.append(tiled.tile_memory(grid, bands=1, planes=1, observer_levels=1, workers=2))
+    assert estimates[1] == pytest.approx(estimates[0], rel=0.3)
+    assert max(estimates) < tiled.PROCESS_MEMORY
