@@ -55,6 +55,9 @@ AUTHALIC_RADIUS = 6371007.2
 SUBPOINT_BATCH = 2**21
 #: Output rows sampled back from the local grid at once [1].
 SAMPLE_ROWS = 256
+#: Output cells between the centres projected exactly when sampling back; those between are
+#: interpolated bilinearly (:func:`sample_back`) [1].
+LATTICE_STEP = 16
 
 
 @functools.lru_cache(maxsize=32)
@@ -435,19 +438,40 @@ def sample_back(
     window: tuple[int, int, int, int],
 ) -> FloatArray:
     """Bilinear samples of a local map on the interior (``values``) at a tile's output cell
-    centres, a few rows at a time."""
+    centres, a few rows at a time.
+
+    The centres are projected exactly on a lattice of every :data:`LATTICE_STEP`-th row and
+    column (and the last) and bilinearly in between: the projection is smooth, so that the
+    position error is second order in the lattice step (under a metre at 15 arcsec cells and
+    60 N, against 463 m cells), while the projection of every centre took most of a tile's
+    time."""
     r0, r1, c0, c1 = window
     a, _, b, _ = grid.interior
     to_local = _transformer(output_crs, grid.crs)
+    lattice_rows = _lattice(r0, r1)
+    lattice_cols = _lattice(c0, c1)
+    t = output_transform
+    lx, ly = np.meshgrid(lattice_cols + 0.5, lattice_rows + 0.5)
+    x, y = _apply(t, lx, ly)
+    px, py = (np.asarray(v, dtype=float) for v in to_local.transform(x, y))
+    # fractional lattice index of every output row and column
+    row_index = np.interp(np.arange(r0, r1), lattice_rows, np.arange(lattice_rows.size))
+    col_index = np.interp(np.arange(c0, c1), lattice_cols, np.arange(lattice_cols.size))
     out = np.empty((r1 - r0, c1 - c0))
-    for top in range(r0, r1, SAMPLE_ROWS):
-        bottom = min(top + SAMPLE_ROWS, r1)
-        x, y = output_centres(output_transform, (top, bottom, c0, c1))
-        px, py = to_local.transform(x, y)
-        col = (np.asarray(px) - grid.left) / grid.cell - 0.5 - b
-        row = (grid.top - np.asarray(py)) / grid.cell - 0.5 - a
-        out[top - r0 : bottom - r0] = map_coordinates(values, [row, col], order=1, mode="nearest")
+    for top in range(0, r1 - r0, SAMPLE_ROWS):
+        bottom = min(top + SAMPLE_ROWS, r1 - r0)
+        rr, cc = np.meshgrid(row_index[top:bottom], col_index, indexing="ij")
+        qx = map_coordinates(px, [rr, cc], order=1, mode="nearest")
+        qy = map_coordinates(py, [rr, cc], order=1, mode="nearest")
+        col = (qx - grid.left) / grid.cell - 0.5 - b
+        row = (grid.top - qy) / grid.cell - 0.5 - a
+        out[top:bottom] = map_coordinates(values, [row, col], order=1, mode="nearest")
     return out
+
+
+def _lattice(start: int, stop: int) -> np.ndarray:
+    """Every :data:`LATTICE_STEP`-th index of ``start .. stop - 1``, and the last."""
+    return np.unique(np.append(np.arange(start, stop, LATTICE_STEP), stop - 1)).astype(float)
 
 
 # --- the tile store ----------------------------------------------------------------------------
