@@ -106,6 +106,20 @@ def test_projected_tiles_equal_the_in_memory_map(short_kernel: xr.Dataset, tmp_p
     assert overview.descriptions == ("zenith_luminance", "zenith_sky_brightness")
 
 
+def test_instrument_units_tile_as_in_memory(short_kernel: xr.Dataset, tmp_path: Path) -> None:
+    path = tmp_path / "emission.tif"
+    projected().write(path)
+    scene = Scene(path, kernel=short_kernel)
+    memory = darkness(scene, instrument="sqm", spectrum="HPS", progress=False)
+    tiled_map = darkness(
+        scene, instrument="sqm", spectrum="HPS", tiled=True, chunk_size=24, progress=False
+    )
+    assert memory.raster is not None and tiled_map.raster is not None
+    assert tiled_map.raster.descriptions == ("instrument_luminance", "instrument_sky_brightness")
+    assert tiled_map.instrument == "sqm"
+    np.testing.assert_allclose(tiled_map.raster.data, memory.raster.data, rtol=FLOAT32_RTOL)
+
+
 def test_a_file_too_large_for_memory_is_tiled(
     short_kernel: xr.Dataset, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
