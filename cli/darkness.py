@@ -40,7 +40,46 @@ from .resources import max_memory_option, scheduler_option
     type=click.IntRange(min=1),
     default=None,
     help="Chunk edge [cells] of the Dask computation (default 4096; never below twice the "
-    "kernel radius); a raster within one chunk is one FFT.",
+    "kernel radius); a raster within one chunk is one FFT. On the tiled map: the tile edge "
+    "[cells of the output grid] (default 2048).",
+)
+@click.option(
+    "--tiled/--in-memory",
+    default=None,
+    help="Map tile by tile, out of core (flat terrain), or in memory; default: tiled for a "
+    "geographic EMISSION, --target-crs, --store, or a map too large for memory.",
+)
+@click.option(
+    "--target-crs",
+    default=None,
+    metavar="CRS",
+    help="Output CRS of the tiled map (e.g. EPSG:32635), at the input's metres per cell; "
+    "default: EMISSION's grid (geographic in, geographic out).",
+)
+@click.option(
+    "--store",
+    default=None,
+    metavar="FOLDER|URL",
+    help="Tile store of the tiled map (a folder or fsspec URL, one file per finished tile): "
+    "a rerun resumes from it. Default with --scheduler: OUTPUT.tiles beside OUTPUT.",
+)
+@click.option(
+    "--resume/--no-resume",
+    default=True,
+    show_default=True,
+    help="Reuse the tiles of the same input and plan already in the store.",
+)
+@click.option(
+    "--keep-store",
+    is_flag=True,
+    help="Keep the store's tiles once OUTPUT is written (default: removed).",
+)
+@click.option(
+    "--retries",
+    type=click.IntRange(min=0),
+    default=2,
+    show_default=True,
+    help="Extra attempts of a tile whose task fails on a --scheduler cluster.",
 )
 @scheduler_option
 @scene_grid_options
@@ -57,6 +96,12 @@ def darkness(
     spectrum: str | None,
     night: str | None,
     chunk_size: int | None,
+    tiled: bool | None,
+    target_crs: str | None,
+    store: str | None,
+    resume: bool,
+    keep_store: bool,
+    retries: int,
     scheduler: str | None,
     n_distance: int | None,
     n_elevation: int | None,
@@ -96,13 +141,24 @@ def darkness(
         natural_luminance=natural,
         chunk_size=chunk_size,
         scheduler=scheduler,
+        tiled=tiled,
+        target_crs=target_crs,
+        store=store,
+        resume=resume,
+        keep_store=keep_store,
+        retries=retries,
     )
     import numpy as np
+    from rasterio import open as rasterio_open
     from rich.console import Console
 
-    magnitude = result.raster.data[1]
+    from nightlights.sky.tiled import read_overview
+
+    # a tiled map is only in OUTPUT: its summary from about a million cells of the overviews
+    raster = result.raster if result.raster is not None else read_overview(out)
+    magnitude = raster.data[1]
     finite = magnitude[np.isfinite(magnitude)]
-    rows, cols = result.raster.shape
+    rows, cols = raster.shape
     summary = (
         f"brightest {finite.min():.2f}, median {np.median(finite):.2f}, darkest "
         f"{magnitude.max():.2f} mag arcsec-2"
@@ -114,6 +170,11 @@ def darkness(
         if instrument is None
         else f"{instrument} over {{}} x {{}} cells: {{}} (its band, with the natural sky)"
     )
+    if result.raster is None:
+        with rasterio_open(out) as dataset:
+            rows, cols = dataset.height, dataset.width
+        reused = f", {result.reused_tiles} reused" if result.reused_tiles else ""
+        summary += f" ({result.tiles} tiles{reused}; read from its overviews)"
     Console(stderr=True).print(
         f"{what.format(rows, cols, summary)}; {result.seconds:.1f} s -> {out}",
         soft_wrap=True,

@@ -468,6 +468,7 @@ def _from_map(
         scene, None, height=height, instrument=device, spectrum=spectrum, progress=progress
     )
     raster = result.raster
+    assert raster is not None  # without an output the map is returned, tiled or not
     band = raster.band("instrument_luminance")
     inverse = ~raster.transform
     cols, rows = inverse @ (stations["x"].to_numpy(float), stations["y"].to_numpy(float))

@@ -132,23 +132,32 @@ class DarknessResult:
     Attributes
     ----------
     raster
-        Two bands on the emission grid: ``zenith_luminance`` [cd m-2] and
+        Two bands on the output grid (the emission's, or ``target_crs``'s on the tiled path):
+        ``zenith_luminance`` [cd m-2] and
         ``zenith_sky_brightness`` [mag arcsec-2] (+inf where no flux reaches).
         With an instrument: ``instrument_luminance`` [cd m-2] (the V-equivalent luminance
         its reading of the artificial sky stands for) and ``instrument_sky_brightness``
         [mag arcsec-2] (its band, artificial + natural sky).
+        None on the tiled path with an ``output``: the map is only in the file (read it, or
+        its overviews with :func:`~nightlights.sky.tiled.read_overview`).
     seconds
         Time of the map once the kernel is loaded: stencils and convolutions [s].
     path
         The COG written, or None.
     instrument
         The instrument's name (:data:`~nightlights.sky.instruments.INSTRUMENTS`), or None.
+    tiles
+        Tiles computed in this call on the tiled path (0 in memory) [1].
+    reused_tiles
+        Tiles taken from the tile store (a resumed run) [1].
     """
 
-    raster: Raster
+    raster: Raster | None
     seconds: float
     path: Path | None = None
     instrument: str | None = None
+    tiles: int = 0
+    reused_tiles: int = 0
 
 
 def zenith_per_lumen(tables: KernelSlice, weights: ArrayLike | None = None) -> FloatArray:
@@ -407,13 +416,22 @@ def darkness(
     natural_luminance: float | None = None,
     chunk_size: int | None = None,
     scheduler: str | Any | None = None,
-    progress: bool = True,
+    progress: bool | Callable[[int, int], None] = True,
+    tiled: bool | None = None,
+    target_crs: Any | None = None,
+    store: PathLike | None = None,
+    resume: bool = True,
+    keep_store: bool = False,
+    retries: int = 2,
 ) -> DarknessResult:
     """The artificial zenith sky brightness with the observer at every cell of a region.
 
     One FFT convolution of the flux per cell with the radial zenith stencil (module docstring),
     per (source level, observer level) pair over terrain; chunked with Dask when the raster is
-    larger than ``chunk_size``.
+    larger than ``chunk_size``. A geographic emission, a ``target_crs``, a ``store``,
+    ``tiled=True`` or an emission file whose in-memory map would need more than
+    :data:`~nightlights.sky.tiled.TILED_ABOVE` is mapped tile by tile, out of core and
+    geodesically (:mod:`nightlights.sky.tiled`; flat terrain).
 
     Parameters
     ----------
@@ -425,7 +443,8 @@ def darkness(
         kernel, a scene kernel over the region's diagonal (at most
         :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels.
     output
-        COG to write atomically (2 bands); None writes nothing.
+        COG to write atomically (2 bands); None writes nothing (the tiled path then needs the
+        map to fit in memory).
     height
         Eye height above the ground of the observer at every cell [m].
     instrument
@@ -444,10 +463,28 @@ def darkness(
     chunk_size
         Chunk edge [cells]; default :data:`DEFAULT_CHUNK_SIZE`. A raster within one chunk is
         one FFT in memory; larger ones are chunked (never below twice the stencil radius).
+        On the tiled path the tile edge in output cells, default
+        :data:`~nightlights.sky.tiled.DEFAULT_TILE_SIZE`.
     scheduler
-        None: local threads; a ``dask.distributed`` address or ``Client``: that cluster.
+        None: local threads; a ``dask.distributed`` address or ``Client``: that cluster
+        (on the tiled path its workers read the emission file and write the tile store).
     progress
-        Progress bars (kernel build, chunks).
+        Progress bars (kernel build, chunks or tiles, with the time left); or a callable
+        ``progress(done, total)`` called after every tile or chunk, with no bars.
+    tiled
+        Map tile by tile (True), in memory (False), or choose (None: see above).
+    target_crs
+        The tiled map's output CRS, on a grid of the input's metres per cell; None: the
+        emission's grid (geographic in, geographic out).
+    store
+        Tile store of the tiled path: a folder or an fsspec URL, one file per finished tile;
+        default with a ``scheduler``: ``OUTPUT.tiles`` beside the output; without one, none.
+    resume
+        Reuse the tiles of the same input and plan already in the store.
+    keep_store
+        Keep the store's tiles once the map is written (else they are removed).
+    retries
+        Extra attempts of a tile whose task fails on a cluster [1].
 
     Returns
     -------
@@ -477,6 +514,25 @@ def darkness(
     target = _check_output(output, scene)
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
+    if _tiled_path(emission, dem, chunk_size, tiled, target_crs, store, label):
+        from nightlights.sky.tiled import tiled_darkness
+
+        return tiled_darkness(
+            scene,
+            target,
+            height=height,
+            instrument=instrument,
+            spectrum=spectrum,
+            natural_luminance=natural_luminance,
+            chunk_size=chunk_size,
+            scheduler=scheduler,
+            progress=progress,
+            target_crs=target_crs,
+            store=store,
+            resume=resume,
+            keep_store=keep_store,
+            retries=retries,
+        )
     chunk = _check_chunk_size(chunk_size)
     _check_memory_early(emission, dem, chunk, label)  # from the headers, before any read
     raster = as_raster(emission)
@@ -505,7 +561,7 @@ def darkness(
         observer_altitudes=tuple(source_levels(eye)),
         source_altitudes=source_levels(ground[lit]),
         functions=functions,
-        progress=progress,
+        progress=progress is True,
     )
     start = time.perf_counter()
     levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
@@ -521,14 +577,10 @@ def darkness(
             stacklevel=2,
         )
     edges = np.asarray(table["distance_edges"].values, dtype=float)
-    _warn_range(raster, edges[-1])
-    by_level = [kernel_levels(table, observer_altitude=h) for h in observer_levels]
-    functions, notes = kernel_band_functions(functions, notes, by_level[0][0].emissions, label)
-    by_level = [[band_slice(s, functions) for s in slices] for slices in by_level]
-    weights = None if reader is None else reader.elevation_weights(by_level[0][0].elevation)
-    zenith = [
-        [zenith_per_lumen(t, weights)[: data.shape[0]] for t in slices] for slices in by_level
-    ]
+    _warn_range(raster.bounds, edges[-1])
+    zenith, n_az, functions, notes = _zenith_tables(
+        table, observer_levels, functions, notes, reader, data.shape[0], label
+    )
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
     estimate = darkness_memory(
@@ -547,8 +599,8 @@ def darkness(
         option=_memory_hint(estimate, whole),
     )
     plan = _Plan(
-        stencil=_Stencil(cell, edges, by_level[0][0].n_az, half),
-        zenith=np.asarray(zenith),
+        stencil=_Stencil(cell, edges, n_az, half),
+        zenith=zenith,
         source_levels=levels,
         observer_levels=observer_levels,
         bands=data.shape[0],
@@ -560,6 +612,52 @@ def darkness(
     heights = np.where(lit, ground - offset, levels[0])
     luminance, n_chunks, used_chunk = _compute(flux, heights, eye, plan, chunk, scheduler, progress)
     seconds = time.perf_counter() - start
+    tags = _map_tags(
+        label=label,
+        functions=functions,
+        notes=notes,
+        table=table,
+        observer_height=observer_height,
+        terrain=source_label(dem, "DEM") if dem is not None else "flat (0 m)",
+        levels=levels,
+        observer_levels=observer_levels,
+        offset=offset,
+        layout=f"{n_chunks} chunk(s) of {used_chunk} cells",
+        reader=reader,
+    )
+    bands, descriptions, band_tags = _map_bands(reader, luminance)
+    result = Raster(
+        bands,
+        raster.transform,
+        raster.crs,
+        descriptions=descriptions,
+        units=("cd m-2", "mag arcsec-2"),
+        tags=tags,
+        band_tags=band_tags,
+    )
+    if target is not None:
+        result.write(target)
+    return DarknessResult(
+        result, seconds, target, None if reader is None else reader.instrument.name
+    )
+
+
+def _map_tags(
+    *,
+    label: str,
+    functions: tuple[Any, ...],
+    notes: tuple[str, ...],
+    table: Any,
+    observer_height: float,
+    terrain: str,
+    levels: FloatArray,
+    observer_levels: FloatArray,
+    offset: float,
+    layout: str,
+    reader: InstrumentSky | None,
+) -> dict[str, str]:
+    """The map's dataset tags (in memory and tiled: ``layout`` says how it was computed)."""
+    edges = np.asarray(table["distance_edges"].values, dtype=float)
     tags = {
         PRODUCT_TAG: "zenith_brightness",
         "nightlights_stage": "darkness",
@@ -570,51 +668,63 @@ def darkness(
         "kernel_range_m": float(edges[-1]),
         "turbidity": float(table.attrs.get("turbidity", np.nan)),
         "observer_height_m": float(observer_height),
-        "terrain": source_label(dem, "DEM") if dem is not None else "flat (0 m)",
+        "terrain": terrain,
         "source_altitude_levels_m": [float(h) for h in levels],
         "observer_altitude_levels_m": [float(h) for h in observer_levels],
         "kernel_altitude_offset_m": offset,
         "method": "FFT convolution of the flux per cell with the zenith stencil (azimuth mean "
         "of the kernel's top row, cells sampled as the polar map); terrain: per source and "
-        f"observer level; {n_chunks} chunk(s) of {used_chunk} cells",
+        "observer level; " + layout,
         "note": "artificial skyglow only (no natural sky background), "
         + scattering_note(table.attrs),
         "reference": "Dobashi et al. 2023, Sec. 3.3-3.4 (zenith of the forward panorama)",
     }
-    if reader is None:
-        bands = np.stack([luminance, luminance_to_magnitude(luminance)])
-        descriptions = ("zenith_luminance", "zenith_sky_brightness")
-        band_tags: tuple[dict[str, str], ...] = (
-            {"long_name": "artificial zenith sky luminance, observer at the cell centre"},
-            {"long_name": "zenith sky brightness, -2.5 log10(L / 1.08e5)"},
-        )
-    else:
-        bands, descriptions, band_tags = _instrument_bands(reader, luminance)
+    if reader is not None:
         tags.update(
             {
                 "method": "FFT convolution of the flux per cell with the instrument's stencil "
                 "(azimuth means of the kernel's rows weighted by its elevation weights, cells "
-                "sampled as the polar map); terrain: per source and observer level; "
-                f"{n_chunks} chunk(s) of {used_chunk} cells",
+                "sampled as the polar map); terrain: per source and observer level; " + layout,
                 "note": "artificial skyglow in the instrument's units, plus the natural sky in "
                 "the sky-brightness band; " + scattering_note(table.attrs),
                 **reader.tags(),
             }
         )
-    result = Raster(
-        bands,
-        raster.transform,
-        raster.crs,
-        descriptions=descriptions,
-        units=("cd m-2", "mag arcsec-2"),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=band_tags,
+    return {key: str(value) for key, value in tags.items()}
+
+
+def _map_bands(
+    reader: InstrumentSky | None, luminance: FloatArray
+) -> tuple[FloatArray, tuple[str, str], tuple[dict[str, str], ...]]:
+    """The two output bands of a luminance map (in place for an instrument), their names and
+    long names."""
+    if reader is not None:
+        return _instrument_bands(reader, luminance)
+    bands = np.stack([luminance, luminance_to_magnitude(luminance)])
+    band_tags: tuple[dict[str, str], ...] = (
+        {"long_name": "artificial zenith sky luminance, observer at the cell centre"},
+        {"long_name": "zenith sky brightness, -2.5 log10(L / 1.08e5)"},
     )
-    if target is not None:
-        result.write(target)
-    return DarknessResult(
-        result, seconds, target, None if reader is None else reader.instrument.name
-    )
+    return bands, ("zenith_luminance", "zenith_sky_brightness"), band_tags
+
+
+def _zenith_tables(
+    table: Any,
+    observer_levels: FloatArray,
+    functions: tuple[Any, ...],
+    notes: tuple[str, ...],
+    reader: InstrumentSky | None,
+    bands: int,
+    label: str,
+) -> tuple[FloatArray, int, tuple[Any, ...], tuple[str, ...]]:
+    """Zenith per lumen ``(observer levels, source levels, bands, n_r)`` [cd m-2 lm-1] (or the
+    instrument's weighted rows), the kernel's azimuth count and the bands' functions."""
+    by_level = [kernel_levels(table, observer_altitude=h) for h in observer_levels]
+    functions, notes = kernel_band_functions(functions, notes, by_level[0][0].emissions, label)
+    by_level = [[band_slice(s, functions) for s in slices] for slices in by_level]
+    weights = None if reader is None else reader.elevation_weights(by_level[0][0].elevation)
+    zenith = [[zenith_per_lumen(t, weights)[:bands] for t in slices] for slices in by_level]
+    return np.asarray(zenith), by_level[0][0].n_az, functions, notes
 
 
 def _instrument_bands(
@@ -686,7 +796,8 @@ def darkness_memory(
     terrain: bool = False,
     dem_cells: int = 0,
 ) -> float:
-    """Estimated peak memory of :func:`darkness` [B].
+    """Estimated peak memory of :func:`darkness` in memory [B] (the tiled map's, which does
+    not grow with the raster, is :func:`nightlights.sky.tiled.tile_memory`).
 
     The raster and its per-cell arrays (the float64 emission and its NaN-free copy, flux, lit
     mask, terrain and eye altitudes, the output's two bands and their float32 copies written:
@@ -763,19 +874,29 @@ def _compute(
     plan: _Plan,
     chunk_size: int,
     scheduler: str | Any | None,
-    progress: bool,
+    progress: bool | Callable[[int, int], None],
 ) -> tuple[FloatArray, int, int]:
-    """The map in one FFT, or chunked with map_overlap; also the chunk count and edge."""
+    """The map in one FFT, or chunked with map_overlap; also the chunk count and edge.
+    ``progress``: bars, or a callable ``progress(done, total)`` after every chunk."""
     rows, cols = flux[0].shape
     a, b = plan.depth
     chunk = max(chunk_size, 2 * a, 2 * b, 1)
     terrain = [heights, eye] if plan.terrain else []
+    hook = progress if callable(progress) else None
+    done = [0]
+
+    def advance(bar: Progress, task: Any, total: int) -> None:
+        bar.advance(task)
+        done[0] += 1
+        if hook is not None:
+            hook(done[0], total)
+
     if rows <= chunk and cols <= chunk:
-        with _bar(progress) as bar:
+        with _bar(progress is True) as bar:
             task = bar.add_task("darkness: one FFT", total=1)
             h, e = (heights, eye) if plan.terrain else (plan.flat_source, plan.flat_eye)
             out = _convolve(flux, h, e, plan, (0, rows, 0, cols), workers=-1)
-            bar.advance(task)
+            advance(bar, task, 1)
         return out, 1, max(rows, cols)
     chunks = (_axis_chunks(rows, chunk, a), _axis_chunks(cols, chunk, b))
     arrays = [da.from_array(x, chunks=chunks) for x in (*flux, *terrain)]
@@ -797,14 +918,16 @@ def _compute(
         plan=shared,
     )
     n_chunks = result.npartitions
-    with _bar(progress) as bar:
+    with _bar(progress is True) as bar:
         task = bar.add_task(f"darkness: {n_chunks} chunks", total=n_chunks)
         if scheduler is None:
-            with TaskProgress(lambda: bar.advance(task), name):
+            with TaskProgress(lambda: advance(bar, task, n_chunks), name):
                 out = result.compute(scheduler="threads")
         else:
             blocks = result.to_delayed()
-            values = compute_distributed(list(blocks.flat), scheduler, lambda: bar.advance(task))
+            values = compute_distributed(
+                list(blocks.flat), scheduler, lambda: advance(bar, task, n_chunks)
+            )
             width = blocks.shape[1]
             out = np.block([values[i : i + width] for i in range(0, len(values), width)])
     return np.asarray(out, dtype=float), n_chunks, chunk
@@ -824,6 +947,52 @@ def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
     elif rest:
         sizes.append(rest)
     return tuple(sizes)
+
+
+def _tiled_path(
+    emission: RasterInput,
+    dem: RasterInput | None,
+    chunk_size: int | None,
+    tiled: bool | None,
+    target_crs: Any | None,
+    store: PathLike | None,
+    label: str,
+) -> bool:
+    """Whether the map is made tile by tile (:mod:`nightlights.sky.tiled`): when asked, for a
+    geographic emission, a ``target_crs`` or a ``store``, or for an emission file whose
+    in-memory map would need more than :data:`~nightlights.sky.tiled.TILED_ABOVE` (or the
+    memory limit)."""
+    from nightlights._resources import memory_limit
+    from nightlights.sky.tiled import TILED_ABOVE
+
+    if tiled is not None and not isinstance(tiled, bool):
+        raise InputError(f"tiled={tiled!r}; expected True, False or None")
+    header = raster_header(emission)
+    geographic = header is not None and header.crs is not None and header.crs.is_geographic
+    asked = target_crs is not None or store is not None
+    if tiled is False:
+        if asked:
+            raise InputError("target_crs= and store= need the tiled map; omit tiled=False")
+        return False
+    if tiled or geographic or asked:
+        if dem is not None:
+            raise InputError(
+                f"{label}: the tiled map (geographic emission, target_crs=, store= or "
+                "tiled=True) is made over flat terrain; omit dem= or give a projected "
+                "emission mapped in memory"
+            )
+        return True
+    if header is None or dem is not None or not isinstance(emission, (str, os.PathLike)):
+        return False
+    estimate = darkness_memory(
+        (header.rows, header.cols),
+        (0, 0),
+        _check_chunk_size(chunk_size),
+        bands=header.count,
+        planes=header.count,
+        observer_levels=1,
+    )
+    return estimate > min(TILED_ABOVE, memory_limit())
 
 
 def _check_output(output: PathLike | None, scene: Scene) -> Path | None:
@@ -891,9 +1060,13 @@ def _terrain(dem: RasterInput, raster: Raster, label: str) -> FloatArray:
     )
 
 
-def _warn_range(raster: Raster, kernel_range: float) -> None:
-    x0, y0, x1, y1 = raster.bounds
-    diagonal = math.hypot(x1 - x0, y1 - y0)
+def _warn_range(
+    bounds: tuple[float, float, float, float], kernel_range: float, diagonal: float | None = None
+) -> None:
+    """Warn when the region's diagonal (``diagonal`` [m], or that of projected ``bounds``)
+    exceeds the kernel's range."""
+    x0, y0, x1, y1 = bounds
+    diagonal = math.hypot(x1 - x0, y1 - y0) if diagonal is None else diagonal
     if diagonal > kernel_range:
         limit = " (the limit, MAX_KERNEL_RANGE)" if kernel_range >= MAX_KERNEL_RANGE else ""
         warnings.warn(

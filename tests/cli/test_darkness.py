@@ -117,7 +117,44 @@ def test_darkness_command_passes_its_options(fake_stage, emission: Path, tmp_pat
     assert kwargs["chunk_size"] == 512 and kwargs["height"] == 1.7
     assert kwargs["scheduler"] == "tcp://127.0.0.1:8786"
     assert kwargs["instrument"] is None and kwargs["spectrum"] is None
+    assert kwargs["tiled"] is None and kwargs["target_crs"] is None and kwargs["store"] is None
+    assert kwargs["resume"] is True and kwargs["keep_store"] is False and kwargs["retries"] == 2
     assert "3 x 4 cells" in result.output
+    tiled = ["--tiled", "--target-crs", "EPSG:3067", "--store", str(tmp_path / "s")]
+    tiled += ["--no-resume", "--keep-store", "--retries", "0", "--overwrite"]
+    assert CliRunner().invoke(command_group(), [*args, *tiled]).exit_code == 0
+    kwargs = recorder.calls[-1][1]
+    assert kwargs["tiled"] is True and kwargs["target_crs"] == "EPSG:3067"
+    assert kwargs["store"] == str(tmp_path / "s") and kwargs["resume"] is False
+    assert kwargs["keep_store"] is True and kwargs["retries"] == 0
+
+
+def test_darkness_command_maps_a_geographic_emission_in_tiles(
+    stage: None, kernel: Path, tmp_path: Path
+) -> None:
+    values = np.zeros((40, 80), np.float32)
+    values[18:22, 38:42] = 1.0  # [lm m-2]
+    step = 3 / 3600  # 3 arcsec at 60 N: 93 m x 46 m
+    emission = tmp_path / "geographic.tif"
+    write_cog(
+        emission,
+        [RasterBand(values, "reflected", "lm m-2")],
+        transform=Affine(step, 0, 25.0, 0, -step, 60.0),
+        crs="EPSG:4326",
+    )
+    out = tmp_path / "zenith.tif"
+    args = ["darkness", str(emission), str(out), "--kernel", str(kernel), "--chunk-size", "32"]
+    result = CliRunner().invoke(command_group(), args)
+    assert result.exit_code == 0, result.output
+    assert (
+        "40 x 80 cells" in result.output and "(6 tiles; read from its overviews)" in result.output
+    )
+    written = Raster.read(out)
+    assert written.crs is not None and written.crs.is_geographic and written.shape == (40, 80)
+    zenith = written.data[0]
+    assert np.unravel_index(zenith.argmax(), zenith.shape) in {
+        (r, c) for r in (19, 20) for c in (39, 40)
+    }
 
 
 def test_darkness_command_errors_are_one_line(stage: None, tmp_path: Path) -> None:
@@ -125,7 +162,11 @@ def test_darkness_command_errors_are_one_line(stage: None, tmp_path: Path) -> No
     result = CliRunner().invoke(
         command_group(), ["darkness", str(geographic), str(tmp_path / "z.tif")]
     )
-    assert result.exit_code == 1 and "CRSError" in result.output
+    assert (
+        result.exit_code == 1
+        and "CRSError" in result.output
+        and "within the globe" in result.output
+    )
     assert "Traceback" not in result.output and not (tmp_path / "z.tif").exists()
     bad_chunk = CliRunner().invoke(
         command_group(), ["darkness", str(geographic), "-o", "z.tif", "--chunk-size", "0"]
