@@ -26,17 +26,18 @@ Cases:
   64 bins, 32 x 128 panorama), the streamed defaults and the same settings in memory
   (``store_tables=True``: the raw tables are output, so they are held);
 * ``dobashi``: Dobashi's configuration in full (64 x 256 panorama, 128 distances of 78.125 m,
-  16 x 16 levels, turbidity 1.3), defaults and, with ``--exact-dobashi``, the exact path in
-  full; its error is also measured on a sample of altitude pairs against the exact path's
-  images integrated directly (12 nodes, multiple-scattering factor applied), which needs no
-  exact build.
+  16 x 16 levels, turbidity 1.3), defaults; ``dobashi-exact``: the exact path in full (the
+  error over every image needs both files in ``--keep``); the defaults' error is also
+  measured on a sample of altitude pairs against the exact path's images integrated directly
+  (12 nodes, multiple-scattering factor applied), which needs no exact build.
 
 Measured (this 2-core machine, shared; the load average is in the JSON): see the module's
 results in ``docs/benchmarks.md`` (kernel defaults) and the summary below, filled in from the
 last full run.
 
-Run: ``python benchmarks/bench_sky_kernel_defaults.py [--quick] [--cases reduced,levels,dobashi]
-[--exact-dobashi] [--out DIR]``; cases not run keep their rows from the previous results.
+Run: ``python benchmarks/bench_sky_kernel_defaults.py [--quick]
+[--cases reduced,levels,dobashi,dobashi-exact] [--keep DIR] [--out DIR]``; cases not run keep
+their rows from the previous results.
 Writes ``sky_kernel_defaults.json`` and ``.png``.
 """
 
@@ -111,15 +112,18 @@ def child(case: dict[str, Any]) -> None:
     )
     spec = case_spec(case)
     baseline = _rss_bytes()
+    cpu = time.process_time()
     start = time.perf_counter()
     result = build_kernel(spec, case["path"], progress=False)
     seconds = time.perf_counter() - start
+    cpu = time.process_time() - cpu
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     ds = result.kernel
     print(
         json.dumps(
             {
                 "seconds": seconds,
+                "cpu_seconds": cpu,
                 "peak_gib": (peak - baseline) / 2**30,
                 "estimate_gib": kernel_memory(spec) / 2**30,
                 "streamed": streams(spec),
@@ -233,7 +237,7 @@ def sample_error(default_path: str, grid: tuple[int, ...]) -> dict[str, Any]:
     }
 
 
-def cases(quick: bool, parts: set[str], exact_dobashi: bool) -> list[dict[str, Any]]:
+def cases(quick: bool, parts: set[str]) -> list[dict[str, Any]]:
     """The builds to run."""
     out: list[dict[str, Any]] = []
     reduced = (6, 16, 8, 32) if quick else (16, 32, 16, 64)
@@ -259,37 +263,40 @@ def cases(quick: bool, parts: set[str], exact_dobashi: bool) -> list[dict[str, A
     if "dobashi" in parts:
         grid = (6, 32, 16, 64) if quick else (16, 128, 64, 256)
         out.append({"label": "dobashi-defaults", "grid": grid, "exact": False, "part": "dobashi"})
-        if exact_dobashi:
-            out.append({"label": "dobashi-exact", "grid": grid, "exact": True, "part": "dobashi"})
+    if "dobashi-exact" in parts:
+        grid = (6, 32, 16, 64) if quick else (16, 128, 64, 256)
+        label = "dobashi-exact"
+        out.append({"label": label, "grid": grid, "exact": True, "part": "dobashi-exact"})
     return out
 
 
 def main() -> None:
     parser = harness.argument_parser(__doc__, quick="small grids")
-    parser.add_argument("--cases", default="reduced,levels,dobashi")
-    parser.add_argument("--exact-dobashi", action="store_true")
+    parser.add_argument(
+        "--cases",
+        default="reduced,levels,dobashi",
+        help="of reduced, levels, dobashi, dobashi-exact",
+    )
     parser.add_argument("--keep", type=Path, default=None, help="folder for the kernel files")
     args = harness.parse_args(parser)
     parts = set(args.cases.split(","))
-    previous = harness.previous_results(NAME, args.out) or {}
-    rows = [r for r in previous.get("runs", []) if r.get("part") not in parts]
     folder = args.keep or Path(tempfile.mkdtemp(prefix="kernel-defaults-"))
     folder.mkdir(parents=True, exist_ok=True)
-    new = []
-    for case in cases(args.quick, parts, args.exact_dobashi):
-        row = run_case(case, folder) | {"part": case["part"]}
-        new.append(row)
-    by_label = {row["case"]: row for row in new}
+    new = [run_case(case, folder) | {"part": case["part"]} for case in cases(args.quick, parts)]
+    # other runs may have written meanwhile: merge with the results as they are now
+    previous = harness.previous_results(NAME, args.out) or {}
+    rows = [r for r in previous.get("runs", []) if r.get("part") not in parts] + new
+    by_label = {row["case"]: row for row in rows}
     for part in ("reduced", "dobashi"):
         default, exact = by_label.get(f"{part}-defaults"), by_label.get(f"{part}-exact")
-        if default is not None and exact is not None:
-            default |= file_error(default["path"], exact["path"], default["n_observer"])
-        if part == "dobashi" and default is not None:
-            default |= sample_error(default["path"], tuple(default["grid"]))
-    rows += new
+        paths = [folder / f"{part}-{kind}.nc" for kind in ("defaults", "exact")]
+        if default is not None and exact is not None and all(p.is_file() for p in paths):
+            default |= file_error(str(paths[0]), str(paths[1]), default["n_observer"])
+        if part == "dobashi" and default is not None and "dobashi" in parts:
+            default |= sample_error(str(paths[0]), tuple(default["grid"]))
     for row in rows:
         row.pop("path", None)
-    dobashi = next((r for r in rows if r["case"] == "dobashi-defaults"), None)
+    dobashi = by_label.get("dobashi-defaults")
     payload = {
         "kernel": "Dobashi et al. 2023's altitudes and range (16 x 16 levels 62.5 m apart, "
         "distances to 10 km, turbidity 1.3, Lambertian, multiple-scattering factor); grids "
@@ -303,7 +310,7 @@ def main() -> None:
         "dobashi_defaults": dobashi,
         "runs": rows,
         "note": "Timings from a shared 2-core machine; load averages (1 min) before and after "
-        "each run are recorded.",
+        "each run are recorded, and the CPU time of the build.",
     }
     harness.write_results(args.out, NAME, payload, quick=args.quick, plot=plot)
 
@@ -312,7 +319,7 @@ def plot(payload: dict[str, Any]) -> Any:
     plt = harness.pyplot()
     rows = payload["runs"]
     fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(14, 4.2))
-    compared = [r for r in rows if r["part"] in ("reduced", "dobashi")]
+    compared = [r for r in rows if r["part"] in ("reduced", "dobashi", "dobashi-exact")]
     labels = [r["case"] for r in compared]
     x = np.arange(len(compared))
     ax1.bar(x, [r["seconds"] / 60 for r in compared], color="C0")

@@ -398,7 +398,7 @@ def kernel_memory(spec: KernelSpec) -> float:
     >>> round(kernel_memory(KernelSpec(store_tables=False)) / 2**20)  # 64 x 64 x 256, streamed
     76
     >>> round(kernel_memory(KernelSpec.exact()) / 2**20)  # the exact path, in memory [MiB]
-    80
+    64
     """
     n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
     emissions = len(spec.emissions)
@@ -415,9 +415,11 @@ def kernel_memory(spec: KernelSpec) -> float:
     tables = 4.0 * emissions * n_o * n_c * n_r * pixels
     images = 2 * 8.0 * n_r * pixels
     k = min(q, ESTIMATED_COMPONENTS)
-    pca = 8.0 * (2 * m * pixels + 3 * q * q + 3 * q * pixels)
-    stored = 8.0 * n_o * (q * q + 3 * k * pixels + 2 * m * k)
-    return 2 * tables + images + pca + stored
+    decompositions = 8.0 * n_o * q * q  # every level's eigenvectors, held together
+    pca = 8.0 * (2 * m * pixels + 2 * q * q + k * pixels)
+    stored = 8.0 * n_o * (2 * k * pixels + 2 * m * k)
+    held = 2 * tables if spec.store_tables else tables
+    return held + images + decompositions + pca + stored
 
 
 def compute_kernel(

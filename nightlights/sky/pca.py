@@ -592,7 +592,6 @@ def compress_kernel(
     dims_f = ("observer_altitude", "component", "elevation", "frequency")
     unit = {"units": "cd m-2 lm-1"}
     data = {
-        "kernel": (dims_k, kernel.astype(np.float32), unit | {"emission": "lambertian"}),
         "basis": (dims_b, basis_img, {"units": "1"}),
         "coefficient": (
             dims_c,
@@ -603,15 +602,14 @@ def compress_kernel(
         "basis_fft_imag": (dims_f, spectrum.imag, {"units": "1", "transform": "rfft over azimuth"}),
         "explained_energy": (("observer_altitude",), explained_k, {"units": "1"}),
     }
-    if kernel_uplight is not None:
-        data["kernel_uplight"] = (
-            dims_k,
-            kernel_uplight.astype(np.float32),
-            unit | {"emission": "uplight"},
-        )
-    if not store_tables:
-        data.pop("kernel")
-        data.pop("kernel_uplight", None)
+    if store_tables:  # a float32 copy of the raw images (not made when they are not kept)
+        data["kernel"] = (dims_k, kernel.astype(np.float32), unit | {"emission": "lambertian"})
+        if kernel_uplight is not None:
+            data["kernel_uplight"] = (
+                dims_k,
+                kernel_uplight.astype(np.float32),
+                unit | {"emission": "uplight"},
+            )
     if kernel_uplight is not None:
         data["coefficient_uplight"] = (
             dims_c,
