@@ -288,7 +288,7 @@ def build(
     store_tables = _renamed(ctx, "store_tables", "--store-tables", "--tables", old_tables)
     if given(ctx, "pca_energy") is not None or old_energy is not None:
         pca_error = pca_error if given(ctx, "pca_error") or old_error else None
-    settings = {
+    settings: dict[str, Any] = {
         "nodes": nodes,
         "pca_error": pca_error,
         "shared_bases": shared_bases,

@@ -353,7 +353,7 @@ def interpolate_pairs(
             )
 
 
-def _interpolated(lower: FloatArray, upper: FloatArray, w: float) -> FloatArray:
+def _interpolated(lower: NDArray[Any], upper: NDArray[Any], w: float) -> FloatArray:
     """exp((1 - w) ln lower + w ln upper) where both are positive, linear elsewhere."""
     lower, upper = lower.astype(float), upper.astype(float)
     value = (1.0 - w) * lower + w * upper
@@ -545,7 +545,7 @@ def _stream_tables(
         task = bar.add_task("kernel", total=int(computed.sum()) * len(emissions))
         for o in range(h_o.size):
             level = np.zeros(shape, dtype=np.float32)
-            for c in np.flatnonzero(computed[o]):
+            for c in np.flatnonzero(computed[o]).tolist():
                 for i, emission in enumerate(emissions):
                     for lo in range(0, n_r_bins, r_chunk):
                         sl = slice(lo, min(lo + r_chunk, n_r_bins))
