@@ -30,7 +30,17 @@ linear in the emission function). With ``shared_bases`` one basis serves every o
 altitude (the same array for each level); with ``pca_error`` the attribute ``pca_mean_error``
 holds the reconstruction's measured error.
 
-Length: about 650 lines, because the bin integration, the choice of the altitude pairs it
+Streaming: a kernel with one shared basis and without raw tables (:func:`streams`, the
+defaults of ``nightlights kernel build``) is built one observer level at a time through a
+temporary folder: each level's integrated pairs are computed, saved and dropped; then each
+level is interpolated, multiplied by the multiple-scattering factor and saved; each level is
+decomposed and summarised in turn (:func:`~nightlights.sky.pca.level_summary`); the
+summaries are merged into the shared basis, whose number of bases is chosen on every level's
+images read back a block at a time; and each level is projected on it. The memory held is one
+level's images and their decomposition, plus per level its summary and coefficients (the
+order of the output), not the tables (:func:`kernel_memory`).
+
+Length: about 900 lines, because the bin integration, the streamed build, the choice of the altitude pairs it
 integrates (and the interpolation of the others) and the assembly of the dataset are the one
 build path of a kernel.
 
@@ -430,7 +440,7 @@ def compute_kernel(
     A specification with shared bases and without raw tables (:func:`streams`) is built one
     observer level at a time through a temporary folder (the system's temporary directory:
     as many bytes as the float32 tables), so that the memory held does not grow with the
-    number of observer levels beyond the compressed output; others in memory.
+    number of observer levels beyond each level's summary and coefficients; others in memory.
 
     Parameters
     ----------

@@ -44,9 +44,12 @@ def test_streamed_build_equals_the_in_memory_one() -> None:
     assert streamed.attrs["content_hash"] == streamed_spec.content_hash
 
 
-def test_streamed_estimate_does_not_grow_with_observer_levels_beyond_the_output() -> None:
-    """The streamed estimate holds one level of images: more observer levels add only their
-    coefficients and summaries, while the in-memory tables grow with every level."""
+def test_streamed_estimate_grows_with_observer_levels_by_their_output_only() -> None:
+    """The streamed estimate holds one level of images: another observer level adds only its
+    summary and coefficients (k directions of p pixels, m images x k), not its images, while
+    the in-memory tables grow by every level's images."""
+    from nightlights.sky.build import ESTIMATED_COMPONENTS
+
     common = {"n_distance": 64, "n_elevation": 32, "n_azimuth": 128}
     sources = np.arange(8) * 62.5
 
@@ -59,9 +62,11 @@ def test_streamed_estimate_does_not_grow_with_observer_levels_beyond_the_output(
         )
         return kernel_memory(spec)
 
-    one_level = 4.0 * 8 * 64 * 32 * 128  # one observer level's float32 images [B]
-    assert estimate(16, False) - estimate(1, False) < 1.5 * one_level
-    assert estimate(16, True) - estimate(1, True) > 15 * 2 * one_level
+    m, p = 8 * 64, 32 * 128  # one level's images and pixels
+    k = min(m, p, ESTIMATED_COMPONENTS)
+    per_level_output = 8.0 * (k * p + 2 * m * k)
+    assert estimate(16, False) - estimate(1, False) <= 15 * per_level_output
+    assert estimate(16, True) - estimate(1, True) >= 15 * 2 * 4.0 * m * p  # two table copies
 
 
 @pytest.mark.parametrize("levels", [1, 2, 3])
