@@ -40,9 +40,9 @@ images read back a block at a time; and each level is projected on it. The memor
 level's images and their decomposition, plus per level its summary and coefficients (the
 order of the output), not the tables (:func:`kernel_memory`).
 
-Length: about 900 lines, because the bin integration, the streamed build, the choice of the altitude pairs it
-integrates (and the interpolation of the others) and the assembly of the dataset are the one
-build path of a kernel.
+Length: about 900 lines, because the bin integration, the streamed build, the choice of the
+altitude pairs it integrates (and the interpolation of the others) and the assembly of the
+dataset are the one build path of a kernel.
 
 References
 ----------
