@@ -281,6 +281,11 @@ def main() -> None:
         help="of reduced, levels, dobashi, dobashi-exact",
     )
     parser.add_argument("--keep", type=Path, default=None, help="folder for the kernel files")
+    parser.add_argument(
+        "--estimates",
+        action="store_true",
+        help="recompute every row's estimate with the current kernel_memory",
+    )
     args = harness.parse_args(parser)
     parts = set(args.cases.split(","))
     folder = args.keep or Path(tempfile.mkdtemp(prefix="kernel-defaults-"))
@@ -299,6 +304,12 @@ def main() -> None:
             default |= sample_error(str(paths[0]), tuple(default["grid"]))
     for row in rows:
         row.pop("path", None)
+        if args.estimates:  # the estimate is a function of the specification alone
+            from nightlights.sky.build import kernel_memory
+
+            case = {"grid": row["grid"], "exact": row["settings"] == "exact"}
+            case |= {"n_observer": row["n_observer"], "store_tables": row["store_tables"]}
+            row["estimate_gib"] = kernel_memory(case_spec(case)) / 2**30
     dobashi = by_label.get("dobashi-defaults")
     payload = {
         "kernel": "Dobashi et al. 2023's altitudes and range (16 x 16 levels 62.5 m apart, "

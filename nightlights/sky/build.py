@@ -406,9 +406,9 @@ def kernel_memory(spec: KernelSpec) -> float:
     Examples
     --------
     >>> round(kernel_memory(KernelSpec(store_tables=False)) / 2**20)  # 64 x 64 x 256, streamed
-    76
+    36
     >>> round(kernel_memory(KernelSpec.exact()) / 2**20)  # the exact path, in memory [MiB]
-    64
+    43
     """
     n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
     emissions = len(spec.emissions)
@@ -416,7 +416,7 @@ def kernel_memory(spec: KernelSpec) -> float:
     m = emissions * n_c * n_r
     q = min(m, pixels)
     if streams(spec):
-        k = min(q, ESTIMATED_COMPONENTS)
+        k = min(max(1, q // 4), ESTIMATED_COMPONENTS)
         level = 4.0 * m * pixels
         pair = 3 * 8.0 * emissions * n_r * pixels
         pca = 8.0 * (2 * m * pixels + 3 * q * q + 3 * k * pixels)
@@ -424,7 +424,7 @@ def kernel_memory(spec: KernelSpec) -> float:
         return level + max(pair, pca) + stored
     tables = 4.0 * emissions * n_o * n_c * n_r * pixels
     images = 2 * 8.0 * n_r * pixels
-    k = min(q, ESTIMATED_COMPONENTS)
+    k = min(max(1, q // 8), ESTIMATED_COMPONENTS)
     decompositions = 8.0 * n_o * q * q  # every level's eigenvectors, held together
     pca = 8.0 * (2 * m * pixels + 2 * q * q + k * pixels)
     stored = 8.0 * n_o * (2 * k * pixels + 2 * m * k)
@@ -491,10 +491,11 @@ def compute_kernel(
     return ds
 
 
-#: Directions per level summary and shared bases assumed by :func:`kernel_memory` before they
-#: are chosen [1]: Dobashi's configuration keeps 76 shared bases at the default error target
-#: (``benchmarks/bench_sky_kernel_storage.py``), its levels' summaries (a quarter of the
-#: target) fewer than 256.
+#: Most directions per level summary and bases assumed by :func:`kernel_memory` before they
+#: are chosen [1]; the streamed estimate takes a quarter of a level's rank q up to this (its
+#: summaries keep more directions than the shared basis), the in-memory one an eighth.
+#: Calibrated on ``benchmarks/bench_sky_kernel_defaults.py``: bases chosen 103 of q = 2048
+#: (Dobashi's configuration, defaults), 33 and 46 of 512 (reduced grid, defaults and exact).
 ESTIMATED_COMPONENTS = 256
 
 
