@@ -26,13 +26,21 @@ TURBIDITY = 1.3
 
 
 def dobashi_spec(
-    n_levels: int = 16, n_r: int = 128, n_el: int = 64, n_az: int = 256, **knobs: Any
+    n_levels: int = 16,
+    n_r: int = 128,
+    n_el: int = 64,
+    n_az: int = 256,
+    *,
+    exact: bool = True,
+    **knobs: Any,
 ) -> KernelSpec:
     """Dobashi's configuration (the defaults), or the same altitudes and range on a reduced
-    grid; ``knobs`` are further :class:`~nightlights.sky.KernelSpec` fields."""
+    grid; ``knobs`` are further :class:`~nightlights.sky.KernelSpec` fields. ``exact``: on
+    the reference build (:meth:`~nightlights.sky.KernelSpec.exact`, the lever benchmarks'
+    baseline), else on the library's defaults."""
     altitudes = np.arange(n_levels) * LEVEL_STEP
     edges = np.concatenate([[1.0], np.arange(1, n_r + 1) * (RANGE / n_r)])
-    return KernelSpec(
+    return (KernelSpec.exact if exact else KernelSpec)(
         distance_edges=edges,
         source_altitudes=altitudes,
         observer_altitudes=altitudes,

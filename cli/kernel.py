@@ -1,4 +1,9 @@
-"""``nightlights kernel build``: precompute a skyglow kernel table (PCA + FFT) to NetCDF."""
+"""``nightlights kernel build``: precompute a skyglow kernel table (PCA + FFT) to NetCDF.
+
+The defaults are the library's (:class:`~nightlights.sky.KernelSpec`: the measured-best
+build); ``--exact`` restores the reference build (:meth:`~nightlights.sky.KernelSpec.exact`)
+for the options not given.
+"""
 
 from __future__ import annotations
 
@@ -135,14 +140,16 @@ def kernel() -> None:
 @click.option(
     "--pca-error",
     type=float,
-    default=None,
+    default=kernel_default("pca_error"),
+    show_default=True,
     help="PCA error target: the fewest bases whose reconstruction's mean relative error over "
-    "pixels above 1 % of their image's maximum is at most this (overrides --pca-energy).",
+    "pixels above 1 % of their image's maximum is at most this (a given --pca-energy "
+    "replaces it).",
 )
 @deprecated_option("--error", "old_error", type=float, default=None, replacement="--pca-error")
 @click.option(
     "--shared-bases/--per-level-bases",
-    default=False,
+    default=kernel_default("shared_bases"),
     show_default=True,
     help="One PCA basis for every observer altitude (a smaller file) or one per altitude.",
 )
@@ -159,7 +166,8 @@ def kernel() -> None:
     default=kernel_default("altitude_step"),
     show_default=True,
     help="Compute every n-th altitude pair along each line of equal h_c - h_o and "
-    "interpolate the others (log-linear in the observer altitude); 1 computes all.",
+    "interpolate the others (log-linear in the observer altitude, never across more than "
+    "937.5 m); 1 computes all.",
 )
 @click.option(
     "--sub-distances",
@@ -208,6 +216,13 @@ def kernel() -> None:
     replacement="--store-tables/--no-store-tables",
 )
 @click.option(
+    "--exact",
+    is_flag=True,
+    help="The reference build: every altitude pair integrated at 12 nodes, one PCA per "
+    "observer altitude by --pca-energy, float64 (for --nodes, --pca-error, --shared-bases, "
+    "--precision and --altitude-step not given).",
+)
+@click.option(
     "--backend",
     type=LibraryChoice(KERNEL_BACKENDS),
     default="auto",
@@ -250,11 +265,17 @@ def build(
     multiple_scattering: str,
     store_tables: bool,
     old_tables: bool | None,
+    exact: bool,
     backend: str,
 ) -> None:
-    """Build a kernel table and write it to OUTPUT (NetCDF)."""
+    """Build a kernel table and write it to OUTPUT (NetCDF).
+
+    The defaults are the measured-best build (benchmark bench_sky_kernel_defaults: Dobashi's
+    configuration into 16 MB, 0.3 % from the reference); --exact gives the reference build.
+    """
     import nightlights as nl
     from nightlights.sky.atmosphere import Atmosphere
+    from nightlights.sky.spec import EXACT_SETTINGS
 
     _, out = resolve_inout(files, output, inputs=0, usage="OUTPUT", overwrite=overwrite)
     components = one_of(ctx, **{"--n-components": n_components, "--components": old_components})
@@ -264,6 +285,20 @@ def build(
     pca_energy = _renamed(ctx, "pca_energy", "--pca-energy", "--energy", old_energy)
     pca_error = _renamed(ctx, "pca_error", "--pca-error", "--error", old_error)
     store_tables = _renamed(ctx, "store_tables", "--store-tables", "--tables", old_tables)
+    if given(ctx, "pca_energy") is not None or old_energy is not None:
+        pca_error = pca_error if given(ctx, "pca_error") or old_error else None
+    settings: dict[str, Any] = {
+        "nodes": nodes,
+        "pca_error": pca_error,
+        "shared_bases": shared_bases,
+        "precision": precision,
+        "altitude_step": altitude_step,
+    }
+    if exact:  # the reference for every setting not given
+        for name, value in EXACT_SETTINGS.items():
+            explicit = ctx.get_parameter_source(name) is click.core.ParameterSource.COMMANDLINE
+            if not explicit and not (name == "pca_error" and old_error is not None):
+                settings[name] = value
     spec = nl.KernelSpec(
         r_min=r_min,
         r_max=r_max,
@@ -278,7 +313,6 @@ def build(
             wavelength_nm=wavelength_nm,
             flat_earth=flat_earth,
         ),
-        nodes=nodes,
         pca_energy=pca_energy,
         n_components=components,
         sub_distances=sub_distances,
@@ -286,11 +320,8 @@ def build(
         garstang_lobe=garstang_lobe,
         tabulated_emission=tabulated_emission,
         store_tables=store_tables,
-        pca_error=pca_error,
-        shared_bases=shared_bases,
-        precision=precision,
-        altitude_step=altitude_step,
         multiple_scattering=multiple_scattering,
+        **settings,
     )
     start = time.perf_counter()
     result = nl.build_kernel(spec, out, backend=backend, progress=True)

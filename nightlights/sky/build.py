@@ -30,9 +30,19 @@ linear in the emission function). With ``shared_bases`` one basis serves every o
 altitude (the same array for each level); with ``pca_error`` the attribute ``pca_mean_error``
 holds the reconstruction's measured error.
 
-Length: about 650 lines, because the bin integration, the choice of the altitude pairs it
-integrates (and the interpolation of the others) and the assembly of the dataset are the one
-build path of a kernel.
+Streaming: a kernel with one shared basis and without raw tables (:func:`streams`, the
+defaults of ``nightlights kernel build``) is built one observer level at a time through a
+temporary folder: each level's integrated pairs are computed, saved and dropped; then each
+level is interpolated, multiplied by the multiple-scattering factor and saved; each level is
+decomposed and summarised in turn (:func:`~nightlights.sky.pca.level_summary`); the
+summaries are merged into the shared basis, whose number of bases is chosen on every level's
+images read back a block at a time; and each level is projected on it. The memory held is one
+level's images and their decomposition, plus per level its summary and coefficients (the
+order of the output), not the tables (:func:`kernel_memory`).
+
+Length: about 900 lines, because the bin integration, the streamed build, the choice of the
+altitude pairs it integrates (and the interpolation of the others) and the assembly of the
+dataset are the one build path of a kernel.
 
 References
 ----------
@@ -44,14 +54,22 @@ from __future__ import annotations
 
 import itertools
 import logging
+import tempfile
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
@@ -61,22 +79,37 @@ from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import sky_luminance_grid
 from nightlights.sky.multiple import apply_multiple_scattering
-from nightlights.sky.pca import LevelDecomposition, compress_kernel
+from nightlights.sky.pca import (
+    LevelDecomposition,
+    _project,
+    compress_kernel,
+    level_summary,
+    merge_summaries,
+)
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
 __all__ = [
+    "MAX_INTERPOLATED_SPAN",
     "SUPERSAMPLE_DISTANCES",
     "InterpolatedPair",
     "altitude_pairs",
     "compute_kernel",
     "interpolate_pairs",
     "kernel_dataset",
+    "kernel_memory",
     "kernel_tables",
+    "streams",
     "table_names",
 ]
 
 log = logging.getLogger(__name__)
+
+#: Largest observer-altitude span [m] across which an altitude pair is interpolated
+#: (:func:`altitude_pairs`): the span measured by ``benchmarks/bench_sky_kernel_altitudes.py``,
+#: 15 levels of Dobashi's 62.5 m grid (0.07 % mean error, 0.26 % for the worst pair); farther
+#: apart levels are integrated rather than interpolated over an unmeasured span.
+MAX_INTERPOLATED_SPAN = 15 * 62.5
 
 #: Distances per bin (Gauss-Legendre in ln r) averaged in the supersampled pixels next to the
 #: source direction, at least: there the image changes fastest with distance (the source moves
@@ -242,7 +275,11 @@ class InterpolatedPair:
 
 
 def altitude_pairs(
-    observer_altitudes: FloatArray, source_altitudes: FloatArray, step: int
+    observer_altitudes: FloatArray,
+    source_altitudes: FloatArray,
+    step: int,
+    *,
+    max_span: float = MAX_INTERPOLATED_SPAN,
 ) -> tuple[NDArray[np.bool_], list[InterpolatedPair]]:
     """Which (observer, source) altitude pairs to compute and how to fill the others.
 
@@ -250,8 +287,11 @@ def altitude_pairs(
     the observer); their images differ through the air's density and transmission at the
     observer's altitude, which change smoothly (about exponentially) over the scale heights.
     Along each line of equal d, sorted by h_o, every ``step``-th pair and the last are
-    computed; a pair between two computed ones is interpolated log-linearly in h_o
-    (:func:`interpolate_pairs`; exact for a density that is exponential in altitude).
+    computed, and more where two computed pairs would be more than ``max_span`` apart in h_o
+    (the next computed pair is then the farthest within ``max_span``, at least the next pair:
+    a grid of a few widely spaced levels is computed in full); a pair between two computed
+    ones is interpolated log-linearly in h_o (:func:`interpolate_pairs`; exact for a density
+    that is exponential in altitude).
 
     Parameters
     ----------
@@ -259,6 +299,8 @@ def altitude_pairs(
         The kernel's levels [m].
     step
         Spacing of the computed pairs along each line, in pairs; 1 computes every pair [1].
+    max_span
+        Largest observer-altitude span interpolated across [m].
 
     Returns
     -------
@@ -275,6 +317,9 @@ def altitude_pairs(
     (19, 6)
     >>> computed.diagonal().tolist()  # h_c = h_o: levels 0, 2 and 4 computed
     [True, False, True, False, True]
+    >>> three = np.array([0.0, 1000.0, 2000.0])  # 1 km apart: beyond MAX_INTERPOLATED_SPAN
+    >>> bool(altitude_pairs(three, three, 15)[0].all())
+    True
     """
     h_o = np.asarray(observer_altitudes, dtype=float)
     h_c = np.asarray(source_altitudes, dtype=float)
@@ -288,7 +333,15 @@ def altitude_pairs(
             lines.setdefault(round(float(h_c[c] - h_o[o]), 6), []).append((o, c))
     for pairs in lines.values():
         pairs.sort(key=lambda pair: h_o[pair[0]])
-        nodes = sorted({*range(0, len(pairs), step), len(pairs) - 1})
+        nodes = [0]
+        while nodes[-1] < len(pairs) - 1:
+            here = nodes[-1]
+            nxt = min(here + step, len(pairs) - 1)
+            while nxt > here + 1 and h_o[pairs[nxt][0]] - h_o[pairs[here][0]] > max_span * (
+                1 + 1e-9
+            ):
+                nxt -= 1
+            nodes.append(nxt)
         for lower, upper in itertools.pairwise(nodes):
             (o0, c0), (o1, c1) = pairs[lower], pairs[upper]
             for o, c in pairs[lower + 1 : upper]:
@@ -305,25 +358,40 @@ def interpolate_pairs(
     log-linear where both computed images are positive, linear elsewhere."""
     for table in tables.values():
         for pair in interpolated:
-            lower = table[pair.lower].astype(float)
-            upper = table[pair.upper].astype(float)
-            w = pair.weight
-            value = (1.0 - w) * lower + w * upper
-            positive = (lower > 0) & (upper > 0)
-            value[positive] = np.exp(
-                (1.0 - w) * np.log(lower[positive]) + w * np.log(upper[positive])
+            table[pair.observer, pair.source] = _interpolated(
+                table[pair.lower], table[pair.upper], pair.weight
             )
-            table[pair.observer, pair.source] = value
+
+
+def _interpolated(lower: NDArray[Any], upper: NDArray[Any], w: float) -> FloatArray:
+    """exp((1 - w) ln lower + w ln upper) where both are positive, linear elsewhere."""
+    lower, upper = lower.astype(float), upper.astype(float)
+    value = (1.0 - w) * lower + w * upper
+    positive = (lower > 0) & (upper > 0)
+    value[positive] = np.exp((1.0 - w) * np.log(lower[positive]) + w * np.log(upper[positive]))
+    return value
+
+
+def streams(spec: KernelSpec) -> bool:
+    """Whether :func:`compute_kernel` streams the tables of this specification through disk
+    (one shared basis and no raw tables in the output: see the module docstring)."""
+    return spec.shared_bases and not spec.store_tables
 
 
 def kernel_memory(spec: KernelSpec) -> float:
     """Estimated peak memory of :func:`compute_kernel` [B].
 
-    The float32 tables (observer levels x source levels x distances x elevations x azimuths x
-    emissions, held twice: the tables and the dataset's copy), one distance row of float64
-    images while they are integrated, and the PCA of one observer level (the float64 stack of
-    m images of p pixels, the Gram matrix and its eigenvectors of the smaller side q, the
-    bases and their QR) with the stored bases, coefficients and basis spectra of every level.
+    Streamed (:func:`streams`): one observer level's float32 images (all its source altitudes,
+    distances and emission shapes: m images of p pixels) while they are computed,
+    interpolated or decomposed, with the decomposition's float64 copy, Gram matrix and
+    eigenvectors, one pair's float64 images, and the output: every level's summary of q
+    directions (:func:`~nightlights.sky.pca.level_summary`), the shared basis with its
+    spectrum and the coefficients of every level. In memory: the float32 tables
+    (observer levels x source levels x distances x elevations x azimuths x emissions, held
+    twice: the tables and the dataset's copy), one distance row of float64 images while they
+    are integrated, and the PCA of one observer level with the stored bases, coefficients
+    and basis spectra of every level. q, the directions kept, is bounded by
+    min(m, p, :data:`ESTIMATED_COMPONENTS`).
 
     Parameters
     ----------
@@ -337,25 +405,42 @@ def kernel_memory(spec: KernelSpec) -> float:
 
     Examples
     --------
-    >>> round(kernel_memory(KernelSpec()) / 2**20)  # the default 64 x 64 x 256 kernel [MiB]
-    80
+    >>> round(kernel_memory(KernelSpec(store_tables=False)) / 2**20)  # 64 x 64 x 256, streamed
+    36
+    >>> round(kernel_memory(KernelSpec.exact()) / 2**20)  # the exact path, in memory [MiB]
+    43
     """
     n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
     emissions = len(spec.emissions)
     n_r, pixels = spec.n_distance, spec.n_elevation * spec.n_azimuth
-    tables = 4.0 * emissions * n_o * n_c * n_r * pixels
-    images = 2 * 8.0 * n_r * pixels
     m = emissions * n_c * n_r
     q = min(m, pixels)
-    pca = 8.0 * (m * pixels + 2 * q * q + 3 * q * pixels + m * q)
-    stored = 8.0 * n_o * (3 * q * pixels + m * q)
-    return 2 * tables + images + pca + stored
+    if streams(spec):
+        k = min(max(1, q // 4), ESTIMATED_COMPONENTS)
+        level = 4.0 * m * pixels
+        pair = 3 * 8.0 * emissions * n_r * pixels
+        pca = 8.0 * (2 * m * pixels + 3 * q * q + 3 * k * pixels)
+        stored = 8.0 * (n_o * k * pixels + 3 * k * pixels + 2 * n_o * m * k)
+        return level + max(pair, pca) + stored
+    tables = 4.0 * emissions * n_o * n_c * n_r * pixels
+    images = 2 * 8.0 * n_r * pixels
+    k = min(max(1, q // 8), ESTIMATED_COMPONENTS)
+    decompositions = 8.0 * n_o * q * q  # every level's eigenvectors, held together
+    pca = 8.0 * (2 * m * pixels + 2 * q * q + k * pixels)
+    stored = 8.0 * n_o * (2 * k * pixels + 2 * m * k)
+    held = 2 * tables if spec.store_tables else tables
+    return held + images + decompositions + pca + stored
 
 
 def compute_kernel(
     spec: KernelSpec | None = None, *, backend: str = "auto", progress: bool = True
 ) -> xr.Dataset:
-    """Precompute a skyglow kernel table and compress it by PCA and FFT (in memory).
+    """Precompute a skyglow kernel table and compress it by PCA and FFT.
+
+    A specification with shared bases and without raw tables (:func:`streams`) is built one
+    observer level at a time through a temporary folder (the system's temporary directory:
+    as many bytes as the float32 tables), so that the memory held does not grow with the
+    number of observer levels beyond each level's summary and coefficients; others in memory.
 
     Parameters
     ----------
@@ -391,13 +476,178 @@ def compute_kernel(
         "pixels",
         option="lower n_distance=, n_elevation= or n_azimuth= (or give fewer altitude levels)",
     )
-    tables = kernel_tables(spec, backend=backend, progress=progress)
-    _check_tables(tables, spec)
-    multiple_attrs = apply_multiple_scattering(tables, spec)
-    ds = kernel_dataset(tables, spec)
+    if streams(spec):
+        with tempfile.TemporaryDirectory(prefix="nightlights-kernel-") as folder:
+            levels = _LevelFiles(Path(folder))
+            multiple_attrs = _stream_tables(spec, levels, backend=backend, progress=progress)
+            ds = _finish_dataset(_stream_compress(spec, levels), spec)
+    else:
+        tables = kernel_tables(spec, backend=backend, progress=progress)
+        _check_tables(tables, spec)
+        multiple_attrs = apply_multiple_scattering(tables, spec)
+        ds = kernel_dataset(tables, spec)
     ds.attrs.update(multiple_attrs)
     ds.attrs["backend"] = "numpy" if backend == "numpy" or spec.leg_nodes is not None else "numba"
     return ds
+
+
+#: Most directions per level summary and bases assumed by :func:`kernel_memory` before they
+#: are chosen [1]; the streamed estimate takes a quarter of a level's rank q up to this (its
+#: summaries keep more directions than the shared basis), the in-memory one an eighth.
+#: Calibrated on ``benchmarks/bench_sky_kernel_defaults.py``: bases chosen 103 of q = 2048
+#: (Dobashi's configuration, defaults), 33 and 46 of 512 (reduced grid, defaults and exact).
+ESTIMATED_COMPONENTS = 256
+
+
+class _LevelFiles:
+    """The per-level arrays of a streamed build in a temporary folder: ``single`` (pass 1,
+    the integrated pairs of single scattering) and ``final`` (interpolated, with multiple
+    scattering), each ``(emissions, n_c, n_r, n_el, n_az)`` float32."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+
+    def single(self, observer: int) -> Path:
+        return self.folder / f"single-{observer}.npy"
+
+    def final(self, observer: int) -> Path:
+        return self.folder / f"final-{observer}.npy"
+
+    def pair(self, observer: int, source: int) -> NDArray[np.float32]:
+        """One pair's images of every emission shape, read alone from the pass-1 file."""
+        level = np.load(self.single(observer), mmap_mode="r")
+        try:
+            return np.array(level[:, source])
+        finally:
+            del level
+
+
+class _LevelRows:
+    """A level's images as rows ``(m, p)``, read from its file a block of rows at a time
+    (what :func:`~nightlights.sky.pca.merge_summaries` slices)."""
+
+    def __init__(self, path: Path, shape: tuple[int, int]) -> None:
+        self.path = path
+        self.shape = shape
+
+    def __getitem__(self, key: Any) -> NDArray[np.float32]:
+        level = np.load(self.path, mmap_mode="r")
+        try:
+            return np.array(level.reshape(self.shape)[key])
+        finally:
+            del level
+
+
+def _stream_tables(
+    spec: KernelSpec, levels: _LevelFiles, *, backend: str, progress: bool
+) -> dict[str, str]:
+    """Integrate the computed pairs level by level (pass 1), then fill each level's
+    interpolated pairs, check it and apply the multiple-scattering factor (pass 2); returns
+    the multiple-scattering attributes."""
+    h_c = np.asarray(spec.source_altitudes, dtype=float)
+    h_o = np.asarray(spec.observer_altitudes, dtype=float)
+    emissions = spec.emissions
+    n_r_bins = spec.edges.size - 1
+    shape = (len(emissions), h_c.size, n_r_bins, spec.n_elevation, spec.n_azimuth)
+    r_chunk = _distance_chunk(spec, backend)
+    computed, interpolated = altitude_pairs(h_o, h_c, spec.altitude_step)
+    start = time.perf_counter()
+    with Progress(*_COLUMNS, disable=not progress, transient=True) as bar:
+        task = bar.add_task("kernel", total=int(computed.sum()) * len(emissions))
+        for o in range(h_o.size):
+            level = np.zeros(shape, dtype=np.float32)
+            for c in np.flatnonzero(computed[o]).tolist():
+                for i, emission in enumerate(emissions):
+                    for lo in range(0, n_r_bins, r_chunk):
+                        sl = slice(lo, min(lo + r_chunk, n_r_bins))
+                        level[i, c, sl] = pair_images(
+                            spec, o, c, emission, bins=sl, backend=backend
+                        )
+                    bar.advance(task)
+            np.save(levels.single(o), level)
+            del level
+    log.info("kernel images computed in %.1f s", time.perf_counter() - start)
+    attrs: dict[str, str] = {}
+    positive = np.zeros(len(emissions), dtype=bool)
+    for o in range(h_o.size):
+        level = np.load(levels.single(o))
+        for pair in (p for p in interpolated if p.observer == o):
+            lower = levels.pair(*pair.lower)
+            upper = levels.pair(*pair.upper)
+            level[:, pair.source] = _interpolated(lower, upper, pair.weight)
+        tables = {emission: level[i][None] for i, emission in enumerate(emissions)}
+        _check_finite(tables, spec)
+        positive |= [bool(np.any(table > 0)) for table in tables.values()]
+        attrs = apply_multiple_scattering(tables, spec)
+        np.save(levels.final(o), level)
+        del level, tables
+    for o in range(h_o.size):
+        levels.single(o).unlink()
+    for emission, any_positive in zip(emissions, positive, strict=True):
+        if not any_positive:
+            _refuse_zero(emission, spec)
+    return attrs
+
+
+def _stream_compress(spec: KernelSpec, levels: _LevelFiles) -> xr.Dataset:
+    """The shared PCA of the levels on disk: each level decomposed and summarised in turn,
+    the summaries merged, the number of bases chosen on every level's images, and every
+    level projected on the basis (:func:`~nightlights.sky.pca.merge_summaries`)."""
+    n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
+    n_r, n_el, n_az = spec.n_distance, spec.n_elevation, spec.n_azimuth
+    emissions = spec.emissions
+    m, p = len(emissions) * n_c * n_r, n_el * n_az
+    dtype = np.float32 if spec.precision == "float32" else np.float64
+    energy, error, n_components = spec.pca_energy, spec.pca_error, spec.n_components
+    summaries, rows = [], 0
+    for o in range(n_o):
+        level = LevelDecomposition(np.load(levels.final(o)).reshape(m, p))
+        if not level.empty:
+            summaries.append(
+                level_summary(
+                    level, energy=energy, n_components=n_components, error=error, dtype=dtype
+                )
+            )
+            rows += int(np.sum(level.keep))
+        del level
+    images = [_LevelRows(levels.final(o), (m, p)) for o in range(n_o)]
+    basis, explained, achieved = merge_summaries(
+        summaries, rows, images, energy=energy, n_components=n_components, error=error, dtype=dtype
+    )
+    del summaries
+    basis = basis.astype(dtype).astype(float)
+    k = basis.shape[0]
+    coefs = np.stack([_project(np.load(levels.final(o)).reshape(m, p), basis) for o in range(n_o)])
+    coefs = coefs.astype(dtype).astype(float)
+    basis_img = basis.reshape(k, n_el, n_az)
+    spectrum = np.fft.rfft(basis_img, axis=-1)
+    dims_c = ("observer_altitude", "source_altitude", "distance", "component")
+    dims_b = ("observer_altitude", "component", "elevation", "azimuth")
+    dims_f = ("observer_altitude", "component", "elevation", "frequency")
+    per_level = (n_o, k, n_el)
+    data: dict[str, Any] = {
+        "basis": (dims_b, np.broadcast_to(basis_img, (*per_level, n_az)), {"units": "1"}),
+        "basis_fft_real": (
+            dims_f,
+            np.broadcast_to(spectrum.real, (*per_level, n_az // 2 + 1)),
+            {"units": "1", "transform": "rfft over azimuth"},
+        ),
+        "basis_fft_imag": (
+            dims_f,
+            np.broadcast_to(spectrum.imag, (*per_level, n_az // 2 + 1)),
+            {"units": "1", "transform": "rfft over azimuth"},
+        ),
+        "explained_energy": (("observer_altitude",), np.full(n_o, explained), {"units": "1"}),
+    }
+    for i, emission in enumerate(emissions):
+        part = coefs[:, i * n_c * n_r : (i + 1) * n_c * n_r].reshape(n_o, n_c, n_r, k)
+        attrs = {"units": "cd m-2 lm-1", "emission": emission.partition(":")[0]}
+        data[table_names(emission)[1]] = (dims_c, part, attrs)
+    ds = xr.Dataset(data)
+    ds.attrs["pca_components"] = k
+    if error is not None and n_components is None:
+        ds.attrs["pca_mean_error"] = achieved
+    return ds.assign_coords(component=np.arange(k), frequency=np.arange(n_az // 2 + 1))
 
 
 def kernel_dataset(
@@ -425,10 +675,14 @@ def kernel_dataset(
     xarray.Dataset
         Kernel dataset (layout in the module docstring) [cd m-2 lm-1].
     """
+    return _finish_dataset(_compress(tables, spec, decompositions), spec)
+
+
+def _finish_dataset(ds: xr.Dataset, spec: KernelSpec) -> xr.Dataset:
+    """The compressed variables with the kernel's coordinates and attributes."""
     h_c = np.asarray(spec.source_altitudes, dtype=float)
     h_o = np.asarray(spec.observer_altitudes, dtype=float)
     elevations, azimuths, edges = spec.elevations, spec.azimuths, spec.edges
-    ds = _compress(tables, spec, decompositions)
     ds = ds.assign_coords(
         observer_altitude=("observer_altitude", h_o, {"units": "m"}),
         source_altitude=("source_altitude", h_c, {"units": "m"}),
@@ -540,15 +794,10 @@ def kernel_tables(
     h_c = np.asarray(spec.source_altitudes, dtype=float)
     h_o = np.asarray(spec.observer_altitudes, dtype=float)
     n_r_bins = spec.edges.size - 1
-    half = spec.azimuths[: n_az // 2 + 1]
     emissions = spec.emissions
     shape = (h_o.size, h_c.size, n_r_bins, n_el, n_az)
     tables = {e: np.zeros(shape, dtype=np.float32) for e in emissions}
-    if backend == "numpy" or spec.leg_nodes is not None:  # bound the numpy path's temporaries
-        pixels = n_el * half.size * spec.sub_pixels**2 * spec.sub_distances
-        r_chunk = min(max(1, int(2_000 // max(1, pixels // 64))), n_r_bins)
-    else:  # the compiled grid makes no temporaries: all bins at once (one table per row)
-        r_chunk = n_r_bins
+    r_chunk = _distance_chunk(spec, backend)
     computed, interpolated = altitude_pairs(h_o, h_c, spec.altitude_step)
     steps = [
         (o, c, e, lo)
@@ -557,13 +806,7 @@ def kernel_tables(
         for lo in range(0, n_r_bins, r_chunk)
     ]
     start = time.perf_counter()
-    columns = (
-        TextColumn("kernel"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total}"),
-        TimeElapsedColumn(),
-    )
-    with Progress(*columns, disable=not progress, transient=True) as bar:
+    with Progress(*_COLUMNS, disable=not progress, transient=True) as bar:
         task = bar.add_task("kernel", total=len(steps))
         for o, c, e, lo in steps:
             sl = slice(lo, min(lo + r_chunk, n_r_bins))
@@ -572,6 +815,27 @@ def kernel_tables(
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
     interpolate_pairs(tables, interpolated)
     return tables
+
+
+#: Columns of the precompute's progress bar.
+_COLUMNS = (
+    TextColumn("kernel"),
+    BarColumn(),
+    TextColumn("{task.completed}/{task.total}"),
+    TimeElapsedColumn(),
+    TimeRemainingColumn(),
+)
+
+
+def _distance_chunk(spec: KernelSpec, backend: str) -> int:
+    """Distance bins integrated per call: all with the compiled grid (no temporaries), fewer
+    with the numpy path (bounding its temporaries) [1]."""
+    n_r_bins = spec.edges.size - 1
+    if backend == "numpy" or spec.leg_nodes is not None:
+        half = spec.n_azimuth // 2 + 1
+        pixels = spec.n_elevation * half * spec.sub_pixels**2 * spec.sub_distances
+        return min(max(1, int(2_000 // max(1, pixels // 64))), n_r_bins)
+    return n_r_bins
 
 
 def _compress(
@@ -631,15 +895,26 @@ def _pca_options(spec: KernelSpec) -> dict[str, Any]:
 def _check_tables(tables: dict[str, np.ndarray], spec: KernelSpec) -> None:
     """Refuse a kernel that is zero everywhere or not finite: it would render a black sky
     for any scene."""
+    _check_finite(tables, spec)
+    for emission, table in tables.items():
+        if not np.any(table > 0):
+            _refuse_zero(emission, spec)
+
+
+def _check_finite(tables: dict[str, np.ndarray], spec: KernelSpec) -> None:
+    """Refuse tables with non-finite values."""
     for emission, table in tables.items():
         if not np.all(np.isfinite(table)):
             raise InputError(
                 f"the {emission[:40]} kernel has non-finite values; check the atmosphere"
             )
-        if not np.any(table > 0):
-            atm = spec.atmosphere
-            raise InputError(
-                f"the {emission[:40]} kernel is zero everywhere: with turbidity {atm.turbidity:g} "
-                f"(aerosol optical depth {atm.aerosol_depth:.3g}) no light reaches the observer "
-                f"from {spec.r_min:g}-{spec.r_max:g} m; lower the turbidity or optical depth"
-            )
+
+
+def _refuse_zero(emission: str, spec: KernelSpec) -> None:
+    """Refuse a shape whose table is zero everywhere."""
+    atm = spec.atmosphere
+    raise InputError(
+        f"the {emission[:40]} kernel is zero everywhere: with turbidity {atm.turbidity:g} "
+        f"(aerosol optical depth {atm.aerosol_depth:.3g}) no light reaches the observer "
+        f"from {spec.r_min:g}-{spec.r_max:g} m; lower the turbidity or optical depth"
+    )

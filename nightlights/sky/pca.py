@@ -45,6 +45,8 @@ __all__ = [
     "bright_relative_error",
     "compress_kernel",
     "decompose_levels",
+    "level_summary",
+    "merge_summaries",
     "pca_compress",
     "shared_basis",
 ]
@@ -353,17 +355,83 @@ def shared_basis(
         Its :func:`bright_relative_error` over all images (NaN unless ``error`` is given) [1].
     """
     levels = [s if isinstance(s, LevelDecomposition) else LevelDecomposition(s) for s in stacks]
-    images = [level.images for level in levels]
-    summaries = []
-    keep_energy = 1.0 - (1.0 - energy) / 100.0
-    for level in levels:
-        if level.empty:
-            continue
-        if error is not None and n_components is None:
-            k = level.components_for_error(error / 4.0, dtype=dtype)[0]
-        else:
-            k = level.components_for_energy(keep_energy)
-        summaries.append(np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k))
+    summaries = [
+        level_summary(level, energy=energy, n_components=n_components, error=error, dtype=dtype)
+        for level in levels
+        if not level.empty
+    ]
+    rows = sum(int(np.sum(level.keep)) for level in levels if not level.empty)
+    return merge_summaries(
+        summaries,
+        rows,
+        [level.images for level in levels],
+        energy=energy,
+        n_components=n_components,
+        error=error,
+        dtype=dtype,
+    )
+
+
+def level_summary(
+    level: LevelDecomposition,
+    *,
+    energy: float = 0.999999,
+    n_components: int | None = None,
+    error: float | None = None,
+    dtype: type = np.float64,
+) -> FloatArray:
+    """One level's summary S V^T for :func:`merge_summaries`: its leading principal directions
+    scaled by their singular values, as many as meet a quarter of the error target on the
+    level's own images (without a target: that explain ``1 - (1 - energy) / 100``).
+
+    Parameters
+    ----------
+    level
+        The level's decomposition (not empty).
+    energy, n_components, error, dtype
+        As :func:`shared_basis`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(k_o, p)`` [1].
+    """
+    if error is not None and n_components is None:
+        k = level.components_for_error(error / 4.0, dtype=dtype)[0]
+    else:
+        k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
+    return np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k)
+
+
+def merge_summaries(
+    summaries: list[FloatArray],
+    rows: int,
+    images: list[Any],
+    *,
+    energy: float = 0.999999,
+    n_components: int | None = None,
+    error: float | None = None,
+    dtype: type = np.float64,
+) -> tuple[FloatArray, float, float]:
+    """The shared basis of the levels' summaries (:func:`level_summary`, :func:`shared_basis`).
+
+    Parameters
+    ----------
+    summaries
+        Per non-empty level, shape ``(k_o, p)`` [1].
+    rows
+        Number of non-zero images over all levels [1].
+    images
+        Per level, its images (rows), an array or any object sliced by rows with a ``shape``
+        (read a block of rows at a time, so that a level may stay on disk) [cd m-2 lm-1].
+    energy, n_components, error, dtype
+        As :func:`shared_basis`.
+
+    Returns
+    -------
+    basis, explained, achieved
+        As :func:`shared_basis`.
+    """
     if not summaries:
         k = n_components or 1
         return np.zeros((k, images[0].shape[1])), 1.0, float("nan")
@@ -374,8 +442,7 @@ def shared_basis(
     lam, vec = np.linalg.eigh(gram)
     order = np.argsort(lam)[::-1]
     lam, vec = np.clip(lam[order], 0.0, None), vec[:, order]
-    total = sum(float(np.sum(level.keep)) for level in levels if not level.empty)
-    explained = np.cumsum(lam) / total
+    explained = np.cumsum(lam) / rows
     rank = max(1, int(np.sum(lam > lam[0] * 1e-13)))
 
     def basis(k: int) -> FloatArray:
@@ -525,7 +592,6 @@ def compress_kernel(
     dims_f = ("observer_altitude", "component", "elevation", "frequency")
     unit = {"units": "cd m-2 lm-1"}
     data = {
-        "kernel": (dims_k, kernel.astype(np.float32), unit | {"emission": "lambertian"}),
         "basis": (dims_b, basis_img, {"units": "1"}),
         "coefficient": (
             dims_c,
@@ -536,15 +602,14 @@ def compress_kernel(
         "basis_fft_imag": (dims_f, spectrum.imag, {"units": "1", "transform": "rfft over azimuth"}),
         "explained_energy": (("observer_altitude",), explained_k, {"units": "1"}),
     }
-    if kernel_uplight is not None:
-        data["kernel_uplight"] = (
-            dims_k,
-            kernel_uplight.astype(np.float32),
-            unit | {"emission": "uplight"},
-        )
-    if not store_tables:
-        data.pop("kernel")
-        data.pop("kernel_uplight", None)
+    if store_tables:  # a float32 copy of the raw images (not made when they are not kept)
+        data["kernel"] = (dims_k, kernel.astype(np.float32), unit | {"emission": "lambertian"})
+        if kernel_uplight is not None:
+            data["kernel_uplight"] = (
+                dims_k,
+                kernel_uplight.astype(np.float32),
+                unit | {"emission": "uplight"},
+            )
     if kernel_uplight is not None:
         data["coefficient_uplight"] = (
             dims_c,

@@ -13,7 +13,14 @@ Each band of an emission raster carries its angular emission function
 both from the leaf :mod:`nightlights.emission_functions` and handed on here); it names the mix
 of the kernel's tabulated shapes that band reads.
 
-Length: about 760 lines, because the specification and its axes are one description of what a
+Defaults: the measured-best build (:data:`DEFAULT_NODES`, :data:`DEFAULT_ALTITUDE_STEP`,
+:data:`DEFAULT_PCA_ERROR`, shared bases, float32 storage; each constant cites the benchmark that
+set it; the whole is charted by ``benchmarks/bench_sky_kernel_defaults.py``). The reference
+build, every altitude pair integrated at 12 nodes and compressed per observer altitude to an
+explained energy in float64, is :meth:`KernelSpec.exact` (:data:`EXACT_SETTINGS`); its
+content hash is the one earlier versions gave the same parameters.
+
+Length: about 800 lines, because the specification and its axes are one description of what a
 kernel holds, and the scene-sized specification is made from them.
 """
 
@@ -45,8 +52,12 @@ from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.kernel import UPLIGHT_EXPONENT, parse_tabulated_emission
 
 __all__ = [
+    "DEFAULT_ALTITUDE_STEP",
     "DEFAULT_EMISSION_FUNCTION",
+    "DEFAULT_NODES",
+    "DEFAULT_PCA_ERROR",
     "EMISSION_FUNCTION_TAG",
+    "EXACT_SETTINGS",
     "KERNEL_FORMAT_VERSION",
     "MAX_KERNEL_RANGE",
     "MAX_SOURCE_LEVELS",
@@ -62,6 +73,41 @@ __all__ = [
 
 #: Bumped whenever the physics or the file layout changes, so that caches are rebuilt.
 KERNEL_FORMAT_VERSION = 2
+
+#: Gauss-Legendre nodes per line-of-sight panel of the default build [1]. From
+#: ``benchmarks/bench_sky_kernel_quadrature.py`` (sources 100 m-300 km against 256 nodes): the
+#: 99th percentile of the ray errors is 0.32 % at 8 nodes (2.2 % at 6, 0.017 % at 12), at
+#: 0.65 of the time per ray of 12 nodes; ``bench_sky_kernel_fast_precompute.py`` (Dobashi's
+#: configuration): the integrated pairs at 8 nodes are 0.006 % from 12 nodes (mean image error).
+DEFAULT_NODES = 8
+
+#: Spacing of the integrated altitude pairs along each line of equal h_c - h_o in the default
+#: build [1]: ``benchmarks/bench_sky_kernel_altitudes.py`` (Dobashi's 16 x 16 levels, 62.5 m
+#: apart) measured 0.07 % mean error (0.26 % for the worst pair) at 0.25 of the time with 15;
+#: the interpolated span is capped at
+#: :data:`~nightlights.sky.build.MAX_INTERPOLATED_SPAN` whatever the grid.
+DEFAULT_ALTITUDE_STEP = 15
+
+#: PCA error target of the default build (mean relative error over the pixels above 1 % of their
+#: image's maximum) [1]. The default build is to stay within 0.5 % of the exact path; the
+#: interpolated altitude pairs take 0.14 % of it (``bench_sky_kernel_fast_precompute.py``), so
+#: the PCA gets 0.3 %: ``benchmarks/bench_sky_kernel_storage.py`` (Dobashi's configuration, one
+#: float32 basis shared by the observer altitudes) measured 0.36 % at 96 bases and 0.14 % at 128
+#: (11.8 MB at 76 bases for a 0.5 % target; the 1 % target leaves a 15 % 99th percentile of the
+#: pixel errors). Checked end to end in ``bench_sky_kernel_defaults.py``.
+DEFAULT_PCA_ERROR = 0.003
+
+#: The reference build restored by :meth:`KernelSpec.exact`: every altitude pair integrated at
+#: 12 nodes (the default of kernel format 2: maximum ray error 0.16 %, median 4e-7 in
+#: ``bench_sky_kernel_quadrature.py``), one PCA per observer altitude chosen by explained
+#: energy, float64 storage.
+EXACT_SETTINGS: dict[str, Any] = {
+    "nodes": 12,
+    "pca_error": None,
+    "shared_bases": False,
+    "precision": "float64",
+    "altitude_step": 1,
+}
 
 
 def _registered_shapes(names: Sequence[str]) -> tuple[str, ...]:
@@ -226,7 +272,8 @@ class KernelSpec:
     uplight_exponent
         Exponent n of the uplight lobe sin^n [1].
     nodes
-        Gauss-Legendre nodes on each side of the closest approach [1].
+        Gauss-Legendre nodes on each side of the closest approach; default
+        :data:`DEFAULT_NODES` (12 in :meth:`exact`) [1].
     leg_nodes
         None: closed-form leg optical depths; an integer: Gauss nodes per leg [1].
     core_radius
@@ -252,13 +299,18 @@ class KernelSpec:
         Error target choosing the number of components (overrides ``pca_energy``; ignored
         when ``n_components`` is given): the smallest number whose reconstruction has at most
         this mean relative error over pixels brighter than 1 % of their image's maximum
-        (:func:`~nightlights.sky.pca.bright_relative_error`) [1].
+        (:func:`~nightlights.sky.pca.bright_relative_error`); default
+        :data:`DEFAULT_PCA_ERROR`; None chooses by ``pca_energy`` (:meth:`exact`) [1].
     shared_bases
         One PCA basis for every observer altitude instead of one per altitude (the
-        coefficients stay per level); see :mod:`nightlights.sky.pca`.
+        coefficients stay per level; default; see :mod:`nightlights.sky.pca`); False in
+        :meth:`exact`.
     precision
         Storage precision of the bases and coefficients, ``"float64"`` or ``"float32"``
-        (rounded on building, so that a file written in float32 reads back unchanged).
+        (rounded on building, so that a file written in float32 reads back unchanged);
+        default ``"float32"`` (``bench_sky_kernel_storage.py``: the mean error of Dobashi's
+        configuration moves from 4.2130e-5 to 4.2134e-5, the file halves); ``"float64"`` in
+        :meth:`exact`.
     multiple_scattering
         ``"monte-carlo"``: every table is multiplied by the multiple-scattering factor
         f(elevation, azimuth, distance) of :mod:`nightlights.sky.multiple` (all scattering
@@ -268,8 +320,11 @@ class KernelSpec:
     altitude_step
         Precompute every ``altitude_step``-th (observer, source) altitude pair along each line
         of equal height difference h_c - h_o (and both ends) and interpolate the others
-        log-linearly in the observer altitude (:mod:`nightlights.sky.build`); 1 computes
-        every pair [1].
+        log-linearly in the observer altitude (:mod:`nightlights.sky.build`), never across
+        more than :data:`~nightlights.sky.build.MAX_INTERPOLATED_SPAN` of observer altitude
+        (more pairs are integrated where the levels are farther apart, so that a grid of a
+        few levels is integrated in full); default :data:`DEFAULT_ALTITUDE_STEP`; 1 computes
+        every pair (:meth:`exact`) [1].
     emission_shapes
         Also tabulate these registered shapes
         (:func:`~nightlights.emission_functions.register_emission_shape`), each in its own
@@ -284,6 +339,9 @@ class KernelSpec:
     True
     >>> len(spec.content_hash)
     64
+    >>> exact = KernelSpec.exact(n_elevation=8, n_azimuth=16)
+    >>> (exact.nodes, exact.pca_error, exact.shared_bases, exact.precision, exact.altitude_step)
+    (12, None, False, 'float64', 1)
     """
 
     distance_edges: Sequence[float] | None = None
@@ -299,7 +357,7 @@ class KernelSpec:
     uplight_exponent: float = UPLIGHT_EXPONENT
     garstang_lobe: bool = False
     tabulated_emission: str | None = None
-    nodes: int = 12
+    nodes: int = DEFAULT_NODES
     leg_nodes: int | None = None
     core_radius: float = 1.0
     sub_distances: int = 1
@@ -308,10 +366,10 @@ class KernelSpec:
     pca_energy: float = 0.999999
     n_components: int | None = None
     store_tables: bool = True
-    pca_error: float | None = None
-    shared_bases: bool = False
-    precision: str = "float64"
-    altitude_step: int = 1
+    pca_error: float | None = DEFAULT_PCA_ERROR
+    shared_bases: bool = True
+    precision: str = "float32"
+    altitude_step: int = DEFAULT_ALTITUDE_STEP
     multiple_scattering: str = "monte-carlo"
     emission_shapes: Sequence[str] = ()
 
@@ -400,6 +458,29 @@ class KernelSpec:
             value = getattr(self, name)
             setattr_(self, name, None if value is None else int(value))
 
+    @classmethod
+    def exact(cls, **fields: Any) -> KernelSpec:
+        """The reference build: :data:`EXACT_SETTINGS` (every altitude pair integrated at 12
+        nodes, per-level bases chosen by explained energy, float64), other fields as given.
+
+        Parameters
+        ----------
+        **fields
+            Further fields (one of :data:`EXACT_SETTINGS` given here overrides it).
+
+        Returns
+        -------
+        KernelSpec
+            The specification; its content hash is the one kernel format 2 gave these
+            parameters before the faster defaults.
+        """
+        return cls(**(EXACT_SETTINGS | fields))
+
+    @property
+    def is_exact(self) -> bool:
+        """Whether the build settings are those of :meth:`exact`."""
+        return all(getattr(self, key) == value for key, value in EXACT_SETTINGS.items())
+
     def _check_size(self) -> None:
         """Refuse a grid whose tables alone exceed the memory limit, before its axes (and
         their hash) are made: the full estimate is :func:`~nightlights.sky.build.kernel_memory`.
@@ -467,7 +548,8 @@ class KernelSpec:
         dict
             Every parameter and grid (the key names are those of kernel format 2, so that
             cached kernels keep their hash; the optional tables and the storage and precompute
-            levers add a key only when not at their default).
+            levers add a key only when not at their kernel-format-2 value, the one of
+            :data:`EXACT_SETTINGS`: exact-path kernels keep their hash, default ones differ).
         """
         optional: dict[str, Any] = {"garstang_lobe": True} if self.garstang_lobe else {}
         if self.tabulated_emission:

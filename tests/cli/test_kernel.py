@@ -170,3 +170,31 @@ def test_kernel_build_multiple_scattering_choice(tmp_path: Path) -> None:
     assert kernels["single"].attrs["multiple_scattering"] == "single"
     ratio = kernels["monte-carlo"].kernel.values / kernels["single"].kernel.values
     assert np.all(ratio >= 1.0) and ratio.max() > 1.05
+
+
+def test_kernel_build_exact_restores_the_reference(fake_build, tmp_path: Path) -> None:
+    """--exact: the reference build for every setting not given; a given one stays."""
+    import nightlights as nl
+
+    result = CliRunner().invoke(cli, ["kernel", "build", str(tmp_path / "k.nc"), "--exact"])
+    assert result.exit_code == 0, result.output
+    spec = fake_build.calls[-1][0][0]
+    assert spec == nl.KernelSpec.exact(store_tables=False) and spec.is_exact
+    assert (spec.nodes, spec.pca_error, spec.altitude_step) == (12, None, 1)
+    args = ["kernel", "build", str(tmp_path / "k2.nc"), "--exact", "--nodes", "16"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    spec = fake_build.calls[-1][0][0]
+    assert (spec.nodes, spec.shared_bases, spec.precision) == (16, False, "float64")
+
+
+def test_a_given_pca_energy_replaces_the_default_error_target(fake_build, tmp_path: Path) -> None:
+    args = ["kernel", "build", str(tmp_path / "k.nc"), "--pca-energy", "0.9999"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    spec = fake_build.calls[-1][0][0]
+    assert (spec.pca_energy, spec.pca_error) == (0.9999, None)
+    args += ["--pca-error", "0.02"]
+    result = CliRunner().invoke(cli, [*args[:2], str(tmp_path / "k2.nc"), *args[3:]])
+    assert result.exit_code == 0, result.output
+    assert fake_build.calls[-1][0][0].pca_error == 0.02

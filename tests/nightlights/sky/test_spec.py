@@ -50,8 +50,8 @@ CHANGES = {
     "garstang_lobe": True,
     "tabulated_emission": 'tabulated:{"angles": [0, 90], "intensities": [1, 2]}',
     "pca_error": 0.01,
-    "shared_bases": True,
-    "precision": "float32",
+    "shared_bases": False,
+    "precision": "float64",
     "altitude_step": 2,
     "multiple_scattering": "single",
     "emission_shapes": ("spec_test_lobe",),  # registered by the fixture below
@@ -92,12 +92,40 @@ def test_hash_is_stable() -> None:
     (multiple scattering) differs from it."""
     assert KernelSpec(**TINY).content_hash == KernelSpec(**TINY).content_hash
     assert KernelSpec(source_altitudes=(5.0, 0.0)) == KernelSpec(source_altitudes=[0.0, 5.0])
-    spec = KernelSpec(n_elevation=32, n_azimuth=128, multiple_scattering="single")
+    spec = KernelSpec.exact(n_elevation=32, n_azimuth=128, multiple_scattering="single")
     # pinned: the hash of these parameters, with the atmosphere's derived optical depths rounded
-    # to HASH_DIGITS (the same with numpy 2.3 and 2.4)
+    # to HASH_DIGITS (the same with numpy 2.3 and 2.4); the exact path keeps the hash that kernel
+    # format 2 gave them before the faster defaults
     assert spec.content_hash == "6c467b34a7c696652f60483e0e32659b35ce312ee527845a7e037448ecf04be4"
-    default = KernelSpec(n_elevation=32, n_azimuth=128)
+    default = KernelSpec.exact(n_elevation=32, n_azimuth=128)
     assert default.content_hash != spec.content_hash
+    # the faster defaults are other parameters: another hash (caches of them are rebuilt)
+    fast = KernelSpec(n_elevation=32, n_azimuth=128, multiple_scattering="single")
+    assert fast.content_hash != spec.content_hash
+
+
+def test_defaults_and_the_exact_path() -> None:
+    """The defaults are the measured-best build; exact() restores the reference settings and
+    a field given to it overrides them."""
+    from nightlights.sky.spec import (
+        DEFAULT_ALTITUDE_STEP,
+        DEFAULT_NODES,
+        DEFAULT_PCA_ERROR,
+        EXACT_SETTINGS,
+    )
+
+    spec = KernelSpec(**TINY)
+    assert (spec.nodes, spec.altitude_step) == (DEFAULT_NODES, DEFAULT_ALTITUDE_STEP)
+    assert (spec.pca_error, spec.shared_bases, spec.precision) == (
+        DEFAULT_PCA_ERROR,
+        True,
+        "float32",
+    )
+    assert not spec.is_exact
+    exact = KernelSpec.exact(**TINY)
+    assert exact.is_exact and all(getattr(exact, k) == v for k, v in EXACT_SETTINGS.items())
+    assert KernelSpec.exact(**TINY, nodes=16).nodes == 16
+    assert KernelSpec.from_attrs(exact.to_attrs()) == exact
 
 
 @pytest.mark.parametrize(
