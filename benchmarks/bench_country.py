@@ -126,7 +126,9 @@ def plot(payload: dict[str, Any]) -> Any:
     left.legend()
     sites = payload["sites"]
     right.bar(
-        [s["name"] for s in sites], [100 * s["relative_difference"] for s in sites], color="tab:green"
+        [s["name"] for s in sites],
+        [100 * s["relative_difference"] for s in sites],
+        color="tab:green",
     )
     right.axhline(100 * TARGET_AGREEMENT, color="k", ls="--", lw=0.8)
     right.axhline(-100 * TARGET_AGREEMENT, color="k", ls="--", lw=0.8)
@@ -160,7 +162,10 @@ def main() -> None:
         sites = []
         for name, x, y in SITES:
             if not (lon[0] < x < lon[1] and lat[0] < y < lat[1]):
-                x, y = min(max(x, lon[0] + 0.5), lon[1] - 0.5), min(max(y, lat[0] + 0.5), lat[1] - 0.5)
+                x, y = (
+                    min(max(x, lon[0] + 0.5), lon[1] - 0.5),
+                    min(max(y, lat[0] + 0.5), lat[1] - 0.5),
+                )
             mapped = map_zenith(darkness, x, y)
             local = local_zenith(emission, x, y, folder)
             sites.append(

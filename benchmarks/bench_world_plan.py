@@ -3,35 +3,30 @@
 The darkness map of a geographic emission raster is computed tile by tile
 (:mod:`nightlights.sky.tiled`): every tile is the same work (read its window and a halo of
 the kernel's range, deposit the flux on a local grid, one FFT per stencil, sample back,
-write), so the world's cost is the number of tiles that hold light within the kernel's reach
-times the cost of one. This benchmark measures
+write), so the world's cost is the number of tiles times the cost of one. This script takes
 
-* **the cost of a tile** at 15 arcsec (463 m north-south) with the scene kernel of the
-  largest range (300 km, :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), at default
-  settings, on tiles at the equator, at 45 and at 65 degrees of latitude (the local grid is
-  metric, so the cost barely depends on latitude), lit and unlit (a tile with no light
-  within reach is written as zeros without an FFT);
-* **the scaling with workers**: the same tiles on a ``dask.distributed`` LocalCluster of 1
-  and of 2 single-threaded worker processes (this machine has 2 cores), tiles per second;
-* **the world at 15 arcsec**: 86,400 x 43,200 = 3.7 x 10^9 cells, in tiles of the default
-  edge; the tiles that need an FFT are those within the kernel's range of any light. The
-  plan counts as lit every tile with land within 300 km (GLOBE's 30 arcsec land mask, from
-  the ``global-land-mask`` package, which this benchmark installs with pip when it is
-  missing): an upper bound, since deserts, ice caps and taiga hold no light; the other
-  tiles are cheap empty ones.
-  The extrapolation is N workers x the measured per-worker rate, for N = 1 to 1024;
-* **where the 300 km range stops mattering**: the zenith luminance per lumen of the scene
-  kernel at 10-300 km, and the flux a city must send up to add 1 % of the natural zenith
-  (22.0 mag arcsec-2) at each distance.
+* **the cost of a tile** at 15 arcsec with the scene kernel of the largest range (300 km,
+  :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`) at default settings, and the scaling from
+  one to two ``dask.distributed`` workers, from ``bench_darkness_tiles.py``'s results (run
+  it first; this script measures nothing twice);
+* **the world at 15 arcsec**: 86,400 x 43,200 = 3.7 x 10^9 cells in tiles of the default
+  edge. Tiles with no light within the kernel's reach convolve nothing; the plan counts the
+  tiles with land within 300 km (GLOBE's 30 arcsec land mask, from the ``global-land-mask``
+  package, which this script installs with pip when it is missing) as a lower bound of the
+  work (deserts, ice caps and taiga hold no light either) and every tile as the upper bound.
+  The hours for N workers divide one worker's time by N: the tiles are independent, and the
+  measured step from one to two workers is reported beside it;
+* **where the 300 km range stops mattering**: the zenith luminance per lumen of the 300 km
+  scene kernel at 10-295 km, and the upward flux a city must send up to add 1 % of the
+  natural zenith (22.0 mag arcsec-2) at each distance.
 
-Run: ``python benchmarks/bench_world_plan.py [--quick] [--out DIR]`` (``--quick``: one tile
-per latitude and no cluster). Writes ``world_plan.json`` and ``.png``.
+Run: ``python benchmarks/bench_world_plan.py [--out DIR]``. Writes ``world_plan.json`` and
+``.png``.
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -86,7 +81,9 @@ def lit_tile_share(tile_edge: int, reach: float) -> dict[str, Any]:
     try:
         globe = importlib.import_module("global_land_mask.globe")
     except ImportError:
-        subprocess.run([sys.executable, "-m", "pip", "install", "-q", "global-land-mask"], check=True)
+        subprocess.run(
+            [sys.executable, "-m", "pip", "install", "-q", "global-land-mask"], check=True
+        )
         globe = importlib.import_module("global_land_mask.globe")
     land = ~np.asarray(globe._mask, dtype=bool)  # the mask is the ocean; 21600 x 43200, 30"
     if globe._lat[0] < globe._lat[-1]:
@@ -128,25 +125,28 @@ def lit_tile_share(tile_edge: int, reach: float) -> dict[str, Any]:
     }
 
 
-def world_plan(
-    seconds_lit: float, seconds_empty: float, tile_edge: int, rates: dict[int, float]
-) -> dict[str, Any]:
-    """Tiles of the world and the hours for N workers, from the measured per-tile times."""
+def world_plan(seconds_per_tile: float, tile_edge: int, rates: dict[int, float]) -> dict[str, Any]:
+    """Tiles of the world and the hours for N workers, from the measured time per tile."""
     from nightlights.sky.spec import MAX_KERNEL_RANGE
 
     share = lit_tile_share(tile_edge, MAX_KERNEL_RANGE)
     tiles, lit = share["tiles"], share["lit_tiles"]
-    one_worker = lit * seconds_lit + (tiles - lit) * seconds_empty
-    speedup = rates.get(2, 1.0) / rates.get(1, 1.0) if rates else 1.0
+    # an unlit tile (no land within the kernel's reach) convolves nothing: its cost is its
+    # read, deposit and write, counted here as a lit tile's (an upper bound) and not at all
+    # (a lower bound)
+    upper, lower = tiles * seconds_per_tile, lit * seconds_per_tile
+    speedup = rates[2] / rates[1] if 1 in rates and 2 in rates else None
     workers = [1, 2, 8, 32, 128, 512, 1024]
     return {
         **share,
-        "seconds_one_worker": one_worker,
+        "seconds_per_tile": seconds_per_tile,
+        "seconds_one_worker": [lower, upper],
         "measured_speedup_1_to_2": speedup,
         "workers": workers,
-        # ideal scaling beyond what was measured: tiles are independent, reads and writes are
-        # a small share of a tile's time
-        "hours": [one_worker / n / 3600 for n in workers],
+        # ideal scaling beyond what was measured: the tiles are independent and a tile's
+        # read and write are a small share of its time; a worker here is a 2-core machine
+        "hours_lit_only": [lower / n / 3600 for n in workers],
+        "hours_all_tiles": [upper / n / 3600 for n in workers],
     }
 
 
@@ -154,12 +154,13 @@ def plot(payload: dict[str, Any]) -> Any:
     plt = harness.pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
     plan = payload["world"]
-    left.loglog(plan["workers"], plan["hours"], "o-")
+    left.loglog(plan["workers"], plan["hours_all_tiles"], "o-", label="every tile")
+    left.loglog(plan["workers"], plan["hours_lit_only"], "s--", label="tiles with land in reach")
+    left.legend()
     left.set_xlabel("workers")
     left.set_ylabel("hours for the world at 15 arcsec")
     left.set_title(
-        f"{plan['tiles']} tiles, {plan['lit_tiles']} lit; "
-        f"{payload['tile']['seconds_lit']:.1f} s per lit tile"
+        f"{plan['tiles']} tiles, {plan['lit_tiles']} lit; {plan['seconds_per_tile']:.1f} s per tile"
     )
     left.grid(True, which="both", alpha=0.3)
     reach = payload["range"]
@@ -173,17 +174,40 @@ def plot(payload: dict[str, Any]) -> Any:
     return fig
 
 
+def measured_tiles(out: Path) -> dict[str, Any]:
+    """The per-tile cost and the worker scaling measured by ``bench_darkness_tiles.py`` (its
+    last results in ``out``, else the checked-in full run's)."""
+    results = harness.previous_results("darkness_tiles", out)
+    if results is None:
+        raise SystemExit("run benchmarks/bench_darkness_tiles.py first (it measures the tiles)")
+    runs = results["runs"]
+    local = [r for r in runs if r["workers"] == "none" and r["chunk_size"] == "default"]
+    largest = max(local, key=lambda r: r["shape"][0] * r["shape"][1])
+    cluster = {
+        int(r["workers"]): r["tiles_per_s"]
+        for r in runs
+        if r["workers"] != "none" and r["shape"] == largest["shape"]
+    }
+    return {
+        "source": "benchmarks/results/darkness_tiles.json",
+        "measured": results.get("date") or largest.get("date"),
+        "shape": largest["shape"],
+        "tiles": largest["tiles"],
+        "seconds_per_tile_process": largest["map_s"] / largest["tiles"],
+        "edge": results.get("default_tile_size", 2048),
+        "cluster_tiles_per_s": cluster,
+    }
+
+
 def main() -> None:
-    args = harness.parse_args(
-        harness.argument_parser(__doc__, quick="one tile per latitude and no cluster")
-    )
-    with tempfile.TemporaryDirectory() as tmp:
-        tile = measure_tiles(Path(tmp), quick=args.quick)
-        rates = {} if args.quick else measure_scaling(Path(tmp))
+    args = harness.parse_args(harness.argument_parser(__doc__, quick="the same (it is cheap)"))
+    tile = measured_tiles(args.out)
+    rates = tile["cluster_tiles_per_s"]
+    # a process's throughput: its tiles in flight share the machine's cores, so the seconds per
+    # tile of the whole process is the cost that N such processes (or workers) divide
     payload = {
         "tile": tile,
-        "scaling_tiles_per_second": {str(k): v for k, v in rates.items()},
-        "world": world_plan(tile["seconds_lit"], tile["seconds_empty"], tile["edge"], rates),
+        "world": world_plan(tile["seconds_per_tile_process"], tile["edge"], rates),
         "range": range_analysis(),
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }

@@ -13,15 +13,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from affine import Affine
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
 
+from nightlights._progress import progress_bar
 from nightlights._typing import FloatArray
 from nightlights.sky._tiles import (
     Emission,
@@ -149,14 +142,7 @@ class _Progress:
     def __init__(self, progress: bool | ProgressHook, total: int, description: str) -> None:
         self.total, self.done = total, 0
         self._hook = progress if callable(progress) else None
-        columns = (
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-        )
-        self._bar = Progress(*columns, transient=True, disable=progress is not True)
+        self._bar = progress_bar(progress is True)
         self._task = self._bar.add_task(description, total=total)
 
     def __enter__(self) -> _Progress:

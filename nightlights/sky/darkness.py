@@ -75,9 +75,10 @@ import dask.array as da
 import numpy as np
 import scipy.fft
 from numpy.typing import ArrayLike, NDArray
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import Progress
 
 from nightlights._parallel import TaskProgress, check_scheduler, compute_distributed
+from nightlights._progress import progress_bar
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.brightness import luminance_to_magnitude
@@ -841,7 +842,7 @@ def darkness_memory(
     rows, cols = shape
     a, b = half
     chunk = max(chunk_size, 2 * a, 2 * b, 1)
-    stencil = 10.0 * (2 * a + 1) * (2 * b + 1)
+    stencil = 18.0 * (2 * a + 1) * (2 * b + 1)  # lower bin (2 B), upper weight (8 B), W (8 B)
     fft_rows, fft_cols = min(rows, chunk) + 2 * a + 1, min(cols, chunk) + 2 * b + 1
     held = min(planes, observer_levels) + 3
     weights = planes // max(bands, 1) + observer_levels if terrain else 0
@@ -934,8 +935,7 @@ def _compute(
 
 
 def _bar(progress: bool) -> Progress:
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
-    return Progress(*columns, TimeElapsedColumn(), transient=True, disable=not progress)
+    return progress_bar(progress)
 
 
 def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:

@@ -194,7 +194,7 @@ def tile_memory(
         Bytes.
     """
     a, b = grid.half
-    stencil = 10.0 * (2 * a + 1) * (2 * b + 1)
+    stencil = 18.0 * (2 * a + 1) * (2 * b + 1)  # lower bin (2 B), upper weight (8 B), W (8 B)
     held = min(planes, observer_levels) + 3
     worst = 0.0
     for window in _extreme_tiles(grid):

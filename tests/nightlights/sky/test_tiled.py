@@ -316,7 +316,6 @@ def cluster() -> object:
         yield local
 
 
-@pytest.mark.slow
 def test_a_cluster_map_equals_the_single_process_map(
     cluster: object, short_kernel: xr.Dataset, tmp_path: Path
 ) -> None:
@@ -336,7 +335,6 @@ def test_a_cluster_map_equals_the_single_process_map(
     assert not (tmp_path / "many.tif.tiles").exists()  # the default store, removed
 
 
-@pytest.mark.slow
 def test_a_killed_worker_does_not_change_the_map(
     cluster: object, short_kernel: xr.Dataset, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
