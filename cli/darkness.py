@@ -19,6 +19,7 @@ from .options import (
     scene_grid_options,
     scene_of,
     spectrum_option,
+    target_crs_option,
     turbidity_option,
 )
 from .resources import max_memory_option, scheduler_option
@@ -49,13 +50,7 @@ from .resources import max_memory_option, scheduler_option
     help="Map tile by tile, out of core (flat terrain), or in memory; default: tiled for a "
     "geographic EMISSION, --target-crs, --store, or a map too large for memory.",
 )
-@click.option(
-    "--target-crs",
-    default=None,
-    metavar="CRS",
-    help="Output CRS of the tiled map (e.g. EPSG:32635), at the input's metres per cell; "
-    "default: EMISSION's grid (geographic in, geographic out).",
-)
+@target_crs_option
 @click.option(
     "--store",
     default=None,

@@ -19,7 +19,6 @@ import click
 from .kinds import POINTS, RASTER
 from .options import (
     DEFAULT_VIIRS_SPECTRUM,
-    CRSText,
     DefaultCommandGroup,
     catalog_option,
     crs_option,
@@ -28,6 +27,7 @@ from .options import (
     overwrite_option,
     resolve_inout,
     skip_unknown_option,
+    target_crs_option,
 )
 from .resources import max_memory_option
 
@@ -138,14 +138,7 @@ def parse_albedo(text: str) -> float | str:
     help="Output cell size [m] of a projected output (default: GDAL's estimate of the native "
     "pixel size).",
 )
-@click.option(
-    "--target-crs",
-    default=None,
-    type=CRSText(),
-    metavar="CRS",
-    help="Projected output CRS in metres (default: the input's if projected; a geographic "
-    "input wider than one UTM zone keeps its own grid; else its local UTM zone).",
-)
+@target_crs_option
 @click.option(
     "--emission-function",
     default=None,

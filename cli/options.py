@@ -553,8 +553,9 @@ target_crs_option = click.option(
     default=None,
     type=CRSText(),
     metavar="CRS",
-    help="Projected output CRS in metres (default: the input's if projected, else its local "
-    "UTM zone).",
+    help="Projected output CRS in metres. Default: the input's CRS if projected; a geographic "
+    "input goes to its local UTM zone in streets normalize, keeps its grid in darkness, and in "
+    "emission viirs keeps it only when wider than one UTM zone (6 deg).",
 )
 dem_option = click.option(
     "--dem",
