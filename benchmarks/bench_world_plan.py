@@ -6,9 +6,10 @@ the kernel's range, deposit the flux on a local grid, one FFT per stencil, sampl
 write), so the world's cost is the number of tiles times the cost of one. This script takes
 
 * **the cost of a tile** at 15 arcsec with the scene kernel of the largest range (300 km,
-  :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`) at default settings, and the scaling from
-  one to two ``dask.distributed`` workers, from ``bench_darkness_tiles.py``'s results (run
-  it first; this script measures nothing twice);
+  :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`) at default settings: the darkness command of
+  ``bench_country.py`` on its 1.2 x 10^8-cell mosaic (wall time over its tiles, the kernel
+  build and the COG included), and the scaling from one to two ``dask.distributed`` workers
+  from ``bench_darkness_tiles.py`` (run both first; this script measures nothing twice);
 * **the world at 15 arcsec**: 86,400 x 43,200 = 3.7 x 10^9 cells in tiles of the default
   edge. Tiles with no light within the kernel's reach convolve nothing; the plan counts the
   tiles with land within 300 km (GLOBE's 30 arcsec land mask, from the ``global-land-mask``
@@ -64,9 +65,14 @@ def range_analysis() -> dict[str, Any]:
     return {
         "kernel_range_m": float(edges[-1]),
         "natural_luminance_cd_m2": natural,
-        "distance_m": list(DISTANCES),
-        "zenith_per_lumen_cd_m2_lm": per_lumen.tolist(),
-        "flux_for_one_percent_lm": (MATTERS * natural / per_lumen).tolist(),
+        "rows": [
+            {
+                "distance_km": d / 1000,
+                "zenith_per_lumen_cd_m2_lm": float(z_d),
+                "flux_for_one_percent_lm": float(MATTERS * natural / z_d),
+            }
+            for d, z_d in zip(DISTANCES, per_lumen, strict=True)
+        ],
     }
 
 
@@ -164,8 +170,8 @@ def plot(payload: dict[str, Any]) -> Any:
     )
     left.grid(True, which="both", alpha=0.3)
     reach = payload["range"]
-    km = np.asarray(reach["distance_m"]) / 1000
-    right.loglog(km, reach["flux_for_one_percent_lm"], "o-")
+    km = [row["distance_km"] for row in reach["rows"]]
+    right.loglog(km, [row["flux_for_one_percent_lm"] for row in reach["rows"]], "o-")
     right.set_xlabel("distance of the city [km]")
     right.set_ylabel("upward flux adding 1 % of the natural zenith [lm]")
     right.set_title("Where the 300 km range stops mattering")
@@ -175,27 +181,39 @@ def plot(payload: dict[str, Any]) -> Any:
 
 
 def measured_tiles(out: Path) -> dict[str, Any]:
-    """The per-tile cost and the worker scaling measured by ``bench_darkness_tiles.py`` (its
-    last results in ``out``, else the checked-in full run's)."""
-    results = harness.previous_results("darkness_tiles", out)
-    if results is None:
-        raise SystemExit("run benchmarks/bench_darkness_tiles.py first (it measures the tiles)")
-    runs = results["runs"]
-    local = [r for r in runs if r["workers"] == "none" and r["chunk_size"] == "default"]
-    largest = max(local, key=lambda r: r["shape"][0] * r["shape"][1])
+    """The cost of a tile: the darkness command of ``bench_country.py`` (a 1.2 x 10^8-cell
+    geographic mosaic at 15 arcsec, default settings: its wall time, kernel build and COG
+    included, over its tiles), and the scaling from one to two ``dask.distributed`` workers
+    measured by ``bench_darkness_tiles.py`` (their last results in ``out``, else the
+    checked-in full runs')."""
+    import math as m
+
+    from nightlights.sky.tiled import DEFAULT_TILE_SIZE
+
+    country = harness.previous_results("country", out)
+    tiles_bench = harness.previous_results("darkness_tiles", out)
+    if country is None or tiles_bench is None:
+        raise SystemExit("run bench_country.py and bench_darkness_tiles.py first")
+    rows = round((country["lat"][1] - country["lat"][0]) * 240)
+    cols = round((country["lon"][1] - country["lon"][0]) * 240)
+    tiles = m.ceil(rows / DEFAULT_TILE_SIZE) * m.ceil(cols / DEFAULT_TILE_SIZE)
+    darkness = next(r for r in country["commands"] if " darkness " in f" {r['command']} ")
+    runs = tiles_bench["runs"]
+    shapes = [r["shape"] for r in runs if r["workers"] != "none"]
     cluster = {
         int(r["workers"]): r["tiles_per_s"]
         for r in runs
-        if r["workers"] != "none" and r["shape"] == largest["shape"]
+        if r["workers"] != "none" and r["shape"] == shapes[-1]
     }
     return {
-        "source": "benchmarks/results/darkness_tiles.json",
-        "measured": results.get("date") or largest.get("date"),
-        "shape": largest["shape"],
-        "tiles": largest["tiles"],
-        "seconds_per_tile_process": largest["map_s"] / largest["tiles"],
-        "edge": results.get("default_tile_size", 2048),
+        "source": "benchmarks/results/country.json (darkness command)",
+        "measured": country.get("date"),
+        "shape": [rows, cols],
+        "tiles": tiles,
+        "seconds_per_tile_process": darkness["wall_s"] / tiles,
+        "edge": DEFAULT_TILE_SIZE,
         "cluster_tiles_per_s": cluster,
+        "cluster_source": "benchmarks/results/darkness_tiles.json",
     }
 
 
