@@ -95,8 +95,6 @@ def tile_luminance(
     fft_workers
         Threads of each FFT; None: one in a pool of tile threads, else all cores [1].
     """
-    from nightlights.sky.darkness import _convolve
-
     if grid.delay:
         time.sleep(grid.delay)
     r0, r1, c0, c1 = window
@@ -105,10 +103,10 @@ def tile_luminance(
     if not grid.local:
         flux = cell_flux(grid.emission, (r0 - a, r1 + a, c0 - b, c1 + b))
         region = (a, a + r1 - r0, b, b + c1 - c0)
-        return _convolve(list(flux), plan.flat_source, plan.flat_eye, plan, region, workers)
+        return plan.convolve(list(flux), plan.flat_source, plan.flat_eye, region, workers)
     local = grid.local_grid(window)
     planes = deposit(grid.emission, source_window(grid.emission, local), local)
-    values = _convolve(planes, plan.flat_source, plan.flat_eye, plan, local.interior, workers)
+    values = plan.convolve(planes, plan.flat_source, plan.flat_eye, local.interior, workers)
     del planes
     return sample_back(values, local, grid.crs, grid.transform, window)
 

@@ -47,8 +47,10 @@ by the colour term of the light's spectrum (:mod:`nightlights.sky.instrument_uni
 the zenith this is the panorama read with its angular weights
 (:func:`~nightlights.sky.instruments.angular_weights`), as exact as the zenith is.
 
-Length: the stage, the stencil geometry, the FFT plan every chunk receives and the Dask
-scheduling share that private plan; apart, each piece would serve only this stage.
+Length: the stage, the stencil geometry, the FFT plan every chunk and every tile receives,
+the Dask scheduling and the tiled stage (its geometry and engines in
+:mod:`nightlights.sky.tiled`) share that private plan; apart, each piece would serve only
+this stage.
 
 References
 ----------
@@ -74,7 +76,9 @@ import dask
 import dask.array as da
 import numpy as np
 import scipy.fft
+from affine import Affine
 from numpy.typing import ArrayLike, NDArray
+from pyproj import CRS
 from rich.progress import Progress
 
 from nightlights._parallel import TaskProgress, check_scheduler, compute_distributed
@@ -88,6 +92,7 @@ from nightlights.io import Raster, as_raster, source_label
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
+from nightlights.sky._tile_run import ProgressHook
 from nightlights.sky.horizon import terrain_under
 from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
 from nightlights.sky.instruments import Instrument
@@ -320,6 +325,18 @@ class _Plan:
         """Stencil radius in rows and columns [cells]."""
         return self.stencil.half
 
+    def convolve(
+        self,
+        flux: list[FloatArray],
+        heights: FloatArray | float,
+        eye: FloatArray | float,
+        region: tuple[int, int, int, int],
+        workers: int = 1,
+    ) -> FloatArray:
+        """:func:`_convolve` with this plan (the tiled map's engines reach it through the
+        plan they are given)."""
+        return _convolve(flux, heights, eye, self, region, workers)
+
     def spectrum(
         self, level: int, source: int, band: int, shape: tuple[int, int], workers: int
     ) -> Any:
@@ -516,9 +533,7 @@ def darkness(
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
     if _tiled_path(emission, dem, chunk_size, tiled, target_crs, store, label):
-        from nightlights.sky.tiled import tiled_darkness
-
-        return tiled_darkness(
+        return _tiled_darkness(
             scene,
             target,
             height=height,
@@ -1076,3 +1091,212 @@ def _warn_range(
             DataQualityWarning,
             stacklevel=3,
         )
+
+
+def _tiled_darkness(
+    scene: Scene,
+    output: Path | None,
+    *,
+    height: float,
+    instrument: str | Instrument | None,
+    spectrum: str | None,
+    natural_luminance: float | None,
+    chunk_size: int | None,
+    scheduler: Any | None,
+    progress: bool | ProgressHook,
+    target_crs: Any | None,
+    store: str | os.PathLike[str] | None,
+    resume: bool,
+    keep_store: bool,
+    retries: int,
+) -> DarknessResult:
+    """The darkness map tile by tile (flat terrain); called by
+    :func:`~nightlights.sky.darkness.darkness`, whose parameters these are (``output`` is
+    already checked).
+
+    Returns
+    -------
+    DarknessResult
+        ``raster`` None when an ``output`` was written (the map is in the file), else the map
+        in memory; ``tiles`` and ``reused_tiles`` count the tiles computed and taken from the
+        store.
+
+    Raises
+    ------
+    InputError
+        A ``scheduler`` without an emission file, or without ``output=`` or ``store=`` for the
+        tile store; no ``output=`` for a map too large to hold.
+    """
+    from nightlights.io.streamed import CogWriter
+    from nightlights.sky import _tile_run
+    from nightlights.sky._tile_run import TiledGrid, run_tiles
+    from nightlights.sky._tiles import TileStore
+    from nightlights.sky.tiled import (
+        DEFAULT_TILE_SIZE,
+        _as_stored,
+        _emission,
+        _extent_metres,
+        check_tiled_inputs,
+        default_store,
+        map_token,
+        output_grid,
+        tile_memory,
+        tile_workers,
+    )
+
+    source = scene.raster_input("darkness")
+    label = source_label(source, "emission raster")
+    emission = _emission(source, label)
+    check_tiled_inputs(emission)
+    if not (math.isfinite(height) and height >= 0):
+        raise InputError(f"height={height!r} m; expected a finite value >= 0")
+    if scheduler is not None and emission.path is None:
+        raise InputError(
+            f"{label}: scheduler= needs the emission as a file its workers can read; give the "
+            "scene a path"
+        )
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise InputError(f"retries={retries!r}; expected a whole number >= 0")
+    edge = DEFAULT_TILE_SIZE if chunk_size is None else _check_chunk_size(chunk_size)
+    crs, transform, shape, cell = output_grid(emission, target_crs)
+    local = emission.geographic or target_crs is not None
+    reader = instrument_sky(
+        instrument,
+        spectrum=spectrum,
+        natural_luminance=natural_luminance,
+        emission=source,
+        label=label,
+    )
+    functions, notes = band_emission_functions(source, emission.bands, label=label)
+    width, depth = _extent_metres(emission)
+    metres = CRS.from_epsg(3857)
+    proxy = Raster(np.zeros((1, 1, 1)), Affine(width, 0, 0, 0, -depth, depth), metres)
+    table, _ = scene.find_kernel(
+        proxy,  # a 1-cell stand-in of the region's size in metres: its diagonal sets the range
+        (0.0, depth),
+        observer_altitudes=tuple(source_levels(np.array([height]))),
+        source_altitudes=source_levels(np.zeros(1)),
+        functions=functions,
+        progress=progress is True,
+    )
+    start = time.perf_counter()
+    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
+    observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
+    offset = level_offset(np.zeros(1), None, levels)
+    edges = np.asarray(table["distance_edges"].values, dtype=float)
+    _warn_range((0.0, 0.0, width, depth), edges[-1])
+    zenith, n_az, functions, notes = _zenith_tables(
+        table, observer_levels, functions, notes, reader, emission.bands, label
+    )
+    radius = math.ceil(edges[-1] / cell)
+    rows, cols = emission.shape
+    half = (radius, radius) if local else (min(radius, rows - 1), min(radius, cols - 1))
+    plan = _Plan(
+        stencil=_Stencil(cell, edges, n_az, half),
+        zenith=zenith,
+        source_levels=levels,
+        observer_levels=observer_levels,
+        bands=emission.bands,
+        terrain=False,
+        flat_source=-offset,
+        flat_eye=float(height - offset),
+    )
+    delay = _tile_run._TILE_DELAY  # a test's hook, read at call time
+    grid = TiledGrid(emission, crs, transform, shape, local, cell, half, edge, delay)
+    sizes = {"bands": emission.bands, "planes": levels.size * emission.bands}
+    sizes["observer_levels"] = observer_levels.size
+    per_tile = tile_memory(grid, **sizes, workers=1) - tile_memory(grid, **sizes, workers=0)
+    workers = 1 if scheduler is not None else min(tile_workers(per_tile), len(grid.windows()))
+    whole = 0.0 if output is not None else 32.0 * shape[0] * shape[1]
+    check_memory(
+        tile_memory(grid, **sizes, workers=workers) + whole,
+        f"the tiled darkness map of {shape[0]} x {shape[1]} cells",
+        option="lower chunk_size=" if output is not None else "give output= (tiles stream there)",
+    )
+    location = store
+    if location is None and scheduler is not None:
+        if output is None:
+            raise InputError(
+                "scheduler= on the tiled map needs output= (its tile store goes beside it) "
+                "or store="
+            )
+        location = default_store(output)
+    tiles = None if location is None else TileStore(location, map_token(grid, plan))
+    windows = grid.windows()
+    layout = f"{len(windows)} tile(s) of {edge} cells" + (
+        f", each on a local azimuthal equidistant grid of {cell:g} m" if local else ""
+    )
+    tags = _map_tags(
+        label=label,
+        functions=functions,
+        notes=notes,
+        table=table,
+        observer_height=height,
+        terrain="flat (0 m)",
+        levels=levels,
+        observer_levels=observer_levels,
+        offset=offset,
+        layout=layout,
+        reader=reader,
+    )
+    _, descriptions, band_tags = _map_bands(reader, np.zeros((1, 1)))
+
+    def run(write: Callable[[int, int, FloatArray], None]) -> tuple[int, int]:
+        return run_tiles(
+            grid,
+            plan,
+            write,
+            store=tiles,
+            resume=resume,
+            scheduler=scheduler,
+            workers=workers,
+            retries=retries,
+            progress=progress,
+        )
+
+    raster: Raster | None = None
+    if output is not None:
+        with CogWriter(
+            output,
+            shape=(2, *shape),
+            transform=transform,
+            crs=crs,
+            descriptions=descriptions,
+            units=("cd m-2", "mag arcsec-2"),
+            band_tags=band_tags,
+            tags=tags,
+        ) as writer:
+
+            def write(row: int, col: int, luminance: FloatArray) -> None:
+                values = _as_stored(luminance)
+                writer.write(_map_bands(reader, values)[0], row=row, col=col)
+
+            computed, reused = run(write)
+    else:
+        luminance = np.zeros(shape)
+
+        def keep(row: int, col: int, values: FloatArray) -> None:
+            rows, cols = values.shape
+            luminance[row : row + rows, col : col + cols] = _as_stored(values)
+
+        computed, reused = run(keep)
+        bands, _, _ = _map_bands(reader, luminance)
+        raster = Raster(
+            bands,
+            transform,
+            CRS.from_user_input(crs),
+            descriptions=descriptions,
+            units=("cd m-2", "mag arcsec-2"),
+            tags=tags,
+            band_tags=band_tags,
+        )
+    if tiles is not None and not keep_store:
+        tiles.remove()
+    return DarknessResult(
+        raster,
+        time.perf_counter() - start,
+        output,
+        None if reader is None else reader.instrument.name,
+        tiles=computed,
+        reused_tiles=reused,
+    )

@@ -21,6 +21,10 @@ Storage levers (all optional; the defaults are the original layout):
 - coefficients and bases rounded to float32 (``precision``), so that a file stores them
   exactly in half the bytes.
 
+Length: about 620 lines, because the compression, its error-target search and the per-level
+summaries that the streamed build merges into one shared basis are one PCA of the kernel
+tables.
+
 References
 ----------
 Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for

@@ -25,6 +25,10 @@ by up to 12.9 % about a smooth fit, sharing by 0.39 %:
 ``benchmarks/bench_sky_distance_bins.py``). Beyond Dobashi et al. 2023, who bin each cell into
 one distance bin.
 
+Length: about 700 lines, because the cells, their sub-points and the distance shares they are
+binned with are one construction that the forward map, the inverse and the darkness stencil
+all read; apart, each piece would serve only the others.
+
 References
 ----------
 Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for

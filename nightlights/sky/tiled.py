@@ -1,7 +1,7 @@
 """The darkness map of a country or a continent: out of core, geodesically tiled, distributed
 and resumable.
 
-:func:`tiled_darkness` computes the map of :mod:`nightlights.sky.darkness` tile by tile: each
+:func:`~nightlights.sky.darkness.darkness` computes its map tile by tile here: each
 tile reads its window of the emission plus a halo of at least the kernel's range (zero
 outside the raster), convolves it with the zenith stencil in one FFT (the in-memory map's
 plan, built once and shared by all tiles) and writes its interior into the output COG
@@ -57,37 +57,27 @@ from __future__ import annotations
 
 import math
 import os
-import time
-from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import scipy.fft
 from affine import Affine
 from pyproj import CRS
 
-from nightlights._resources import check_memory, memory_limit
+from nightlights._resources import memory_limit
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError
-from nightlights.io import Raster, as_raster, source_label
-from nightlights.io.streamed import CogWriter
-from nightlights.sky import _tile_run
-from nightlights.sky._tile_run import ProgressHook, TiledGrid, run_tiles
+from nightlights.io import Raster, as_raster
+from nightlights.sky._tile_run import ProgressHook, TiledGrid
 from nightlights.sky._tiles import (
     AUTHALIC_RADIUS,
     SUBPOINT_BATCH,
     Emission,
-    TileStore,
     content_token,
     file_identity,
     source_window,
 )
-from nightlights.sky.instrument_units import instrument_sky
-from nightlights.sky.instruments import Instrument
-from nightlights.sky.scene import Scene
-from nightlights.sky.setup import band_emission_functions, level_offset
-from nightlights.sky.spec import source_levels
 
 __all__ = [
     "DEFAULT_TILE_SIZE",
@@ -98,11 +88,7 @@ __all__ = [
     "output_grid",
     "read_overview",
     "tile_memory",
-    "tiled_darkness",
 ]
-
-if TYPE_CHECKING:
-    from nightlights.sky.darkness import DarknessResult
 
 #: Tile edge [cells] of the tiled map when ``chunk_size`` is None: with a 300 km reach at
 #: 15 arcsec (a stencil radius of 648 cells) a tile's FFT grid is 3375 cells square, about
@@ -340,202 +326,6 @@ def check_tiled_inputs(emission: Emission) -> None:
 
 
 # --- the stage ----------------------------------------------------------------------------------
-
-
-def tiled_darkness(
-    scene: Scene,
-    output: Path | None,
-    *,
-    height: float,
-    instrument: str | Instrument | None,
-    spectrum: str | None,
-    natural_luminance: float | None,
-    chunk_size: int | None,
-    scheduler: Any | None,
-    progress: bool | ProgressHook,
-    target_crs: Any | None,
-    store: str | os.PathLike[str] | None,
-    resume: bool,
-    keep_store: bool,
-    retries: int,
-) -> DarknessResult:
-    """The darkness map tile by tile (flat terrain); called by
-    :func:`~nightlights.sky.darkness.darkness`, whose parameters these are (``output`` is
-    already checked).
-
-    Returns
-    -------
-    DarknessResult
-        ``raster`` None when an ``output`` was written (the map is in the file), else the map
-        in memory; ``tiles`` and ``reused_tiles`` count the tiles computed and taken from the
-        store.
-
-    Raises
-    ------
-    InputError
-        A ``scheduler`` without an emission file, or without ``output=`` or ``store=`` for the
-        tile store; no ``output=`` for a map too large to hold.
-    """
-    import importlib
-
-    dk = importlib.import_module("nightlights.sky.darkness")  # the package exports the function
-
-    source = scene.raster_input("darkness")
-    label = source_label(source, "emission raster")
-    emission = _emission(source, label)
-    check_tiled_inputs(emission)
-    if not (math.isfinite(height) and height >= 0):
-        raise InputError(f"height={height!r} m; expected a finite value >= 0")
-    if scheduler is not None and emission.path is None:
-        raise InputError(
-            f"{label}: scheduler= needs the emission as a file its workers can read; give the "
-            "scene a path"
-        )
-    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
-        raise InputError(f"retries={retries!r}; expected a whole number >= 0")
-    edge = DEFAULT_TILE_SIZE if chunk_size is None else dk._check_chunk_size(chunk_size)
-    crs, transform, shape, cell = output_grid(emission, target_crs)
-    local = emission.geographic or target_crs is not None
-    reader = instrument_sky(
-        instrument,
-        spectrum=spectrum,
-        natural_luminance=natural_luminance,
-        emission=source,
-        label=label,
-    )
-    functions, notes = band_emission_functions(source, emission.bands, label=label)
-    width, depth = _extent_metres(emission)
-    metres = CRS.from_epsg(3857)
-    proxy = Raster(np.zeros((1, 1, 1)), Affine(width, 0, 0, 0, -depth, depth), metres)
-    table, _ = scene.find_kernel(
-        proxy,  # a 1-cell stand-in of the region's size in metres: its diagonal sets the range
-        (0.0, depth),
-        observer_altitudes=tuple(source_levels(np.array([height]))),
-        source_altitudes=source_levels(np.zeros(1)),
-        functions=functions,
-        progress=progress is True,
-    )
-    start = time.perf_counter()
-    levels = np.sort(np.asarray(table["source_altitude"].values, dtype=float))
-    observer_levels = np.sort(np.asarray(table["observer_altitude"].values, dtype=float))
-    offset = level_offset(np.zeros(1), None, levels)
-    edges = np.asarray(table["distance_edges"].values, dtype=float)
-    dk._warn_range((0.0, 0.0, width, depth), edges[-1])
-    zenith, n_az, functions, notes = dk._zenith_tables(
-        table, observer_levels, functions, notes, reader, emission.bands, label
-    )
-    radius = math.ceil(edges[-1] / cell)
-    rows, cols = emission.shape
-    half = (radius, radius) if local else (min(radius, rows - 1), min(radius, cols - 1))
-    plan = dk._Plan(
-        stencil=dk._Stencil(cell, edges, n_az, half),
-        zenith=zenith,
-        source_levels=levels,
-        observer_levels=observer_levels,
-        bands=emission.bands,
-        terrain=False,
-        flat_source=-offset,
-        flat_eye=float(height - offset),
-    )
-    delay = _tile_run._TILE_DELAY  # a test's hook, read at call time
-    grid = TiledGrid(emission, crs, transform, shape, local, cell, half, edge, delay)
-    sizes = {"bands": emission.bands, "planes": levels.size * emission.bands}
-    sizes["observer_levels"] = observer_levels.size
-    per_tile = tile_memory(grid, **sizes, workers=1) - tile_memory(grid, **sizes, workers=0)
-    workers = 1 if scheduler is not None else min(tile_workers(per_tile), len(grid.windows()))
-    whole = 0.0 if output is not None else 32.0 * shape[0] * shape[1]
-    check_memory(
-        tile_memory(grid, **sizes, workers=workers) + whole,
-        f"the tiled darkness map of {shape[0]} x {shape[1]} cells",
-        option="lower chunk_size=" if output is not None else "give output= (tiles stream there)",
-    )
-    location = store
-    if location is None and scheduler is not None:
-        if output is None:
-            raise InputError(
-                "scheduler= on the tiled map needs output= (its tile store goes beside it) "
-                "or store="
-            )
-        location = default_store(output)
-    tiles = None if location is None else TileStore(location, map_token(grid, plan))
-    windows = grid.windows()
-    layout = f"{len(windows)} tile(s) of {edge} cells" + (
-        f", each on a local azimuthal equidistant grid of {cell:g} m" if local else ""
-    )
-    tags = dk._map_tags(
-        label=label,
-        functions=functions,
-        notes=notes,
-        table=table,
-        observer_height=height,
-        terrain="flat (0 m)",
-        levels=levels,
-        observer_levels=observer_levels,
-        offset=offset,
-        layout=layout,
-        reader=reader,
-    )
-    _, descriptions, band_tags = dk._map_bands(reader, np.zeros((1, 1)))
-
-    def run(write: Callable[[int, int, FloatArray], None]) -> tuple[int, int]:
-        return run_tiles(
-            grid,
-            plan,
-            write,
-            store=tiles,
-            resume=resume,
-            scheduler=scheduler,
-            workers=workers,
-            retries=retries,
-            progress=progress,
-        )
-
-    raster: Raster | None = None
-    if output is not None:
-        with CogWriter(
-            output,
-            shape=(2, *shape),
-            transform=transform,
-            crs=crs,
-            descriptions=descriptions,
-            units=("cd m-2", "mag arcsec-2"),
-            band_tags=band_tags,
-            tags=tags,
-        ) as writer:
-
-            def write(row: int, col: int, luminance: FloatArray) -> None:
-                values = _as_stored(luminance)
-                writer.write(dk._map_bands(reader, values)[0], row=row, col=col)
-
-            computed, reused = run(write)
-    else:
-        luminance = np.zeros(shape)
-
-        def keep(row: int, col: int, values: FloatArray) -> None:
-            rows, cols = values.shape
-            luminance[row : row + rows, col : col + cols] = _as_stored(values)
-
-        computed, reused = run(keep)
-        bands, _, _ = dk._map_bands(reader, luminance)
-        raster = Raster(
-            bands,
-            transform,
-            CRS.from_user_input(crs),
-            descriptions=descriptions,
-            units=("cd m-2", "mag arcsec-2"),
-            tags=tags,
-            band_tags=band_tags,
-        )
-    if tiles is not None and not keep_store:
-        tiles.remove()
-    return dk.DarknessResult(
-        raster,
-        time.perf_counter() - start,
-        output,
-        None if reader is None else reader.instrument.name,
-        tiles=computed,
-        reused_tiles=reused,
-    )
 
 
 def _as_stored(luminance: FloatArray) -> FloatArray:

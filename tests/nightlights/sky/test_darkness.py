@@ -64,7 +64,8 @@ def hills(n: int = 40, relief: float = 60.0) -> Raster:
 @pytest.fixture(scope="module")
 def kernel() -> xr.Dataset:
     """Flat terrain, Lambertian + uplight, observers at 0 and 10 m."""
-    spec = KernelSpec(
+    # the exact path: per-level bases by energy (0.999999), whose DC term is the tables'
+    spec = KernelSpec.exact(
         r_max=6000.0,
         n_distance=16,
         n_elevation=8,
