@@ -17,7 +17,9 @@ Storage levers (all optional; the defaults are the original layout):
 - one basis shared by every observer altitude (``shared``): the per-level bases are merged
   (the stacked, singular-value-scaled per-level bases have the same Gram matrix, to the
   truncation, as all the normalised images) and the shared basis is chosen by the error target
-  on every level's images;
+  on every level's images (each level keeps the directions that meet a quarter of the target
+  on every n-th of its images, at most 512: the merged basis, not the levels' truncation, sets
+  the accuracy, and is checked on every image);
 - coefficients and bases rounded to float32 (``precision``), so that a file stores them
   exactly in half the bytes.
 
@@ -29,10 +31,12 @@ the Night Sky", ACM TOG 42(6) 219, Eq. 4 (PCA) and Eq. 9 (FFT of the bases).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import xarray as xr
 from numpy.typing import NDArray
 
@@ -64,6 +68,11 @@ _SEARCH_ROWS = 4096
 
 #: Principal directions formed first by the error-target search (doubled while too few) [1].
 _FIRST_CANDIDATES = 64
+
+#: Rows of a level's own search in :func:`level_summary`: every n-th image when there are
+#: more than this many, without the check on all of them (the merged basis is checked on
+#: every image) [1].
+_SUMMARY_ROWS = 512
 
 
 def bright_relative_error(
@@ -120,6 +129,45 @@ def _reconstruction_sums(
     return total, count
 
 
+def _orthonormal(basis: FloatArray) -> FloatArray:
+    """Orthonormal rows spanning the nearly orthonormal rows of ``basis``, each kept on the
+    side of its row: the QR factorisation of ``basis.T`` with a positive diagonal, by Cholesky
+    QR twice (two matrix products, no Householder sweep), or Householder QR when the rows are
+    too far from orthonormal for it [1]."""
+    q = basis
+    with contextlib.suppress(np.linalg.LinAlgError, ValueError):
+        for _ in range(2):
+            lower = np.linalg.cholesky(q @ q.T)
+            q = scipy.linalg.solve_triangular(lower, q, lower=True, check_finite=False)
+        k = q.shape[0]
+        if np.all(np.isfinite(q)) and np.max(np.abs(q @ q.T - np.eye(k))) < 1e-12:
+            return q
+    r, _ = np.linalg.qr(basis.T)
+    return (r * np.sign(np.sum(r * basis.T, axis=0))).T
+
+
+@contextlib.contextmanager
+def _one_thread() -> Iterator[None]:
+    """Run the enclosed LAPACK calls (eigen-decompositions) on one BLAS thread when
+    threadpoolctl is installed: their reductions to tridiagonal form scale poorly over
+    threads and slow down several-fold on a loaded machine."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - installed with scikit-learn
+        yield
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
+def _eigh(gram: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Eigenvalues (descending, clipped at 0) and eigenvectors of a symmetric matrix."""
+    with _one_thread():
+        lam, vec = np.linalg.eigh(gram)
+    order = np.argsort(lam)[::-1]
+    return np.clip(lam[order], 0.0, None), vec[:, order]
+
+
 def _reconstruction_error(x: FloatArray, basis: FloatArray, *, dtype: type = np.float64) -> float:
     """:func:`bright_relative_error` of ``x`` reconstructed from ``basis``
     (:func:`_reconstruction_sums`)."""
@@ -143,31 +191,41 @@ def _components_for_error(
     error: float,
     *,
     dtype: type = np.float64,
+    rows: int = _SEARCH_ROWS,
+    check: bool = True,
 ) -> tuple[int, float]:
     """Fewest leading principal directions whose reconstruction of the stacks ``x`` (rows =
     images) meets ``error``.
 
     ``basis(k)`` gives the k leading directions (orthonormal rows). Candidates double from
     :data:`_FIRST_CANDIDATES` until they meet the target on every n-th row of ``x`` (at most
-    :data:`_SEARCH_ROWS` rows), then bisection among them; the number is then checked on all
-    rows and raised by 10 % steps until it meets the target there (or reaches ``rank``).
-    Returns the number and its error on all rows [1].
+    ``rows`` rows), then bisection among them (the sample's coefficients on the candidates
+    computed once: those of fewer directions are their leading columns); with ``check``, the
+    number is then checked on all rows and raised by 10 % steps until it meets the target
+    there (or reaches ``rank``). Returns the number and its error on all rows (with
+    ``check``) or on the sample [1].
     """
-    step = max(1, -(-sum(part.shape[0] for part in x) // _SEARCH_ROWS))
-    sample = np.concatenate([part[::step] for part in x])
+    step = max(1, -(-sum(part.shape[0] for part in x) // rows))
+    sample = np.concatenate([np.asarray(part[::step], dtype=float) for part in x])
     count = min(_FIRST_CANDIDATES, rank)
-    candidates = basis(count)
-    while count < rank and _reconstruction_error(sample, candidates, dtype=dtype) > error:
-        count = min(2 * count, rank)
+    while True:
         candidates = basis(count)
+        rounded = candidates.astype(dtype).astype(float)
+        projected = sample @ rounded.T
+        sample_error = _sample_error(sample, projected, rounded, dtype)
+        if count >= rank or sample_error <= error:
+            break
+        count = min(2 * count, rank)
     lo, hi = 1, count
     while lo < hi:
         mid = (lo + hi) // 2
-        if _reconstruction_error(sample, candidates[:mid], dtype=dtype) <= error:
+        if _sample_error(sample, projected[:, :mid], rounded[:mid], dtype) <= error:
             hi = mid
         else:
             lo = mid + 1
     k = lo
+    if not check:
+        return k, _sample_error(sample, projected[:, :k], rounded[:k], dtype)
     achieved = _stacks_error(x, candidates[:k], dtype=dtype)
     while achieved > error and k < rank:
         k = min(rank, max(k + 1, int(k * 1.1)))
@@ -175,6 +233,20 @@ def _components_for_error(
             candidates = basis(k)
         achieved = _stacks_error(x, candidates[:k], dtype=dtype)
     return k, achieved
+
+
+def _sample_error(
+    sample: FloatArray, projected: FloatArray, rounded: FloatArray, dtype: type, rows: int = 512
+) -> float:
+    """:func:`bright_relative_error` of ``sample`` reconstructed from its coefficients
+    ``projected`` on the (rounded) basis ``rounded``, the coefficients rounded to ``dtype``
+    (as :func:`_reconstruction_sums`), a block of rows at a time."""
+    total, count = 0.0, 0
+    for lo in range(0, sample.shape[0], rows):
+        coefficient = projected[lo : lo + rows].astype(dtype).astype(float)
+        part = _error_sums(coefficient @ rounded, sample[lo : lo + rows], BRIGHT_FRACTION)
+        total, count = total + part[0], count + part[1]
+    return total / count if count else 0.0
 
 
 def _stacks_error(stacks: list[FloatArray], basis: FloatArray, *, dtype: type) -> float:
@@ -221,10 +293,7 @@ class LevelDecomposition:
             xn = rows * self.scale[:, None]
             gram = xn.T @ xn
         del x, rows
-        lam, vec = np.linalg.eigh(gram)
-        order = np.argsort(lam)[::-1]
-        self.eigenvalues = np.clip(lam[order], 0.0, None)
-        self.vectors = vec[:, order]
+        self.eigenvalues, self.vectors = _eigh(gram)
         self.explained = np.cumsum(self.eigenvalues) / self.eigenvalues.sum()
         self.rank = int(np.sum(self.eigenvalues > self.eigenvalues[0] * 1e-13))
 
@@ -258,9 +327,7 @@ class LevelDecomposition:
             basis = ((rows.T @ vectors) / np.sqrt(self.eigenvalues[:k])[None, :]).T
         else:
             basis = self.vectors[:, :k].T
-        # re-orthonormalise (Gram eigenvectors lose a little orthogonality)
-        q, _ = np.linalg.qr(basis.T)
-        return (q * np.sign(np.sum(q * basis.T, axis=0))).T
+        return _orthonormal(basis)  # Gram eigenvectors lose a little orthogonality
 
 
 def pca_compress(
@@ -326,7 +393,8 @@ def shared_basis(
     Each stack's normalised images X_o = U_o S_o V_o^T are summarised by S_o V_o^T (the same
     Gram matrix X_o^T X_o); the stacked summaries of all levels are decomposed again, which
     gives the principal directions of all normalised images together. Each level keeps the
-    components that meet a quarter of the error target on its own images (without a target:
+    components that meet a quarter of the error target on every n-th of its own images (at
+    most :data:`_SUMMARY_ROWS`; without a target:
     that explain ``1 - (1 - energy) / 100`` of them), so that the merge, not the levels'
     truncation, sets the accuracy.
 
@@ -381,8 +449,9 @@ def level_summary(
     dtype: type = np.float64,
 ) -> FloatArray:
     """One level's summary S V^T for :func:`merge_summaries`: its leading principal directions
-    scaled by their singular values, as many as meet a quarter of the error target on the
-    level's own images (without a target: that explain ``1 - (1 - energy) / 100``).
+    scaled by their singular values, as many as meet a quarter of the error target on every
+    n-th of the level's own images (at most :data:`_SUMMARY_ROWS`, not checked on the others:
+    the merged basis is; without a target: that explain ``1 - (1 - energy) / 100``).
 
     Parameters
     ----------
@@ -397,7 +466,15 @@ def level_summary(
         Shape ``(k_o, p)`` [1].
     """
     if error is not None and n_components is None:
-        k = level.components_for_error(error / 4.0, dtype=dtype)[0]
+        k, _ = _components_for_error(
+            [level.images],
+            level.basis,
+            level.rank,
+            error / 4.0,
+            dtype=dtype,
+            rows=_SUMMARY_ROWS,
+            check=False,
+        )
     else:
         k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
     return np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k)
@@ -438,18 +515,13 @@ def merge_summaries(
     # rows of the merged summaries are unit-weight images of the Gram matrix sum_o V S^2 V^T:
     # decompose them without renormalising (their norms are the singular values)
     merged = np.concatenate(summaries)
-    gram = merged @ merged.T
-    lam, vec = np.linalg.eigh(gram)
-    order = np.argsort(lam)[::-1]
-    lam, vec = np.clip(lam[order], 0.0, None), vec[:, order]
+    lam, vec = _eigh(merged @ merged.T)
     explained = np.cumsum(lam) / rows
     rank = max(1, int(np.sum(lam > lam[0] * 1e-13)))
 
     def basis(k: int) -> FloatArray:
         k = max(1, min(k, rank))
-        b = ((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T
-        q, _ = np.linalg.qr(b.T)
-        return (q * np.sign(np.sum(q * b.T, axis=0))).T
+        return _orthonormal(((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T)
 
     achieved = float("nan")
     if n_components is not None:
