@@ -32,6 +32,7 @@ the Night Sky", ACM TOG 42(6) 219, Eq. 4 (PCA) and Eq. 9 (FFT of the bases).
 from __future__ import annotations
 
 import contextlib
+import functools
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -135,7 +136,7 @@ def _orthonormal(basis: FloatArray) -> FloatArray:
     QR twice (two matrix products, no Householder sweep), or Householder QR when the rows are
     too far from orthonormal for it [1]."""
     q = basis
-    with contextlib.suppress(np.linalg.LinAlgError, ValueError):
+    with _one_thread(), contextlib.suppress(np.linalg.LinAlgError, ValueError):
         for _ in range(2):
             lower = np.linalg.cholesky(q @ q.T)
             q = scipy.linalg.solve_triangular(lower, q, lower=True, check_finite=False)
@@ -151,13 +152,22 @@ def _one_thread() -> Iterator[None]:
     """Run the enclosed LAPACK calls (eigen-decompositions) on one BLAS thread when
     threadpoolctl is installed: their reductions to tridiagonal form scale poorly over
     threads and slow down several-fold on a loaded machine."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - installed with scikit-learn
+    controller = _threadpools()
+    if controller is None:  # pragma: no cover - installed with scikit-learn
         yield
         return
-    with threadpool_limits(limits=1, user_api="blas"):
+    with controller.limit(limits=1, user_api="blas"):
         yield
+
+
+@functools.cache
+def _threadpools() -> Any:
+    """The process's thread pools (threadpoolctl's controller, found once), or None."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - installed with scikit-learn
+        return None
+    return ThreadpoolController()
 
 
 def _eigh(gram: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -193,6 +203,7 @@ def _components_for_error(
     dtype: type = np.float64,
     rows: int = _SEARCH_ROWS,
     check: bool = True,
+    first: int = _FIRST_CANDIDATES,
 ) -> tuple[int, float]:
     """Fewest leading principal directions whose reconstruction of the stacks ``x`` (rows =
     images) meets ``error``.
@@ -203,50 +214,94 @@ def _components_for_error(
     computed once: those of fewer directions are their leading columns); with ``check``, the
     number is then checked on all rows and raised by 10 % steps until it meets the target
     there (or reaches ``rank``). Returns the number and its error on all rows (with
-    ``check``) or on the sample [1].
+    ``check``) or on the sample [1]. ``first``: the number of candidates formed first.
     """
+    k, achieved, _ = _search_error(
+        x, basis, rank, error, dtype=dtype, rows=rows, check=check, first=first
+    )
+    return k, achieved
+
+
+def _search_error(
+    x: list[FloatArray],
+    basis: Callable[[int], FloatArray],
+    rank: int,
+    error: float,
+    *,
+    dtype: type,
+    rows: int,
+    check: bool,
+    first: int,
+) -> tuple[int, float, FloatArray]:
+    """:func:`_components_for_error`, also returning the candidate directions formed (at
+    least as many as the number chosen)."""
     step = max(1, -(-sum(part.shape[0] for part in x) // rows))
-    sample = np.concatenate([np.asarray(part[::step], dtype=float) for part in x])
-    count = min(_FIRST_CANDIDATES, rank)
+    sample = np.concatenate([part[::step] for part in x])  # as given (float32 tables)
+    bright = _BrightPixels(sample)
+    count = max(1, min(first, rank))
     while True:
         candidates = basis(count)
         rounded = candidates.astype(dtype).astype(float)
-        projected = sample @ rounded.T
-        sample_error = _sample_error(sample, projected, rounded, dtype)
-        if count >= rank or sample_error <= error:
+        projected = _project(sample, rounded, rows=_BLOCK_ROWS)
+        if count >= rank or bright.error(projected, rounded, dtype) <= error:
             break
         count = min(2 * count, rank)
     lo, hi = 1, count
     while lo < hi:
         mid = (lo + hi) // 2
-        if _sample_error(sample, projected[:, :mid], rounded[:mid], dtype) <= error:
+        if bright.error(projected[:, :mid], rounded[:mid], dtype) <= error:
             hi = mid
         else:
             lo = mid + 1
     k = lo
     if not check:
-        return k, _sample_error(sample, projected[:, :k], rounded[:k], dtype)
+        return k, bright.error(projected[:, :k], rounded[:k], dtype), candidates
+    del bright, projected, sample
     achieved = _stacks_error(x, candidates[:k], dtype=dtype)
     while achieved > error and k < rank:
         k = min(rank, max(k + 1, int(k * 1.1)))
         if k > candidates.shape[0]:
             candidates = basis(k)
         achieved = _stacks_error(x, candidates[:k], dtype=dtype)
-    return k, achieved
+    return k, achieved, candidates
 
 
-def _sample_error(
-    sample: FloatArray, projected: FloatArray, rounded: FloatArray, dtype: type, rows: int = 512
-) -> float:
-    """:func:`bright_relative_error` of ``sample`` reconstructed from its coefficients
-    ``projected`` on the (rounded) basis ``rounded``, the coefficients rounded to ``dtype``
-    (as :func:`_reconstruction_sums`), a block of rows at a time."""
-    total, count = 0.0, 0
-    for lo in range(0, sample.shape[0], rows):
-        coefficient = projected[lo : lo + rows].astype(dtype).astype(float)
-        part = _error_sums(coefficient @ rounded, sample[lo : lo + rows], BRIGHT_FRACTION)
-        total, count = total + part[0], count + part[1]
-    return total / count if count else 0.0
+#: Rows reconstructed at a time by the error-target search [1].
+_BLOCK_ROWS = 512
+
+
+class _BrightPixels:
+    """The pixels of a sample of images that :func:`bright_relative_error` counts, for the
+    many reconstructions of an error-target search: found once (flat indices and values per
+    block of :data:`_BLOCK_ROWS` rows) when the sample has at most :data:`_SUMMARY_ROWS`
+    rows, else found again in each block at each reconstruction (bounding the memory)."""
+
+    def __init__(self, sample: FloatArray) -> None:
+        self.sample = sample
+        self.blocks: list[tuple[NDArray[Any], NDArray[Any]]] | None = None
+        if sample.shape[0] <= _SUMMARY_ROWS:
+            self.blocks = [self._find(lo) for lo in range(0, sample.shape[0], _BLOCK_ROWS)]
+
+    def _find(self, lo: int) -> tuple[NDArray[Any], NDArray[Any]]:
+        """Flat indices and values (as stored) of the counted pixels of a block."""
+        exact = self.sample[lo : lo + _BLOCK_ROWS]
+        peak = exact.max(axis=-1, keepdims=True)
+        index = np.flatnonzero((exact > BRIGHT_FRACTION * peak) & (peak > 0))
+        return index.astype(np.int32 if exact.size < 2**31 else np.int64), exact.ravel()[index]
+
+    def error(self, projected: FloatArray, rounded: FloatArray, dtype: type) -> float:
+        """:func:`bright_relative_error` of the sample reconstructed from its coefficients
+        ``projected`` on the (rounded) basis ``rounded``, the coefficients rounded to
+        ``dtype`` (as :func:`_reconstruction_sums`) [1]."""
+        total, count = 0.0, 0
+        for block, lo in enumerate(range(0, self.sample.shape[0], _BLOCK_ROWS)):
+            index, values = self._find(lo) if self.blocks is None else self.blocks[block]
+            coefficient = projected[lo : lo + _BLOCK_ROWS].astype(dtype).astype(float)
+            approx = (coefficient @ rounded).ravel()[index]
+            exact = values.astype(float)
+            total += float(np.sum(np.abs(approx - exact) / exact))
+            count += int(index.size)
+        return total / count if count else 0.0
 
 
 def _stacks_error(stacks: list[FloatArray], basis: FloatArray, *, dtype: type) -> float:
@@ -328,6 +383,24 @@ class LevelDecomposition:
         else:
             basis = self.vectors[:, :k].T
         return _orthonormal(basis)  # Gram eigenvectors lose a little orthogonality
+
+    def summary_candidates(self, error: float, *, dtype: type) -> tuple[int, FloatArray]:
+        """The fewest components meeting ``error`` on every n-th image (at most
+        :data:`_SUMMARY_ROWS`, :func:`level_summary`) and the directions formed (at least
+        that many) [1]. The first directions formed are those explaining all but 1e-8 of the
+        energy (a first guess, doubled while too few)."""
+        first = max(_FIRST_CANDIDATES, self.components_for_energy(1.0 - 1e-8))
+        k, _, candidates = _search_error(
+            [self.images],
+            self.basis,
+            self.rank,
+            error,
+            dtype=dtype,
+            rows=_SUMMARY_ROWS,
+            check=False,
+            first=first,
+        )
+        return k, candidates
 
 
 def pca_compress(
@@ -466,17 +539,9 @@ def level_summary(
         Shape ``(k_o, p)`` [1].
     """
     if error is not None and n_components is None:
-        k, _ = _components_for_error(
-            [level.images],
-            level.basis,
-            level.rank,
-            error / 4.0,
-            dtype=dtype,
-            rows=_SUMMARY_ROWS,
-            check=False,
-        )
-    else:
-        k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
+        k, candidates = level.summary_candidates(error / 4.0, dtype=dtype)
+        return np.sqrt(level.eigenvalues[:k])[:, None] * candidates[:k]
+    k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
     return np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k)
 
 
