@@ -42,13 +42,14 @@ The shared PCA alone, then made faster (each level's quarter-target search on 51
 images, the sample's coefficients and bright pixels found once per search, the formed
 directions reused for the summary, Cholesky QR, eigen-decompositions on one BLAS thread),
 timed on the saved per-level tables of the streamed build (``_stream_compress``, same
-machine, load average about 5): Dobashi's configuration 175 s wall (was about 19 min of the
-31.3 min build; per level, decomposition and summary 17-19 s against 43-51 s before, timed
-side by side), the same 103 bases and 0.223 % mean error against the tables; reduced grid
-7-12 s against 72 s, the same 33 bases and error. Builds with it (reduced and levels rows):
-reduced grid defaults 42.6 s (55 s before), 1.1 MB, 33 bases, 0.30 % from exact over every
-image (unchanged); exact 134.5 s, 7.8 MB. Peak with 1 and 16 observer levels: streamed 0.063
-and 0.189 GiB, in memory 0.075 and 0.344 GiB; every estimate within x0.78-x1.47 of its peak.
+machine, load average about 5): Dobashi's configuration 175 s wall, 173 s CPU (282 s wall,
+192 s CPU beside other builds; was about 19 min of the 31.3 min build; per level,
+decomposition and summary 17-19 s against 43-51 s before, timed side by side), the same 103
+bases and 0.223 % mean error against the tables; reduced grid 7-12 s against 72 s, the same
+33 bases and error. Builds with it (reduced and levels rows): reduced grid defaults 42.6 s
+(55 s before), 1.1 MB, 33 bases, 0.30 % from exact over every image (unchanged); exact
+134.5 s, 7.8 MB. Peak with 1 and 16 observer levels: streamed 0.063 and 0.189 GiB, in memory
+0.075 and 0.344 GiB; every estimate within x0.78-x1.47 of its peak.
 
 Run: ``python benchmarks/bench_sky_kernel_defaults.py [--quick]
 [--cases reduced,levels,dobashi,dobashi-exact] [--keep DIR] [--out DIR]``; cases not run keep
