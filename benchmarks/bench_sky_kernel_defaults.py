@@ -36,9 +36,20 @@ configuration at the defaults in 31.3 min wall, 17.0 min of CPU (target 4 min: m
 tables took about 12 min wall, the shared PCA the rest), 16.0 MB (target 50 MB), 103 bases,
 0.29 % mean error against the exact path's images of 8 sampled pairs (target 0.5 %; worst
 pair 0.94 %), peak 1.04 GiB against the 1.53 GiB estimate (x1.47; target x1.5), below the
-default limit of a 24 GB machine. Reduced grid: defaults 55 s, 1.1 MB, 0.30 % from exact
-over every image; exact 111 s, 7.8 MB. Peak with 1 and 16 observer levels: streamed 0.074 and
-0.180 GiB, in memory 0.077 and 0.332 GiB; every estimate within x0.81-x1.47 of its peak.
+default limit of a 24 GB machine (that row predates the faster shared PCA below).
+
+The shared PCA alone, then made faster (each level's quarter-target search on 512 sampled
+images, the sample's coefficients and bright pixels found once per search, the formed
+directions reused for the summary, Cholesky QR, eigen-decompositions on one BLAS thread),
+timed on the saved per-level tables of the streamed build (``_stream_compress``, same
+machine, load average about 5): Dobashi's configuration 175 s wall, 173 s CPU (282 s wall,
+192 s CPU beside other builds; was about 19 min of the 31.3 min build; per level,
+decomposition and summary 17-19 s against 43-51 s before, timed side by side), the same 103
+bases and 0.223 % mean error against the tables; reduced grid 7-12 s against 72 s, the same
+33 bases and error. Builds with it (reduced and levels rows): reduced grid defaults 42.6 s
+(55 s before), 1.1 MB, 33 bases, 0.30 % from exact over every image (unchanged); exact
+134.5 s, 7.8 MB. Peak with 1 and 16 observer levels: streamed 0.063 and 0.189 GiB, in memory
+0.075 and 0.344 GiB; every estimate within x0.78-x1.47 of its peak.
 
 Run: ``python benchmarks/bench_sky_kernel_defaults.py [--quick]
 [--cases reduced,levels,dobashi,dobashi-exact] [--keep DIR] [--out DIR]``; cases not run keep

@@ -17,7 +17,9 @@ Storage levers (all optional; the defaults are the original layout):
 - one basis shared by every observer altitude (``shared``): the per-level bases are merged
   (the stacked, singular-value-scaled per-level bases have the same Gram matrix, to the
   truncation, as all the normalised images) and the shared basis is chosen by the error target
-  on every level's images;
+  on every level's images (each level keeps the directions that meet a quarter of the target
+  on every n-th of its images, at most 512: the merged basis, not the levels' truncation, sets
+  the accuracy, and is checked on every image);
 - coefficients and bases rounded to float32 (``precision``), so that a file stores them
   exactly in half the bytes.
 
@@ -33,10 +35,13 @@ the Night Sky", ACM TOG 42(6) 219, Eq. 4 (PCA) and Eq. 9 (FFT of the bases).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import functools
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import xarray as xr
 from numpy.typing import NDArray
 
@@ -68,6 +73,11 @@ _SEARCH_ROWS = 4096
 
 #: Principal directions formed first by the error-target search (doubled while too few) [1].
 _FIRST_CANDIDATES = 64
+
+#: Rows of a level's own search in :func:`level_summary`: every n-th image when there are
+#: more than this many, without the check on all of them (the merged basis is checked on
+#: every image) [1].
+_SUMMARY_ROWS = 512
 
 
 def bright_relative_error(
@@ -124,6 +134,54 @@ def _reconstruction_sums(
     return total, count
 
 
+def _orthonormal(basis: FloatArray) -> FloatArray:
+    """Orthonormal rows spanning the nearly orthonormal rows of ``basis``, each kept on the
+    side of its row: the QR factorisation of ``basis.T`` with a positive diagonal, by Cholesky
+    QR twice (two matrix products, no Householder sweep), or Householder QR when the rows are
+    too far from orthonormal for it [1]."""
+    q = basis
+    with _one_thread(), contextlib.suppress(np.linalg.LinAlgError, ValueError):
+        for _ in range(2):
+            lower = np.linalg.cholesky(q @ q.T)
+            q = scipy.linalg.solve_triangular(lower, q, lower=True, check_finite=False)
+        k = q.shape[0]
+        if np.all(np.isfinite(q)) and np.max(np.abs(q @ q.T - np.eye(k))) < 1e-12:
+            return q
+    r, _ = np.linalg.qr(basis.T)
+    return (r * np.sign(np.sum(r * basis.T, axis=0))).T
+
+
+@contextlib.contextmanager
+def _one_thread() -> Iterator[None]:
+    """Run the enclosed LAPACK calls (eigen-decompositions) on one BLAS thread when
+    threadpoolctl is installed: their reductions to tridiagonal form scale poorly over
+    threads and slow down several-fold on a loaded machine."""
+    controller = _threadpools()
+    if controller is None:  # pragma: no cover - installed with scikit-learn
+        yield
+        return
+    with controller.limit(limits=1, user_api="blas"):
+        yield
+
+
+@functools.cache
+def _threadpools() -> Any:
+    """The process's thread pools (threadpoolctl's controller, found once), or None."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - installed with scikit-learn
+        return None
+    return ThreadpoolController()
+
+
+def _eigh(gram: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Eigenvalues (descending, clipped at 0) and eigenvectors of a symmetric matrix."""
+    with _one_thread():
+        lam, vec = np.linalg.eigh(gram)
+    order = np.argsort(lam)[::-1]
+    return np.clip(lam[order], 0.0, None), vec[:, order]
+
+
 def _reconstruction_error(x: FloatArray, basis: FloatArray, *, dtype: type = np.float64) -> float:
     """:func:`bright_relative_error` of ``x`` reconstructed from ``basis``
     (:func:`_reconstruction_sums`)."""
@@ -147,38 +205,107 @@ def _components_for_error(
     error: float,
     *,
     dtype: type = np.float64,
+    rows: int = _SEARCH_ROWS,
+    check: bool = True,
+    first: int = _FIRST_CANDIDATES,
 ) -> tuple[int, float]:
     """Fewest leading principal directions whose reconstruction of the stacks ``x`` (rows =
     images) meets ``error``.
 
     ``basis(k)`` gives the k leading directions (orthonormal rows). Candidates double from
     :data:`_FIRST_CANDIDATES` until they meet the target on every n-th row of ``x`` (at most
-    :data:`_SEARCH_ROWS` rows), then bisection among them; the number is then checked on all
-    rows and raised by 10 % steps until it meets the target there (or reaches ``rank``).
-    Returns the number and its error on all rows [1].
+    ``rows`` rows), then bisection among them (the sample's coefficients on the candidates
+    computed once: those of fewer directions are their leading columns); with ``check``, the
+    number is then checked on all rows and raised by 10 % steps until it meets the target
+    there (or reaches ``rank``). Returns the number and its error on all rows (with
+    ``check``) or on the sample [1]. ``first``: the number of candidates formed first.
     """
-    step = max(1, -(-sum(part.shape[0] for part in x) // _SEARCH_ROWS))
-    sample = np.concatenate([part[::step] for part in x])
-    count = min(_FIRST_CANDIDATES, rank)
-    candidates = basis(count)
-    while count < rank and _reconstruction_error(sample, candidates, dtype=dtype) > error:
-        count = min(2 * count, rank)
+    k, achieved, _ = _search_error(
+        x, basis, rank, error, dtype=dtype, rows=rows, check=check, first=first
+    )
+    return k, achieved
+
+
+def _search_error(
+    x: list[FloatArray],
+    basis: Callable[[int], FloatArray],
+    rank: int,
+    error: float,
+    *,
+    dtype: type,
+    rows: int,
+    check: bool,
+    first: int,
+) -> tuple[int, float, FloatArray]:
+    """:func:`_components_for_error`, also returning the candidate directions formed (at
+    least as many as the number chosen)."""
+    step = max(1, -(-sum(part.shape[0] for part in x) // rows))
+    sample = np.concatenate([part[::step] for part in x])  # as given (float32 tables)
+    bright = _BrightPixels(sample)
+    count = max(1, min(first, rank))
+    while True:
         candidates = basis(count)
+        rounded = candidates.astype(dtype).astype(float)
+        projected = _project(sample, rounded, rows=_BLOCK_ROWS)
+        if count >= rank or bright.error(projected, rounded, dtype) <= error:
+            break
+        count = min(2 * count, rank)
     lo, hi = 1, count
     while lo < hi:
         mid = (lo + hi) // 2
-        if _reconstruction_error(sample, candidates[:mid], dtype=dtype) <= error:
+        if bright.error(projected[:, :mid], rounded[:mid], dtype) <= error:
             hi = mid
         else:
             lo = mid + 1
     k = lo
+    if not check:
+        return k, bright.error(projected[:, :k], rounded[:k], dtype), candidates
+    del bright, projected, sample
     achieved = _stacks_error(x, candidates[:k], dtype=dtype)
     while achieved > error and k < rank:
         k = min(rank, max(k + 1, int(k * 1.1)))
         if k > candidates.shape[0]:
             candidates = basis(k)
         achieved = _stacks_error(x, candidates[:k], dtype=dtype)
-    return k, achieved
+    return k, achieved, candidates
+
+
+#: Rows reconstructed at a time by the error-target search [1].
+_BLOCK_ROWS = 512
+
+
+class _BrightPixels:
+    """The pixels of a sample of images that :func:`bright_relative_error` counts, for the
+    many reconstructions of an error-target search: found once (flat indices and values per
+    block of :data:`_BLOCK_ROWS` rows) when the sample has at most :data:`_SUMMARY_ROWS`
+    rows, else found again in each block at each reconstruction (bounding the memory)."""
+
+    def __init__(self, sample: FloatArray) -> None:
+        self.sample = sample
+        self.blocks: list[tuple[NDArray[Any], NDArray[Any]]] | None = None
+        if sample.shape[0] <= _SUMMARY_ROWS:
+            self.blocks = [self._find(lo) for lo in range(0, sample.shape[0], _BLOCK_ROWS)]
+
+    def _find(self, lo: int) -> tuple[NDArray[Any], NDArray[Any]]:
+        """Flat indices and values (as stored) of the counted pixels of a block."""
+        exact = self.sample[lo : lo + _BLOCK_ROWS]
+        peak = exact.max(axis=-1, keepdims=True)
+        index = np.flatnonzero((exact > BRIGHT_FRACTION * peak) & (peak > 0))
+        return index.astype(np.int32 if exact.size < 2**31 else np.int64), exact.ravel()[index]
+
+    def error(self, projected: FloatArray, rounded: FloatArray, dtype: type) -> float:
+        """:func:`bright_relative_error` of the sample reconstructed from its coefficients
+        ``projected`` on the (rounded) basis ``rounded``, the coefficients rounded to
+        ``dtype`` (as :func:`_reconstruction_sums`) [1]."""
+        total, count = 0.0, 0
+        for block, lo in enumerate(range(0, self.sample.shape[0], _BLOCK_ROWS)):
+            index, values = self._find(lo) if self.blocks is None else self.blocks[block]
+            coefficient = projected[lo : lo + _BLOCK_ROWS].astype(dtype).astype(float)
+            approx = (coefficient @ rounded).ravel()[index]
+            exact = values.astype(float)
+            total += float(np.sum(np.abs(approx - exact) / exact))
+            count += int(index.size)
+        return total / count if count else 0.0
 
 
 def _stacks_error(stacks: list[FloatArray], basis: FloatArray, *, dtype: type) -> float:
@@ -225,10 +352,7 @@ class LevelDecomposition:
             xn = rows * self.scale[:, None]
             gram = xn.T @ xn
         del x, rows
-        lam, vec = np.linalg.eigh(gram)
-        order = np.argsort(lam)[::-1]
-        self.eigenvalues = np.clip(lam[order], 0.0, None)
-        self.vectors = vec[:, order]
+        self.eigenvalues, self.vectors = _eigh(gram)
         self.explained = np.cumsum(self.eigenvalues) / self.eigenvalues.sum()
         self.rank = int(np.sum(self.eigenvalues > self.eigenvalues[0] * 1e-13))
 
@@ -262,9 +386,25 @@ class LevelDecomposition:
             basis = ((rows.T @ vectors) / np.sqrt(self.eigenvalues[:k])[None, :]).T
         else:
             basis = self.vectors[:, :k].T
-        # re-orthonormalise (Gram eigenvectors lose a little orthogonality)
-        q, _ = np.linalg.qr(basis.T)
-        return (q * np.sign(np.sum(q * basis.T, axis=0))).T
+        return _orthonormal(basis)  # Gram eigenvectors lose a little orthogonality
+
+    def summary_candidates(self, error: float, *, dtype: type) -> tuple[int, FloatArray]:
+        """The fewest components meeting ``error`` on every n-th image (at most
+        :data:`_SUMMARY_ROWS`, :func:`level_summary`) and the directions formed (at least
+        that many) [1]. The first directions formed are those explaining all but 1e-8 of the
+        energy (a first guess, doubled while too few)."""
+        first = max(_FIRST_CANDIDATES, self.components_for_energy(1.0 - 1e-8))
+        k, _, candidates = _search_error(
+            [self.images],
+            self.basis,
+            self.rank,
+            error,
+            dtype=dtype,
+            rows=_SUMMARY_ROWS,
+            check=False,
+            first=first,
+        )
+        return k, candidates
 
 
 def pca_compress(
@@ -330,7 +470,8 @@ def shared_basis(
     Each stack's normalised images X_o = U_o S_o V_o^T are summarised by S_o V_o^T (the same
     Gram matrix X_o^T X_o); the stacked summaries of all levels are decomposed again, which
     gives the principal directions of all normalised images together. Each level keeps the
-    components that meet a quarter of the error target on its own images (without a target:
+    components that meet a quarter of the error target on every n-th of its own images (at
+    most :data:`_SUMMARY_ROWS`; without a target:
     that explain ``1 - (1 - energy) / 100`` of them), so that the merge, not the levels'
     truncation, sets the accuracy.
 
@@ -385,8 +526,9 @@ def level_summary(
     dtype: type = np.float64,
 ) -> FloatArray:
     """One level's summary S V^T for :func:`merge_summaries`: its leading principal directions
-    scaled by their singular values, as many as meet a quarter of the error target on the
-    level's own images (without a target: that explain ``1 - (1 - energy) / 100``).
+    scaled by their singular values, as many as meet a quarter of the error target on every
+    n-th of the level's own images (at most :data:`_SUMMARY_ROWS`, not checked on the others:
+    the merged basis is; without a target: that explain ``1 - (1 - energy) / 100``).
 
     Parameters
     ----------
@@ -401,9 +543,9 @@ def level_summary(
         Shape ``(k_o, p)`` [1].
     """
     if error is not None and n_components is None:
-        k = level.components_for_error(error / 4.0, dtype=dtype)[0]
-    else:
-        k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
+        k, candidates = level.summary_candidates(error / 4.0, dtype=dtype)
+        return np.sqrt(level.eigenvalues[:k])[:, None] * candidates[:k]
+    k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
     return np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k)
 
 
@@ -442,18 +584,13 @@ def merge_summaries(
     # rows of the merged summaries are unit-weight images of the Gram matrix sum_o V S^2 V^T:
     # decompose them without renormalising (their norms are the singular values)
     merged = np.concatenate(summaries)
-    gram = merged @ merged.T
-    lam, vec = np.linalg.eigh(gram)
-    order = np.argsort(lam)[::-1]
-    lam, vec = np.clip(lam[order], 0.0, None), vec[:, order]
+    lam, vec = _eigh(merged @ merged.T)
     explained = np.cumsum(lam) / rows
     rank = max(1, int(np.sum(lam > lam[0] * 1e-13)))
 
     def basis(k: int) -> FloatArray:
         k = max(1, min(k, rank))
-        b = ((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T
-        q, _ = np.linalg.qr(b.T)
-        return (q * np.sign(np.sum(q * b.T, axis=0))).T
+        return _orthonormal(((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T)
 
     achieved = float("nan")
     if n_components is not None:
