@@ -29,7 +29,7 @@ OBSERVER = Observer(2050.0, 1950.0)  # centre of cell (row 20, col 20)
 
 @pytest.fixture(scope="module")
 def kernel():
-    spec = KernelSpec(
+    spec = KernelSpec.exact(  # float64 bases, no error target: comparisons to 1e-4
         r_min=10.0, r_max=4000.0, n_distance=16, n_elevation=8, n_azimuth=32, uplight=True
     )
     return build_kernel(spec, progress=False)
@@ -38,7 +38,7 @@ def kernel():
 @pytest.fixture(scope="module")
 def full_kernel():
     """Enough PCA components to reproduce the raw tables (to ~1e-6)."""
-    spec = KernelSpec(
+    spec = KernelSpec.exact(  # float64 bases, no error target: comparisons to 1e-4
         r_min=10.0,
         r_max=4000.0,
         n_distance=16,
@@ -52,7 +52,7 @@ def full_kernel():
 
 @pytest.fixture(scope="module")
 def two_level_kernel():
-    spec = KernelSpec(
+    spec = KernelSpec.exact(  # float64 bases, no error target: comparisons to 1e-4
         r_min=10.0,
         r_max=4000.0,
         n_distance=12,
