@@ -263,7 +263,7 @@ def least_dimming(
     >>> plan = least_dimming(scene, [Observer(1000.0, 1000.0)], target_zenith=24.0)
     >>> zenith = plan.summary["observers"][0]["zenith"]
     >>> round(zenith["before_mag_arcsec2"], 2), round(zenith["after_mag_arcsec2"], 2)
-    (23.58, 24.0)
+    (23.57, 24.0)
     >>> plan.summary["plan"]["method"]
     'greedy'
     """

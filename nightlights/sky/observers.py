@@ -264,7 +264,7 @@ def observers(
     ... )
     >>> sites = [Observer(1000.0, 1000.0, height=0.0), Observer(500.0, 500.0, height=0.0)]
     >>> result = observers(Scene(raster, kernel=kernel), sites, top_cells=1, progress=False)
-    >>> result.summary["name"].tolist(), result.summary["top1_share"].tolist()
+    >>> result.summary["name"].tolist(), result.summary["top1_share"].round(12).tolist()
     (['observer_1', 'observer_2'], [1.0, 1.0])
     """
     scheduler = check_scheduler(scheduler, local=SCHEDULERS)  # parsed and probed first
