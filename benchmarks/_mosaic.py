@@ -184,5 +184,5 @@ def _strip(
 if __name__ == "__main__":
     import sys
 
-    # python benchmarks/_mosaic.py /tmp/mosaic.tif: the default 60 x 35 deg mosaic
+    # python benchmarks/_mosaic.py mosaic.tif: the default 60 x 35 deg mosaic
     print(synthetic_mosaic(sys.argv[1] if len(sys.argv) > 1 else "mosaic.tif"))
