@@ -1,10 +1,24 @@
 """The engines of the tiled darkness map (:mod:`nightlights.sky.tiled`): one tile's zenith,
 and every tile on local threads or as tasks of a ``dask.distributed`` cluster, reused from and
 written to the tile store, handed to the output as they finish, with progress and ETA.
+
+The near field of a geographic map. Moving flux onto a tile's local grid and the zenith back
+places a source within about half a cell, which is a second-order error for distant sources
+but not for the nearest ones, whose light falls as a high power of distance: a dark site a
+few cells from a village read 23 % low from the lights within 3 km
+(``benchmarks/bench_country.py``). So the zenith tables are split between a near and a far
+part that add up to the whole table in every distance bin (Dobashi et al. 2023, Eq. 9 is
+linear in the tables): weight :math:`w_i = 1` below :math:`R/2`, 0 beyond :math:`R`, linear in
+:math:`\\ln r` between, at bin centre :math:`r_i` (:func:`near_taper`). The far part goes
+through the local grid; the near part is summed on the output grid itself
+(:func:`near_field`), whose cells a few kilometres around an observer are a rectangle of
+:math:`R_q \\cos\\varphi\\, \\Delta\\lambda` by :math:`R_q\\, \\Delta\\varphi` metres to
+:math:`10^{-6}` (the grid's own geometry, no resampling).
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -12,11 +26,13 @@ from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 from affine import Affine
 
 from nightlights._progress import progress_bar
 from nightlights._typing import FloatArray
 from nightlights.sky._tiles import (
+    AUTHALIC_RADIUS,
     Emission,
     LocalGrid,
     TileStore,
@@ -27,6 +43,15 @@ from nightlights.sky._tiles import (
     source_window,
     tile_windows,
 )
+
+#: Radius of the near field summed on a geographic output grid itself, in its cells'
+#: north-south size (:func:`near_field`; ``benchmarks/bench_country.py``) [1].
+NEAR_CELLS = 8
+#: Most relative change of the east-west cell size within a band of output rows whose near
+#: field is summed on one cell size (:func:`near_bands`): distances err by half of it [1].
+NEAR_SPREAD = 2e-3
+#: Most output rows in such a band [1].
+NEAR_ROWS = 256
 
 #: ``progress=`` as a callable: called ``hook(done, total)`` after every tile [1].
 ProgressHook = Callable[[int, int], None]
@@ -108,7 +133,75 @@ def tile_luminance(
     planes = deposit(grid.emission, source_window(grid.emission, local), local)
     values = plan.convolve(planes, plan.flat_source, plan.flat_eye, local.interior, workers)
     del planes
-    return sample_back(values, local, grid.crs, grid.transform, window)
+    out = sample_back(values, local, grid.crs, grid.transform, window)
+    if plan.near_zenith is not None:
+        out += near_field(grid.emission, plan, window, workers)
+    return out
+
+
+def near_taper(edges: FloatArray, radius: float) -> FloatArray:
+    """The near field's share of each distance bin: 1 at bin centres below ``radius`` / 2, 0
+    beyond ``radius``, linear in ln r between.
+
+    Examples
+    --------
+    >>> near_taper(np.array([100.0, 200.0, 400.0, 800.0, 1600.0]), 800.0).round(3).tolist()
+    [1.0, 1.0, 0.5, 0.0]
+    """
+    centres = np.sqrt(edges[:-1] * edges[1:])
+    inner = radius / 2.0
+    return np.clip(np.log(radius / centres) / math.log(radius / inner), 0.0, 1.0)
+
+
+def near_bands(transform: Affine, r0: int, r1: int) -> list[tuple[int, int]]:
+    """Bands (row0, row1) of rows ``r0 .. r1 - 1`` of a geographic grid within which the
+    east-west cell size, R cos(latitude), changes by at most :data:`NEAR_SPREAD` (and at
+    most :data:`NEAR_ROWS` rows).
+
+    Examples
+    --------
+    >>> from affine import Affine
+    >>> len(near_bands(Affine(1 / 240, 0, 0, 0, -1 / 240, 61.0), 0, 480))  # 60-61 N
+    32
+    """
+    bands = []
+    top = r0
+    step = math.radians(abs(transform.e))
+    while top < r1:
+        latitude = math.radians(transform.f + transform.e * (top + 0.5))
+        slope = abs(math.tan(latitude)) * step  # relative change of cos per row
+        rows = NEAR_ROWS if slope == 0 else int(min(NEAR_ROWS, max(1, NEAR_SPREAD / slope)))
+        bands.append((top, min(top + rows, r1)))
+        top += rows
+    return bands
+
+
+def near_field(
+    emission: Emission, plan: Any, window: tuple[int, int, int, int], workers: int
+) -> FloatArray:
+    """The near field's zenith [cd m-2] on a window of a geographic emission's own grid, band
+    by band (:func:`near_bands`), each on cells of its centre row's size."""
+    r0, r1, c0, c1 = window
+    t = emission.transform
+    north = AUTHALIC_RADIUS * math.radians(abs(t.e))
+    plans = []
+    for top, bottom in near_bands(t, r0, r1):
+        latitude = math.radians(t.f + t.e * 0.5 * (top + bottom))
+        east = max(AUTHALIC_RADIUS * math.radians(abs(t.a)) * math.cos(latitude), 1e-3 * north)
+        plans.append((top, bottom, plan.near_plan((east, north))))
+    a = max(p.depth[0] for *_, p in plans)
+    b = max(p.depth[1] for *_, p in plans)
+    flux = cell_flux(emission, (r0 - a, r1 + a, c0 - b, c1 + b))  # read once for the tile
+    out = np.empty((r1 - r0, c1 - c0))
+    for top, bottom, near in plans:
+        da, db = near.depth
+        rows = slice(top - r0 + a - da, bottom - r0 + a + da)
+        part = [band[rows, b - db : b + c1 - c0 + db] for band in flux]
+        region = (da, da + bottom - top, db, db + c1 - c0)
+        out[top - r0 : bottom - r0] = near.convolve(
+            part, near.flat_source, near.flat_eye, region, workers
+        )
+    return out
 
 
 def _in_pool() -> bool:

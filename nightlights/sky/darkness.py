@@ -62,13 +62,14 @@ e1600377 (the same quantity world-wide, with Garstang's model).
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import os
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -243,7 +244,7 @@ class _Stencil:
 
     def __init__(
         self,
-        cell: float,
+        cell: float | tuple[float, float],
         edges: FloatArray,
         n_az: int,
         half: tuple[int, int],
@@ -253,17 +254,24 @@ class _Stencil:
     ) -> None:
         self.half = half
         self.n_r = edges.size - 1
+        # a cell's east-west and north-south size [m] (the near field of a geographic grid's
+        # cells, :func:`nightlights.sky._tile_run.near_field`, has them differ)
+        if isinstance(cell, tuple):
+            cx, cy = float(cell[0]), float(cell[1])
+        else:
+            cx = cy = float(cell)
+        size = max(cx, cy)  # sub-points from the longer side
         rows, cols = 2 * half[0] + 1, 2 * half[1] + 1
-        dx = (np.arange(cols) - half[1]) * cell  # east
+        dx = (np.arange(cols) - half[1]) * cx  # east
         self.bins = np.empty((rows, cols), dtype=np.uint8 if self.n_r < 255 else np.uint16)
         # the upper bin's weight [1]; float64: the map equals the panorama to float rounding
         self.frac = np.zeros((rows, cols))
         near: list[NDArray[np.int64]] = []
         strip = max(1, 2**20 // cols)  # bound the temporaries of a wide stencil
         for top in range(0, rows, strip):
-            dy = -(np.arange(top, min(top + strip, rows)) - half[0])[:, None] * cell  # north
+            dy = -(np.arange(top, min(top + strip, rows)) - half[0])[:, None] * cy  # north
             r = np.hypot(dx[None, :], dy)
-            k = supersampling(cell, r, n_az, max_samples=MAX_SAMPLES)
+            k = supersampling(size, r, n_az, max_samples=MAX_SAMPLES)
             lower, weight = bins(r, edges)
             far = k == 1
             self.bins[top : top + dy.shape[0]] = np.where(far, lower, self.n_r)
@@ -274,12 +282,12 @@ class _Stencil:
         if self.near.size == 0:
             return
         near_dx = dx[self.near % cols]
-        near_dy = -(self.near // cols - half[0]) * cell
-        k = supersampling(cell, np.hypot(near_dx, near_dy), n_az, max_samples=MAX_SAMPLES)
+        near_dy = -(self.near // cols - half[0]) * cy
+        k = supersampling(size, np.hypot(near_dx, near_dy), n_az, max_samples=MAX_SAMPLES)
         for samples in np.unique(k):  # the sub-points of polar_cells, offset by the observer
             members = np.flatnonzero(k == samples)
-            offsets = ((np.arange(samples) + 0.5) / samples - 0.5) * cell
-            ox, oy = np.meshgrid(offsets, offsets)
+            offsets = (np.arange(samples) + 0.5) / samples - 0.5
+            ox, oy = np.meshgrid(offsets * cx, offsets * cy)
             px = near_dx[members, None] + ox.ravel()[None, :]
             py = near_dy[members, None] + oy.ravel()[None, :]
             lower, weight = bins(np.hypot(px, py).ravel(), edges)
@@ -307,6 +315,14 @@ class _Stencil:
         return stencil
 
 
+@functools.lru_cache(maxsize=1024)
+def _near_stencil(
+    cell: tuple[float, float], edges: tuple[float, ...], n_az: int, half: tuple[int, int]
+) -> _Stencil:
+    """A near field's stencil, kept: the tiles of one row of a map share their bands' cells."""
+    return _Stencil(cell, np.asarray(edges), n_az, half)
+
+
 @dataclass(frozen=True)
 class _Plan:
     """What every chunk needs: the stencil geometry, the zenith tables and the levels."""
@@ -319,6 +335,24 @@ class _Plan:
     terrain: bool
     flat_source: float  # without terrain: the source altitude of every cell [m], kernel frame
     flat_eye: float  # and the eye altitude of every cell [m], kernel frame
+    # the near field's zenith tables, summed on the output grid itself (the tiled map of a
+    # geographic grid, :func:`nightlights.sky._tile_run.near_field`); ``zenith`` then holds
+    # the rest, and the two add up to the whole table in every distance bin
+    near_zenith: FloatArray | None = None
+    near_radius: float = 0.0  # where the near field ends [m]
+    edges: FloatArray | None = None  # the kernel's distance edges [m]
+    n_az: int = 0
+
+    def near_plan(self, cell: tuple[float, float]) -> _Plan:
+        """The plan of the near field on a grid of (east-west, north-south) ``cell`` [m]."""
+        assert self.near_zenith is not None and self.edges is not None
+        half = (math.ceil(self.near_radius / cell[1]), math.ceil(self.near_radius / cell[0]))
+        return replace(
+            self,
+            stencil=_near_stencil(cell, tuple(self.edges), self.n_az, half),
+            zenith=self.near_zenith,
+            near_zenith=None,
+        )
 
     @property
     def depth(self) -> tuple[int, int]:
@@ -1201,6 +1235,17 @@ def _tiled_darkness(
         flat_source=-offset,
         flat_eye=float(height - offset),
     )
+    if emission.geographic and target_crs is None:  # the output is the emission's grid
+        near_radius = _tile_run.NEAR_CELLS * cell
+        share = _tile_run.near_taper(edges, near_radius)
+        plan = replace(
+            plan,
+            zenith=zenith * (1.0 - share),
+            near_zenith=zenith * share,
+            near_radius=near_radius,
+            edges=edges,
+            n_az=n_az,
+        )
     delay = _tile_run._TILE_DELAY  # a test's hook, read at call time
     grid = TiledGrid(emission, crs, transform, shape, local, cell, half, edge, delay)
     sizes = {"bands": emission.bands, "planes": levels.size * emission.bands}

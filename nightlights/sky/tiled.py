@@ -256,6 +256,8 @@ def map_token(grid: TiledGrid, plan: Any) -> str:
         plan.flat_eye,
         plan.stencil.bins,
         np.asarray(plan.stencil.share),
+        plan.near_radius,
+        "deposit: bilinear, lattice",  # how flux reaches a local grid
     )
 
 
