@@ -18,14 +18,26 @@ wherever the stage's own arrays dominate (peaks above 100 MB); smaller runs are 
 but the fixed cost of the libraries' first calls (FFT plans, numba's compiled code, GDAL's
 driver) makes their ratio meaningless.
 
+The smallest size of each stage is a first call on a tiny input: its peak is what the
+libraries' first calls cost (the compiled kernels loaded from numba's cache and their
+threads, GDAL's drivers, the kernel file read), which the stages' estimates add as a measured
+fixed part (``IRRADIANCE_FIXED_BYTES`` and ``LOCAL_TILES_FIXED_BYTES``,
+``EMISSION_FIXED_BYTES``, ``KERNEL_FIXED_BYTES``, ``MAP_FIXED_MEMORY``, the inverse's
+``FIXED_BYTES``).
+
 Stages and sizes (cells of the output raster):
 
 * ``irradiance``: the throughput scene (1,000 luminaires per km2) at 1 m over squares of
-  1-4 km (10^6-1.6 x 10^7 cells), streamed to a COG;
+  100 m-4 km (1.3 x 10^5-1.8 x 10^7 cells), streamed to a COG;
+* ``emission``: the upward emission at 10 m from each of those irradiance rasters (read in
+  strips) and its lights;
 * ``emission viirs``: a UTM radiance raster of 2000^2-8000^2 cells (4 x 10^6-6.4 x 10^7);
-* ``kernel build``: kernels of 32-128 distances (the defaults for everything else);
-* ``darkness``: a flux raster of 1000^2-6000^2 cells with a 30 km kernel (in memory up to
-  its chunk size, tiled beyond).
+* ``kernel build``: kernels of 4-128 distances (the defaults for everything else);
+* ``darkness``: a flux raster of 64^2-4000^2 cells with a 30 km kernel in memory (one FFT);
+  ``darkness chunked``: 4000^2 cells in chunks of 2048; ``darkness tiled``: 6000^2 cells
+  tile by tile (``tiled=True``);
+* ``inverse q``: the PCA-norm map of the same flux rasters (1000^2-4000^2 cells) for an
+  observer at the centre.
 
 Run: ``python benchmarks/bench_memory_estimates.py [--quick] [--out DIR]`` (``--quick``: the
 two smallest sizes of each stage). Writes ``memory_estimates.json`` and ``.png``.
@@ -86,10 +98,21 @@ elif kind == "kernel":
     n = int(extra)
     spec = nl.KernelSpec(r_max=30_000.0, n_distance=n)
     nl.build_kernel(spec, progress=False)
+elif kind == "emission":
+    nl.emission(source, out, lights=extra, resolution=10.0, albedo=0.15)
 elif kind == "darkness":
     from nightlights.sky.store import load_kernel
+    options = json.loads(extra)
+    kernel = load_kernel(options.pop("kernel"))
+    nl.darkness(nl.Scene(source, kernel=kernel), out, progress=False, **options)
+elif kind == "inverse":
+    import rasterio
+    from nightlights.sky.store import load_kernel
     kernel = load_kernel(extra)
-    nl.darkness(nl.Scene(source, kernel=kernel), out, progress=False)
+    with rasterio.open(source) as dataset:
+        b = dataset.bounds
+    observer = nl.Observer((b.left + b.right) / 2, (b.bottom + b.top) / 2)
+    nl.inverse_q(nl.Scene(source, kernel=kernel), observer, out, progress=False)
 print(json.dumps({
     "estimate_bytes": max(estimates) if estimates else None,
     "peak_bytes": status("VmHWM") - base,
@@ -163,6 +186,8 @@ def measure(sizes: dict[str, list[int]], folder: Path) -> list[dict[str, Any]]:
         scene_frame(float(side)).to_file(lights, driver="GPKG")
         out = folder / f"irradiance_{side}.tif"
         record("irradiance", side, side * side, _run("irradiance", lights, out))
+        figures = _run("emission", out, folder / "emission.tif", str(lights))
+        record("emission", side, side * side, figures)
     for size in sizes["viirs"]:
         source = _utm_raster(folder / f"dnb_{size}.tif", size, values="radiance")
         record("emission viirs", size, size * size, _run("viirs", source, folder / "up.tif"))
@@ -170,10 +195,22 @@ def measure(sizes: dict[str, list[int]], folder: Path) -> list[dict[str, Any]]:
         record("kernel build", n, n, _run("kernel", "-", folder / "k.nc", str(n)))
     kernel = folder / "kernel.nc"
     nl.build_kernel(nl.KernelSpec(r_max=30_000.0, n_distance=32), kernel, progress=False)
-    for size in sizes["darkness"]:
-        source = _utm_raster(folder / f"flux_{size}.tif", size, values="flux")
-        out = folder / f"darkness_{size}.tif"
-        record("darkness", size, size * size, _run("darkness", source, out, str(kernel)))
+    flux = {}
+    for stage, size, options in [
+        *(("darkness", size, {"tiled": False}) for size in sizes["darkness"]),
+        *(("darkness chunked", size, {"chunk_size": 2048}) for size in sizes["chunked"]),
+        *(("darkness tiled", size, {"tiled": True}) for size in sizes["tiled"]),
+    ]:
+        if size not in flux:
+            flux[size] = _utm_raster(folder / f"flux_{size}.tif", size, values="flux")
+        extra = json.dumps({"kernel": str(kernel), **options})
+        figures = _run("darkness", flux[size], folder / "darkness.tif", extra)
+        record(stage, size, size * size, figures)
+    for size in sizes["inverse"]:
+        if size not in flux:
+            flux[size] = _utm_raster(folder / f"flux_{size}.tif", size, values="flux")
+        figures = _run("inverse", flux[size], folder / "q.tif", str(kernel))
+        record("inverse q", size, size * size, figures)
     return rows
 
 
@@ -208,13 +245,17 @@ def main() -> None:
         harness.argument_parser(__doc__, quick="the two smallest sizes of each stage")
     )
     sizes = {
-        "irradiance": [1000, 2000, 4000],
+        "irradiance": [100, 1000, 2000, 4000],
         "viirs": [2000, 4000, 8000],
-        "kernel": [32, 64, 128],
-        "darkness": [1000, 2000, 4000, 6000],
+        "kernel": [4, 32, 64, 128],
+        "darkness": [64, 1000, 2000, 4000],
+        "chunked": [4000],
+        "tiled": [6000],
+        "inverse": [64, 1000, 2000, 4000],
     }
     if args.quick:
-        sizes = {stage: values[:2] for stage, values in sizes.items()}
+        sizes = {stage: values[:2] for stage, values in sizes.items() if len(values) > 1}
+        sizes |= {"chunked": [], "tiled": []}
     with tempfile.TemporaryDirectory() as tmp:
         rows = measure(sizes, Path(tmp))
     held = [r for r in rows if r.get("ratio") is not None and r["peak_bytes"] >= MIN_PEAK]

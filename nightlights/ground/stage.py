@@ -46,7 +46,12 @@ from nightlights.ground.luminaires import (
     sample_elevation,
     sensor_factors,
 )
-from nightlights.ground.tiles import RasterGrid, compute_irradiance, grid_from_bounds
+from nightlights.ground.tiles import (
+    RasterGrid,
+    balanced_tile_size,
+    compute_irradiance,
+    grid_from_bounds,
+)
 from nightlights.io import (
     CogWriter,
     OutputSet,
@@ -430,11 +435,13 @@ def _check_memory(
     with np.errstate(over="ignore"):
         pairs = float(np.sum(np.minimum(np.pi * radius**2 / grid.resolution**2, pixels)))
     workers = os.cpu_count() or 1
+    # the compiled kernel's tiles are smaller on a small grid (compute_irradiance's rule)
+    in_flight = balanced_tile_size(grid, tile_size, workers) if backend == "numba" else tile_size
     estimate = irradiance_memory(
         grid.rows,
         grid.cols,
         bands,
-        tile_size=tile_size,
+        tile_size=in_flight,
         workers=workers,
         pairs=pairs,
         dem=dem,

@@ -560,7 +560,8 @@ def _reflected_from_file(
     if not source.exists():
         raise InputError(f"{source}: no such file")
     try:
-        with rasterio.open(source) as dataset:
+        # GDAL's blocks of the file bounded as the writer's (emission_memory counts them)
+        with rasterio.Env(GDAL_CACHEMAX=CACHE_MB), rasterio.open(source) as dataset:
             crs = None if dataset.crs is None else CRS.from_user_input(dataset.crs.to_wkt())
             transform, crs, factor = _check_grid(dataset.transform, crs, label, resolution)
             descriptions = tuple(d or "" for d in dataset.descriptions)

@@ -54,6 +54,14 @@ __all__ = ["InfluenceResult", "inverse_q", "inverse_s"]
 KernelInput = KernelResult | xr.Dataset | PathLike | None
 #: S methods: PCA with FFT cross-correlation, or each cell's raw kernel image (reference).
 S_METHODS = ("pca", "brute")
+#: Bytes per cell of an influence map written: the float64 map, its float32 copy, the
+#: in-memory GeoTIFF and GDAL's blocks of it [B].
+BYTES_PER_CELL = 20.0
+#: Memory of an influence map's first calls besides its arrays [B]: the kernel file read
+#: (h5py, netCDF), GDAL opening the emission and the COG driver; 40 MiB measured (``VmHWM``
+#: over the imports) on a 64 x 64 emission with the 30 km kernel of
+#: ``bench_memory_estimates.py``.
+FIXED_BYTES = 40 * 2**20
 
 _BAND = {
     "pca-norm": ("q_pca_norm", "light-pollution level Q_i, Dobashi et al. 2023 Eq. 11"),
@@ -306,7 +314,13 @@ def _influence_result(
     seconds: float,
     extra: dict[str, str],
 ) -> InfluenceResult:
-    _check_grid(setup.shape, metric)
+    # the kernel, the lit cells and their polar bins are still held when the map is written
+    held = (
+        setup.table.nbytes
+        + values.nbytes
+        + sum(value.nbytes for value in vars(cells).values() if isinstance(value, np.ndarray))
+    )
+    _check_grid(setup.shape, metric, held)
     grid = np.full(setup.shape, np.nan)
     grid[cells.rows, cells.cols] = values
     name, meaning = _BAND[metric]
@@ -343,14 +357,15 @@ def _influence_result(
     return InfluenceResult(raster, metric, float(values.sum()), panorama_value, seconds)
 
 
-def _check_grid(shape: tuple[int, int] | None, metric: str) -> None:
-    """Refuse a map whose grid would pass the memory limit: the raster on the emission grid
-    (float64), its float32 copy and the COG writer's."""
+def _check_grid(shape: tuple[int, int] | None, metric: str, held: float = 0.0) -> None:
+    """Refuse a map whose grid would pass the memory limit: the first calls
+    (:data:`FIXED_BYTES`), the arrays ``held`` when the map is made [B] and the raster on the
+    emission grid written (:data:`BYTES_PER_CELL`)."""
     if shape is None:
         return  # the reader reports what is wrong with the emission
     rows, cols = shape
     check_memory(
-        16.0 * rows * cols,
+        FIXED_BYTES + held + BYTES_PER_CELL * rows * cols,
         f"the {metric} raster of {rows} x {cols} cells",
         option="crop the emission raster to the lit region",
     )

@@ -470,7 +470,7 @@ def compute_kernel(
     """
     spec = spec if spec is not None else KernelSpec()
     check_memory(
-        kernel_memory(spec),
+        kernel_memory(spec) + KERNEL_FIXED_BYTES,
         f"the kernel of {len(spec.observer_altitudes)} observer x {len(spec.source_altitudes)} "
         f"source levels x {spec.n_distance} distances x {spec.n_elevation} x {spec.n_azimuth} "
         "pixels",
@@ -491,6 +491,12 @@ def compute_kernel(
     return ds
 
 
+#: Memory of a build's first calls besides the arrays :func:`kernel_memory` counts [B]: the
+#: compiled line-of-sight integrator's code loaded from numba's cache, its threads and the
+#: shipped multiple-scattering tables; 105 MiB measured (``VmHWM`` over the imports) for a
+#: kernel of 4 distances x 64 x 256 pixels (``bench_memory_estimates.py``). The memory check
+#: adds it to :func:`kernel_memory`.
+KERNEL_FIXED_BYTES = 105 * 2**20
 #: Most directions per level summary and bases assumed by :func:`kernel_memory` before they
 #: are chosen [1]; the streamed estimate takes a quarter of a level's rank q up to this (its
 #: summaries keep more directions than the shared basis), the in-memory one an eighth.

@@ -119,11 +119,15 @@ log = logging.getLogger(__name__)
 DEFAULT_CHUNK_SIZE = 4096
 #: Sub-points per cell side at most, as the polar map (:func:`polar_cells`) [1].
 MAX_SAMPLES = 16
-#: Bytes per cell of the whole-raster arrays besides 24 B per emission band (its float64
-#: copy, the NaN-free flux density and the flux): the lit mask, the ground, eye and source
-#: altitudes, the luminance and the two output bands with their float32 copies written; 90 B
-#: measured (peak resident memory over a 40 x 40 map's) for a 3000 x 3000 single-band map [B].
-BYTES_PER_CELL = 72.0
+#: Bytes per cell of the whole-raster arrays held from the read to the written map, besides
+#: 24 B per emission band (its float64 raster, the NaN-free flux density and the flux): the
+#: lit mask (1 B) and the ground, eye and source altitudes (8 B each) [B].
+BYTES_PER_CELL = 25.0
+#: Bytes per cell once the luminance is computed: the luminance, the two output bands (with
+#: the magnitude's temporary), their float32 copies and GDAL's blocks written [B]. With
+#: :data:`BYTES_PER_CELL` and the bands' 24 B, 97 B measured (``VmHWM`` over the imports) at
+#: the write of a 4000 x 4000 single-band map (``bench_memory_estimates.py``), 96 B counted.
+OUTPUT_BYTES_PER_CELL = 48.0
 #: Bytes per cell that a DEM adds: its heights sampled under every cell centre (coordinates,
 #: indices, masks, the interpolation's copies) and the per-cell level weights [B].
 TERRAIN_BYTES_PER_CELL = 96.0
@@ -566,7 +570,7 @@ def darkness(
     target = _check_output(output, scene)
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
-    if _tiled_path(emission, dem, chunk_size, tiled, target_crs, store, label):
+    if _tiled_path(scene, chunk_size, tiled, target_crs, store, label):
         return _tiled_darkness(
             scene,
             target,
@@ -641,6 +645,7 @@ def darkness(
         planes=levels.size * data.shape[0],
         observer_levels=observer_levels.size,
         terrain=dem is not None,
+        kernel_bytes=float(table.nbytes),
     )
     whole = _raster_memory((rows, cols), bands=data.shape[0], terrain=dem is not None)
     check_memory(
@@ -845,17 +850,23 @@ def darkness_memory(
     observer_levels: int,
     terrain: bool = False,
     dem_cells: int = 0,
+    kernel_bytes: float = 0.0,
 ) -> float:
     """Estimated peak memory of :func:`darkness` in memory [B] (the tiled map's, which does
     not grow with the raster, is :func:`nightlights.sky.tiled.tile_memory`).
 
-    The raster and its per-cell arrays (the float64 emission and its NaN-free copy, flux, lit
-    mask, terrain and eye altitudes, the output's two bands and their float32 copies written:
-    :data:`BYTES_PER_CELL`; over terrain the DEM and the arrays that sample it,
-    :data:`TERRAIN_BYTES_PER_CELL`), the stencil, and the FFT grids of the chunks in flight
-    (one FFT without chunks, otherwise one chunk per thread): per chunk its padded inputs, the
-    source planes, the level weights over terrain, and the spectra held at once (the fewer of
-    the source planes and the observer levels, and three working ones).
+    The first calls (:data:`~nightlights.sky.tiled.MAP_FIXED_MEMORY`), the kernel, the
+    stencil and the whole-raster arrays held throughout (:data:`BYTES_PER_CELL` and 24 B per
+    band; over terrain the DEM and the arrays that sample it, :data:`TERRAIN_BYTES_PER_CELL`),
+    and the larger of two phases. Computing: in one FFT (a raster within one chunk) the
+    source planes and the luminance on the raster (8 B per cell each; over terrain the level
+    weights too) and the spectra held at once on the FFT grid, the raster padded by the
+    stencil radius on one side (8 B per cell each: the fewer of the source planes and the
+    observer levels, and three working ones); in chunks, per chunk in flight (one per
+    thread) its padded inputs and source planes, its luminance and the spectra on its FFT
+    grid, and the chunks' results with the map assembled from them (16 B per cell). Writing:
+    :data:`OUTPUT_BYTES_PER_CELL`. Measured against this estimate: within 1.1x of the peak
+    over the imports from 1000 x 1000 to 4000 x 4000 cells (``bench_memory_estimates.py``).
 
     Parameters
     ----------
@@ -875,6 +886,8 @@ def darkness_memory(
         Whether a DEM gives the ground under every cell.
     dem_cells
         Cells of the DEM raster, read whole [1].
+    kernel_bytes
+        The kernel's arrays in memory [B].
 
     Returns
     -------
@@ -885,28 +898,53 @@ def darkness_memory(
     --------
     >>> round(darkness_memory((1000, 1000), (50, 50), 4096, bands=1, planes=1,
     ...                       observer_levels=1) / 2**20)
-    166
+    146
     """
-    raster = _raster_memory(shape, bands=bands, terrain=terrain, dem_cells=dem_cells)
+    from nightlights.sky.tiled import MAP_FIXED_MEMORY
+
+    raster = _held_memory(shape, bands=bands, terrain=terrain, dem_cells=dem_cells)
     rows, cols = shape
+    cells = float(rows) * float(cols)
     a, b = half
     chunk = max(chunk_size, 2 * a, 2 * b, 1)
     stencil = 18.0 * (2 * a + 1) * (2 * b + 1)  # lower bin (2 B), upper weight (8 B), W (8 B)
-    fft_rows, fft_cols = min(rows, chunk) + 2 * a + 1, min(cols, chunk) + 2 * b + 1
     held = min(planes, observer_levels) + 3
+    # over terrain the level weights of every input cell: source levels and observer levels
     weights = planes // max(bands, 1) + observer_levels if terrain else 0
-    per_chunk = 8.0 * fft_rows * fft_cols * (held + bands + 2 + planes + weights)
-    n_chunks = -(-rows // chunk) * -(-cols // chunk)
-    in_flight = 1 if n_chunks == 1 else min(n_chunks, os.cpu_count() or 1)
-    return raster + stencil + in_flight * per_chunk
+    if rows <= chunk and cols <= chunk:  # one FFT; its inputs are the raster's own arrays
+        fft = float(_fast(rows + a) * _fast(cols + b))
+        computing = 8.0 * cells * (planes + 1 + weights) + 8.0 * fft * held
+    else:
+        padded = float(min(rows, chunk) + 2 * a) * float(min(cols, chunk) + 2 * b)
+        fft = float(_fast(min(rows, chunk) + 2 * a) * _fast(min(cols, chunk) + 2 * b))
+        inputs = bands + planes + (2 + weights if terrain else 0)
+        per_chunk = 8.0 * padded * inputs + 8.0 * min(rows, chunk) * min(cols, chunk)
+        per_chunk += 8.0 * fft * held
+        n_chunks = -(-rows // chunk) * -(-cols // chunk)
+        in_flight = min(n_chunks, os.cpu_count() or 1)
+        computing = in_flight * per_chunk + 16.0 * cells
+    writing = OUTPUT_BYTES_PER_CELL * cells
+    return MAP_FIXED_MEMORY + kernel_bytes + raster + stencil + max(computing, writing)
+
+
+def _fast(n: int) -> int:
+    """The FFT length scipy pads ``n`` to (:func:`_convolve`'s grid)."""
+    return int(scipy.fft.next_fast_len(max(n, 1), real=True))
+
+
+def _held_memory(shape: tuple[int, int], *, bands: int, terrain: bool, dem_cells: int = 0) -> float:
+    """The whole-raster arrays :func:`darkness_memory` holds throughout [B]."""
+    per_cell = BYTES_PER_CELL + 24.0 * bands + (TERRAIN_BYTES_PER_CELL if terrain else 0.0)
+    return float(shape[0]) * float(shape[1]) * per_cell + 8.0 * dem_cells
 
 
 def _raster_memory(
     shape: tuple[int, int], *, bands: int, terrain: bool, dem_cells: int = 0
 ) -> float:
-    """The whole-raster part of :func:`darkness_memory` [B] (no chunk size lowers it)."""
-    per_cell = BYTES_PER_CELL + 24.0 * bands + (TERRAIN_BYTES_PER_CELL if terrain else 0.0)
-    return float(shape[0]) * float(shape[1]) * per_cell + 8.0 * dem_cells
+    """The whole-raster part of :func:`darkness_memory` [B] (no chunk size lowers it): the
+    arrays held throughout and those of the map written."""
+    held = _held_memory(shape, bands=bands, terrain=terrain, dem_cells=dem_cells)
+    return held + OUTPUT_BYTES_PER_CELL * float(shape[0]) * float(shape[1])
 
 
 def _memory_hint(estimate: float, whole_raster: float) -> str:
@@ -999,8 +1037,7 @@ def _axis_chunks(size: int, chunk: int, depth: int) -> tuple[int, ...]:
 
 
 def _tiled_path(
-    emission: RasterInput,
-    dem: RasterInput | None,
+    scene: Scene,
     chunk_size: int | None,
     tiled: bool | None,
     target_crs: Any | None,
@@ -1010,10 +1047,11 @@ def _tiled_path(
     """Whether the map is made tile by tile (:mod:`nightlights.sky.tiled`): when asked, for a
     geographic emission, a ``target_crs`` or a ``store``, or for an emission file whose
     in-memory map would need more than :data:`~nightlights.sky.tiled.TILED_ABOVE` (or the
-    memory limit)."""
+    memory limit) with the stencil of the kernel it will use (:func:`_expected_reach`)."""
     from nightlights._resources import memory_limit
     from nightlights.sky.tiled import TILED_ABOVE
 
+    emission, dem = scene.raster_input("darkness"), scene.dem
     if tiled is not None and not isinstance(tiled, bool):
         raise InputError(f"tiled={tiled!r}; expected True, False or None")
     header = raster_header(emission)
@@ -1033,15 +1071,28 @@ def _tiled_path(
         return True
     if header is None or dem is not None or not isinstance(emission, (str, os.PathLike)):
         return False
+    cell = abs(header.transform.a) or 1.0
+    radius = math.ceil(_expected_reach(scene, header.bounds) / cell)
     estimate = darkness_memory(
         (header.rows, header.cols),
-        (0, 0),
+        (min(radius, header.rows - 1), min(radius, header.cols - 1)),
         _check_chunk_size(chunk_size),
         bands=header.count,
         planes=header.count,
         observer_levels=1,
     )
     return estimate > min(TILED_ABOVE, memory_limit())
+
+
+def _expected_reach(scene: Scene, bounds: tuple[float, float, float, float]) -> float:
+    """The reach [m] of the kernel the in-memory map will use: a given kernel's range, else
+    the scene kernel's (:func:`~nightlights.sky.spec.scene_kernel_spec` from a corner: the
+    diagonal, at most :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`)."""
+    table = scene.kernel_dataset()
+    if table is not None:
+        return float(np.asarray(table["distance_edges"].values, dtype=float)[-1])
+    left, bottom, right, top = bounds
+    return float(min(MAX_KERNEL_RANGE, max(1.01 * math.hypot(right - left, top - bottom), 100.0)))
 
 
 def _check_output(output: PathLike | None, scene: Scene) -> Path | None:
@@ -1167,6 +1218,7 @@ def _tiled_darkness(
     from nightlights.sky._tiles import TileStore
     from nightlights.sky.tiled import (
         DEFAULT_TILE_SIZE,
+        IMPORTED_MEMORY,
         _as_stored,
         _emission,
         _extent_metres,
@@ -1253,8 +1305,10 @@ def _tiled_darkness(
     per_tile = tile_memory(grid, **sizes, workers=1) - tile_memory(grid, **sizes, workers=0)
     workers = 1 if scheduler is not None else min(tile_workers(per_tile), len(grid.windows()))
     whole = 0.0 if output is not None else 32.0 * shape[0] * shape[1]
+    # the process's peak less the interpreter and its modules, as every stage's estimate
+    process = tile_memory(grid, **sizes, workers=workers) - IMPORTED_MEMORY
     check_memory(
-        tile_memory(grid, **sizes, workers=workers) + whole,
+        process + float(table.nbytes) + whole,
         f"the tiled darkness map of {shape[0]} x {shape[1]} cells",
         option="lower chunk_size=" if output is not None else "give output= (tiles stream there)",
     )

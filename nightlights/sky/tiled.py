@@ -69,6 +69,7 @@ from nightlights._resources import memory_limit
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError
 from nightlights.io import Raster, as_raster
+from nightlights.io.streamed import CACHE_MB
 from nightlights.sky._tile_run import ProgressHook, TiledGrid
 from nightlights.sky._tiles import (
     AUTHALIC_RADIUS,
@@ -100,11 +101,25 @@ PROCESS_MEMORY = 4 * 2**30
 #: An emission file whose in-memory map would need more than this (or more than the memory
 #: limit) is mapped tile by tile [B].
 TILED_ABOVE = PROCESS_MEMORY
-#: Resident memory of the process before any tile (interpreter, numpy, GDAL, pyproj, dask,
-#: the kernel), counted once per process in :func:`tile_memory`'s total [B]: 0.24 GiB
-#: measured (VmHWM) after the imports alone on this toolkit's test machine, and the kernel,
-#: the COG writer's cache (64 MiB) and the stencil's temporaries on top.
-BASE_MEMORY = 0.3 * 2**30
+#: Resident memory of the interpreter and the modules a map imports (numpy, GDAL, pyproj,
+#: dask, scipy) before it starts [B]: 0.22 GiB measured (``VmRSS`` after ``import
+#: nightlights.ground, nightlights.sky``; the baseline of ``bench_memory_estimates.py``). The
+#: memory checks leave it out, as every stage's estimate does; :func:`tile_memory`, a whole
+#: process's peak, counts it.
+IMPORTED_MEMORY = 0.22 * 2**30
+#: Memory of a darkness map's first calls besides its arrays, in memory or tiled [B]: the
+#: kernel file read (h5py, netCDF), GDAL opening the emission, the zenith tables and the
+#: stencil's temporaries; 48 MiB measured (``VmHWM`` over :data:`IMPORTED_MEMORY`, less the
+#: kernel's arrays) on a 64 x 64 map with the 30 km kernel of ``bench_memory_estimates.py``.
+MAP_FIXED_MEMORY = 48 * 2**20
+#: Bytes per cell of the tile being finished in this process, besides its luminance: the
+#: float32-rounded copy the store keeps, the two output bands (luminance and magnitude, with
+#: the magnitude's temporary) and their float32 copy written [B].
+FINISH_BYTES_PER_CELL = 32.0
+#: Resident memory of the process before any tile, counted once per process in
+#: :func:`tile_memory`'s total [B]: the imports, the first calls and the COG writer's block
+#: cache (:data:`nightlights.io.streamed.CACHE_MB`).
+BASE_MEMORY = IMPORTED_MEMORY + MAP_FIXED_MEMORY + CACHE_MB * 2**20
 
 
 def output_grid(
@@ -154,16 +169,21 @@ def tile_memory(
     workers: int = 1,
 ) -> float:
     """Estimated peak memory of a tiled map in one process [B]: :data:`BASE_MEMORY`, the
-    stencil, and per tile in flight the larger of its two phases, plus its finished cells
-    (24 B each: the tile and its two bands written). On a local grid the phases follow each
-    other: reading and depositing (the window's float32 read, float64 copy and flux, 28 B per
-    cell and band, the local planes, one batch of sub-points at 64 B each) and then the FFT
-    (the padded grid's source planes, inputs and the spectra held at once, 8 B per cell
-    each: the fewer of the source planes and the observer levels, and three working ones).
-    On the emission's own cells the window is the FFT's input, held through it. Largest over
-    the tiles nearest the equator and the poles (a geographic window widens with latitude).
-    Measured (VmHWM, 15 arcsec, 300 km kernel, default tiles; ``bench_darkness_tiles.py``):
-    within 1.5x of the peak.
+    stencil and the tiles: per tile in flight the larger of its two phases plus its luminance
+    (8 B per cell), one of them being finished in this process (:data:`FINISH_BYTES_PER_CELL`
+    and its luminance) while the other threads compute theirs. On a local grid the phases
+    follow each other: reading and depositing (the window's float32 read, float64 copy and
+    flux, 28 B per cell and band, the local planes, one batch of sub-points at 64 B each) and
+    then the FFT (the local planes and the source planes, 8 B per cell each, and on the FFT
+    grid the spectra held at once, 8 B per cell each: the fewer of the source planes and the
+    observer levels, and three working ones). On the emission's own cells the padded window
+    is read (its float32 read, float64 copy and flux, 20 B per cell and band) and is the
+    FFT's input: its flux and source planes (8 B per cell each) are held through the FFT.
+    Largest over the tiles nearest the equator and the poles (a geographic window widens
+    with latitude). Measured (VmHWM) against this estimate: within 1.5x of the peak of local
+    threads on 15 arcsec rasters with the 300 km kernel (``bench_darkness_tiles.py``, with the
+    earlier count of finished tiles) and 1.01x on a projected one with a 30 km kernel
+    (``bench_memory_estimates.py``).
 
     Parameters
     ----------
@@ -177,15 +197,16 @@ def tile_memory(
     Returns
     -------
     float
-        Bytes.
+        Bytes, the interpreter and its modules (:data:`IMPORTED_MEMORY`) included.
     """
     a, b = grid.half
     stencil = 18.0 * (2 * a + 1) * (2 * b + 1)  # lower bin (2 B), upper weight (8 B), W (8 B)
     held = min(planes, observer_levels) + 3
-    worst = 0.0
+    worst = finish = 0.0
     for window in _extreme_tiles(grid):
         r0, r1, c0, c1 = window
-        finished = 24.0 * (r1 - r0) * (c1 - c0)
+        tile_cells = float((r1 - r0) * (c1 - c0))
+        finish = max(finish, (FINISH_BYTES_PER_CELL + 8.0) * tile_cells)
         if grid.local:
             local = grid.local_grid(window)
             rows, cols = local.shape
@@ -198,14 +219,18 @@ def tile_memory(
         fft = float(
             scipy.fft.next_fast_len(rows, real=True) * scipy.fft.next_fast_len(cols, real=True)
         )
-        transform = 8.0 * fft * (held + bands + planes)
+        spectra = 8.0 * fft * held
         if grid.local:
             read = window_cells * (28.0 * bands + 1.0) + 8.0 * bands * rows * cols
+            transform = spectra + 8.0 * rows * cols * (bands + planes)
             per_tile = max(read + 64.0 * SUBPOINT_BATCH, transform)
         else:
-            per_tile = transform + window_cells * 20.0 * bands
-        worst = max(worst, per_tile + finished)
-    return BASE_MEMORY + stencil + workers * worst
+            read = window_cells * 20.0 * bands
+            per_tile = max(read, spectra + window_cells * 8.0 * (bands + planes))
+        worst = max(worst, per_tile + 8.0 * tile_cells)
+    # this process finishes a tile while the other threads compute theirs
+    tiles = 0.0 if workers < 1 else (workers - 1) * worst + max(worst, finish)
+    return BASE_MEMORY + stencil + tiles
 
 
 def _extreme_tiles(grid: TiledGrid) -> list[tuple[int, int, int, int]]:
