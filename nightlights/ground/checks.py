@@ -1,11 +1,13 @@
 """Checks of the ground stages: CRS options, finite values, all-zero results, memory estimates.
 
 Every ground stage validates its options before it reads or allocates much, estimates the
-memory it will hold at its peak (:func:`irradiance_memory`, :func:`emission_memory`,
-:func:`viirs_memory`) and refuses an estimate over the limit through
-:func:`nightlights._resources.check_memory`. The per-pixel byte counts below were measured
-(peak resident memory over the baseline, ``resource.getrusage``) on the bundled Helsinki
-example and on synthetic rasters; ``tests/nightlights/ground/test_memory.py`` keeps every
+memory it will hold at its peak (:func:`irradiance_memory`, :func:`viirs_memory`; the
+windowed emission stages' estimates are beside their window loops,
+:func:`nightlights.ground._emission_run.check_emission_memory` and
+:func:`nightlights.ground._viirs_run.check_viirs_memory`) and refuses an estimate over the
+limit through :func:`nightlights._resources.check_memory`. The per-pixel byte counts below
+were measured (peak resident memory over the baseline, ``resource.getrusage``) on the bundled
+Helsinki example and on synthetic rasters; ``tests/nightlights/ground/test_memory.py`` keeps every
 stage within twice its estimate.
 """
 
@@ -31,10 +33,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "IRRADIANCE_BYTES_PER_PIXEL",
+    "FiniteScan",
     "RasterHeader",
     "check_finite_raster",
     "check_number",
-    "emission_memory",
     "irradiance_memory",
     "parse_crs",
     "raster_header",
@@ -57,17 +59,6 @@ TILE_BYTES_PER_PIXEL = 24
 BYTES_PER_PAIR = 240
 #: Task-graph bytes per tile (Dask task, arguments, result bookkeeping) [B].
 BYTES_PER_TILE = 20_000
-#: Bytes per fine pixel of ``emission`` from an irradiance raster beyond its float64 bands:
-#: the float32 read converted to float64, the checks' masks (the reflected flux is summed in
-#: strips of ``nightlights.ground.upward.STRIP_PIXELS``); 7.8 B measured (VmHWM) on a
-#: 2000 x 2000 raster at 0.5 m aggregated to 10 m [B].
-EMISSION_BYTES_PER_PIXEL = 8
-#: Bytes per fine pixel of an albedo raster resampled onto the irradiance grid (its float64
-#: grid; 8.0 B measured as above with a 5 m albedo raster) [B].
-ALBEDO_BYTES_PER_PIXEL = 8
-#: Bytes of ``emission``'s strip temporaries (4 Mi pixels x float64 product, NaN-free copy,
-#: row sums) [B].
-EMISSION_STRIP_BYTES = 3 * 8 * (1 << 22)
 #: Bytes per output cell of ``emission_from_viirs``: the float64 target, its float32/float64
 #: round trip and the float32 copies of the writer [B].
 VIIRS_BYTES_PER_CELL = 28
@@ -189,23 +180,57 @@ def check_finite_raster(
     InputError
         Infinite values, negative values (``negative="error"``) or no value at all.
     """
-    array = np.asarray(values)
-    infinite = np.isinf(array)
-    if infinite.any():
-        raise InputError(
-            f"{label}: {int(infinite.sum())} pixels hold an infinite {quantity}; expected "
-            f"finite values [{unit}] (NaN for nodata)"
-        )
-    finite = np.isfinite(array)
-    if not finite.any():
-        raise InputError(f"{label}: every pixel is nodata; expected {quantity} values [{unit}]")
-    if negative == "error":
+    scan = FiniteScan()
+    scan.add(values)
+    scan.report(label, quantity, unit, negative=negative)
+
+
+@dataclass
+class FiniteScan:
+    """What the pixels of a raster read in parts hold, for the checks of
+    :func:`check_finite_raster` over all parts (the same messages as one whole raster's).
+
+    Examples
+    --------
+    >>> scan = FiniteScan()
+    >>> scan.add([[1.0, float("nan")]])
+    >>> scan.add([[-2.0, 3.0]])
+    >>> scan.report("ground.tif", "illuminance", "lx")
+    Traceback (most recent call last):
+    ...
+    nightlights.errors.InputError: ground.tif: 1 pixels hold a negative illuminance (min -2 \
+lx); expected values >= 0
+    """
+
+    infinite: int = 0
+    negative: int = 0
+    lowest: float = math.inf
+    finite: bool = False
+
+    def add(self, values: ArrayLike) -> None:
+        """Count a part's infinite, finite and negative pixels (NaN is nodata)."""
+        array = np.asarray(values)
+        self.infinite += int(np.isinf(array).sum())
+        self.finite = self.finite or bool(np.isfinite(array).any())
         with np.errstate(invalid="ignore"):
             below = array < 0
         if below.any():
+            self.negative += int(below.sum())
+            self.lowest = min(self.lowest, float(np.nanmin(array)))
+
+    def report(self, label: str, quantity: str, unit: str, *, negative: str = "error") -> None:
+        """Raise what :func:`check_finite_raster` raises for the pixels counted."""
+        if self.infinite:
             raise InputError(
-                f"{label}: {int(below.sum())} pixels hold a negative {quantity} (min "
-                f"{float(np.nanmin(array)):.3g} {unit}); expected values >= 0"
+                f"{label}: {self.infinite} pixels hold an infinite {quantity}; expected "
+                f"finite values [{unit}] (NaN for nodata)"
+            )
+        if not self.finite:
+            raise InputError(f"{label}: every pixel is nodata; expected {quantity} values [{unit}]")
+        if negative == "error" and self.negative:
+            raise InputError(
+                f"{label}: {self.negative} pixels hold a negative {quantity} (min "
+                f"{self.lowest:.3g} {unit}); expected values >= 0"
             )
 
 
@@ -288,44 +313,6 @@ def irradiance_memory(
         if backend == "numpy":
             total += in_flight * batch * BYTES_PER_PAIR
     return total
-
-
-def emission_memory(
-    rows: int,
-    cols: int,
-    bands: int,
-    factor: int,
-    *,
-    albedo_raster: bool = False,
-    streamed: bool = False,
-) -> float:
-    """Peak memory of ``emission`` from an irradiance raster [B].
-
-    Parameters
-    ----------
-    rows, cols, bands
-        Irradiance raster shape [pixels], [1].
-    factor
-        Fine pixels per coarse cell along each axis [1].
-    albedo_raster
-        Whether the albedo is a raster (resampled onto the irradiance grid).
-    streamed
-        Whether the raster is read strip by strip (a file with a uniform albedo): then only
-        the strips in flight and the coarse output count.
-
-    Returns
-    -------
-    float
-        The float64 raster, the read's and checks' temporaries, the albedo grid, the strips
-        in flight and the coarse output [B].
-    """
-    pixels = float(rows) * float(cols)
-    per_pixel = 0.0 if streamed else 8 * bands + EMISSION_BYTES_PER_PIXEL
-    if albedo_raster:
-        per_pixel += ALBEDO_BYTES_PER_PIXEL
-    coarse = math.ceil(rows / factor) * math.ceil(cols / factor)
-    strips = min(EMISSION_STRIP_BYTES, 3 * 8 * pixels)
-    return pixels * per_pixel + strips + coarse * VIIRS_BYTES_PER_CELL
 
 
 def viirs_memory(in_rows: int, in_cols: int, in_bands: int, out_rows: int, out_cols: int) -> float:
