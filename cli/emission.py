@@ -3,8 +3,8 @@
 Two sources, one subcommand each:
 
 - ``emission ground IRRADIANCE [LIGHTS] OUTPUT``: ground-reflected light plus the luminaires'
-  direct uplight; ``ground`` is the default, so ``nightlights emission IRRADIANCE [LIGHTS]
-  OUTPUT`` means the same;
+  direct uplight, window by window; ``ground`` is the default, so ``nightlights emission
+  IRRADIANCE [LIGHTS] OUTPUT`` means the same;
 - ``emission viirs INPUT OUTPUT``: a VIIRS day/night-band radiance raster converted with a
   light spectrum, window by window; a geographic raster wider than one UTM zone keeps its
   grid (flux density per geodesic cell area).
@@ -75,7 +75,9 @@ def ground_command(
     crs: str | None,
 ) -> None:
     """Ground-reflected light of IRRADIANCE plus the direct uplight of LIGHTS, aggregated to
-    --resolution; write OUTPUT (COG, bands reflected and uplight [lm m-2])."""
+    --resolution; write OUTPUT (COG, bands reflected and uplight [lm m-2]).
+
+    The raster is read and written in windows, so a raster of any size fits in memory."""
     import nightlights as nl
     from nightlights.ground.checks import parse_crs
 

@@ -38,14 +38,17 @@ from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, InputError
 from nightlights.ground import _viirs_windows
 from nightlights.ground._viirs_windows import (
-    FileSource,
-    OutputGrid,
-    RadianceSource,
     scan_source,
-    strips,
     window_density,
     window_memory,
     window_progress,
+)
+from nightlights.ground._windows import (
+    BandSource,
+    FileSource,
+    OutputGrid,
+    strips,
+    writer_memory,
 )
 from nightlights.ground.checks import VIIRS_BYTES_PER_CELL, parse_crs
 from nightlights.ground.stage import COG_OPTIONS
@@ -58,8 +61,7 @@ from nightlights.ground.viirs_input import (
     zone_length_error,
 )
 from nightlights.io import Raster, ensure_projected
-from nightlights.io.streamed import CACHE_MB, CogWriter
-from nightlights.io.styles import SAMPLE_LIMIT
+from nightlights.io.streamed import CogWriter
 
 __all__ = ["FLUX_TAG", "GRID_TAG", "ViirsRun", "geographic_cell_areas"]
 
@@ -162,7 +164,7 @@ class ViirsRun:
     progress: bool
 
     def prepare(
-        self, source: RadianceSource, metadata: RasterMetadata, *, in_memory: bool
+        self, source: BandSource, metadata: RasterMetadata, *, in_memory: bool
     ) -> OutputGrid:
         """Check the source and the memory; the output grid."""
         check_radiance_source(metadata, self.label)
@@ -186,7 +188,7 @@ class ViirsRun:
 
     def run(
         self,
-        source: RadianceSource,
+        source: BandSource,
         grid: OutputGrid,
         sink: Callable[[FloatArray, int, int], None],
     ) -> float:
@@ -224,7 +226,7 @@ class ViirsRun:
 
     def in_memory(
         self,
-        source: RadianceSource,
+        source: BandSource,
         metadata: RasterMetadata,
         tags: dict[str, Any],
         band_tags: dict[str, str],
@@ -334,14 +336,6 @@ def viirs_grid(
     return transform, int(rows), int(cols)
 
 
-#: Bytes of GDAL's block cache per output cell while the output is written, up to
-#: :data:`~nightlights.io.streamed.CACHE_MB` (the cache the writer sets, shared by the reads
-#: of the input): the scratch file's blocks and the COG's [B].
-_CACHE_BYTES_PER_CELL = 8
-#: Bytes per value of the style's decimated read (float32, its float64 copy) [B].
-_STYLE_BYTES_PER_SAMPLE = 8
-
-
 def check_viirs_memory(
     in_shape: tuple[int, int], grid: OutputGrid, label: str, *, kept: bool, in_memory: bool
 ) -> None:
@@ -350,14 +344,14 @@ def check_viirs_memory(
     One window's working arrays (:func:`~nightlights.ground._viirs_windows.window_memory`),
     plus the output grid when it is held in memory (the float64 raster and its float32
     round trip, :data:`~nightlights.ground.checks.VIIRS_BYTES_PER_CELL`), or the writer's
-    block cache and the style's sample when it is streamed to a file. On the 14,400 x 8,400
+    block cache and the style's sample when it is streamed to a file
+    (:func:`~nightlights.ground._windows.writer_memory`). On the 14,400 x 8,400
     synthetic mosaic (``benchmarks/_mosaic.py``) the streamed run's peak was 196 MiB above
     the imported modules, this estimate 264 MiB; projected to 500 m (Albers equal-area,
     8,414 x 12,843 cells, windows reprojected) 390 MiB, the estimate 417 MiB.
     """
     cells = float(grid.rows) * grid.cols
-    cache = min(CACHE_MB * 2**20, _CACHE_BYTES_PER_CELL * cells)
-    writer = cache + _STYLE_BYTES_PER_SAMPLE * min(cells, SAMPLE_LIMIT)
+    writer = writer_memory(cells)
     window = window_memory(in_shape, grid, window=_viirs_windows.WINDOW_CELLS, kept=kept)
     estimate = window + (cells * VIIRS_BYTES_PER_CELL if in_memory else writer)
     check_memory(

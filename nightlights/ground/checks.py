@@ -1,11 +1,13 @@
 """Checks of the ground stages: CRS options, finite values, all-zero results, memory estimates.
 
 Every ground stage validates its options before it reads or allocates much, estimates the
-memory it will hold at its peak (:func:`irradiance_memory`, :func:`emission_memory`,
-:func:`viirs_memory`) and refuses an estimate over the limit through
-:func:`nightlights._resources.check_memory`. The per-pixel byte counts below were measured
-(peak resident memory over the baseline, ``resource.getrusage``) on the bundled Helsinki
-example and on synthetic rasters; ``tests/nightlights/ground/test_memory.py`` keeps every
+memory it will hold at its peak (:func:`irradiance_memory`, :func:`viirs_memory`; the
+windowed emission stages' estimates are beside their window loops,
+:func:`nightlights.ground._emission_run.check_emission_memory` and
+:func:`nightlights.ground._viirs_run.check_viirs_memory`) and refuses an estimate over the
+limit through :func:`nightlights._resources.check_memory`. The per-pixel byte counts below
+were measured (peak resident memory over the baseline, ``resource.getrusage``) on the bundled
+Helsinki example and on synthetic rasters; ``tests/nightlights/ground/test_memory.py`` keeps every
 stage within twice its estimate.
 """
 
@@ -31,10 +33,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "IRRADIANCE_BYTES_PER_PIXEL",
+    "FiniteScan",
     "RasterHeader",
     "check_finite_raster",
     "check_number",
-    "emission_memory",
     "irradiance_memory",
     "parse_crs",
     "raster_header",
@@ -49,54 +51,14 @@ IRRADIANCE_BYTES_PER_PIXEL = 24
 #: Bytes per output pixel for a DEM: elevation on the grid, its gradients and the
 #: (rows, cols, 3) unit normals [B].
 DEM_BYTES_PER_PIXEL = 112
-#: Bytes per pixel of a tile in flight and per band for the numpy kernel: the float64
-#: accumulator, one ``bincount`` result and the float32 tile returned [B].
+#: Bytes per pixel of a tile in flight and per band: the float64 accumulator, one
+#: ``bincount`` result and the float32 tile returned [B].
 TILE_BYTES_PER_PIXEL = 24
-#: Bytes per pixel of a tile in flight and per band for the compiled kernel: the float64
-#: accumulator and the float32 tile returned [B].
-COMPILED_TILE_BYTES_PER_PIXEL = 12
-#: Memory of ``irradiance``'s first calls besides its arrays [B]: the luminaire database and
-#: photometric frames, GDAL's drivers; 35 MiB measured (``VmHWM`` over the imports, up to the
-#: first tile) on the 10 lights of a 100 m square (``bench_memory_estimates.py``).
-IRRADIANCE_FIXED_BYTES = 35 * 2**20
-#: Memory of the first tiles computed in this process besides their arrays [B]: the compiled
-#: kernel's code loaded from numba's cache and the worker threads' stacks and heaps; 112 MiB
-#: measured (``VmHWM`` over the first tile's start) on the 10 lights of a 100 m square
-#: (``bench_memory_estimates.py``).
-LOCAL_TILES_FIXED_BYTES = 112 * 2**20
-#: Bytes per pixel and band while a streamed raster is made a COG (its scratch file's blocks,
-#: the COG's and its overviews' in GDAL's cache, up to :data:`nightlights.io.streamed.CACHE_MB`,
-#: and the compression's buffers); 23 B measured (``VmHWM`` of the copy over the tiles')
-#: on a 1275 x 1275 grid (``bench_memory_estimates.py``) [B].
-COG_BYTES_PER_PIXEL = 24
-#: Bytes per value of the style's sample (float32 read, float64 copy, finite and positive
-#: values, the quantiles' copy; :data:`nightlights.io.styles.SAMPLE_LIMIT` values at most):
-#: 16 B measured as above [B].
-STYLE_BYTES_PER_SAMPLE = 16
 #: Bytes per light-pixel pair of one numpy batch of the kernel (about 30 float64 and int64
 #: arrays; 230 B measured with tracemalloc on a tile of the Helsinki example) [B].
 BYTES_PER_PAIR = 240
 #: Task-graph bytes per tile (Dask task, arguments, result bookkeeping) [B].
 BYTES_PER_TILE = 20_000
-#: Bytes per fine pixel of ``emission`` from an irradiance raster beyond its float64 bands:
-#: the float32 read converted to float64, the checks' masks (the reflected flux is summed in
-#: strips of ``nightlights.ground.upward.STRIP_PIXELS``); 7.8 B measured (VmHWM) on a
-#: 2000 x 2000 raster at 0.5 m aggregated to 10 m [B].
-EMISSION_BYTES_PER_PIXEL = 8
-#: Bytes per fine pixel of an albedo raster resampled onto the irradiance grid (its float64
-#: grid; 8.0 B measured as above with a 5 m albedo raster) [B].
-ALBEDO_BYTES_PER_PIXEL = 8
-#: Bytes of ``emission``'s strip temporaries (4 Mi pixels x float64 product, NaN-free copy,
-#: row sums) [B].
-EMISSION_STRIP_BYTES = 3 * 8 * (1 << 22)
-#: Bytes per pixel and band of GDAL's blocks of an irradiance file read in strips, up to
-#: :data:`nightlights.io.streamed.CACHE_MB` (the cache the read sets) [B].
-EMISSION_READ_BYTES_PER_PIXEL = 4
-#: Memory of ``emission``'s first calls besides its arrays [B]: GDAL opening the irradiance
-#: raster, the luminaire database and photometric frames of the lights; 40 MiB measured
-#: (``VmHWM`` over the imports, less the arrays counted) from a 355 x 372 irradiance raster
-#: of 10 lights (``bench_memory_estimates.py``).
-EMISSION_FIXED_BYTES = 40 * 2**20
 #: Bytes per output cell of ``emission_from_viirs``: the float64 target, its float32/float64
 #: round trip and the float32 copies of the writer [B].
 VIIRS_BYTES_PER_CELL = 28
@@ -218,23 +180,57 @@ def check_finite_raster(
     InputError
         Infinite values, negative values (``negative="error"``) or no value at all.
     """
-    array = np.asarray(values)
-    infinite = np.isinf(array)
-    if infinite.any():
-        raise InputError(
-            f"{label}: {int(infinite.sum())} pixels hold an infinite {quantity}; expected "
-            f"finite values [{unit}] (NaN for nodata)"
-        )
-    finite = np.isfinite(array)
-    if not finite.any():
-        raise InputError(f"{label}: every pixel is nodata; expected {quantity} values [{unit}]")
-    if negative == "error":
+    scan = FiniteScan()
+    scan.add(values)
+    scan.report(label, quantity, unit, negative=negative)
+
+
+@dataclass
+class FiniteScan:
+    """What the pixels of a raster read in parts hold, for the checks of
+    :func:`check_finite_raster` over all parts (the same messages as one whole raster's).
+
+    Examples
+    --------
+    >>> scan = FiniteScan()
+    >>> scan.add([[1.0, float("nan")]])
+    >>> scan.add([[-2.0, 3.0]])
+    >>> scan.report("ground.tif", "illuminance", "lx")
+    Traceback (most recent call last):
+    ...
+    nightlights.errors.InputError: ground.tif: 1 pixels hold a negative illuminance (min -2 \
+lx); expected values >= 0
+    """
+
+    infinite: int = 0
+    negative: int = 0
+    lowest: float = math.inf
+    finite: bool = False
+
+    def add(self, values: ArrayLike) -> None:
+        """Count a part's infinite, finite and negative pixels (NaN is nodata)."""
+        array = np.asarray(values)
+        self.infinite += int(np.isinf(array).sum())
+        self.finite = self.finite or bool(np.isfinite(array).any())
         with np.errstate(invalid="ignore"):
             below = array < 0
         if below.any():
+            self.negative += int(below.sum())
+            self.lowest = min(self.lowest, float(np.nanmin(array)))
+
+    def report(self, label: str, quantity: str, unit: str, *, negative: str = "error") -> None:
+        """Raise what :func:`check_finite_raster` raises for the pixels counted."""
+        if self.infinite:
             raise InputError(
-                f"{label}: {int(below.sum())} pixels hold a negative {quantity} (min "
-                f"{float(np.nanmin(array)):.3g} {unit}); expected values >= 0"
+                f"{label}: {self.infinite} pixels hold an infinite {quantity}; expected "
+                f"finite values [{unit}] (NaN for nodata)"
+            )
+        if not self.finite:
+            raise InputError(f"{label}: every pixel is nodata; expected {quantity} values [{unit}]")
+        if negative == "error" and self.negative:
+            raise InputError(
+                f"{label}: {self.negative} pixels hold a negative {quantity} (min "
+                f"{self.lowest:.3g} {unit}); expected values >= 0"
             )
 
 
@@ -260,8 +256,7 @@ def irradiance_memory(
     bands
         Output bands [1].
     tile_size
-        Tile edge [pixels] (the compiled kernel's balanced edge,
-        :func:`~nightlights.ground.tiles.balanced_tile_size`).
+        Tile edge [pixels].
     workers
         Tiles computed at once [1].
     pairs
@@ -275,44 +270,36 @@ def irradiance_memory(
         tile in flight, the compiled kernel none.
     streamed
         Whether the tiles go to a file as they are computed: the raster is then never
-        held; the COG made from the file (:data:`COG_BYTES_PER_PIXEL`, up to GDAL's block
-        cache, :data:`nightlights.io.streamed.CACHE_MB`) and its style's sample take its
-        place.
+        held, and GDAL's block cache (:data:`nightlights.io.streamed.CACHE_MB`, held while
+        the file is written and made into a COG) takes its place.
 
     Returns
     -------
     float
-        The first calls' memory (:data:`IRRADIANCE_FIXED_BYTES`, and
-        :data:`LOCAL_TILES_FIXED_BYTES` for tiles in this process), the output raster (or
-        the COG's copy and the style's sample), DEM grids, tiles in flight (tile pixels x
+        Output raster (or the writer's cache), DEM grids, tiles in flight (tile pixels x
         bands x working arrays, plus one batch of light-pixel pairs each for the numpy
-        kernel) and the task graph [B]. Measured against this estimate on 10 to 16,000
-        lights over 0.1 to 18 million pixels (``bench_memory_estimates.py``): within 1.1x
-        of the peak.
+        kernel) and the task graph [B].
 
     Examples
     --------
     >>> round(irradiance_memory(1000, 1000, 1, tile_size=256, workers=4, pairs=1e6) / 2**20)
-    173
+    35
     >>> round(
     ...     irradiance_memory(
     ...         1000, 1000, 1, tile_size=256, workers=4, pairs=1e6, backend="numpy"
     ...     )
     ...     / 2**20
     ... )
-    1098
+    951
     """
     from nightlights.ground.illuminance import PAIRS_PER_BATCH
     from nightlights.io.streamed import CACHE_MB
-    from nightlights.io.styles import SAMPLE_LIMIT
 
     pixels = float(rows) * float(cols)
-    total = float(IRRADIANCE_FIXED_BYTES)
     if streamed:
-        total += min(pixels * bands * COG_BYTES_PER_PIXEL, CACHE_MB * 2.0**20)
-        total += min(pixels, SAMPLE_LIMIT) * bands * STYLE_BYTES_PER_SAMPLE
+        total = min(pixels * bands * IRRADIANCE_BYTES_PER_PIXEL, CACHE_MB * 2.0**20)
     else:
-        total += pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
+        total = pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
     if dem:
         total += pixels * DEM_BYTES_PER_PIXEL
     tile_rows, tile_cols = min(tile_size, rows), min(tile_size, cols)
@@ -321,57 +308,11 @@ def irradiance_memory(
     if local:
         in_flight = min(workers, n_tiles)
         tile_pixels = float(tile_rows) * float(tile_cols)
-        total += LOCAL_TILES_FIXED_BYTES
+        batch = min(PAIRS_PER_BATCH + tile_cols, pairs)
+        total += in_flight * (tile_pixels * (bands + 1) * TILE_BYTES_PER_PIXEL)
         if backend == "numpy":
-            batch = min(PAIRS_PER_BATCH + tile_cols, pairs)
-            total += in_flight * (tile_pixels * (bands + 1) * TILE_BYTES_PER_PIXEL)
             total += in_flight * batch * BYTES_PER_PAIR
-        else:
-            total += in_flight * tile_pixels * bands * COMPILED_TILE_BYTES_PER_PIXEL
     return total
-
-
-def emission_memory(
-    rows: int,
-    cols: int,
-    bands: int,
-    factor: int,
-    *,
-    albedo_raster: bool = False,
-    streamed: bool = False,
-) -> float:
-    """Peak memory of ``emission`` from an irradiance raster [B].
-
-    Parameters
-    ----------
-    rows, cols, bands
-        Irradiance raster shape [pixels], [1].
-    factor
-        Fine pixels per coarse cell along each axis [1].
-    albedo_raster
-        Whether the albedo is a raster (resampled onto the irradiance grid).
-    streamed
-        Whether the raster is read strip by strip (a file with a uniform albedo): then only
-        the strips in flight and the coarse output count.
-
-    Returns
-    -------
-    float
-        The first calls' memory (:data:`EMISSION_FIXED_BYTES`), the float64 raster, the
-        read's and checks' temporaries, the albedo grid, the strip in flight, GDAL's blocks
-        of a file read in strips and the coarse output [B].
-    """
-    from nightlights.io.streamed import CACHE_MB
-
-    pixels = float(rows) * float(cols)
-    per_pixel = 0.0 if streamed else 8 * bands + EMISSION_BYTES_PER_PIXEL
-    if albedo_raster:
-        per_pixel += ALBEDO_BYTES_PER_PIXEL
-    coarse = math.ceil(rows / factor) * math.ceil(cols / factor)
-    strips = min(EMISSION_STRIP_BYTES, 3 * 8 * pixels)
-    read = min(EMISSION_READ_BYTES_PER_PIXEL * bands * pixels, CACHE_MB * 2.0**20)
-    total = EMISSION_FIXED_BYTES + pixels * per_pixel + strips + coarse * VIIRS_BYTES_PER_CELL
-    return total + (read if streamed else 0.0)
 
 
 def viirs_memory(in_rows: int, in_cols: int, in_bands: int, out_rows: int, out_cols: int) -> float:

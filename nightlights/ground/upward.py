@@ -15,9 +15,10 @@ coarse grid, which the skyglow stages take as their source:
    without street data (see :func:`viirs_radiance_to_flux_density`): one band tagged with
    the emission function that turned its nadir radiance into flux.
 
-Length: about 820 lines, because the two routes to one product share its raster, its
-float32 round trip, its checked writing and its memory checks made before reading; split in
-two modules they would import each other's private helpers.
+Length: about 700 lines, because the two routes to one product share its result
+(:class:`EmissionResult`), its conversions and its checked writing; their window loops, grids
+and memory estimates are in :mod:`nightlights.ground._emission_run` and
+:mod:`nightlights.ground._viirs_run`.
 """
 
 from __future__ import annotations
@@ -26,10 +27,11 @@ import functools
 import math
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import geopandas as gpd
 import numpy as np
@@ -38,26 +40,30 @@ from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS
 
 from ies import spectra
-from nightlights._resources import check_memory
 from nightlights._typing import FloatArray
 from nightlights._validate import check_resolution
 from nightlights.emission_functions import EMISSION_FUNCTION_TAG, EmissionFunction
-from nightlights.errors import CRSError, DataQualityWarning, EmptyInputError, InputError
+from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
+from nightlights.ground import _emission_run
+from nightlights.ground._emission_run import (
+    Albedo,
+    EmissionRun,
+    Uplight,
+    cell_index,
+    cell_sums,
+    check_emission_memory,
+    open_irradiance,
+    output_grid,
+)
 from nightlights.ground._viirs_run import (
     FLUX_TAG,
     GRID_TAG,
     ViirsRun,
-    as_written,
     geographic_cell_areas,
     source_crs,
 )
-from nightlights.ground._viirs_windows import ArraySource, FileSource
-from nightlights.ground.checks import (
-    check_finite_raster,
-    emission_memory,
-    parse_crs,
-    raster_header,
-)
+from nightlights.ground._windows import ArraySource, FileSource, OutputGrid
+from nightlights.ground.checks import parse_crs
 from nightlights.ground.luminaires import DatabaseLike, load_database, resolve_luminaires
 from nightlights.ground.tiles import RasterGrid
 from nightlights.io import (
@@ -66,7 +72,6 @@ from nightlights.io import (
     as_raster,
     as_vector,
     ensure_projected,
-    raster_on_grid,
     source_label,
 )
 from nightlights.io.streamed import CACHE_MB
@@ -124,11 +129,7 @@ def block_aggregate(values: ArrayLike, factor: int) -> FloatArray:
     if factor < 1:
         raise InputError(f"aggregation factor {factor}; expected an integer >= 1")
     fine = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
-    rows, cols = fine.shape
-    # Sums over runs of ``factor`` rows, then columns: no padded copy, so a factor far
-    # larger than the raster costs nothing.
-    by_rows = np.add.reduceat(fine, np.arange(0, rows, factor), axis=0)
-    return np.add.reduceat(by_rows, np.arange(0, cols, factor), axis=1) / float(factor) ** 2
+    return cell_sums(fine, factor) / float(factor) ** 2
 
 
 def deposit_flux(
@@ -152,10 +153,8 @@ def deposit_flux(
     inside : numpy.ndarray
         Which points fell inside the grid.
     """
-    px, py, f = (np.asarray(a, dtype=float) for a in (x, y, flux))
-    col = np.floor((px - grid.x_min) / grid.resolution).astype(np.int64)
-    row = np.floor((grid.y_max - py) / grid.resolution).astype(np.int64)
-    inside = (col >= 0) & (col < grid.cols) & (row >= 0) & (row < grid.rows)
+    f = np.asarray(flux, dtype=float)
+    row, col, inside = cell_index(x, y, grid)
     density = np.bincount(
         row[inside] * grid.cols + col[inside], weights=f[inside], minlength=grid.rows * grid.cols
     ).reshape(grid.rows, grid.cols)
@@ -326,11 +325,6 @@ class EmissionResult:
         return RasterGrid.from_transform(self.transform, self.shape)
 
 
-#: Irradiance pixels aggregated at a time by :func:`emission` (its temporaries: ~ 30 B x
-#: this) [1].
-STRIP_PIXELS = 1 << 22
-
-
 def emission(
     irradiance: Raster | xr.DataArray | str | os.PathLike[str],
     output: str | os.PathLike[str] | None = None,
@@ -342,6 +336,7 @@ def emission(
     database: DatabaseLike | None = None,
     skip_unknown: bool = False,
     crs: str | CRS | None = None,
+    progress: bool = True,
 ) -> EmissionResult:
     """Upward luminous flux density from ground illuminance and the lights, two bands.
 
@@ -368,11 +363,15 @@ def emission(
         Drop lights with unknown system ids instead of failing.
     crs
         CRS of a light layer that has none.
+    progress
+        Show a progress bar (with the time remaining) over the windows.
 
     Returns
     -------
     EmissionResult
-        Band 1 ``reflected``, band 2 ``uplight`` [lm m-2] and their total flux [lm].
+        Band 1 ``reflected``, band 2 ``uplight`` [lm m-2] and their total flux [lm]. With a
+        raster file in and an output file, the windows were streamed to the file and the
+        result holds no raster: its ``raster`` reads the file on first access.
 
     Raises
     ------
@@ -380,10 +379,12 @@ def emission(
         Resolution not a multiple of the pixel size, no photopic band, infinite, negative
         or no illuminance values, albedo outside [0, 1] or not covering the raster.
     CRSError
-        The irradiance or albedo raster has no CRS, or ``crs`` is not a CRS.
+        The irradiance or albedo raster has no CRS, the irradiance raster is geographic, or
+        ``crs`` is not a CRS.
     ResourceError
-        Reading and aggregating the raster would need more memory than allowed (checked
-        from its header, before reading).
+        A window, or the output grid held in memory when no output file is written (or the
+        irradiance is not a file), would need more memory than allowed (checked before
+        reading).
     OutputError
         ``output`` cannot be written (checked before reading).
 
@@ -394,6 +395,13 @@ def emission(
     frame, is deposited in the cell holding its light point. Lights whose light point falls
     outside the coarse grid are dropped from the uplight band with a
     :class:`~nightlights.errors.DataQualityWarning` naming their number and flux.
+
+    The raster is computed in windows of the output grid
+    (:mod:`nightlights.ground._emission_run`), each reading only its own irradiance pixels
+    (and a window of an albedo raster with the bilinear kernel's halo) and written to
+    ``output`` as it is done (:class:`~nightlights.io.CogWriter`): memory is bounded by a
+    window, whatever the raster's size. The checks of the whole raster are counted over the
+    windows and raised before the output is finished, so a refused raster leaves no output.
 
     Examples
     --------
@@ -406,7 +414,7 @@ def emission(
     ...     crs="EPSG:3067",
     ... )
     >>> ground = irradiance(lights, resolution=2.0, progress=False).raster
-    >>> result = emission(ground, lights=lights, resolution=20.0, albedo=0.15)
+    >>> result = emission(ground, lights=lights, resolution=20.0, albedo=0.15, progress=False)
     >>> result.raster.descriptions
     ('reflected', 'uplight')
     >>> {band: round(flux) for band, flux in result.total_flux.items()}
@@ -416,67 +424,8 @@ def emission(
     assume_crs = parse_crs(crs, option="crs")
     check_resolution(resolution)
     inputs = {"irradiance": irradiance, "lights": lights, "albedo": albedo, "catalog": catalog}
-    outputs = None if output is None else OutputSet(output, inputs=inputs)
-    # a file with a uniform albedo is read strip by strip, never whole
-    streamed = isinstance(irradiance, (str, os.PathLike)) and isinstance(albedo, (int, float))
-    header = raster_header(irradiance)
-    if header is not None:
-        fine_size = abs(header.transform.a) or 1.0
-        check_memory(
-            emission_memory(
-                header.rows,
-                header.cols,
-                header.count,
-                max(1, round(resolution / fine_size)),
-                albedo_raster=not isinstance(albedo, (int, float)),
-                streamed=streamed,
-            ),
-            f"emission from {label} ({header.rows} x {header.cols} pixels x {header.count} bands)",
-            option="use a smaller irradiance raster",
-        )
-    if streamed:
-        assert isinstance(irradiance, (str, os.PathLike)) and isinstance(albedo, (int, float))
-        uniform = _albedo(albedo, (0, 0), Affine.identity(), CRS(4326))  # range checked
-        assert isinstance(uniform, float)
-        reflected, transform, raster_crs = _reflected_from_file(
-            irradiance, label, uniform, resolution
-        )
-    else:
-        raster = as_raster(irradiance)
-        transform, raster_crs, factor = _check_grid(raster.transform, raster.crs, label, resolution)
-        band = _photopic_band(raster.descriptions, raster.band_tags, label)
-        illuminance = raster.data[band]
-        check_finite_raster(illuminance, label, "illuminance", "lx")
-        reflected = _reflected(
-            illuminance, _albedo(albedo, illuminance.shape, transform, raster_crs), factor
-        )
-    grid = RasterGrid(transform.c, transform.f, float(resolution), *reflected.shape)
-    uplight = np.zeros_like(reflected)
-    if lights is not None:
-        frame, lights_label = as_vector(lights, name="lights")
-        if frame.empty:
-            raise EmptyInputError(f"{lights_label}: the light layer holds no lights")
-        frame = ensure_projected(frame, source=lights_label, assume_crs=assume_crs)
-        frame = frame.to_crs(raster_crs)
-        luminaires = resolve_luminaires(
-            frame,
-            database or load_database(catalog),
-            source=lights_label,
-            skip_unknown=skip_unknown,
-        )
-        flux = luminaires.upward_flux()
-        uplight, inside = deposit_flux(
-            luminaires.light_point[:, 0], luminaires.light_point[:, 1], flux, grid
-        )
-        if (~inside).any():
-            warnings.warn(
-                f"{lights_label}: {(~inside).sum()} lights ({flux[~inside].sum():.4g} lm of "
-                "uplight) stand outside the emission grid; left out",
-                DataQualityWarning,
-                stacklevel=2,
-            )
-    area = grid.resolution**2
-    totals = {"reflected": float(reflected.sum() * area), "uplight": float(uplight.sum() * area)}
+    if output is not None:
+        OutputSet(output, inputs=inputs)  # checked before reading
     albedo_text = (
         str(albedo)
         if isinstance(albedo, (int, float, str, os.PathLike))
@@ -488,162 +437,85 @@ def emission(
         "source": label,
         "albedo": albedo_text,
         "resolution_m": resolution,
-        "total_reflected_lm": totals["reflected"],
-        "total_uplight_lm": totals["uplight"],
     }
-    result = Raster(
-        as_written(np.stack([reflected, uplight])),
-        grid.transform,
-        raster_crs,
-        descriptions=("reflected", "uplight"),
-        units=("lm m-2", "lm m-2"),
-        tags={key: str(value) for key, value in tags.items()},
-        band_tags=(
-            {
-                "quantity": "upward luminous flux density",
-                "model": "Lambertian, albedo x E",
-                EMISSION_FUNCTION_TAG: "lambertian",
-            },
-            {
-                "quantity": "upward luminous flux density",
-                "model": "direct luminaire uplight",
-                EMISSION_FUNCTION_TAG: "uplight",
-            },
-        ),
+
+    def totals_tags(totals: Mapping[str, float]) -> dict[str, Any]:
+        return {
+            **tags,
+            "total_reflected_lm": totals["reflected"],
+            "total_uplight_lm": totals["uplight"],
+        }
+
+    band_tags = (
+        {
+            "quantity": "upward luminous flux density",
+            "model": "Lambertian, albedo x E",
+            EMISSION_FUNCTION_TAG: "lambertian",
+        },
+        {
+            "quantity": "upward luminous flux density",
+            "model": "direct luminaire uplight",
+            EMISSION_FUNCTION_TAG: "uplight",
+        },
     )
+    streamed = output is not None and isinstance(irradiance, (str, os.PathLike))
+    with ExitStack() as stack:
+        source, copied = open_irradiance(irradiance, label, stack)
+        grid, factor = output_grid(source, label, resolution)
+        side = _emission_run.WINDOW_CELLS
+        run = EmissionRun(
+            label,
+            source,
+            factor,
+            grid,
+            Albedo.open(albedo, OutputGrid(source.transform, *source.shape, source.crs), stack),
+            side,
+            progress=progress,
+        )
+        check_emission_memory(run, in_memory=not streamed, copied_bands=copied)
+        if lights is not None:
+            run.uplight = _uplight(
+                lights, grid, side, assume_crs, database or load_database(catalog), skip_unknown
+            )
+        if streamed:
+            assert output is not None
+            totals = run.streamed(Path(output), totals_tags, band_tags)
+            return EmissionResult(
+                Path(output), totals, grid.transform, (grid.rows, grid.cols), grid.crs
+            )
+        result, totals = run.in_memory(totals_tags, band_tags)
+    outputs = None if output is None else OutputSet(output, inputs=inputs)
     return EmissionResult.of(result, _write(result, output, outputs), totals)
 
 
-def _photopic_band(
-    descriptions: Sequence[str], band_tags: Sequence[Mapping[str, str]], label: str
-) -> int:
-    for index, (description, tags) in enumerate(zip(descriptions, band_tags, strict=True)):
-        if tags.get("sensor") == "photopic" or description == "photopic":
-            return index
-    raise InputError(
-        f"{label}: no photopic band (band descriptions {list(descriptions)}); "
-        "run irradiance with 'photopic' among sensors="
+def _uplight(
+    lights: gpd.GeoDataFrame | str | os.PathLike[str],
+    grid: OutputGrid,
+    side: int,
+    assume_crs: CRS | None,
+    database: DatabaseLike,
+    skip_unknown: bool,
+) -> Uplight:
+    """The uplight of the lights standing on the grid; a warning for those outside it."""
+    frame, lights_label = as_vector(lights, name="lights")
+    if frame.empty:
+        raise EmptyInputError(f"{lights_label}: the light layer holds no lights")
+    frame = ensure_projected(frame, source=lights_label, assume_crs=assume_crs)
+    frame = frame.to_crs(grid.crs)
+    luminaires = resolve_luminaires(frame, database, source=lights_label, skip_unknown=skip_unknown)
+    flux = luminaires.upward_flux()
+    coarse = RasterGrid.from_transform(grid.transform, (grid.rows, grid.cols))
+    row, col, inside = cell_index(
+        luminaires.light_point[:, 0], luminaires.light_point[:, 1], coarse
     )
-
-
-def _check_grid(
-    transform: Affine, crs: CRS | None, label: str, resolution: float
-) -> tuple[Affine, CRS, int]:
-    """The irradiance grid's transform, CRS and the fine pixels per coarse cell, checked."""
-    if crs is None:
-        raise CRSError(f"{label}: the irradiance raster has no CRS")
-    if transform.b != 0 or transform.d != 0 or not math.isclose(transform.a, -transform.e):
-        raise InputError(f"{label}: expected a north-up grid with square pixels, got {transform}")
-    fine = transform.a
-    factor = round(resolution / fine)
-    if factor < 1 or not math.isclose(factor * fine, resolution, rel_tol=1e-6):
-        raise InputError(
-            f"resolution={resolution} m is not an integer multiple of the irradiance pixel "
-            f"size {fine} m; expected e.g. {max(1, factor) * fine} m"
+    if (~inside).any():
+        warnings.warn(
+            f"{lights_label}: {(~inside).sum()} lights ({flux[~inside].sum():.4g} lm of "
+            "uplight) stand outside the emission grid; left out",
+            DataQualityWarning,
+            stacklevel=3,
         )
-    return transform, crs, factor
-
-
-def _reflected_from_file(
-    path: str | os.PathLike[str], label: str, albedo: float, resolution: float
-) -> tuple[FloatArray, Affine, CRS]:
-    """:func:`_reflected` of a raster file's photopic band, read in strips of whole cells.
-
-    Memory holds one strip of :data:`STRIP_PIXELS` pixels (as :func:`_reflected` does) and
-    the coarse grid; the checks of :func:`check_finite_raster` are made over all strips and
-    give the same messages.
-    """
-    import rasterio
-    from rasterio.windows import Window
-
-    source = Path(path)
-    if not source.exists():
-        raise InputError(f"{source}: no such file")
-    try:
-        # GDAL's blocks of the file bounded as the writer's (emission_memory counts them)
-        with rasterio.Env(GDAL_CACHEMAX=CACHE_MB), rasterio.open(source) as dataset:
-            crs = None if dataset.crs is None else CRS.from_user_input(dataset.crs.to_wkt())
-            transform, crs, factor = _check_grid(dataset.transform, crs, label, resolution)
-            descriptions = tuple(d or "" for d in dataset.descriptions)
-            tags = tuple(dataset.tags(i) for i in range(1, dataset.count + 1))
-            band = _photopic_band(descriptions, tags, label) + 1
-            rows, cols = dataset.height, dataset.width
-            step = factor * max(1, STRIP_PIXELS // max(1, factor * cols))
-            strips, infinite, negative, lowest, finite = [], 0, 0, math.inf, False
-            for start in range(0, rows, step):
-                window = Window(0, start, cols, min(step, rows - start))
-                values = dataset.read(band, window=window, masked=True)
-                illuminance = values.astype(np.float64).filled(np.nan)
-                infinite += int(np.isinf(illuminance).sum())
-                finite = finite or bool(np.isfinite(illuminance).any())
-                with np.errstate(invalid="ignore"):
-                    below = illuminance < 0
-                if below.any():
-                    negative += int(below.sum())
-                    lowest = min(lowest, float(np.nanmin(illuminance)))
-                strips.append(block_aggregate(albedo * illuminance, factor))
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"{source}: cannot read raster: {exc}") from exc
-    if infinite:
-        raise InputError(
-            f"{label}: {infinite} pixels hold an infinite illuminance; expected finite values "
-            "[lx] (NaN for nodata)"
-        )
-    if not finite:
-        raise InputError(f"{label}: every pixel is nodata; expected illuminance values [lx]")
-    if negative:
-        raise InputError(
-            f"{label}: {negative} pixels hold a negative illuminance (min {lowest:.3g} lx); "
-            "expected values >= 0"
-        )
-    return np.concatenate(strips, axis=0), transform, crs
-
-
-def _reflected(illuminance: FloatArray, albedo: float | FloatArray, factor: int) -> FloatArray:
-    """albedo x E summed into cells of ``factor`` x ``factor`` pixels, in strips of rows.
-
-    Strips of whole cells hold the temporaries to :data:`STRIP_PIXELS` pixels; each cell's
-    sum is the one :func:`block_aggregate` of the whole raster makes.
-    """
-    rows, cols = illuminance.shape
-    step = factor * max(1, STRIP_PIXELS // max(1, factor * cols))
-    strips = [
-        block_aggregate(
-            (albedo if isinstance(albedo, float) else albedo[start : start + step])
-            * illuminance[start : start + step],
-            factor,
-        )
-        for start in range(0, rows, step)
-    ]
-    return np.concatenate(strips, axis=0) if strips else np.zeros((0, math.ceil(cols / factor)))
-
-
-def _albedo(
-    albedo: float | Raster | xr.DataArray | str | os.PathLike[str],
-    shape: tuple[int, int],
-    transform: Affine,
-    crs: CRS,
-) -> float | FloatArray:
-    """A number as a float, a raster on the irradiance grid; both checked to lie in [0, 1]."""
-    if isinstance(albedo, (int, float)):
-        value = float(albedo)
-        if not 0.0 <= value <= 1.0:
-            raise InputError(f"albedo={albedo!r}; expected a reflectance in [0, 1]")
-        return value
-    grid = raster_on_grid(
-        albedo,
-        transform=transform,
-        shape=shape,
-        crs=crs,
-        name="albedo raster",
-        require_crs=True,
-    )
-    if not (np.isfinite(grid).all() and grid.min() >= 0 and grid.max() <= 1):
-        raise InputError(
-            f"{source_label(albedo, 'albedo raster')}: albedo values span "
-            f"{np.min(grid):.3g}..{np.max(grid):.3g}; expected [0, 1]"
-        )
-    return grid
+    return Uplight(row[inside], col[inside], flux[inside], grid, side)
 
 
 def emission_from_viirs(

@@ -30,7 +30,7 @@ from nightlights.io.raster import Raster, as_raster, source_label
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["raster_on_grid", "sample_raster"]
+__all__ = ["raster_on_grid", "sample_raster", "uncovered_error"]
 
 
 def raster_on_grid(
@@ -108,15 +108,32 @@ def raster_on_grid(
     )
     missing = int(np.isnan(target).sum())
     if missing:
-        rows, cols = shape
-        xs = (transform.c, transform.c + transform.a * cols)
-        ys = (transform.f, transform.f + transform.e * rows)
-        bounds = (min(xs), min(ys), max(xs), max(ys))
-        raise InputError(
-            f"{label}: the {name} leaves {missing} of {rows * cols} pixels of the grid "
-            f"{bounds} without a value; expected it to cover the whole grid"
-        )
+        raise uncovered_error(label, name, missing, transform, shape)
     return target
+
+
+def uncovered_error(
+    label: str, name: str, missing: int, transform: Affine, shape: tuple[int, int]
+) -> InputError:
+    """The error of a raster that leaves ``missing`` pixels of a grid without a value.
+
+    Parameters
+    ----------
+    label, name
+        The raster's label and what it is (``albedo raster``), for the message.
+    missing
+        Pixels of the grid without a value [1].
+    transform, shape
+        The grid's transform and (rows, cols) [pixels].
+    """
+    rows, cols = shape
+    xs = (transform.c, transform.c + transform.a * cols)
+    ys = (transform.f, transform.f + transform.e * rows)
+    bounds = (min(xs), min(ys), max(xs), max(ys))
+    return InputError(
+        f"{label}: the {name} leaves {missing} of {rows * cols} pixels of the grid "
+        f"{bounds} without a value; expected it to cover the whole grid"
+    )
 
 
 def sample_raster(

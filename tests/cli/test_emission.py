@@ -183,7 +183,7 @@ def test_a_wide_geographic_mosaic_keeps_its_grid(
     with caplog.at_level("WARNING"):
         result = CliRunner().invoke(cli, ["emission", "viirs", str(source), str(out)])
     assert result.exit_code == 0, result.output
-    assert "geographic grid, WGS 84" in " ".join(result.output.split())  # rich wraps long paths
+    assert "geographic grid, WGS 84" in " ".join(result.output.split())  # wrapped at any width
     assert not [r for r in caplog.records if "DataQualityWarning" in r.getMessage()]
     with rasterio.open(out) as dataset:
         assert dataset.crs.to_epsg() == 4326 and dataset.shape == (20, 140)

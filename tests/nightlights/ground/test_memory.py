@@ -27,14 +27,14 @@ from shapely.geometry import Point
 import nightlights as nl
 import nightlights._resources as resources
 import nightlights.ground.stage as stage
-import nightlights.ground.upward as upward
 import nightlights.ground._viirs_run as viirs_run
+import nightlights.ground._emission_run as emission_run
 
 estimates = []
 def spy(estimate, what, *, option=None):
     estimates.append(estimate)
     resources.check_memory(estimate, what, option=option)
-stage.check_memory = upward.check_memory = viirs_run.check_memory = spy
+stage.check_memory = emission_run.check_memory = viirs_run.check_memory = spy
 
 def status():
     with open("/proc/self/status") as f:
