@@ -22,7 +22,7 @@ The smallest size of each stage is a first call on a tiny input: its peak is wha
 libraries' first calls cost (the compiled kernels loaded from numba's cache and their
 threads, GDAL's drivers, the kernel file read), which the stages' estimates add as a measured
 fixed part (``IRRADIANCE_FIXED_BYTES`` and ``LOCAL_TILES_FIXED_BYTES``,
-``EMISSION_FIXED_BYTES``, ``KERNEL_FIXED_BYTES``, ``MAP_FIXED_MEMORY``, the inverse's
+``KERNEL_FIXED_BYTES``, ``MAP_FIXED_MEMORY``, the inverse's
 ``FIXED_BYTES``).
 
 Stages and sizes (cells of the output raster):

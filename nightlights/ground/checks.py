@@ -51,9 +51,30 @@ IRRADIANCE_BYTES_PER_PIXEL = 24
 #: Bytes per output pixel for a DEM: elevation on the grid, its gradients and the
 #: (rows, cols, 3) unit normals [B].
 DEM_BYTES_PER_PIXEL = 112
-#: Bytes per pixel of a tile in flight and per band: the float64 accumulator, one
-#: ``bincount`` result and the float32 tile returned [B].
+#: Bytes per pixel of a tile in flight and per band for the numpy kernel: the float64
+#: accumulator, one ``bincount`` result and the float32 tile returned [B].
 TILE_BYTES_PER_PIXEL = 24
+#: Bytes per pixel of a tile in flight and per band for the compiled kernel: the float64
+#: accumulator and the float32 tile returned [B].
+COMPILED_TILE_BYTES_PER_PIXEL = 12
+#: Memory of ``irradiance``'s first calls besides its arrays [B]: the luminaire database and
+#: photometric frames, GDAL's drivers; 35 MiB measured (``VmHWM`` over the imports, up to the
+#: first tile) on the 10 lights of a 100 m square (``bench_memory_estimates.py``).
+IRRADIANCE_FIXED_BYTES = 35 * 2**20
+#: Memory of the first tiles computed in this process besides their arrays [B]: the compiled
+#: kernel's code loaded from numba's cache and the worker threads' stacks and heaps; 112 MiB
+#: measured (``VmHWM`` over the first tile's start) on the 10 lights of a 100 m square
+#: (``bench_memory_estimates.py``).
+LOCAL_TILES_FIXED_BYTES = 112 * 2**20
+#: Bytes per pixel and band while a streamed raster is made a COG (its scratch file's blocks,
+#: the COG's and its overviews' in GDAL's cache, up to :data:`nightlights.io.streamed.CACHE_MB`,
+#: and the compression's buffers); 23 B measured (``VmHWM`` of the copy over the tiles')
+#: on a 1275 x 1275 grid (``bench_memory_estimates.py``) [B].
+COG_BYTES_PER_PIXEL = 24
+#: Bytes per value of the style's sample (float32 read, float64 copy, finite and positive
+#: values, the quantiles' copy; :data:`nightlights.io.styles.SAMPLE_LIMIT` values at most):
+#: 16 B measured as above [B].
+STYLE_BYTES_PER_SAMPLE = 16
 #: Bytes per light-pixel pair of one numpy batch of the kernel (about 30 float64 and int64
 #: arrays; 230 B measured with tracemalloc on a tile of the Helsinki example) [B].
 BYTES_PER_PAIR = 240
@@ -256,7 +277,8 @@ def irradiance_memory(
     bands
         Output bands [1].
     tile_size
-        Tile edge [pixels].
+        Tile edge [pixels] (the compiled kernel's balanced edge,
+        :func:`~nightlights.ground.tiles.balanced_tile_size`).
     workers
         Tiles computed at once [1].
     pairs
@@ -270,36 +292,44 @@ def irradiance_memory(
         tile in flight, the compiled kernel none.
     streamed
         Whether the tiles go to a file as they are computed: the raster is then never
-        held, and GDAL's block cache (:data:`nightlights.io.streamed.CACHE_MB`, held while
-        the file is written and made into a COG) takes its place.
+        held; the COG made from the file (:data:`COG_BYTES_PER_PIXEL`, up to GDAL's block
+        cache, :data:`nightlights.io.streamed.CACHE_MB`) and its style's sample take its
+        place.
 
     Returns
     -------
     float
-        Output raster (or the writer's cache), DEM grids, tiles in flight (tile pixels x
+        The first calls' memory (:data:`IRRADIANCE_FIXED_BYTES`, and
+        :data:`LOCAL_TILES_FIXED_BYTES` for tiles in this process), the output raster (or
+        the COG's copy and the style's sample), DEM grids, tiles in flight (tile pixels x
         bands x working arrays, plus one batch of light-pixel pairs each for the numpy
-        kernel) and the task graph [B].
+        kernel) and the task graph [B]. Measured against this estimate on 10 to 16,000
+        lights over 0.1 to 18 million pixels (``bench_memory_estimates.py``): within 1.1x
+        of the peak.
 
     Examples
     --------
     >>> round(irradiance_memory(1000, 1000, 1, tile_size=256, workers=4, pairs=1e6) / 2**20)
-    35
+    173
     >>> round(
     ...     irradiance_memory(
     ...         1000, 1000, 1, tile_size=256, workers=4, pairs=1e6, backend="numpy"
     ...     )
     ...     / 2**20
     ... )
-    951
+    1098
     """
     from nightlights.ground.illuminance import PAIRS_PER_BATCH
     from nightlights.io.streamed import CACHE_MB
+    from nightlights.io.styles import SAMPLE_LIMIT
 
     pixels = float(rows) * float(cols)
+    total = float(IRRADIANCE_FIXED_BYTES)
     if streamed:
-        total = min(pixels * bands * IRRADIANCE_BYTES_PER_PIXEL, CACHE_MB * 2.0**20)
+        total += min(pixels * bands * COG_BYTES_PER_PIXEL, CACHE_MB * 2.0**20)
+        total += min(pixels, SAMPLE_LIMIT) * bands * STYLE_BYTES_PER_SAMPLE
     else:
-        total = pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
+        total += pixels * bands * IRRADIANCE_BYTES_PER_PIXEL
     if dem:
         total += pixels * DEM_BYTES_PER_PIXEL
     tile_rows, tile_cols = min(tile_size, rows), min(tile_size, cols)
@@ -308,10 +338,13 @@ def irradiance_memory(
     if local:
         in_flight = min(workers, n_tiles)
         tile_pixels = float(tile_rows) * float(tile_cols)
-        batch = min(PAIRS_PER_BATCH + tile_cols, pairs)
-        total += in_flight * (tile_pixels * (bands + 1) * TILE_BYTES_PER_PIXEL)
+        total += LOCAL_TILES_FIXED_BYTES
         if backend == "numpy":
+            batch = min(PAIRS_PER_BATCH + tile_cols, pairs)
+            total += in_flight * (tile_pixels * (bands + 1) * TILE_BYTES_PER_PIXEL)
             total += in_flight * batch * BYTES_PER_PAIR
+        else:
+            total += in_flight * tile_pixels * bands * COMPILED_TILE_BYTES_PER_PIXEL
     return total
 
 
