@@ -44,7 +44,8 @@ def high_water():
 
 source, out, cache, chunk, scheduler = sys.argv[1:6]
 chunk = None if chunk == "default" else int(chunk)
-from nightlights.sky import darkness as stage
+import importlib
+stage = importlib.import_module("nightlights.sky.darkness")  # the module, not the function
 estimates = []
 original = stage.check_memory
 def record(estimate, what, **kw):

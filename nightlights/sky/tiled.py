@@ -73,7 +73,6 @@ from nightlights.io.streamed import CACHE_MB
 from nightlights.sky._tile_run import ProgressHook, TiledGrid
 from nightlights.sky._tiles import (
     AUTHALIC_RADIUS,
-    SUBPOINT_BATCH,
     Emission,
     content_token,
     file_identity,
@@ -173,17 +172,16 @@ def tile_memory(
     (8 B per cell), one of them being finished in this process (:data:`FINISH_BYTES_PER_CELL`
     and its luminance) while the other threads compute theirs. On a local grid the phases
     follow each other: reading and depositing (the window's float32 read, float64 copy and
-    flux, 28 B per cell and band, the local planes, one batch of sub-points at 64 B each) and
-    then the FFT (the local planes and the source planes, 8 B per cell each, and on the FFT
-    grid the spectra held at once, 8 B per cell each: the fewer of the source planes and the
-    observer levels, and three working ones). On the emission's own cells the padded window
-    is read (its float32 read, float64 copy and flux, 20 B per cell and band) and is the
-    FFT's input: its flux and source planes (8 B per cell each) are held through the FFT.
-    Largest over the tiles nearest the equator and the poles (a geographic window widens
-    with latitude). Measured (VmHWM) against this estimate: within 1.5x of the peak of local
-    threads on 15 arcsec rasters with the 300 km kernel (``bench_darkness_tiles.py``, with the
-    earlier count of finished tiles) and 1.01x on a projected one with a 30 km kernel
-    (``bench_memory_estimates.py``).
+    flux, 28 B per cell and band, the local planes, the lit cells' indices and fluxes), then
+    the FFT (the local planes and the source planes, 8 B per cell each, and on the FFT grid the
+    spectra held at once, 8 B per cell each: the fewer of the source planes and the observer
+    levels, and three working ones), then the near field on the tile's own cells. On the
+    emission's own cells the padded window is read (its float32 read, float64 copy and flux,
+    20 B per cell and band) and is the FFT's input: its flux and source planes (8 B per cell
+    each) are held through the FFT. Largest over the tiles nearest the equator and the poles
+    (a geographic window widens with latitude). Measured (VmHWM) against this estimate:
+    ``bench_darkness_tiles.py`` (15 arcsec rasters, the 300 km kernel, local threads and
+    worker processes) and ``bench_memory_estimates.py`` (a projected raster, a 30 km kernel).
 
     Parameters
     ----------
@@ -223,7 +221,11 @@ def tile_memory(
         if grid.local:
             read = window_cells * (28.0 * bands + 1.0) + 8.0 * bands * rows * cols
             transform = spectra + 8.0 * rows * cols * (bands + planes)
-            per_tile = max(read + 64.0 * SUBPOINT_BATCH, transform)
+            # the lit cells' rows, columns (int64) and fluxes, every cell lit at worst
+            lit = window_cells * (16.0 + 8.0 * bands)
+            # the near field after it: the tile's own cells and a few more, read as above
+            near = 1.1 * tile_cells * 28.0 * bands
+            per_tile = max(read + lit, transform, near)
         else:
             read = window_cells * 20.0 * bands
             per_tile = max(read, spectra + window_cells * 8.0 * (bands + planes))
