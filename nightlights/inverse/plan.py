@@ -105,8 +105,9 @@ def inverse_reduce(
     output
         Dimmed emission (COG), written atomically; None writes nothing.
     by
-        A Q or S raster of :func:`inverse_q` / :func:`inverse_s` on the emission's grid; its
-        tags name the observer (and region) for the before/after figures and the scene.
+        A Q or S raster of :func:`inverse_q` / :func:`inverse_s` on the emission's grid (or
+        the window of it that the kernel reached, NaN around it); its tags name the observer
+        (and region) for the before/after figures and the scene.
     qa, qb
         Q_a < Q_b: influence below which nothing is dimmed and above which gamma_usr is
         [cd m-2, the unit of ``by``].
@@ -155,9 +156,10 @@ def inverse_reduce(
     raster = as_raster(emission)
     label = source_label(by, "influence raster")
     influence = as_raster(by)
-    _same_grid(raster, influence, label)
+    # NaN at a lit cell: beyond the kernel's reach (outside the window it reached), no part
+    values = np.nan_to_num(_on_grid(raster, influence, label), nan=0.0)
     lit = _lit(raster.data)
-    fraction = np.where(lit, dimming_fraction(influence.data[0], qa, qb, gamma), 0.0)
+    fraction = np.where(lit, dimming_fraction(values, qa, qb, gamma), 0.0)
     tags = influence.tags
     observer = _tag_observer(tags, label)
     region = tags.get("region")
@@ -372,6 +374,30 @@ def _same_grid(raster: Raster, other: Raster, label: str) -> None:
             f"{label}: grid {other.shape} at {tuple(other.transform)[:6]} differs from the "
             f"emission's {raster.shape} at {tuple(raster.transform)[:6]}; expected the same grid"
         )
+
+
+def _on_grid(raster: Raster, influence: Raster, label: str) -> FloatArray:
+    """The influence's first band on the emission grid: itself, or the window the kernel
+    reached (:attr:`InfluenceResult.window`) set into a grid of NaN."""
+    t, o = raster.transform, influence.transform
+    col, row = ~t @ (o.c, o.f)
+    whole = influence.shape == raster.shape and o.almost_equals(t)
+    aligned = (
+        not whole
+        and (o.a, o.b, o.d, o.e) == (t.a, t.b, t.d, t.e)
+        and abs(col - round(col)) < 1e-6
+        and abs(row - round(row)) < 1e-6
+    )
+    if not aligned:
+        _same_grid(raster, influence, label)
+        return influence.data[0]
+    row0, col0 = round(row), round(col)
+    rows, cols = influence.shape
+    if row0 < 0 or col0 < 0 or row0 + rows > raster.shape[0] or col0 + cols > raster.shape[1]:
+        _same_grid(raster, influence, label)  # not a window of the grid: refused
+    values = np.full(raster.shape, np.nan)
+    values[row0 : row0 + rows, col0 : col0 + cols] = influence.data[0]
+    return values
 
 
 def _tag_observer(tags: dict[str, str] | Any, label: str) -> Observer:

@@ -1,8 +1,15 @@
 """File stages of the inverse maps: ``inverse_q`` and ``inverse_s``.
 
-Each computes in memory on the emission raster's grid and writes its raster (COG, NaN where
-unlit) only when given a path: the output location is checked before the computation and the
-file is written atomically.
+Each computes on the emission raster's grid and writes its raster (COG, NaN where unlit) only
+when given a path: the output location is checked before the computation and the file is
+written atomically.
+
+Only cells within the kernel's reach (its last distance edge, at most 300 km) add to one
+observer's sky. On a grid larger than that reach, only the window of cells within it along
+both axes (:func:`~nightlights.sky.setup.reach_window`) is read and computed, with the same
+result there as on the whole grid; the map in memory is that window, and the file is written
+on the whole grid window by window (:class:`~nightlights.io.streamed.CogWriter`, NaN outside
+the window), so that memory grows with the kernel's reach, not with the raster.
 
 - :func:`inverse_q`: each lit cell's light-pollution level for an observer, Q_i (Dobashi et al.
   2023, Eqs. 10-11), or its part of the zenith or hemisphere-mean sky luminance.
@@ -20,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from affine import Affine
 
 from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
@@ -29,6 +37,7 @@ from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.io.outputs import Inputs, OutputSet
 from nightlights.io.raster import LitCells
+from nightlights.io.streamed import CACHE_MB, CogWriter
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.influence import (
@@ -45,7 +54,15 @@ from nightlights.sky.observer import Observer
 from nightlights.sky.panorama import panorama_pca
 from nightlights.sky.polar import PolarCells, PolarMap, lit_mask
 from nightlights.sky.scene import Scene
-from nightlights.sky.setup import SceneSetup, prepare_scene
+from nightlights.sky.setup import (
+    ReachWindow,
+    SceneSetup,
+    check_projected,
+    prepare_scene,
+    reach_hint,
+    reach_window,
+)
+from nightlights.sky.spec import MAX_KERNEL_RANGE
 from nightlights.sky.store import KernelResult
 
 __all__ = ["InfluenceResult", "inverse_q", "inverse_s"]
@@ -55,8 +72,14 @@ KernelInput = KernelResult | xr.Dataset | PathLike | None
 #: S methods: PCA with FFT cross-correlation, or each cell's raw kernel image (reference).
 S_METHODS = ("pca", "brute")
 #: Bytes per cell of an influence map written: the float64 map, its float32 copy, the
-#: in-memory GeoTIFF and GDAL's blocks of it [B].
+#: in-memory GeoTIFF and GDAL's blocks of it [B]. A window of a larger grid
+#: (:func:`~nightlights.sky.setup.reach_window`) counts its own cells only.
 BYTES_PER_CELL = 20.0
+#: Memory of writing a window of a larger grid besides its cells: the streaming writer's
+#: GDAL block cache (:data:`~nightlights.io.streamed.CACHE_MB`) [B].
+STREAM_BYTES = CACHE_MB * 2**20
+#: Rows of a window written to the whole grid's COG at a time (a float32 copy of them) [1].
+STREAM_ROWS = 512
 #: Memory of an influence map's first calls besides its arrays [B]: the kernel file read
 #: (h5py, netCDF), GDAL opening the emission and the COG driver; 40 MiB measured (``VmHWM``
 #: over the imports) on a 64 x 64 emission with the 30 km kernel of
@@ -90,6 +113,11 @@ class InfluenceResult:
         Time of the per-cell computation after the scene and kernel were ready [s].
     path
         The raster written, or None.
+    window
+        Where :attr:`raster` sits on the emission grid when it is only the window the
+        kernel reaches (:class:`~nightlights.sky.setup.ReachWindow`: its first row and
+        column, the whole grid's shape and transform); None: :attr:`raster` is the whole grid.
+        The file written is always on the whole grid.
     """
 
     raster: Raster
@@ -98,6 +126,7 @@ class InfluenceResult:
     panorama_value: float
     seconds: float
     path: Path | None = None
+    window: ReachWindow | None = None
 
 
 @flat_keywords(legacy=("output",), observer="one")
@@ -119,10 +148,12 @@ def inverse_q(
         kernel (:class:`~nightlights.sky.scene.Scene`).
     observer
         Who looks (:class:`~nightlights.sky.observer.Observer`), inside the raster or within
-        the kernel's range of it.
+        the kernel's range of it. On a grid larger than the kernel's reach only the window of
+        cells within it is read (:class:`InfluenceResult` ``window``).
     output
-        Q raster (COG), written atomically; None writes nothing. Its tags record the observer
-        and the scene (turbidity, grid, kernel), which the dimming rule reads back.
+        Q raster (COG) on the emission's grid, written atomically; None writes nothing. Its
+        tags record the observer and the scene (turbidity, grid, kernel), which the dimming
+        rule reads back.
     metric
         ``pca-norm``: Q_i = flux_i sqrt(sum_k c_k^2) (Eqs. 10-11), the L2 norm of the cell's
         sky image over the panorama's pixels; ``zenith``: the cell's part of the zenith
@@ -155,8 +186,9 @@ def inverse_q(
     if metric not in METRICS:
         raise InputError(f"metric {metric!r}; expected one of {', '.join(METRICS)}")
     _check_outputs(output, inputs=scene.inputs)
-    _check_grid(_emission_shape(scene), metric)  # before the kernel and the emission are read
-    setup = prepare_scene(scene, observer, progress=progress)
+    window = _reach(scene, observer)
+    _check_grid(_map_shape(scene, window), metric, streamed=window is not None)
+    setup = prepare_scene(scene, observer, progress=progress, window=window)
     start = time.perf_counter()
     cells = setup.polar_cells()
     levels = setup.level_weights(cells)
@@ -199,7 +231,7 @@ def inverse_s(
     scene, observer
         As :func:`inverse_q`.
     output
-        S raster (COG), written atomically; None writes nothing.
+        S raster (COG) on the emission's grid, written atomically; None writes nothing.
     region
         Region of the sky (:class:`~nightlights.inverse.SkyRegion` or its text:
         ``"az,el az,el ..."`` closed, ``zenith:R``, ``horizon:AZ1,AZ2,EL``, or a GeoJSON/WKT
@@ -241,8 +273,9 @@ def inverse_s(
         raise InputError(f"method {method!r}; expected one of {', '.join(S_METHODS)}")
     sky_region = SkyRegion.parse(region)
     _check_outputs(output, inputs=scene.inputs)
-    _check_grid(_emission_shape(scene), "region")  # before the kernel and the emission are read
-    setup = prepare_scene(scene, observer, progress=progress)
+    window = _reach(scene, observer)
+    _check_grid(_map_shape(scene, window), "region", streamed=window is not None)
+    setup = prepare_scene(scene, observer, progress=progress, window=window)
     weights = _region_weights(setup, sky_region, weight)
     start = time.perf_counter()
     cells = setup.polar_cells()
@@ -320,9 +353,11 @@ def _influence_result(
         + values.nbytes
         + sum(value.nbytes for value in vars(cells).values() if isinstance(value, np.ndarray))
     )
-    _check_grid(setup.shape, metric, held)
-    grid = np.full(setup.shape, np.nan)
-    grid[cells.rows, cells.cols] = values
+    window = setup.window
+    row, col, rows, cols = (0, 0, *setup.shape) if window is None else window.bounds
+    _check_grid((rows, cols), metric, held, streamed=window is not None)
+    grid = np.full((rows, cols), np.nan)
+    grid[cells.rows - row, cells.cols - col] = values
     name, meaning = _BAND[metric]
     tags = {
         PRODUCT_TAG: "influence_s" if metric == "region" else "influence_q",
@@ -347,32 +382,107 @@ def _influence_result(
     }
     raster = Raster(
         grid[None],
-        setup.transform,
+        setup.transform if window is None else window.transform,
         setup.crs,
         (name,),
         ("cd m-2",),
         tags,
         ({"long_name": meaning},),
     )
-    return InfluenceResult(raster, metric, float(values.sum()), panorama_value, seconds)
+    return InfluenceResult(
+        raster, metric, float(values.sum()), panorama_value, seconds, window=window
+    )
 
 
-def _check_grid(shape: tuple[int, int] | None, metric: str, held: float = 0.0) -> None:
-    """Refuse a map whose grid would pass the memory limit: the first calls
-    (:data:`FIXED_BYTES`), the arrays ``held`` when the map is made [B] and the raster on the
-    emission grid written (:data:`BYTES_PER_CELL`)."""
+def influence_memory(shape: tuple[int, int], held: float = 0.0, *, streamed: bool) -> float:
+    """Estimated memory of an influence map [B].
+
+    The first calls (:data:`FIXED_BYTES`), the arrays ``held`` when the map is made, the map's
+    cells (:data:`BYTES_PER_CELL`) and, for a window written into a larger grid's COG, the
+    writer's cache (:data:`STREAM_BYTES`).
+
+    Parameters
+    ----------
+    shape
+        (rows, cols) of the map held: the emission grid, or the window the kernel reaches
+        [cells].
+    held
+        Arrays held besides it [B].
+    streamed
+        Whether the map is a window written into a larger grid.
+
+    Returns
+    -------
+    float
+        Bytes.
+
+    Examples
+    --------
+    >>> influence_memory((1000, 1000), streamed=False) / 2**20  # [MiB]
+    59.073486328125
+    """
+    rows, cols = shape
+    return FIXED_BYTES + held + BYTES_PER_CELL * rows * cols + (STREAM_BYTES if streamed else 0)
+
+
+def _check_grid(
+    shape: tuple[int, int] | None, metric: str, held: float = 0.0, *, streamed: bool = False
+) -> None:
+    """Refuse a map that would pass the memory limit (:func:`influence_memory`)."""
     if shape is None:
         return  # the reader reports what is wrong with the emission
     rows, cols = shape
     check_memory(
-        FIXED_BYTES + held + BYTES_PER_CELL * rows * cols,
+        influence_memory(shape, held, streamed=streamed),
         f"the {metric} raster of {rows} x {cols} cells",
         option="crop the emission raster to the lit region",
     )
 
 
-def _emission_shape(scene: Scene) -> tuple[int, int] | None:
-    """The emission grid's (rows, cols) from its header, before anything is read."""
+def _reach(scene: Scene, observer: Observer) -> ReachWindow | None:
+    """The window of the emission grid that the kernel reaches from the observer, read from
+    the headers (emission, kernel) before the cells are read; None where it is the whole grid
+    (or the header cannot be read: the reader reports why)."""
+    emission = scene.emission
+    if isinstance(emission, LitCells):
+        transform, shape, crs = emission.transform, emission.shape, emission.crs
+    else:
+        header = raster_header(emission)
+        if header is None:
+            return None
+        transform, shape, crs = header.transform, (header.rows, header.cols), header.crs
+    check_projected(crs, scene.label)
+    if transform.b != 0 or transform.d != 0:
+        return None  # a rotated grid: refused by the polar binning
+    xy = observer.position(crs)
+    table = scene.kernel_dataset()
+    reach = MAX_KERNEL_RANGE if table is None else float(table["distance_edges"].values[-1])
+    window = reach_window(transform, shape, xy, reach)
+    if window.rows == 0 or window.cols == 0:
+        left, bottom, right, top = _grid_bounds(transform, shape)
+        gap = math.hypot(
+            max(left - xy[0], 0.0, xy[0] - right), max(bottom - xy[1], 0.0, xy[1] - top)
+        )
+        raise InputError(
+            f"observer ({xy[0]:.1f}, {xy[1]:.1f}) lies {gap / 1000:.4g} km outside "
+            f"{scene.label} ({left:.1f}, {bottom:.1f}, {right:.1f}, {top:.1f}), beyond the "
+            f"kernel's range ({reach / 1000:.4g} km): no cell can light its sky"
+            + reach_hint(xy, (observer.x, observer.y), observer.crs)
+        )
+    return None if window.whole else window
+
+
+def _grid_bounds(transform: Affine, shape: tuple[int, int]) -> tuple[float, float, float, float]:
+    """(left, bottom, right, top) of a north-up grid's pixel edges [m]."""
+    x0, y0 = transform @ (0, 0)
+    x1, y1 = transform @ (shape[1], shape[0])
+    return (min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1))
+
+
+def _map_shape(scene: Scene, window: ReachWindow | None) -> tuple[int, int] | None:
+    """The (rows, cols) of the map held: the window, or the emission grid from its header."""
+    if window is not None:
+        return (window.rows, window.cols)
     if isinstance(scene.emission, LitCells):
         return scene.emission.shape
     header = raster_header(scene.emission)
@@ -382,10 +492,40 @@ def _emission_shape(scene: Scene) -> tuple[int, int] | None:
 def _written(result: InfluenceResult, output: PathLike | None) -> InfluenceResult:
     if output is None:
         return result
-    path = result.raster.write(output)
+    window = result.window
+    if window is None:
+        path = result.raster.write(output)
+    else:
+        path = _stream(result.raster, window, output)
     return InfluenceResult(
-        result.raster, result.metric, result.total, result.panorama_value, result.seconds, path
+        result.raster,
+        result.metric,
+        result.total,
+        result.panorama_value,
+        result.seconds,
+        path,
+        window,
     )
+
+
+def _stream(raster: Raster, window: ReachWindow, output: PathLike) -> Path:
+    """Write a window's map on the whole grid, :data:`STREAM_ROWS` rows at a time (NaN
+    outside the window), atomically (:class:`~nightlights.io.streamed.CogWriter`)."""
+    assert raster.crs is not None  # a window is only cut from a projected grid
+    with CogWriter(
+        output,
+        shape=(raster.count, *window.grid_shape),
+        transform=window.grid_transform,
+        crs=raster.crs,
+        descriptions=raster.descriptions,
+        units=raster.units,
+        band_tags=raster.band_tags,
+        tags=raster.tags,
+    ) as writer:
+        for start in range(0, window.rows, STREAM_ROWS):
+            part = raster.data[:, start : start + STREAM_ROWS]
+            writer.write(part, row=window.row + start, col=window.col)
+    return Path(output)
 
 
 def _check_outputs(*paths: PathLike | None, inputs: Inputs) -> OutputSet:

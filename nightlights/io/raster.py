@@ -20,6 +20,7 @@ Length: the dense raster, its COG writer and its sparse form share the grid conv
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -665,12 +666,18 @@ class _LitCollector:
         return rows[order], cols[order], np.concatenate(self.values, axis=1)[:, order]
 
 
-def _raster_lit_cells(raster: Raster) -> LitCells:
+#: A part of a raster grid: (first row, first column, rows, columns) [cells].
+GridWindow = tuple[int, int, int, int]
+
+
+def _raster_lit_cells(raster: Raster, window: GridWindow | None = None) -> LitCells:
     collector = _LitCollector(raster.count)
-    rows = raster.shape[0]
-    step = max(1, WINDOW_CELLS // max(1, raster.shape[1]))
-    for row0 in range(0, rows, step):
-        collector.add(raster.data[:, row0 : row0 + step], row0, None)
+    row_start, col_start, rows, cols = window or (0, 0, *raster.shape)
+    step = max(1, WINDOW_CELLS // max(1, cols))
+    for row0 in range(row_start, row_start + rows, step):
+        row1 = min(row0 + step, row_start + rows)
+        block = raster.data[:, row0:row1, col_start : col_start + cols]
+        collector.add(block, row0, None, col_start)
     r, c, v = collector.arrays()
     return LitCells(
         r,
@@ -686,20 +693,22 @@ def _raster_lit_cells(raster: Raster) -> LitCells:
     )
 
 
-def _window_shape(dataset: Any) -> tuple[int, int]:
+def _window_shape(dataset: Any, width: int | None = None) -> tuple[int, int]:
     """(rows, cols) of the windows :func:`read_lit_cells` reads: whole blocks, about
-    :data:`WINDOW_CELLS` cells (at least one block)."""
+    :data:`WINDOW_CELLS` cells (at least one block), across ``width`` columns (default: the
+    raster's)."""
+    width = dataset.width if width is None else width
     block_rows, block_cols = dataset.block_shapes[0] if dataset.block_shapes else (1, 1)
     block_rows, block_cols = max(1, block_rows), max(1, block_cols)
-    blocks_across = -(-dataset.width // block_cols)
+    blocks_across = -(-width // block_cols)
     blocks_per_window = max(1, WINDOW_CELLS // (block_rows * block_cols))
     if blocks_per_window >= blocks_across:  # whole rows of blocks
         rows = max(1, blocks_per_window // blocks_across) * block_rows
-        return rows, dataset.width
+        return rows, width
     return block_rows, blocks_per_window * block_cols
 
 
-def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
+def read_lit_cells(path: str | os.PathLike[str], window: GridWindow | None = None) -> LitCells:
     """Read a raster file window by window, keeping only its lit cells.
 
     Memory holds one window of whole block rows (about :data:`WINDOW_CELLS` cells per band in
@@ -711,6 +720,10 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
     ----------
     path
         Any raster GDAL reads.
+    window
+        Only this part of the grid is read, ``(row, col, rows, cols)`` [cells]; the cells keep
+        their place on the whole grid (rows, columns, transform and shape are the raster's).
+        None: the whole raster.
 
     Returns
     -------
@@ -734,22 +747,21 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
             rasterio.open(source) as dataset,
         ):
             collector = _LitCollector(dataset.count, str(source))
-            height, width = _window_shape(dataset)
+            row_start, col_start, n_rows, n_cols = window or (0, 0, dataset.height, dataset.width)
+            height, width = _window_shape(dataset, n_cols)
             itemsize = np.dtype(dataset.dtypes[0]).itemsize
             check_memory(
                 dataset.count * height * width * (itemsize + 3.0) + READ_CACHE_MB * 2**20,
                 f"reading {source} in windows of {height} x {width} cells",
             )
             nodata = dataset.nodata
-            for row0 in range(0, dataset.height, height):
-                for col0 in range(0, dataset.width, width):
-                    window = rasterio.windows.Window(
-                        col0,
-                        row0,
-                        min(width, dataset.width - col0),
-                        min(height, dataset.height - row0),
+            row_end, col_end = row_start + n_rows, col_start + n_cols
+            for row0 in range(row_start, row_end, height):
+                for col0 in range(col_start, col_end, width):
+                    part = rasterio.windows.Window(
+                        col0, row0, min(width, col_end - col0), min(height, row_end - row0)
                     )
-                    collector.add(dataset.read(window=window), row0, nodata, col0)
+                    collector.add(dataset.read(window=part), row0, nodata, col0)
             r, c, v = collector.arrays()
             return LitCells(
                 r,
@@ -767,11 +779,30 @@ def read_lit_cells(path: str | os.PathLike[str]) -> LitCells:
         raise InputError(f"{source}: cannot read raster: {exc}") from exc
 
 
-def as_lit_cells(source: Raster | xr.DataArray | str | os.PathLike[str] | LitCells) -> LitCells:
+def as_lit_cells(
+    source: Raster | xr.DataArray | str | os.PathLike[str] | LitCells,
+    window: GridWindow | None = None,
+) -> LitCells:
     """The :class:`LitCells` of a raster input; a path is read window by window
-    (:func:`read_lit_cells`), never whole."""
+    (:func:`read_lit_cells`), never whole. With ``window`` (``(row, col, rows, cols)``
+    [cells]) only the cells in that part of the grid are kept (a file reads only that part),
+    at their place on the whole grid."""
     if isinstance(source, LitCells):
-        return source
+        if window is None:
+            return source
+        row, col, rows, cols = window
+        inside = (
+            (source.rows >= row)
+            & (source.rows < row + rows)
+            & (source.cols >= col)
+            & (source.cols < col + cols)
+        )
+        return dataclasses.replace(
+            source,
+            rows=source.rows[inside],
+            cols=source.cols[inside],
+            values=source.values[:, inside],
+        )
     if isinstance(source, (str, os.PathLike)):
-        return read_lit_cells(source)
-    return as_raster(source).lit_cells()
+        return read_lit_cells(source, window)
+    return _raster_lit_cells(as_raster(source), window)

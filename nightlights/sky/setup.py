@@ -7,7 +7,10 @@ emission function (band tag ``emission_function``, :func:`band_emission_function
 :func:`nightlights.sky.forward.skyglow_panorama` and the inverse maps
 (:mod:`nightlights.inverse`) start from its :class:`SceneSetup`.
 
-Length: about 650 lines, because every check a scene passes before its kernel is used (the
+A stage about one observer may read only the part of a large grid that the kernel reaches
+(:func:`reach_window`): cells beyond the kernel's last distance edge add nothing to its sky.
+
+Length: about 690 lines, because every check a scene passes before its kernel is used (the
 emission, its bands' emission functions, the observer, the terrain, the reach, the memory) is
 shared by the skyglow, inverse and explore stages and kept in one place.
 """
@@ -58,13 +61,17 @@ from nightlights.sky.spec import (
 __all__ = [
     "EmissionInput",
     "RasterInput",
+    "ReachWindow",
     "SceneSetup",
     "band_emission_functions",
     "check_kernel_grid",
+    "check_projected",
     "kernel_band_functions",
     "kernel_tables",
     "level_offset",
     "prepare_scene",
+    "reach_hint",
+    "reach_window",
     "scene_memory",
 ]
 
@@ -73,6 +80,92 @@ log = logging.getLogger(__name__)
 
 #: Largest absolute coordinates that look like degrees (longitude, latitude) [deg].
 _DEGREE_LIKE = (360.0, 90.0)
+
+
+@dataclass(frozen=True)
+class ReachWindow:
+    """The part of an emission grid that a kernel reaches from an observer.
+
+    Every cell with a point within ``reach`` of the observer along x and along y: the cells
+    beyond the kernel's last distance edge add nothing to the observer's sky, so a stage about
+    one observer reads only these.
+
+    Attributes
+    ----------
+    row, col
+        The window's first cell on the grid [cells].
+    rows, cols
+        Its shape [cells].
+    grid_shape
+        (rows, cols) of the whole grid [cells].
+    grid_transform
+        The whole grid's affine transform [m].
+    reach
+        The kernel's reach it was cut for [m].
+    """
+
+    row: int
+    col: int
+    rows: int
+    cols: int
+    grid_shape: tuple[int, int]
+    grid_transform: Affine
+    reach: float
+
+    @property
+    def bounds(self) -> tuple[int, int, int, int]:
+        """(row, col, rows, cols) [cells]."""
+        return (self.row, self.col, self.rows, self.cols)
+
+    @property
+    def transform(self) -> Affine:
+        """The window's affine transform [m]."""
+        return self.grid_transform @ Affine.translation(self.col, self.row)
+
+    @property
+    def whole(self) -> bool:
+        """Whether the window is the whole grid."""
+        return (self.rows, self.cols) == self.grid_shape
+
+
+def reach_window(
+    transform: Affine, shape: tuple[int, int], xy: tuple[float, float], reach: float
+) -> ReachWindow:
+    """The cells of a north-up grid within ``reach`` of ``xy`` along both axes.
+
+    Parameters
+    ----------
+    transform
+        The grid's affine transform (north up) [m].
+    shape
+        The grid's (rows, cols) [cells].
+    xy
+        Observer (x, y) in the grid's CRS [m].
+    reach
+        The kernel's last distance edge [m].
+
+    Returns
+    -------
+    ReachWindow
+        Empty (``rows`` or ``cols`` 0) when the grid lies beyond the reach.
+
+    Examples
+    --------
+    >>> from affine import Affine
+    >>> window = reach_window(Affine(100, 0, 0, 0, -100, 2000), (20, 30), (1050.0, 950.0), 300.0)
+    >>> window.bounds, window.whole
+    ((7, 7, 7, 7), False)
+    """
+    rows, cols = shape
+    x, y = xy
+    # pixel edges of the square [x - reach, x + reach] x [y - reach, y + reach]
+    col_a, row_a = ~transform @ (x - reach, y + reach)
+    col_b, row_b = ~transform @ (x + reach, y - reach)
+    col0 = min(max(math.floor(min(col_a, col_b)), 0), cols)
+    col1 = min(max(math.ceil(max(col_a, col_b)), 0), cols)
+    row0 = min(max(math.floor(min(row_a, row_b)), 0), rows)
+    row1 = min(max(math.ceil(max(row_a, row_b)), 0), rows)
+    return ReachWindow(row0, col0, row1 - row0, col1 - col0, shape, transform, float(reach))
 
 
 @dataclass(frozen=True)
@@ -118,6 +211,8 @@ class SceneSetup:
         Where each band's function came from: ``tag``, ``default`` or why another was used.
     scene
         The scene it was prepared from.
+    window
+        The part of the grid read (:func:`reach_window`), or None: the whole grid.
     """
 
     label: str
@@ -135,6 +230,7 @@ class SceneSetup:
     functions: tuple[EmissionFunction, ...] = ()
     function_notes: tuple[str, ...] = ()
     scene: Scene | None = None
+    window: ReachWindow | None = None
 
     @property
     def crs(self) -> CRS:
@@ -190,11 +286,18 @@ class SceneSetup:
         return first.elevation[:, None] < horizon[None, :]
 
 
-def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) -> SceneSetup:
+def prepare_scene(
+    scene: Scene,
+    observer: Observer,
+    *,
+    progress: bool = True,
+    window: ReachWindow | None = None,
+) -> SceneSetup:
     """Check a scene's emission and an observer, and find the scene's kernel for them.
 
     A file is read window by window keeping only its lit cells
-    (:func:`~nightlights.io.raster.read_lit_cells`). Refused with a one-line
+    (:func:`~nightlights.io.raster.read_lit_cells`), and only the cells of ``window`` when
+    one is given. Refused with a one-line
     :class:`~nightlights.errors.InputError`: infinite or negative flux, no lit cell, an
     observer whose coordinates are not on the Earth in its CRS, an observer farther from every
     lit cell than the kernel reaches (an observer outside the raster within that range is a
@@ -208,6 +311,9 @@ def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) ->
         Who looks (:class:`~nightlights.sky.observer.Observer`).
     progress
         Progress bar while building a kernel.
+    window
+        The part of the grid the kernel reaches from the observer (:func:`reach_window`),
+        read alone; None: the whole grid. A window without a lit cell is refused.
 
     Returns
     -------
@@ -216,14 +322,20 @@ def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) ->
     """
     emission = scene.emission
     label = scene.label
-    cells = as_lit_cells(emission)
-    if cells.crs is None or not cells.crs.is_projected:
-        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+    cells = as_lit_cells(emission, None if window is None else window.bounds)
+    check_projected(cells.crs, label)
     if cells.count > 2:
         raise InputError(
             f"{label}: {cells.count} bands; expected 1 or 2 (e.g. Lambertian + uplight)"
         )
     functions, notes = band_emission_functions(emission, cells.count, label=label)
+    if window is not None and cells.n_cells == 0 and not cells.infinite_values:
+        x, y = observer.position(cells.crs)
+        raise InputError(
+            f"observer ({x:.1f}, {y:.1f}): no lit cell of {label} within the kernel's range "
+            f"({window.reach / 1000:.4g} km) of it: no cell can light its sky"
+            + reach_hint((x, y), (observer.x, observer.y), observer.crs)
+        )
     _check_flux(cells, label)
     xy = observer.position(cells.crs)
     observer_height = observer.height
@@ -284,6 +396,7 @@ def prepare_scene(scene: Scene, observer: Observer, *, progress: bool = True) ->
         functions=functions,
         function_notes=notes,
         scene=scene,
+        window=window,
     )
 
 
@@ -465,6 +578,21 @@ def _check_flux(cells: LitCells, label: str) -> None:
         )
 
 
+def check_projected(crs: CRS | None, label: str) -> None:
+    """Refuse an emission grid without a projected CRS (one line, :class:`CRSError`)."""
+    if crs is None or not crs.is_projected:
+        raise CRSError(f"{label}: the emission raster needs a projected CRS in metres")
+
+
+def reach_hint(xy: tuple[float, float], observer: tuple[float, float], observer_crs: Any) -> str:
+    """The end of a message about an observer beyond a kernel's reach: what to check."""
+    if observer_crs is None and _looks_like_degrees(*xy):
+        return (
+            f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give observer_crs='EPSG:4326'"
+        )
+    return "; check the coordinates and observer_crs="
+
+
 def _looks_like_degrees(x: float, y: float) -> bool:
     return abs(x) <= _DEGREE_LIKE[0] and abs(y) <= _DEGREE_LIKE[1]
 
@@ -486,11 +614,7 @@ def _check_reach(
     left, bottom, right, top = bounds
     x, y = xy
     gap = math.hypot(max(left - x, 0.0, x - right), max(bottom - y, 0.0, y - top))
-    hint = (
-        f"; ({observer[0]:g}, {observer[1]:g}) look like degrees: give observer_crs='EPSG:4326'"
-        if observer_crs is None and _looks_like_degrees(x, y)
-        else "; check the coordinates and observer_crs="
-    )
+    hint = reach_hint(xy, observer, observer_crs)
     if gap >= reach:
         raise InputError(
             f"observer ({x:.1f}, {y:.1f}) lies {gap / 1000:.4g} km outside the lit cells of "

@@ -203,16 +203,17 @@ STAGES: dict[str, tuple[str, str, list[str], str]] = {
         ["the kernel of", "--n-elevation"],
         "skyglow {emission} {out}/p.nc {observer} --kernel {kernel}",
     ),
+    # inverse q and s read the window the kernel reaches: a scene kernel's 300 km
     "inverse q": (
-        "inverse q {huge_emission} {out}/q.tif {far} --kernel {kernel}",
+        "inverse q {huge_emission} {out}/q.tif {far}",
         "1G",
-        ["the pca-norm raster of 200000 x 200000 cells"],
+        ["the pca-norm raster of 30100 x 30100 cells"],
         "inverse q {emission} {out}/q.tif {observer} --kernel {kernel}",
     ),
     "inverse s": (
-        "inverse s {huge_emission} {out}/s.tif {far} --kernel {kernel} --region zenith:30",
+        "inverse s {huge_emission} {out}/s.tif {far} --region zenith:30",
         "1G",
-        ["the region raster of 200000 x 200000 cells"],
+        ["the region raster of 30100 x 30100 cells"],
         "inverse s {emission} {out}/s.tif {observer} --kernel {kernel} --region zenith:30",
     ),
     "inverse dim": (
