@@ -19,6 +19,8 @@ import pytest
 import rasterio
 from rasterio.transform import from_origin
 
+from nightlights.ground.checks import IRRADIANCE_FIXED_BYTES, LOCAL_TILES_FIXED_BYTES
+
 SCRIPT = """
 import json, sys, warnings
 warnings.simplefilter("ignore")
@@ -115,11 +117,14 @@ def test_stages_stay_within_twice_their_estimate(tmp_path: Path) -> None:
         )
         for kind, source in (("irradiance", ""), ("emission", ground), ("viirs", viirs))
     }
+    # the small run first paid the first calls' memory, which the irradiance estimate counts
+    # (a fresh process's cost: bench_memory_estimates.py); the peak here is over it
+    paid = {"irradiance": IRRADIANCE_FIXED_BYTES + LOCAL_TILES_FIXED_BYTES}
     for kind, run in runs.items():
         stdout, stderr = run.communicate(timeout=120)
         assert run.returncode == 0, stderr
         measured = json.loads(stdout.strip().splitlines()[-1])
-        peak, estimate = measured["peak"], measured["estimate"]
+        peak, estimate = measured["peak"], measured["estimate"] - paid.get(kind, 0)
         assert estimate > 30 * 2**20, (kind, measured)  # large enough to measure
         assert peak <= 2 * estimate, (kind, measured)
         assert estimate <= 4 * peak, (kind, measured)
