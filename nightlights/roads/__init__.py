@@ -1,0 +1,28 @@
+"""Road lighting to EN 13201: the calculation field, road luminance from r-tables, the metrics.
+
+- :func:`calculation_field`: the EN 13201-3 grid and observers of a section between two
+  luminaires;
+- :func:`parse_rtable` / :func:`read_rtable`: reduced luminance coefficient tables (CIE 144),
+  :func:`reduced_luminance_coefficient` (interpolation) and :func:`road_luminance`;
+- the metrics: :func:`average_luminance`, :func:`overall_uniformity`,
+  :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
+  :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`.
+
+Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
+"""
+
+from nightlights.roads._field import (
+    FIELD_QUANTITIES,
+    CalculationField,
+    calculation_field,
+    field_points,
+    longitudinal_point_count,
+)
+
+__all__ = [
+    "FIELD_QUANTITIES",
+    "CalculationField",
+    "calculation_field",
+    "field_points",
+    "longitudinal_point_count",
+]
