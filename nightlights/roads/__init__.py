@@ -18,11 +18,27 @@ from nightlights.roads._field import (
     field_points,
     longitudinal_point_count,
 )
+from nightlights.roads._rtables import (
+    BEYOND_RULES,
+    RTable,
+    parse_rtable,
+    read_rtable,
+    reduced_luminance_coefficient,
+    road_luminance,
+    synthetic_rtable,
+)
 
 __all__ = [
+    "BEYOND_RULES",
     "FIELD_QUANTITIES",
     "CalculationField",
+    "RTable",
     "calculation_field",
     "field_points",
     "longitudinal_point_count",
+    "parse_rtable",
+    "read_rtable",
+    "reduced_luminance_coefficient",
+    "road_luminance",
+    "synthetic_rtable",
 ]

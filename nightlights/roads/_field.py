@@ -204,14 +204,14 @@ def calculation_field(
         raise InputError(f"lanes={lanes!r}; expected a whole number of lanes, at least 1")
     n_lanes = int(lanes)
     n_x = longitudinal_point_count(s)
-    x = (np.arange(n_x) + 0.5) * (s / n_x)
+    x = (np.arange(n_x, dtype=float) + 0.5) * (s / n_x)
     width = n_lanes * w
     if quantity == "luminance":
         per_lane = LUMINANCE_POINTS_PER_LANE
-        y = (np.arange(per_lane * n_lanes) + 0.5) * (w / per_lane)
+        y = (np.arange(per_lane * n_lanes, dtype=float) + 0.5) * (w / per_lane)
     else:
         n_y = max(MIN_TRANSVERSE_POINTS, math.ceil(width / MAX_TRANSVERSE_STEP - _SLACK))
-        y = (np.arange(n_y) + 0.5) * (width / n_y)
+        y = (np.arange(n_y, dtype=float) + 0.5) * (width / n_y)
     lane_centres = (np.arange(n_lanes) + 0.5) * w
     observers = np.column_stack(
         [
