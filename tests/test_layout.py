@@ -17,8 +17,9 @@ that share a floor stand side by side and import each other not at all:
 3. io: files in and out (rasters, vectors, styles, terrain).
 4. ground: ``streets`` (street layers to light points) and ``ground`` (light on the ground
    and what goes up).
-5. sky: skyglow kernels, panoramas, many observers (``observers``, ``darkness``) and the per-cell
-   splits of panorama sums (``influence``).
+5. sky and roads: skyglow kernels, panoramas, many observers (``observers``, ``darkness``) and
+   the per-cell splits of panorama sums (``influence``); beside them ``roads`` (road lighting to
+   EN 13201, reading the ground's luminaire frames).
 6. inverse and night sky: ``inverse`` (which lights cause the glow, how to dim them) and
    ``nightsky`` (stars, Moon, natural sky, the eye), both reading the sky.
 7. explore: the interactive investigation.
@@ -218,7 +219,7 @@ FLOORS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ),
     ("io", ("nightlights.io",)),
     ("ground", ("nightlights.streets", "nightlights.ground")),
-    ("sky", ("nightlights.sky",)),
+    ("sky and roads", ("nightlights.sky", "nightlights.roads")),
     ("inverse and night sky", ("nightlights.inverse", "nightlights.nightsky")),
     ("explore and meters", ("nightlights.explore", "nightlights.meter")),
     ("maps", ("nightlights.maps",)),
@@ -423,25 +424,25 @@ def _sites_of(module: str, source: str) -> list[ImportSite]:
             "nightlights.io.styles",
             "def qml():\n    from nightlights.sky.spec import KernelSpec\n",
             "nightlights.io.styles:2 (inside a function) imports nightlights.sky.spec: "
-            "floor 3 (io) up to floor 5 (sky)",
+            "floor 3 (io) up to floor 5 (sky and roads)",
         ),
         (
             "nightlights.sky.stage",
             "import nightlights as nl\n\ndef run():\n    return nl.inverse_q\n",
             "nightlights.sky.stage:1 (at module level) imports nightlights.inverse: "
-            "floor 5 (sky) up to floor 6 (inverse and night sky)",
+            "floor 5 (sky and roads) up to floor 6 (inverse and night sky)",
         ),
         (
             "nightlights.ground.upward",
             "from nightlights import skyglow\n",
             "nightlights.ground.upward:1 (at module level) imports nightlights.sky: "
-            "floor 4 (ground) up to floor 5 (sky)",
+            "floor 4 (ground) up to floor 5 (sky and roads)",
         ),
         (
             "nightlights.sky",
             "_LAZY: dict[str, str] = {\n    'zenith_summary': 'nightlights.nightsky.render',\n}\n",
             "nightlights.sky:2 (in the lazy table) imports nightlights.nightsky.render: "
-            "floor 5 (sky) up to floor 6 (inverse and night sky)",
+            "floor 5 (sky and roads) up to floor 6 (inverse and night sky)",
         ),
         (
             "nightlights.brightness",

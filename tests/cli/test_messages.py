@@ -26,9 +26,18 @@ LIBRARY = ("nightlights", "bayesnets", "ies")
 NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: Names a message may hold that are parameters of the Python API alone (no command sets them:
 #: the kernel's quadrature details, the atmosphere's switches, the night-sky helpers' inputs,
-#: an instrument's response and natural sky, the explore page's web API) or names of an object
+#: an instrument's response and natural sky, the explore page's web API, the road-lighting
+#: functions of ``nightlights.roads``, which no command calls yet) or names of an object
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "age",
+    "average",
+    "beyond",
+    "carriageway_width",
+    "lanes",
+    "quantity",
+    "veiling",
+    "verge_width",
     "band",
     "emission",
     "replace",
