@@ -166,6 +166,10 @@ def relative_azimuths(n_azimuth: int) -> FloatArray:
 #: are integrals whose last bits change with the numerical libraries' versions, and a kernel
 #: must keep its hash (and its cache) when only those change.
 HASH_DIGITS = 10
+#: Significant digits kept of the distance edges in the content hash: ``np.geomspace`` runs
+#: through the CPU's vectorised log and exp, whose last bit differs between processors, and a
+#: kernel must keep its hash on another machine.
+EDGE_DIGITS = 12
 
 
 def _derived_rounded(parameters: dict[str, Any]) -> dict[str, Any]:
@@ -576,7 +580,7 @@ class KernelSpec:
             )
         return optional | {
             "kernel_format_version": KERNEL_FORMAT_VERSION,
-            "distance_edges": list(self.distance_edges or ()),
+            "distance_edges": [float(f"{e:.{EDGE_DIGITS}g}") for e in self.distance_edges or ()],
             "source_altitudes": list(self.source_altitudes),
             "observer_altitudes": list(self.observer_altitudes),
             "n_el": self.n_elevation,
