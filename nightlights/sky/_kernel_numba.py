@@ -9,7 +9,7 @@ terms) are computed once per ray instead of once per node. Rays run in parallel 
 Only the closed-form leg optical depths are compiled; ``leg_nodes`` (Gauss quadrature of the
 legs, a reference) stays on the numpy path.
 
-Length: about 650 lines, because one compiled ray loop and the closed-form leg optical
+Length: about 700 lines, because one compiled ray loop and the closed-form leg optical
 depths it inlines are kept together so that numba compiles them as one unit.
 """
 
@@ -38,6 +38,7 @@ from nightlights.sky.quadrature import gauss_legendre
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
 _SQRT_PI = math.sqrt(math.pi)
+_INV_SQRT_PI = 1.0 / _SQRT_PI
 
 #: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
@@ -112,10 +113,13 @@ def _erfcx(x: float, table: FloatArray) -> float:  # pragma: no cover - compiled
         pos = y * (table.size - 1)
         i = min(int(pos), table.size - 2)
         frac = pos - i
-        return (table[i] + frac * (table[i + 1] - table[i])) * y / _SQRT_PI
+        return (table[i] + frac * (table[i + 1] - table[i])) * y * _INV_SQRT_PI
     # asymptotic series (Abramowitz & Stegun 7.1.23); next term < 3e-13 at x = 26
-    inv2 = 1.0 / (x * x)
-    return (1.0 - inv2 * (0.5 - inv2 * (0.75 - inv2 * (1.875 - 6.5625 * inv2)))) / (x * _SQRT_PI)
+    inv = 1.0 / x
+    inv2 = inv * inv
+    return (1.0 - inv2 * (0.5 - inv2 * (0.75 - inv2 * (1.875 - 6.5625 * inv2)))) * (
+        inv * _INV_SQRT_PI
+    )
 
 
 @njit(cache=True, inline="always")
@@ -136,26 +140,32 @@ def _sphere_tau(
     h0_density: float,
     mu: float,
     root_curvature: float,
+    inverse_root_curvature: float,
     length: float,
     beta: float,
-    height: float,
+    inverse_height: float,
     root_height: float,
+    inverse_root_height: float,
     table: FloatArray,
 ) -> float:  # pragma: no cover - compiled
     """One species' optical depth of an upward straight path over a sphere.
 
     Closed form of :func:`nightlights.sky.kernel.slant_optical_depth` with the factors that do
     not change along a ray passed in: h0_density = exp(-h0 / H), root_curvature =
-    sqrt(max((1 - mu^2) / (2 (R + h0)), 1e-30)), root_height = sqrt(H).
+    sqrt(max((1 - mu^2) / (2 (R + h0)), 1e-30)) and its inverse (shared by the species),
+    1 / H, sqrt(H) and 1 / sqrt(H): products instead of divisions (the same values to
+    rounding).
     """
     if beta <= 0.0:
         return 0.0
-    sk = root_curvature / root_height
-    x0 = (mu / height) / (2.0 * sk)
+    sk = root_curvature * inverse_root_height
+    inverse_sk = root_height * inverse_root_curvature
+    slope = mu * inverse_height
+    x0 = 0.5 * slope * inverse_sk
     x_end = x0 + sk * length
-    ratio = math.exp(-(mu / height + sk * sk * length) * length)
+    ratio = math.exp(-(slope + sk * sk * length) * length)
     bracket = _erfcx(x0, table) - _erfcx(x_end, table) * ratio
-    return beta * 0.5 * _SQRT_PI * h0_density / sk * bracket
+    return beta * 0.5 * _SQRT_PI * h0_density * inverse_sk * bracket
 
 
 @njit(cache=True, inline="always")
@@ -359,6 +369,8 @@ def _ray(
     # per-ray factors of both legs' closed forms
     root_h_m = math.sqrt(h_m)
     root_h_a = math.sqrt(h_a)
+    inv_h_m, inv_h_a = 1.0 / h_m, 1.0 / h_a
+    inv_root_h_m, inv_root_h_a = 1.0 / root_h_m, 1.0 / root_h_a
     src_m = math.exp(-h_c / h_m)
     src_a = math.exp(-h_c / h_a)
     obs_m = math.exp(-h_o / h_m)
@@ -374,18 +386,21 @@ def _ray(
     hg_a = 1.0 + g * g
     total = 0.0
     n = x_gl.size
+    # u = u_p + d tan t (quadrature.tangent_panel_nodes); du = d (1 + tan^2 t) dt; the
+    # panels' ends in t, each computed once (split and knee end one panel and start the next)
+    t_start = math.atan((start - u_p) / d_eff)
+    t_split = math.atan((split - u_p) / d_eff)
+    t_knee = math.atan((knee - u_p) / d_eff)
+    t_stop = math.atan((stop - u_p) / d_eff)
     for panel in range(3):
         if panel == 0:
-            lo, hi = start, split
+            lo, hi, ta, tb = start, split, t_start, t_split
         elif panel == 1:
-            lo, hi = split, knee
+            lo, hi, ta, tb = split, knee, t_split, t_knee
         else:
-            lo, hi = knee, stop
+            lo, hi, ta, tb = knee, stop, t_knee, t_stop
         if hi <= lo:
             continue
-        # u = u_p + d tan t (quadrature.tangent_panel_nodes); du = d (1 + tan^2 t) dt
-        ta = math.atan((lo - u_p) / d_eff)
-        tb = math.atan((hi - u_p) / d_eff)
         halfw = 0.5 * (tb - ta)
         mid = 0.5 * (ta + tb)
         for j in range(n):
@@ -396,8 +411,8 @@ def _ray(
             tx, ty, tz = px - sx, py, pz - sz
             s2 = tx * tx + ty * ty + tz * tz
             s = math.sqrt(s2)
-            safe_s = s if s > 0.0 else 1.0
-            cos_emit = (tx * nx + tz * nz) / safe_s
+            inv_s = 1.0 / s if s > 0.0 else 1.0
+            cos_emit = (tx * nx + tz * nz) * inv_s
             if cos_emit <= 0.0:
                 continue
             # emission (emission_shapes.form_intensity)
@@ -422,7 +437,7 @@ def _ray(
                 )
             else:  # ISOTROPIC_FORM
                 intensity = 1.0 / (2.0 * math.pi)
-            cos_sc = -(tx * vx + ty * vy + tz * vz) / safe_s
+            cos_sc = -(tx * vx + ty * vy + tz * vz) * inv_s
             # altitude of the scattering point (geometry.altitude)
             if flat:
                 h = pz
@@ -465,8 +480,31 @@ def _ray(
                 else:
                     mu = min(cos_emit, 1.0)
                     root_curv = math.sqrt(max((1.0 - mu * mu) * inv_2rc, 1e-30))
-                    tau += _sphere_tau(src_m, mu, root_curv, s, beta_m, h_m, root_h_m, table)
-                    tau += _sphere_tau(src_a, mu, root_curv, s, beta_a, h_a, root_h_a, table)
+                    inv_root_curv = 1.0 / root_curv
+                    tau += _sphere_tau(
+                        src_m,
+                        mu,
+                        root_curv,
+                        inv_root_curv,
+                        s,
+                        beta_m,
+                        inv_h_m,
+                        root_h_m,
+                        inv_root_h_m,
+                        table,
+                    )
+                    tau += _sphere_tau(
+                        src_a,
+                        mu,
+                        root_curv,
+                        inv_root_curv,
+                        s,
+                        beta_a,
+                        inv_h_a,
+                        root_h_a,
+                        inv_root_h_a,
+                        table,
+                    )
                 value *= math.exp(-tau)
             total += value * weight
     return total
