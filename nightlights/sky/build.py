@@ -498,26 +498,24 @@ ESTIMATED_COMPONENTS = 256
 
 
 class _LevelFiles:
-    """The per-level arrays of a streamed build in a temporary folder: ``single`` (pass 1,
-    the integrated pairs of single scattering) and ``final`` (interpolated, with multiple
-    scattering), each ``(emissions, n_c, n_r, n_el, n_az)`` float32."""
+    """The arrays of a streamed build in a temporary folder: ``single`` (pass 1, each
+    integrated altitude pair's images of single scattering, ``(emissions, n_r, n_el, n_az)``;
+    only the integrated pairs are written) and ``final`` (each observer level, interpolated,
+    with multiple scattering, ``(emissions, n_c, n_r, n_el, n_az)``), float32."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
 
-    def single(self, observer: int) -> Path:
-        return self.folder / f"single-{observer}.npy"
+    def single(self, observer: int, source: int) -> Path:
+        return self.folder / f"single-{observer}-{source}.npy"
 
     def final(self, observer: int) -> Path:
         return self.folder / f"final-{observer}.npy"
 
     def pair(self, observer: int, source: int) -> NDArray[np.float32]:
-        """One pair's images of every emission shape, read alone from the pass-1 file."""
-        level = np.load(self.single(observer), mmap_mode="r")
-        try:
-            return np.array(level[:, source])
-        finally:
-            del level
+        """One integrated pair's images of every emission shape."""
+        images: NDArray[np.float32] = np.load(self.single(observer, source))
+        return images
 
 
 class _LevelRows:
@@ -575,23 +573,22 @@ def _stream_tables(
     start = time.perf_counter()
     with Progress(*_COLUMNS, disable=not progress, transient=True) as bar:
         task = bar.add_task("kernel", total=int(computed.sum()) * len(emissions))
-        for o in range(h_o.size):
-            level = np.zeros(shape, dtype=np.float32)
-            for c in np.flatnonzero(computed[o]).tolist():
-                for i, emission in enumerate(emissions):
-                    for lo in range(0, n_r_bins, r_chunk):
-                        sl = slice(lo, min(lo + r_chunk, n_r_bins))
-                        level[i, c, sl] = pair_images(
-                            spec, o, c, emission, bins=sl, backend=backend
-                        )
-                    bar.advance(task)
-            np.save(levels.single(o), level)
-            del level
+        for o, c in zip(*np.nonzero(computed), strict=True):
+            images = np.zeros((shape[0], *shape[2:]), dtype=np.float32)
+            for i, emission in enumerate(emissions):
+                for lo in range(0, n_r_bins, r_chunk):
+                    sl = slice(lo, min(lo + r_chunk, n_r_bins))
+                    images[i, sl] = pair_images(spec, o, c, emission, bins=sl, backend=backend)
+                bar.advance(task)
+            np.save(levels.single(o, c), images)
+            del images
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
     factors, attrs = factor_images(spec)  # the same for every altitude pair
     positive = np.zeros(len(emissions), dtype=bool)
     for o in range(h_o.size):
-        level = np.load(levels.single(o))
+        level = np.zeros(shape, dtype=np.float32)
+        for c in np.flatnonzero(computed[o]).tolist():
+            level[:, c] = levels.pair(o, c)
         for pair in (p for p in interpolated if p.observer == o):
             lower = levels.pair(*pair.lower)
             upper = levels.pair(*pair.upper)
@@ -604,8 +601,8 @@ def _stream_tables(
                 level[i] *= factors[emission].astype(level.dtype)
         np.save(levels.final(o), level)
         del level, tables
-    for o in range(h_o.size):
-        levels.single(o).unlink()
+    for o, c in zip(*np.nonzero(computed), strict=True):
+        levels.single(o, c).unlink()
     for emission, any_positive in zip(emissions, positive, strict=True):
         if not any_positive:
             _refuse_zero(emission, spec)
