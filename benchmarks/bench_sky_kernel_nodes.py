@@ -15,8 +15,8 @@ compares their images with those at 32 nodes per panel (converged: 12 nodes are 
 * ``range``: a scene-sized kernel to the largest range, 128 distances log-spaced from 10 m to
   300 km on a 32 x 128 panorama, turbidity 2, (h_o, h_c) = (0, 0), (0, 500), (500, 0) m.
 
-Per node count: time per altitude pair (CPU seconds of this process, 2 threads; the machine is
-shared), mean bright-pixel error over the pairs, the worst pair's mean, and the 99th
+Per node count: wall time per altitude pair (best of 2 runs of all pairs, 2 threads; the
+machine is shared), mean bright-pixel error over the pairs, the worst pair's mean, and the 99th
 percentile and maximum of the bright pixels' errors.
 
 Run: ``python benchmarks/bench_sky_kernel_nodes.py [--quick] [--out DIR]`` (``--quick``: a
@@ -35,6 +35,8 @@ from _dobashi import bright_relative_errors, dobashi_spec
 NAME = "sky_kernel_nodes"
 NODES = (4, 5, 6, 7, 8, 10, 12)
 REFERENCE_NODES = 32
+#: Timed runs per node count (the best is kept: the machine is shared) [1].
+REPEATS = 2
 
 
 def kernels(quick: bool) -> dict[str, tuple[Any, list[tuple[int, int]]]]:
@@ -65,19 +67,20 @@ def measure(spec: Any, pairs: list[tuple[int, int]]) -> dict[str, Any]:
     reference = [pair_images(spec, o, c, "lambertian", nodes=REFERENCE_NODES) for o, c in pairs]
     rows = []
     for nodes in NODES:
-        errors, means, seconds = [], [], 0.0
-        for (o, c), exact in zip(pairs, reference, strict=True):
-            start = time.process_time()
-            images = pair_images(spec, o, c, "lambertian", nodes=nodes)
-            seconds += time.process_time() - start
-            rel = bright_relative_errors(images, exact)
+        errors, means, seconds = [], [], []
+        for _ in range(REPEATS):
+            start = time.perf_counter()
+            images = [pair_images(spec, o, c, "lambertian", nodes=nodes) for o, c in pairs]
+            seconds.append(time.perf_counter() - start)
+        for image, exact in zip(images, reference, strict=True):
+            rel = bright_relative_errors(image, exact)
             errors.append(rel)
             means.append(float(rel.mean()))
         every = np.concatenate(errors)
         rows.append(
             {
                 "nodes": nodes,
-                "cpu_seconds_per_pair": seconds / len(pairs),
+                "seconds_per_pair": min(seconds) / len(pairs),
                 "mean_rel_error": float(every.mean()),
                 "worst_pair_mean_rel_error": max(means),
                 "p99_rel_error": float(np.percentile(every, 99)),
@@ -104,8 +107,8 @@ def main() -> None:
         }
     out["note"] = (
         "Bin images of single scattering (pair_images of the default build) against 32 nodes "
-        "per panel; error over the pixels brighter than 1 % of their image's maximum. CPU "
-        "seconds of the integrating process (2 threads) on a shared 2-core machine."
+        "per panel; error over the pixels brighter than 1 % of their image's maximum. Wall "
+        "time per pair, best of 2 runs, 2 threads, on a shared 2-core machine."
     )
     harness.write_results(args.out, NAME, out, quick=args.quick, plot=plot)
 
@@ -129,7 +132,7 @@ def plot(out: dict[str, Any]) -> Any:
                 label=f"{label}: {key.split('_')[0]}",
             )
         ax2.loglog(
-            [r["cpu_seconds_per_pair"] for r in rows],
+            [r["seconds_per_pair"] for r in rows],
             [max(r["mean_rel_error"], 1e-12) for r in rows],
             "o-",
             color=colour,
@@ -137,14 +140,14 @@ def plot(out: dict[str, Any]) -> Any:
         )
         for r in rows:
             ax2.annotate(
-                str(r["nodes"]), (r["cpu_seconds_per_pair"], r["mean_rel_error"]), fontsize=7
+                str(r["nodes"]), (r["seconds_per_pair"], r["mean_rel_error"]), fontsize=7
             )
     for ax in (ax1, ax2):
         ax.axhline(0.005, color="grey", ls="--", lw=0.8)
         ax.legend(fontsize=7)
     ax1.set_xlabel("Gauss nodes per panel")
     ax1.set_ylabel(f"bright-pixel relative error vs {out['reference_nodes']} nodes")
-    ax2.set_xlabel("CPU time per altitude pair [s]")
+    ax2.set_xlabel("time per altitude pair (best of 2) [s]")
     ax2.set_ylabel("mean bright-pixel relative error")
     fig.suptitle("Skyglow kernel: bin images against Gauss nodes per panel")
     fig.tight_layout()

@@ -571,15 +571,16 @@ def sketched_basis(
             break
         width = min(2 * width, full)
     bounds = np.cumsum([0, *sizes])
-    coefficients = [sketch.coefficients[lo:hi, :k] for lo, hi in itertools.pairwise(bounds)]
+    coefficients = [sketch.coefficients(slice(lo, hi), k) for lo, hi in itertools.pairwise(bounds)]
     return sketch.directions[:k], coefficients, float(explained[k - 1]), achieved
 
 
 class _Sketch:
     """The Rayleigh-Ritz step of :func:`sketched_basis` on a sketch of ``width`` columns:
-    ``directions`` (width, p), their ``energies`` (descending), the images' ``coefficients``
-    (rows, width) and ``norms`` (per stack; computed when not given), and with ``sample``
-    every n-th image for the error-target search."""
+    ``directions`` (width, p), their ``energies`` (descending), the images' ``norms`` (per
+    stack; computed when not given) and their coordinates on the sketch (rows, width; in the
+    stacks' precision, which their products have), from which :meth:`coefficients` gives
+    the images' coefficients; with ``sample`` every n-th image for the error-target search."""
 
     def __init__(
         self, stacks: list[Any], width: int, norms: list[FloatArray] | None, *, sample: bool
@@ -598,32 +599,47 @@ class _Sketch:
                 test = rng.standard_normal((block.shape[0], width)) * scale[:, None]
                 part = (block.T @ test.astype(block.dtype)).astype(float)
                 sketch = part if sketch is None else sketch + part
+        sizes = [int(s.shape[0]) for s in stacks]
         if norms is None:
-            bounds = np.cumsum([0, *(int(s.shape[0]) for s in stacks)])
             flat = np.concatenate(found)
-            norms = [flat[lo:hi] for lo, hi in itertools.pairwise(bounds)]
+            norms = [flat[lo:hi] for lo, hi in itertools.pairwise(np.cumsum([0, *sizes]))]
         self.norms = norms
+        self.scale = np.concatenate(norms)
         assert sketch is not None
         with _one_thread():
             q = np.linalg.qr(sketch)[0]
         del sketch
-        total = sum(int(s.shape[0]) for s in stacks)
-        step = max(1, -(-total // _SEARCH_ROWS))
-        coordinates, rows = [], []
+        step = max(1, -(-sum(sizes) // _SEARCH_ROWS))
+        # the coordinates in the products' precision: float32 for float32 tables (any float64
+        # block makes them float64)
+        self.coordinates = np.zeros((sum(sizes), width), dtype=np.float32)
+        gram = np.zeros((width, width))
+        rows, row = [], 0
         for index, stack in enumerate(stacks):
             for lo, block in _blocks(stack):
                 scale = _inverse(norms[index][lo : lo + block.shape[0]])
-                coordinates.append((block @ q.astype(block.dtype)).astype(float) * scale[:, None])
+                part = block @ q.astype(block.dtype)
+                part *= scale[:, None].astype(part.dtype)
+                if part.dtype != self.coordinates.dtype:
+                    self.coordinates = self.coordinates.astype(part.dtype)
+                self.coordinates[row : row + block.shape[0]] = part
+                wide = part.astype(float)
+                gram += wide.T @ wide
+                row += block.shape[0]
                 if sample:  # every step-th row of the stack (as _sample_rows), copied
                     rows.append(np.array(block[-lo % step :: step]))
-        c = np.concatenate(coordinates)
-        del coordinates
-        self.energies, vectors = _eigh(c.T @ c)
-        self.directions = (q @ vectors).T
-        self.coefficients = (c @ vectors) * np.concatenate(norms)[:, None]
-        del c
+        self.energies, self.vectors = _eigh(gram)
+        self.directions = (q @ self.vectors).T
         self.sample = np.concatenate(rows) if sample else None
         self.sample_rows = _sample_rows(stacks, step) if sample else None
+
+    def coefficients(self, rows: Any, k: int) -> FloatArray:
+        """The coefficients of the images ``rows`` (a slice or indices over all stacks) on the
+        ``k`` leading directions, float64 [unit of the images]."""
+        coordinates = np.asarray(self.coordinates[rows], dtype=float)
+        out: FloatArray = coordinates @ self.vectors[:, :k]
+        out *= self.scale[rows, None]
+        return out
 
     def search(self, error: float, rank: int, dtype: type) -> int:
         """Fewest directions meeting ``error`` on the sample: doubling from
@@ -632,7 +648,7 @@ class _Sketch:
         :meth:`check` measures in float64) [1]."""
         assert self.sample is not None and self.sample_rows is not None
         sample = self.sample
-        coefficients: NDArray[Any] = self.coefficients[self.sample_rows].astype(dtype)
+        coefficients: NDArray[Any] = self.coefficients(self.sample_rows, rank).astype(dtype)
         directions: NDArray[Any] = self.directions.astype(dtype)
 
         def meets(k: int) -> bool:
@@ -662,8 +678,8 @@ class _Sketch:
         for stack in self.stacks:
             for _, block in _blocks(stack):
                 for lo in range(0, block.shape[0], _BLOCK_ROWS):
-                    rows = slice(row + lo, row + lo + _BLOCK_ROWS)
-                    approx = self.coefficients[rows, :k].astype(dtype).astype(float) @ basis
+                    rows = slice(row + lo, min(row + lo + _BLOCK_ROWS, row + block.shape[0]))
+                    approx = self.coefficients(rows, k).astype(dtype).astype(float) @ basis
                     part = bright_error_sums(approx, block[lo : lo + _BLOCK_ROWS], BRIGHT_FRACTION)
                     total, count = total + part[0], count + part[1]
                 row += block.shape[0]
