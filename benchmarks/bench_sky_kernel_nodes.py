@@ -139,9 +139,7 @@ def plot(out: dict[str, Any]) -> Any:
             label=f"{label}: mean error",
         )
         for r in rows:
-            ax2.annotate(
-                str(r["nodes"]), (r["seconds_per_pair"], r["mean_rel_error"]), fontsize=7
-            )
+            ax2.annotate(str(r["nodes"]), (r["seconds_per_pair"], r["mean_rel_error"]), fontsize=7)
     for ax in (ax1, ax2):
         ax.axhline(0.005, color="grey", ls="--", lw=0.8)
         ax.legend(fontsize=7)
