@@ -31,13 +31,14 @@ altitude (the same array for each level); with ``pca_error`` the attribute ``pca
 holds the reconstruction's measured error.
 
 Streaming: a kernel with one shared basis and without raw tables (:func:`streams`, the
-defaults of ``nightlights kernel build``) is built one observer level at a time through a
-temporary folder: each level's integrated pairs are computed, saved and dropped; then each
-level is interpolated, multiplied by the multiple-scattering factor (computed once for all
-pairs) and saved; the shared basis is found from the levels read back a block of images at a
+defaults of ``nightlights kernel build``) is built through a temporary folder: each integrated
+altitude pair is computed and saved; then each observer level is assembled from them,
+interpolated, multiplied by the multiple-scattering factor (computed once for all pairs) and
+saved; the shared basis is found from the levels read back a block of images at a
 time (:func:`~nightlights.sky.pca.sketched_basis`: a random sketch of all images, the
 Rayleigh-Ritz step on it, the number of bases chosen on a sample and checked on every image),
-which gives every image's coefficients with it. The memory held is a block of images, the
+which gives every image's coefficients with it. The memory held is one level's images while
+it is assembled, then a block of images, the search's sample of at most 4096 of them, the
 sketch and every image's coordinates on it (the order of the output), not the tables.
 
 Length: about 900 lines, because the bin integration, the streamed build, the choice of the
