@@ -276,22 +276,15 @@ class _BrightPixels:
         index = np.flatnonzero((exact > BRIGHT_FRACTION * peak) & (peak > 0))
         return index.astype(np.int32 if exact.size < 2**31 else np.int64), exact.ravel()[index]
 
-    def error(
-        self, projected: FloatArray, rounded: FloatArray, dtype: type, *, in_dtype: bool = False
-    ) -> float:
+    def error(self, projected: FloatArray, rounded: FloatArray, dtype: type) -> float:
         """:func:`bright_relative_error` of the sample reconstructed from its coefficients
         ``projected`` on the (rounded) basis ``rounded``, the coefficients rounded to
-        ``dtype`` (as :func:`_reconstruction_sums`); ``in_dtype``: the products summed in
-        ``dtype`` (float32: half the time, a relative error of about 1e-6 in the
-        reconstruction, for a search whose choice is checked in float64) [1]."""
+        ``dtype`` (as :func:`_reconstruction_sums`) [1]."""
         total, count = 0.0, 0
-        basis = rounded.astype(dtype) if in_dtype else rounded
         for block, lo in enumerate(range(0, self.sample.shape[0], _BLOCK_ROWS)):
             index, values = self._find(lo) if self.blocks is None else self.blocks[block]
-            coefficient: NDArray[Any] = projected[lo : lo + _BLOCK_ROWS].astype(dtype)
-            if not in_dtype:
-                coefficient = coefficient.astype(float)
-            approx = (coefficient @ basis).ravel()[index].astype(float)
+            coefficient = projected[lo : lo + _BLOCK_ROWS].astype(dtype).astype(float)
+            approx = (coefficient @ rounded).ravel()[index]
             exact = values.astype(float)
             total += float(np.sum(np.abs(approx - exact) / exact))
             count += int(index.size)
