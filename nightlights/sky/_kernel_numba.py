@@ -9,7 +9,7 @@ terms) are computed once per ray instead of once per node. Rays run in parallel 
 Only the closed-form leg optical depths are compiled; ``leg_nodes`` (Gauss quadrature of the
 legs, a reference) stays on the numpy path.
 
-Length: about 700 lines, because one compiled ray loop and the closed-form leg optical
+Length: about 800 lines, because one compiled ray loop and the closed-form leg optical
 depths it inlines are kept together so that numba compiles them as one unit.
 """
 

@@ -25,7 +25,7 @@ Storage levers (all optional; the defaults are the original layout):
 - coefficients and bases rounded to float32 (``precision``), so that a file stores them
   exactly in half the bytes.
 
-Length: about 860 lines, because the compression, its error-target search and the sketched
+Length: about 870 lines, because the compression, its error-target search and the sketched
 basis that the streamed build shares between the observer levels are one PCA of the kernel
 tables.
 
