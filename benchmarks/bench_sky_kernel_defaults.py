@@ -1,14 +1,15 @@
 """Benchmark: the kernel build's defaults against the exact path (time, file, error, memory).
 
 The defaults of :class:`nightlights.sky.KernelSpec` (and so of ``nightlights kernel build``)
-are the settings the lever benchmarks chose: 8 Gauss nodes per panel
-(``bench_sky_kernel_quadrature.py``), every 15th altitude pair integrated along each line of
+are the settings the lever benchmarks chose: 6 Gauss nodes per panel
+(``bench_sky_kernel_nodes.py``), every 15th altitude pair integrated along each line of
 equal h_c - h_o with the interpolated span capped at 937.5 m (``bench_sky_kernel_altitudes.py``,
 ``bench_sky_kernel_fast_precompute.py``), and one float32 PCA basis shared by the observer
-altitudes at a 0.5 % error target (``bench_sky_kernel_storage.py``); such a kernel without raw
-tables is built one observer level at a time through a temporary folder. The exact path
-(``KernelSpec.exact()``, ``kernel build --exact``) integrates every pair at 12 nodes and
-compresses each observer level by explained energy in float64, in memory.
+altitudes at a 0.3 % error target (``bench_sky_kernel_storage.py``), found by a randomized
+range finder (``nightlights.sky.pca.sketched_basis``); such a kernel without raw tables is
+built through a temporary folder (the integrated pairs, then one observer level at a time).
+The exact path (``KernelSpec.exact()``, ``kernel build --exact``) integrates every pair at 12
+nodes and compresses each observer level by explained energy in float64, in memory.
 
 Each build runs in a child process (``build_kernel`` to a file, as ``kernel build`` does,
 raw tables not stored): wall time, file size, peak resident memory over the child's baseline
@@ -31,25 +32,18 @@ Cases:
   measured on a sample of altitude pairs against the exact path's images integrated directly
   (12 nodes, multiple-scattering factor applied), which needs no exact build.
 
-Measured (this 2-core machine, shared with other jobs, load average about 6): Dobashi's
-configuration at the defaults in 31.3 min wall, 17.0 min of CPU (target 4 min: missed; the
-tables took about 12 min wall, the shared PCA the rest), 16.0 MB (target 50 MB), 103 bases,
-0.29 % mean error against the exact path's images of 8 sampled pairs (target 0.5 %; worst
-pair 0.94 %), peak 1.04 GiB against the 1.53 GiB estimate (x1.47; target x1.5), below the
-default limit of a 24 GB machine (that row predates the faster shared PCA below).
-
-The shared PCA alone, then made faster (each level's quarter-target search on 512 sampled
-images, the sample's coefficients and bright pixels found once per search, the formed
-directions reused for the summary, Cholesky QR, eigen-decompositions on one BLAS thread),
-timed on the saved per-level tables of the streamed build (``_stream_compress``, same
-machine, load average about 5): Dobashi's configuration 175 s wall, 173 s CPU (282 s wall,
-192 s CPU beside other builds; was about 19 min of the 31.3 min build; per level,
-decomposition and summary 17-19 s against 43-51 s before, timed side by side), the same 103
-bases and 0.223 % mean error against the tables; reduced grid 7-12 s against 72 s, the same
-33 bases and error. Builds with it (reduced and levels rows): reduced grid defaults 42.6 s
-(55 s before), 1.1 MB, 33 bases, 0.30 % from exact over every image (unchanged); exact
-134.5 s, 7.8 MB. Peak with 1 and 16 observer levels: streamed 0.063 and 0.189 GiB, in memory
-0.075 and 0.344 GiB; every estimate within x0.78-x1.47 of its peak.
+Measured (this 2-core machine, shared with other jobs): Dobashi's configuration at the
+defaults in 90 s wall, 134 s of CPU (load average 1.9-2.7; target 4 min: met), 16.0 MB
+(target 50 MB), 103 bases, 0.29 % mean error against the exact path's images of 8 sampled
+pairs (target 0.5 %; worst pair 0.95 %), peak 0.78 GiB against the 1.53 GiB estimate (x1.97:
+the estimate predates the sketched basis, which holds less than the per-level decompositions
+did). Before (the per-level decompositions merged into the shared basis, 8 nodes; the same
+``build_kernel`` call timed outside this script at load 4): 360 s wall, 287 s of CPU, of
+which 203 s integrating the 60 pairs and 128 s the PCA; the first build at these defaults
+took 31.3 min (17.0 min of CPU). Reduced grid: defaults 3.7 s (42.6 s before), 1.1 MB, 33
+bases, 0.30 % from exact over every image; exact 17.5 s (134.5 s before, at a higher load),
+7.8 MB. The ``levels`` rows (peak memory against observer levels) predate the sketched
+basis.
 
 Run: ``python benchmarks/bench_sky_kernel_defaults.py [--quick]
 [--cases reduced,levels,dobashi,dobashi-exact] [--keep DIR] [--out DIR]``; cases not run keep

@@ -9,7 +9,7 @@ terms) are computed once per ray instead of once per node. Rays run in parallel 
 Only the closed-form leg optical depths are compiled; ``leg_nodes`` (Gauss quadrature of the
 legs, a reference) stays on the numpy path.
 
-Length: about 650 lines, because one compiled ray loop and the closed-form leg optical
+Length: about 800 lines, because one compiled ray loop and the closed-form leg optical
 depths it inlines are kept together so that numba compiles them as one unit.
 """
 
@@ -38,6 +38,7 @@ from nightlights.sky.quadrature import gauss_legendre
 __all__ = ["luminance_grid", "luminance_rays", "model_parameters"]
 
 _SQRT_PI = math.sqrt(math.pi)
+_INV_SQRT_PI = 1.0 / _SQRT_PI
 
 #: Largest growth of the observer leg's optical depth between two nodes of its table [1].
 _MAX_TABLE_STEP_TAU = 0.01
@@ -112,10 +113,13 @@ def _erfcx(x: float, table: FloatArray) -> float:  # pragma: no cover - compiled
         pos = y * (table.size - 1)
         i = min(int(pos), table.size - 2)
         frac = pos - i
-        return (table[i] + frac * (table[i + 1] - table[i])) * y / _SQRT_PI
+        return (table[i] + frac * (table[i + 1] - table[i])) * y * _INV_SQRT_PI
     # asymptotic series (Abramowitz & Stegun 7.1.23); next term < 3e-13 at x = 26
-    inv2 = 1.0 / (x * x)
-    return (1.0 - inv2 * (0.5 - inv2 * (0.75 - inv2 * (1.875 - 6.5625 * inv2)))) / (x * _SQRT_PI)
+    inv = 1.0 / x
+    inv2 = inv * inv
+    return (1.0 - inv2 * (0.5 - inv2 * (0.75 - inv2 * (1.875 - 6.5625 * inv2)))) * (
+        inv * _INV_SQRT_PI
+    )
 
 
 @njit(cache=True, inline="always")
@@ -136,26 +140,32 @@ def _sphere_tau(
     h0_density: float,
     mu: float,
     root_curvature: float,
+    inverse_root_curvature: float,
     length: float,
     beta: float,
-    height: float,
+    inverse_height: float,
     root_height: float,
+    inverse_root_height: float,
     table: FloatArray,
 ) -> float:  # pragma: no cover - compiled
     """One species' optical depth of an upward straight path over a sphere.
 
     Closed form of :func:`nightlights.sky.kernel.slant_optical_depth` with the factors that do
     not change along a ray passed in: h0_density = exp(-h0 / H), root_curvature =
-    sqrt(max((1 - mu^2) / (2 (R + h0)), 1e-30)), root_height = sqrt(H).
+    sqrt(max((1 - mu^2) / (2 (R + h0)), 1e-30)) and its inverse (shared by the species),
+    1 / H, sqrt(H) and 1 / sqrt(H): products instead of divisions (the same values to
+    rounding).
     """
     if beta <= 0.0:
         return 0.0
-    sk = root_curvature / root_height
-    x0 = (mu / height) / (2.0 * sk)
+    sk = root_curvature * inverse_root_height
+    inverse_sk = root_height * inverse_root_curvature
+    slope = mu * inverse_height
+    x0 = 0.5 * slope * inverse_sk
     x_end = x0 + sk * length
-    ratio = math.exp(-(mu / height + sk * sk * length) * length)
+    ratio = math.exp(-(slope + sk * sk * length) * length)
     bracket = _erfcx(x0, table) - _erfcx(x_end, table) * ratio
-    return beta * 0.5 * _SQRT_PI * h0_density / sk * bracket
+    return beta * 0.5 * _SQRT_PI * h0_density * inverse_sk * bracket
 
 
 @njit(cache=True, inline="always")
@@ -221,6 +231,86 @@ def _observer_tau(
     return tau
 
 
+@njit(cache=True, inline="always")
+def _view(el_deg: float, az_deg: float) -> tuple[float, float, float]:  # pragma: no cover
+    """Unit view direction (x towards the source, z up) of a ray (geometry.view_direction)."""
+    el = math.radians(el_deg)
+    az = math.radians(az_deg)
+    ce = math.cos(el)
+    return ce * math.cos(az), ce * math.sin(az), math.sin(el)
+
+
+@njit(cache=True, inline="always")
+def _source(
+    r: float, h_c: float, radius: float, flat: bool
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+    """Source position (x, z) and local vertical (x, z) in the observer's frame
+    (geometry.source_frame)."""
+    if flat:
+        return r, h_c, 0.0, 1.0
+    ang = r / radius
+    sa, ca = math.sin(ang), math.cos(ang)
+    half = math.sin(ang / 2.0)
+    return (radius + h_c) * sa, h_c * ca - radius * 2.0 * half * half, sa, ca
+
+
+@njit(cache=True, inline="always")
+def _top_distance(
+    se: float, h_o: float, top: float, radius: float, flat: bool
+) -> float:  # pragma: no cover - compiled
+    """Distance along a ray of elevation sine ``se`` to the top of the model atmosphere
+    (geometry.ray_exit_distance)."""
+    gap_top = max(top - h_o, 0.0)
+    if flat:
+        return gap_top / se
+    b = (radius + h_o) * se
+    cdiff = gap_top * (2.0 * radius + top + h_o)
+    root = math.sqrt(b * b + cdiff)
+    return cdiff / (b + root) if b + root > 0.0 else root - b
+
+
+@njit(cache=True, inline="always")
+def _pair_constants(
+    h_c: float, h_o: float, p: FloatArray
+) -> tuple[float, ...]:  # pragma: no cover - compiled
+    """Factors of both legs' closed forms that depend on the altitude pair alone: exp(-h_c / H)
+    of each species, 1 / (2 (R + h_c)), sqrt(H), 1 / H and 1 / sqrt(H) of each species."""
+    h_m, h_a = p[_P_H_M], p[_P_H_A]
+    root_h_m = math.sqrt(h_m)
+    root_h_a = math.sqrt(h_a)
+    return (
+        math.exp(-h_c / h_m),
+        math.exp(-h_c / h_a),
+        1.0 / (2.0 * (p[_P_RADIUS] + h_c)),
+        root_h_m,
+        root_h_a,
+        1.0 / h_m,
+        1.0 / h_a,
+        1.0 / root_h_m,
+        1.0 / root_h_a,
+    )
+
+
+@njit(cache=True, inline="always")
+def _leg(
+    se: float, h_o: float, p: FloatArray, table: FloatArray
+) -> tuple[float, ...]:  # pragma: no cover - compiled
+    """:func:`_observer_constants` of a ray of elevation sine ``se``."""
+    h_m, h_a = p[_P_H_M], p[_P_H_A]
+    return _observer_constants(
+        se,
+        h_o,
+        p[_P_RADIUS],
+        p[_P_BETA_M],
+        h_m,
+        p[_P_BETA_A],
+        h_a,
+        math.exp(-h_o / h_m),
+        math.exp(-h_o / h_a),
+        table,
+    )
+
+
 @njit(cache=True)
 def _observer_table(
     el_deg: float, h_o: float, p: FloatArray, flags: NDArray[np.int64], table: FloatArray, size: int
@@ -276,11 +366,18 @@ def _observer_table(
 
 @njit(cache=True)
 def _ray(
-    el_deg: float,
-    az_deg: float,
-    r: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    u_top: float,
+    sx: float,
+    sz: float,
+    nx: float,
+    nz: float,
     h_c: float,
     h_o: float,
+    pair: tuple[float, ...],
+    leg: tuple[float, ...],
     x_gl: FloatArray,
     w_gl: FloatArray,
     p: FloatArray,
@@ -290,9 +387,13 @@ def _ray(
     inv_dz: float,
     emission_tab: FloatArray,
 ) -> float:  # pragma: no cover - compiled
-    """Luminance along one ray; ``observer_table`` (2, m) of this ray's observer-side factors
-    (:func:`_observer_table`) replaces their closed form when m > 0; ``emission_tab`` is the
-    tabulated emission function (:func:`emission_table`)."""
+    """Luminance along one ray of upward direction (vx, vy, vz) (:func:`_view`, vz > 0) that
+    leaves the atmosphere at ``u_top`` (:func:`_top_distance`), from a source at (sx, 0, sz)
+    with local vertical (nx, 0, nz) (:func:`_source`); ``pair`` from :func:`_pair_constants`,
+    ``leg`` from :func:`_leg` (read only without the table). ``observer_table`` (2, m) of this
+    ray's observer-side factors (:func:`_observer_table`) replaces their closed form when
+    m > 0; ``emission_tab`` is the tabulated emission function (:func:`emission_table`). The
+    callers compute the factors of each elevation, azimuth, distance and altitude pair once."""
     tabulated = observer_table.shape[1] > 1
     last = observer_table.shape[1] - 1
     flat = flags[_F_FLAT] != 0
@@ -300,38 +401,12 @@ def _ray(
     emission = flags[_F_EMISSION]
     iso_molecules = flags[_F_ISOTROPIC_MOLECULES] != 0
     radius = p[_P_RADIUS]
-    top = p[_P_TOP]
     core2 = p[_P_CORE] * p[_P_CORE]
     beta_m, h_m = p[_P_BETA_M], p[_P_H_M]
     beta_a, h_a = p[_P_BETA_A], p[_P_H_A]
     sigma_a = p[_P_ALBEDO] * beta_a
     g = p[_P_G]
-    if top <= 0.0 or el_deg <= 0.0:
-        return 0.0
-    el = math.radians(el_deg)
-    az = math.radians(az_deg)
-    ce = math.cos(el)
-    se = math.sin(el)
-    vx, vy, vz = ce * math.cos(az), ce * math.sin(az), se
-    # source position and local vertical (geometry.source_frame)
-    if flat:
-        sx, sz, nx, nz = r, h_c, 0.0, 1.0
-    else:
-        ang = r / radius
-        sa, ca = math.sin(ang), math.cos(ang)
-        half = math.sin(ang / 2.0)
-        sx = (radius + h_c) * sa
-        sz = h_c * ca - radius * 2.0 * half * half
-        nx, nz = sa, ca
-    # distance to the top of the model atmosphere (geometry.ray_exit_distance)
-    gap_top = max(top - h_o, 0.0)
-    if flat:
-        u_top = gap_top / se
-    else:
-        b = (radius + h_o) * se
-        cdiff = gap_top * (2.0 * radius + top + h_o)
-        root = math.sqrt(b * b + cdiff)
-        u_top = cdiff / (b + root) if b + root > 0.0 else root - b
+    se = vz
     # keep the part of the ray above the source's tangent plane
     relx, relz = sx, sz - h_o
     vn = vx * nx + vz * nz
@@ -356,15 +431,10 @@ def _ray(
     split = min(max(u_p, start), stop)
     sin_el = max(se, 1e-3)
     knee = min(max(split + max(p[_P_MIN_H] / sin_el, d_eff), split), stop)
-    # per-ray factors of both legs' closed forms
-    root_h_m = math.sqrt(h_m)
-    root_h_a = math.sqrt(h_a)
-    src_m = math.exp(-h_c / h_m)
-    src_a = math.exp(-h_c / h_a)
-    obs_m = math.exp(-h_o / h_m)
-    obs_a = math.exp(-h_o / h_a)
-    inv_2rc = 1.0 / (2.0 * (radius + h_c))
-    leg = _observer_constants(se, h_o, radius, beta_m, h_m, beta_a, h_a, obs_m, obs_a, table)
+    # the altitude pair's factors of both legs' closed forms
+    src_m, src_a, inv_2rc = pair[0], pair[1], pair[2]
+    root_h_m, root_h_a, inv_h_m, inv_h_a = pair[3], pair[4], pair[5], pair[6]
+    inv_root_h_m, inv_root_h_a = pair[7], pair[8]
     # emission and phase constants
     half_n = p[_P_HALF_N]
     up_norm = p[_P_UP_NORM]
@@ -374,18 +444,21 @@ def _ray(
     hg_a = 1.0 + g * g
     total = 0.0
     n = x_gl.size
+    # u = u_p + d tan t (quadrature.tangent_panel_nodes); du = d (1 + tan^2 t) dt; the
+    # panels' ends in t, each computed once (split and knee end one panel and start the next)
+    t_start = math.atan((start - u_p) / d_eff)
+    t_split = math.atan((split - u_p) / d_eff)
+    t_knee = math.atan((knee - u_p) / d_eff)
+    t_stop = math.atan((stop - u_p) / d_eff)
     for panel in range(3):
         if panel == 0:
-            lo, hi = start, split
+            lo, hi, ta, tb = start, split, t_start, t_split
         elif panel == 1:
-            lo, hi = split, knee
+            lo, hi, ta, tb = split, knee, t_split, t_knee
         else:
-            lo, hi = knee, stop
+            lo, hi, ta, tb = knee, stop, t_knee, t_stop
         if hi <= lo:
             continue
-        # u = u_p + d tan t (quadrature.tangent_panel_nodes); du = d (1 + tan^2 t) dt
-        ta = math.atan((lo - u_p) / d_eff)
-        tb = math.atan((hi - u_p) / d_eff)
         halfw = 0.5 * (tb - ta)
         mid = 0.5 * (ta + tb)
         for j in range(n):
@@ -396,8 +469,8 @@ def _ray(
             tx, ty, tz = px - sx, py, pz - sz
             s2 = tx * tx + ty * ty + tz * tz
             s = math.sqrt(s2)
-            safe_s = s if s > 0.0 else 1.0
-            cos_emit = (tx * nx + tz * nz) / safe_s
+            inv_s = 1.0 / s if s > 0.0 else 1.0
+            cos_emit = (tx * nx + tz * nz) * inv_s
             if cos_emit <= 0.0:
                 continue
             # emission (emission_shapes.form_intensity)
@@ -422,7 +495,7 @@ def _ray(
                 )
             else:  # ISOTROPIC_FORM
                 intensity = 1.0 / (2.0 * math.pi)
-            cos_sc = -(tx * vx + ty * vy + tz * vz) / safe_s
+            cos_sc = -(tx * vx + ty * vy + tz * vz) * inv_s
             # altitude of the scattering point (geometry.altitude)
             if flat:
                 h = pz
@@ -465,8 +538,31 @@ def _ray(
                 else:
                     mu = min(cos_emit, 1.0)
                     root_curv = math.sqrt(max((1.0 - mu * mu) * inv_2rc, 1e-30))
-                    tau += _sphere_tau(src_m, mu, root_curv, s, beta_m, h_m, root_h_m, table)
-                    tau += _sphere_tau(src_a, mu, root_curv, s, beta_a, h_a, root_h_a, table)
+                    inv_root_curv = 1.0 / root_curv
+                    tau += _sphere_tau(
+                        src_m,
+                        mu,
+                        root_curv,
+                        inv_root_curv,
+                        s,
+                        beta_m,
+                        inv_h_m,
+                        root_h_m,
+                        inv_root_h_m,
+                        table,
+                    )
+                    tau += _sphere_tau(
+                        src_a,
+                        mu,
+                        root_curv,
+                        inv_root_curv,
+                        s,
+                        beta_a,
+                        inv_h_a,
+                        root_h_a,
+                        inv_root_h_a,
+                        table,
+                    )
                 value *= math.exp(-tau)
             total += value * weight
     return total
@@ -488,9 +584,35 @@ def _rays(
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     none = np.zeros((2, 0))
+    flat = flags[_F_FLAT] != 0
+    radius, top = p[_P_RADIUS], p[_P_TOP]
     for i in prange(el.size):
+        if top <= 0.0 or el[i] <= 0.0:
+            out[i] = 0.0
+            continue
+        vx, vy, vz = _view(el[i], az[i])
+        sx, sz, nx, nz = _source(r[i], h_c[i], radius, flat)
         out[i] = _ray(
-            el[i], az[i], r[i], h_c[i], h_o[i], x_gl, w_gl, p, flags, table, none, 0.0, emission_tab
+            vx,
+            vy,
+            vz,
+            _top_distance(vz, h_o[i], top, radius, flat),
+            sx,
+            sz,
+            nx,
+            nz,
+            h_c[i],
+            h_o[i],
+            _pair_constants(h_c[i], h_o[i], p),
+            _leg(vz, h_o[i], p, table),
+            x_gl,
+            w_gl,
+            p,
+            flags,
+            table,
+            none,
+            0.0,
+            emission_tab,
         )
 
 
@@ -510,16 +632,43 @@ def _grid(
     emission_tab: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
+    flat = flags[_F_FLAT] != 0
+    radius, top = p[_P_RADIUS], p[_P_TOP]
+    if top <= 0.0:
+        return
+    # the factors of each azimuth, distance and of the altitude pair, once
+    cos_az, sin_az = np.empty(az.size), np.empty(az.size)
+    for a in range(az.size):
+        azimuth = math.radians(az[a])
+        cos_az[a], sin_az[a] = math.cos(azimuth), math.sin(azimuth)
+    frames = np.empty((r.size, 4))
+    for k in range(r.size):
+        sx, sz, nx, nz = _source(r[k], h_c, radius, flat)
+        frames[k, 0], frames[k, 1], frames[k, 2], frames[k, 3] = sx, sz, nx, nz
+    pair = _pair_constants(h_c, h_o, p)
     for e in prange(el.size):
+        if el[e] <= 0.0:
+            continue
         observer_table, inv_dz = _observer_table(el[e], h_o, p, flags, table, table_size)
+        elevation = math.radians(el[e])
+        ce, se = math.cos(elevation), math.sin(elevation)
+        u_top = _top_distance(se, h_o, top, radius, flat)
+        leg = _leg(se, h_o, p, table)
         for k in range(r.size):
             for a in range(az.size):
                 out[e, a, k] = _ray(
-                    el[e],
-                    az[a],
-                    r[k],
+                    ce * cos_az[a],
+                    ce * sin_az[a],
+                    se,
+                    u_top,
+                    frames[k, 0],
+                    frames[k, 1],
+                    frames[k, 2],
+                    frames[k, 3],
                     h_c,
                     h_o,
+                    pair,
+                    leg,
                     x_gl,
                     w_gl,
                     p,

@@ -31,14 +31,15 @@ altitude (the same array for each level); with ``pca_error`` the attribute ``pca
 holds the reconstruction's measured error.
 
 Streaming: a kernel with one shared basis and without raw tables (:func:`streams`, the
-defaults of ``nightlights kernel build``) is built one observer level at a time through a
-temporary folder: each level's integrated pairs are computed, saved and dropped; then each
-level is interpolated, multiplied by the multiple-scattering factor and saved; each level is
-decomposed and summarised in turn (:func:`~nightlights.sky.pca.level_summary`); the
-summaries are merged into the shared basis, whose number of bases is chosen on every level's
-images read back a block at a time; and each level is projected on it. The memory held is one
-level's images and their decomposition, plus per level its summary and coefficients (the
-order of the output), not the tables (:func:`kernel_memory`).
+defaults of ``nightlights kernel build``) is built through a temporary folder: each integrated
+altitude pair is computed and saved; then each observer level is assembled from them,
+interpolated, multiplied by the multiple-scattering factor (computed once for all pairs) and
+saved; the shared basis is found from the levels read back a block of images at a
+time (:func:`~nightlights.sky.pca.sketched_basis`: a random sketch of all images, the
+Rayleigh-Ritz step on it, the number of bases chosen on a sample and checked on every image),
+which gives every image's coefficients with it. The memory held is one level's images while
+it is assembled, then a block of images, the search's sample of at most 4096 of them, the
+sketch and every image's coordinates on it (the order of the output), not the tables.
 
 Length: about 900 lines, because the bin integration, the streamed build, the choice of the
 altitude pairs it integrates (and the interpolation of the others) and the assembly of the
@@ -78,14 +79,8 @@ from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.geometry import source_frame
 from nightlights.sky.kernel import sky_luminance_grid
-from nightlights.sky.multiple import apply_multiple_scattering
-from nightlights.sky.pca import (
-    LevelDecomposition,
-    _project,
-    compress_kernel,
-    level_summary,
-    merge_summaries,
-)
+from nightlights.sky.multiple import apply_multiple_scattering, factor_images
+from nightlights.sky.pca import LevelDecomposition, compress_kernel, sketched_basis
 from nightlights.sky.quadrature import gauss_legendre
 from nightlights.sky.spec import KernelSpec
 
@@ -364,12 +359,16 @@ def interpolate_pairs(
 
 
 def _interpolated(lower: NDArray[Any], upper: NDArray[Any], w: float) -> FloatArray:
-    """exp((1 - w) ln lower + w ln upper) where both are positive, linear elsewhere."""
+    """exp((1 - w) ln lower + w ln upper) where both are positive, linear elsewhere (both
+    forms over every pixel, then chosen: vectorised, no gathered copies)."""
     lower, upper = lower.astype(float), upper.astype(float)
-    value = (1.0 - w) * lower + w * upper
     positive = (lower > 0) & (upper > 0)
-    value[positive] = np.exp((1.0 - w) * np.log(lower[positive]) + w * np.log(upper[positive]))
-    return value
+    with np.errstate(divide="ignore", invalid="ignore"):
+        logarithmic = np.log(lower)
+        logarithmic *= 1.0 - w
+        logarithmic += w * np.log(upper)
+        np.exp(logarithmic, out=logarithmic)
+    return np.where(positive, logarithmic, (1.0 - w) * lower + w * upper)
 
 
 def streams(spec: KernelSpec) -> bool:
@@ -506,37 +505,58 @@ ESTIMATED_COMPONENTS = 256
 
 
 class _LevelFiles:
-    """The per-level arrays of a streamed build in a temporary folder: ``single`` (pass 1,
-    the integrated pairs of single scattering) and ``final`` (interpolated, with multiple
-    scattering), each ``(emissions, n_c, n_r, n_el, n_az)`` float32."""
+    """The arrays of a streamed build in a temporary folder: ``single`` (pass 1, each
+    integrated altitude pair's images of single scattering, ``(emissions, n_r, n_el, n_az)``;
+    only the integrated pairs are written) and ``final`` (each observer level, interpolated,
+    with multiple scattering, ``(emissions, n_c, n_r, n_el, n_az)``), float32."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
 
-    def single(self, observer: int) -> Path:
-        return self.folder / f"single-{observer}.npy"
+    def single(self, observer: int, source: int) -> Path:
+        return self.folder / f"single-{observer}-{source}.npy"
 
     def final(self, observer: int) -> Path:
         return self.folder / f"final-{observer}.npy"
 
     def pair(self, observer: int, source: int) -> NDArray[np.float32]:
-        """One pair's images of every emission shape, read alone from the pass-1 file."""
-        level = np.load(self.single(observer), mmap_mode="r")
-        try:
-            return np.array(level[:, source])
-        finally:
-            del level
+        """One integrated pair's images of every emission shape."""
+        images: NDArray[np.float32] = np.load(self.single(observer, source))
+        return images
 
 
 class _LevelRows:
     """A level's images as rows ``(m, p)``, read from its file a block of rows at a time
-    (what :func:`~nightlights.sky.pca.merge_summaries` slices)."""
+    (what :func:`~nightlights.sky.pca.sketched_basis` slices, using each block before it
+    reads the next): a block of consecutive rows by one read into ``buffer``, reused from
+    block to block and shared by the levels, so valid until the next read (page faults of a
+    memory map or of fresh memory cost several times the copy); other keys through a memory
+    map, copied."""
 
-    def __init__(self, path: Path, shape: tuple[int, int]) -> None:
+    def __init__(self, path: Path, shape: tuple[int, int], buffer: list[NDArray[Any]]) -> None:
         self.path = path
         self.shape = shape
+        self._buffer = buffer  # [array] shared by the levels of a build, or []
 
     def __getitem__(self, key: Any) -> NDArray[np.float32]:
+        if isinstance(key, slice) and key.step in (None, 1):
+            lo, hi, _ = key.indices(self.shape[0])
+            with open(self.path, "rb") as handle:
+                version = np.lib.format.read_magic(handle)
+                _, fortran, dtype = (
+                    np.lib.format.read_array_header_1_0(handle)
+                    if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0(handle)
+                )
+                if not fortran:
+                    handle.seek(lo * self.shape[1] * dtype.itemsize, 1)
+                    count = max(0, hi - lo) * self.shape[1]
+                    if not self._buffer or self._buffer[0].size < count:
+                        self._buffer[:] = [np.empty(count, dtype=dtype)]
+                    rows = self._buffer[0][:count]
+                    if handle.readinto(rows.data.cast("B")) != rows.nbytes:
+                        raise OSError(f"{self.path}: short read of rows {lo}-{hi}")
+                    return rows.reshape(-1, self.shape[1])
         level = np.load(self.path, mmap_mode="r")
         try:
             return np.array(level.reshape(self.shape)[key])
@@ -560,23 +580,22 @@ def _stream_tables(
     start = time.perf_counter()
     with Progress(*_COLUMNS, disable=not progress, transient=True) as bar:
         task = bar.add_task("kernel", total=int(computed.sum()) * len(emissions))
-        for o in range(h_o.size):
-            level = np.zeros(shape, dtype=np.float32)
-            for c in np.flatnonzero(computed[o]).tolist():
-                for i, emission in enumerate(emissions):
-                    for lo in range(0, n_r_bins, r_chunk):
-                        sl = slice(lo, min(lo + r_chunk, n_r_bins))
-                        level[i, c, sl] = pair_images(
-                            spec, o, c, emission, bins=sl, backend=backend
-                        )
-                    bar.advance(task)
-            np.save(levels.single(o), level)
-            del level
+        for o, c in zip(*np.nonzero(computed), strict=True):
+            images = np.zeros((shape[0], *shape[2:]), dtype=np.float32)
+            for i, emission in enumerate(emissions):
+                for lo in range(0, n_r_bins, r_chunk):
+                    sl = slice(lo, min(lo + r_chunk, n_r_bins))
+                    images[i, sl] = pair_images(spec, o, c, emission, bins=sl, backend=backend)
+                bar.advance(task)
+            np.save(levels.single(o, c), images)
+            del images
     log.info("kernel images computed in %.1f s", time.perf_counter() - start)
-    attrs: dict[str, str] = {}
+    factors, attrs = factor_images(spec)  # the same for every altitude pair
     positive = np.zeros(len(emissions), dtype=bool)
     for o in range(h_o.size):
-        level = np.load(levels.single(o))
+        level = np.zeros(shape, dtype=np.float32)
+        for c in np.flatnonzero(computed[o]).tolist():
+            level[:, c] = levels.pair(o, c)
         for pair in (p for p in interpolated if p.observer == o):
             lower = levels.pair(*pair.lower)
             upper = levels.pair(*pair.upper)
@@ -584,11 +603,13 @@ def _stream_tables(
         tables = {emission: level[i][None] for i, emission in enumerate(emissions)}
         _check_finite(tables, spec)
         positive |= [bool(np.any(table > 0)) for table in tables.values()]
-        attrs = apply_multiple_scattering(tables, spec)
+        for i, emission in enumerate(emissions):
+            if emission in factors:
+                level[i] *= factors[emission].astype(level.dtype)
         np.save(levels.final(o), level)
         del level, tables
-    for o in range(h_o.size):
-        levels.single(o).unlink()
+    for o, c in zip(*np.nonzero(computed), strict=True):
+        levels.single(o, c).unlink()
     for emission, any_positive in zip(emissions, positive, strict=True):
         if not any_positive:
             _refuse_zero(emission, spec)
@@ -596,35 +617,26 @@ def _stream_tables(
 
 
 def _stream_compress(spec: KernelSpec, levels: _LevelFiles) -> xr.Dataset:
-    """The shared PCA of the levels on disk: each level decomposed and summarised in turn,
-    the summaries merged, the number of bases chosen on every level's images, and every
-    level projected on the basis (:func:`~nightlights.sky.pca.merge_summaries`)."""
+    """The shared PCA of the levels on disk (:func:`~nightlights.sky.pca.sketched_basis`:
+    every level read a block of rows at a time to sketch the images, to take their
+    coordinates and, with an error target, to check it)."""
     n_o, n_c = len(spec.observer_altitudes), len(spec.source_altitudes)
     n_r, n_el, n_az = spec.n_distance, spec.n_elevation, spec.n_azimuth
     emissions = spec.emissions
     m, p = len(emissions) * n_c * n_r, n_el * n_az
     dtype = np.float32 if spec.precision == "float32" else np.float64
-    energy, error, n_components = spec.pca_energy, spec.pca_error, spec.n_components
-    summaries, rows = [], 0
-    for o in range(n_o):
-        level = LevelDecomposition(np.load(levels.final(o)).reshape(m, p))
-        if not level.empty:
-            summaries.append(
-                level_summary(
-                    level, energy=energy, n_components=n_components, error=error, dtype=dtype
-                )
-            )
-            rows += int(np.sum(level.keep))
-        del level
-    images = [_LevelRows(levels.final(o), (m, p)) for o in range(n_o)]
-    basis, explained, achieved = merge_summaries(
-        summaries, rows, images, energy=energy, n_components=n_components, error=error, dtype=dtype
+    buffer: list[NDArray[Any]] = []  # one read buffer for every level
+    images = [_LevelRows(levels.final(o), (m, p), buffer) for o in range(n_o)]
+    basis, coefficients, explained, achieved = sketched_basis(
+        images,
+        energy=spec.pca_energy,
+        n_components=spec.n_components,
+        error=spec.pca_error,
+        dtype=dtype,
     )
-    del summaries
     basis = basis.astype(dtype).astype(float)
     k = basis.shape[0]
-    coefs = np.stack([_project(np.load(levels.final(o)).reshape(m, p), basis) for o in range(n_o)])
-    coefs = coefs.astype(dtype).astype(float)
+    coefs = np.stack(coefficients).astype(dtype).astype(float)
     basis_img = basis.reshape(k, n_el, n_az)
     spectrum = np.fft.rfft(basis_img, axis=-1)
     dims_c = ("observer_altitude", "source_altitude", "distance", "component")
@@ -651,7 +663,7 @@ def _stream_compress(spec: KernelSpec, levels: _LevelFiles) -> xr.Dataset:
         data[table_names(emission)[1]] = (dims_c, part, attrs)
     ds = xr.Dataset(data)
     ds.attrs["pca_components"] = k
-    if error is not None and n_components is None:
+    if spec.pca_error is not None and spec.n_components is None:
         ds.attrs["pca_mean_error"] = achieved
     return ds.assign_coords(component=np.arange(k), frequency=np.arange(n_az // 2 + 1))
 

@@ -474,22 +474,52 @@ def apply_multiple_scattering(tables: dict[str, Any], spec: Any) -> dict[str, st
         ``shipped`` or ``measured``, its photons, and for a tabulated function the shape
         whose factor stands in) ; empty when ``spec.multiple_scattering`` is ``single``.
     """
+    factors, attrs = factor_images(spec, tuple(tables))
+    for emission, table in tables.items():
+        if emission in factors:
+            table *= factors[emission].astype(table.dtype)
+    return attrs
+
+
+def factor_images(
+    spec: Any, emissions: tuple[str, ...] | None = None
+) -> tuple[dict[str, FloatArray], dict[str, str]]:
+    """The multiple-scattering factor of every pixel of a kernel's images, per emission shape,
+    for :func:`apply_multiple_scattering` (computed once for every altitude pair).
+
+    Parameters
+    ----------
+    spec
+        The kernel's :class:`~nightlights.sky.spec.KernelSpec`.
+    emissions
+        The shapes (default ``spec.emissions``).
+
+    Returns
+    -------
+    factors : dict
+        Emission shape -> array, shape ``(n_distance, n_elevation, n_azimuth)`` [1];
+        empty when there is no factor (single scattering, or no extinction).
+    attrs : dict
+        As :func:`apply_multiple_scattering`.
+    """
     if spec.multiple_scattering == "single":
-        return {}
+        return {}, {}
     if not spec.atmosphere.extinction:  # nothing is scattered out of the beam: no factor
-        return {"multiple_scattering_tables": "none: extinction is off (single scattering)"}
+        return {}, {"multiple_scattering_tables": "none: extinction is off (single scattering)"}
     el = np.asarray(spec.elevations, dtype=float)[:, None]
     az = np.asarray(spec.azimuths, dtype=float)[None, :]
     notes = []
-    for emission, table in tables.items():
+    images = {}
+    for emission in spec.emissions if emissions is None else emissions:
         factors = shape_table(spec.atmosphere, emission, spec.uplight_exponent)
-        for k, r in enumerate(np.asarray(spec.distances, dtype=float)):
-            table[:, :, k] *= factors(el, az, r).astype(table.dtype)
+        images[emission] = np.stack(
+            [factors(el, az, r) for r in np.asarray(spec.distances, dtype=float)]
+        )
         shape = factors.emission
         name = "tabulated" if emission_shape(emission).table == "tabulated" else emission
         stand_in = f" (factor of {shape})" if shape != emission else ""
         notes.append(f"{name}: {factors.source}, {factors.photons} photons{stand_in}")
-    return {"multiple_scattering_tables": "; ".join(notes)}
+    return images, {"multiple_scattering_tables": "; ".join(notes)}
 
 
 def scattering_note(kernel_attrs: Any) -> str:

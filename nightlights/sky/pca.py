@@ -14,31 +14,38 @@ Storage levers (all optional; the defaults are the original layout):
   reconstruction has at most that mean relative error over the pixels brighter than 1 % of
   their image's maximum (:func:`bright_relative_error`, the accuracy measure of the kernel
   benchmarks), instead of an energy fraction that says little about faint pixels;
-- one basis shared by every observer altitude (``shared``): the per-level bases are merged
-  (the stacked, singular-value-scaled per-level bases have the same Gram matrix, to the
-  truncation, as all the normalised images) and the shared basis is chosen by the error target
-  on every level's images (each level keeps the directions that meet a quarter of the target
-  on every n-th of its images, at most 512: the merged basis, not the levels' truncation, sets
-  the accuracy, and is checked on every image);
+- one basis shared by every observer altitude (``shared``): the principal directions of all
+  levels' normalised images together, found by a randomized range finder
+  (:func:`sketched_basis`: the images' row space sketched by a Gaussian test matrix of
+  :data:`SKETCH_COLUMNS` columns, then the Rayleigh-Ritz step on the sketch, Halko et al.
+  2011, Algs. 4.1 and 5.1), which reads every image twice (and once more to check the error)
+  instead of decomposing every level's Gram matrix; the sketch's leading directions are the
+  truncated SVD's to well within the error target when it keeps at most half of them
+  (``benchmarks/bench_sky_kernel_defaults.py``), and more columns are sketched otherwise;
 - coefficients and bases rounded to float32 (``precision``), so that a file stores them
   exactly in half the bytes.
 
-Length: about 620 lines, because the compression, its error-target search and the per-level
-summaries that the streamed build merges into one shared basis are one PCA of the kernel
+Length: about 870 lines, because the compression, its error-target search and the sketched
+basis that the streamed build shares between the observer levels are one PCA of the kernel
 tables.
 
 References
 ----------
 Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
 the Night Sky", ACM TOG 42(6) 219, Eq. 4 (PCA) and Eq. 9 (FFT of the bases).
+
+Halko, N., Martinsson, P.-G. & Tropp, J. A. 2011, "Finding Structure with Randomness:
+Probabilistic Algorithms for Constructing Approximate Matrix Decompositions", SIAM Review
+53(2) 217, Algs. 4.1 (randomized range finder) and 5.1 (direct SVD).
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
@@ -46,18 +53,19 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from nightlights._typing import FloatArray
+from nightlights.sky._pca_numba import bright_error_sums
 
 __all__ = [
     "BRIGHT_FRACTION",
     "PRECISIONS",
+    "SKETCH_COLUMNS",
     "LevelDecomposition",
     "bright_relative_error",
     "compress_kernel",
     "decompose_levels",
-    "level_summary",
-    "merge_summaries",
     "pca_compress",
     "shared_basis",
+    "sketched_basis",
 ]
 
 #: Pixels count in the accuracy measure when brighter than this fraction of their image's
@@ -74,10 +82,9 @@ _SEARCH_ROWS = 4096
 #: Principal directions formed first by the error-target search (doubled while too few) [1].
 _FIRST_CANDIDATES = 64
 
-#: Rows of a level's own search in :func:`level_summary`: every n-th image when there are
-#: more than this many, without the check on all of them (the merged basis is checked on
-#: every image) [1].
-_SUMMARY_ROWS = 512
+#: Samples of at most this many rows keep their bright pixels between the reconstructions of
+#: an error-target search (larger ones find them again, bounding the memory) [1].
+_CACHED_ROWS = 512
 
 
 def bright_relative_error(
@@ -206,8 +213,6 @@ def _components_for_error(
     *,
     dtype: type = np.float64,
     rows: int = _SEARCH_ROWS,
-    check: bool = True,
-    first: int = _FIRST_CANDIDATES,
 ) -> tuple[int, float]:
     """Fewest leading principal directions whose reconstruction of the stacks ``x`` (rows =
     images) meets ``error``.
@@ -215,34 +220,14 @@ def _components_for_error(
     ``basis(k)`` gives the k leading directions (orthonormal rows). Candidates double from
     :data:`_FIRST_CANDIDATES` until they meet the target on every n-th row of ``x`` (at most
     ``rows`` rows), then bisection among them (the sample's coefficients on the candidates
-    computed once: those of fewer directions are their leading columns); with ``check``, the
-    number is then checked on all rows and raised by 10 % steps until it meets the target
-    there (or reaches ``rank``). Returns the number and its error on all rows (with
-    ``check``) or on the sample [1]. ``first``: the number of candidates formed first.
+    computed once: those of fewer directions are their leading columns); the number is then
+    checked on all rows and raised by 10 % steps until it meets the target there (or reaches
+    ``rank``). Returns the number and its error on all rows [1].
     """
-    k, achieved, _ = _search_error(
-        x, basis, rank, error, dtype=dtype, rows=rows, check=check, first=first
-    )
-    return k, achieved
-
-
-def _search_error(
-    x: list[FloatArray],
-    basis: Callable[[int], FloatArray],
-    rank: int,
-    error: float,
-    *,
-    dtype: type,
-    rows: int,
-    check: bool,
-    first: int,
-) -> tuple[int, float, FloatArray]:
-    """:func:`_components_for_error`, also returning the candidate directions formed (at
-    least as many as the number chosen)."""
     step = max(1, -(-sum(part.shape[0] for part in x) // rows))
     sample = np.concatenate([part[::step] for part in x])  # as given (float32 tables)
     bright = _BrightPixels(sample)
-    count = max(1, min(first, rank))
+    count = max(1, min(_FIRST_CANDIDATES, rank))
     while True:
         candidates = basis(count)
         rounded = candidates.astype(dtype).astype(float)
@@ -258,8 +243,6 @@ def _search_error(
         else:
             lo = mid + 1
     k = lo
-    if not check:
-        return k, bright.error(projected[:, :k], rounded[:k], dtype), candidates
     del bright, projected, sample
     achieved = _stacks_error(x, candidates[:k], dtype=dtype)
     while achieved > error and k < rank:
@@ -267,7 +250,7 @@ def _search_error(
         if k > candidates.shape[0]:
             candidates = basis(k)
         achieved = _stacks_error(x, candidates[:k], dtype=dtype)
-    return k, achieved, candidates
+    return k, achieved
 
 
 #: Rows reconstructed at a time by the error-target search [1].
@@ -277,13 +260,13 @@ _BLOCK_ROWS = 512
 class _BrightPixels:
     """The pixels of a sample of images that :func:`bright_relative_error` counts, for the
     many reconstructions of an error-target search: found once (flat indices and values per
-    block of :data:`_BLOCK_ROWS` rows) when the sample has at most :data:`_SUMMARY_ROWS`
+    block of :data:`_BLOCK_ROWS` rows) when the sample has at most :data:`_CACHED_ROWS`
     rows, else found again in each block at each reconstruction (bounding the memory)."""
 
     def __init__(self, sample: FloatArray) -> None:
         self.sample = sample
         self.blocks: list[tuple[NDArray[Any], NDArray[Any]]] | None = None
-        if sample.shape[0] <= _SUMMARY_ROWS:
+        if sample.shape[0] <= _CACHED_ROWS:
             self.blocks = [self._find(lo) for lo in range(0, sample.shape[0], _BLOCK_ROWS)]
 
     def _find(self, lo: int) -> tuple[NDArray[Any], NDArray[Any]]:
@@ -388,24 +371,6 @@ class LevelDecomposition:
             basis = self.vectors[:, :k].T
         return _orthonormal(basis)  # Gram eigenvectors lose a little orthogonality
 
-    def summary_candidates(self, error: float, *, dtype: type) -> tuple[int, FloatArray]:
-        """The fewest components meeting ``error`` on every n-th image (at most
-        :data:`_SUMMARY_ROWS`, :func:`level_summary`) and the directions formed (at least
-        that many) [1]. The first directions formed are those explaining all but 1e-8 of the
-        energy (a first guess, doubled while too few)."""
-        first = max(_FIRST_CANDIDATES, self.components_for_energy(1.0 - 1e-8))
-        k, _, candidates = _search_error(
-            [self.images],
-            self.basis,
-            self.rank,
-            error,
-            dtype=dtype,
-            rows=_SUMMARY_ROWS,
-            check=False,
-            first=first,
-        )
-        return k, candidates
-
 
 def pca_compress(
     images: FloatArray,
@@ -465,21 +430,15 @@ def shared_basis(
     error: float | None = None,
     dtype: type = np.float64,
 ) -> tuple[FloatArray, float, float]:
-    """One orthonormal basis for several stacks of images (one stack per observer altitude).
-
-    Each stack's normalised images X_o = U_o S_o V_o^T are summarised by S_o V_o^T (the same
-    Gram matrix X_o^T X_o); the stacked summaries of all levels are decomposed again, which
-    gives the principal directions of all normalised images together. Each level keeps the
-    components that meet a quarter of the error target on every n-th of its own images (at
-    most :data:`_SUMMARY_ROWS`; without a target:
-    that explain ``1 - (1 - energy) / 100`` of them), so that the merge, not the levels'
-    truncation, sets the accuracy.
+    """One orthonormal basis for several stacks of images (one stack per observer altitude):
+    the principal directions of all their normalised images together
+    (:func:`sketched_basis`).
 
     Parameters
     ----------
     stacks
         Per level, shape ``(m_o, p)`` [cd m-2 lm-1], or their decompositions
-        (:func:`decompose_levels`).
+        (:func:`decompose_levels`; their images are used).
     energy
         Explained-energy target of all normalised images together, used when
         ``n_components`` and ``error`` are None [1].
@@ -499,108 +458,245 @@ def shared_basis(
     achieved : float
         Its :func:`bright_relative_error` over all images (NaN unless ``error`` is given) [1].
     """
-    levels = [s if isinstance(s, LevelDecomposition) else LevelDecomposition(s) for s in stacks]
-    summaries = [
-        level_summary(level, energy=energy, n_components=n_components, error=error, dtype=dtype)
-        for level in levels
-        if not level.empty
-    ]
-    rows = sum(int(np.sum(level.keep)) for level in levels if not level.empty)
-    return merge_summaries(
-        summaries,
-        rows,
-        [level.images for level in levels],
-        energy=energy,
-        n_components=n_components,
-        error=error,
-        dtype=dtype,
+    images = [s.images if isinstance(s, LevelDecomposition) else s for s in stacks]
+    basis, _, explained, achieved = sketched_basis(
+        images, energy=energy, n_components=n_components, error=error, dtype=dtype
     )
+    return basis, explained, achieved
 
 
-def level_summary(
-    level: LevelDecomposition,
+#: Columns of the Gaussian test matrix of :func:`sketched_basis` [1]; the basis keeps at most
+#: half of them (else the images are sketched again with twice as many). Dobashi's
+#: configuration at the defaults (32,768 images of 16,384 pixels, about 100 bases; the
+#: saved tables of ``benchmarks/bench_sky_kernel_defaults.py``): with 256 columns the
+#: reconstruction errors at 96 and 103 bases (0.280 %, 0.224 %) equal those after one power
+#: iteration more and those of the per-level decompositions merged before; 160 columns give
+#: 0.305 % and 0.251 %.
+SKETCH_COLUMNS = 256
+
+#: Seed of the sketch's test matrix: fixed, so that a build is reproducible.
+_SKETCH_SEED = 20110
+
+#: Rows read (and multiplied) at a time by :func:`sketched_basis` [1].
+_SKETCH_ROWS = 4096
+
+
+def sketched_basis(
+    stacks: list[Any],
     *,
     energy: float = 0.999999,
     n_components: int | None = None,
     error: float | None = None,
     dtype: type = np.float64,
-) -> FloatArray:
-    """One level's summary S V^T for :func:`merge_summaries`: its leading principal directions
-    scaled by their singular values, as many as meet a quarter of the error target on every
-    n-th of the level's own images (at most :data:`_SUMMARY_ROWS`, not checked on the others:
-    the merged basis is; without a target: that explain ``1 - (1 - energy) / 100``).
+    columns: int = SKETCH_COLUMNS,
+) -> tuple[FloatArray, list[FloatArray], float, float]:
+    """One orthonormal basis for several stacks of images by a randomized range finder, and
+    the coefficients of every image on it.
+
+    The images (rows) are normalised to unit norm as in :func:`pca_compress`. Their row space
+    is sketched by Z = sum_o X_o^T G_o, G_o Gaussian with l columns, Q an orthonormal basis
+    of Z (Halko et al. 2011, Alg. 4.1); the Rayleigh-Ritz step decomposes the l x l Gram
+    matrix of the coordinates C = X Q of all images (Alg. 5.1): its eigenvectors W give the
+    principal directions (Q W)^T, their energies, and every image's coordinates C W. The
+    images are read twice (three times with an error target: the check). The number of
+    directions is given, chosen by explained energy, or the fewest meeting the error target
+    on every n-th image (at most :data:`_SEARCH_ROWS`) then checked on all of them and
+    raised by 10 % steps until met; when it is more than half of l, the images are sketched
+    again with twice as many columns (up to the rank, where the sketch is exact). Products
+    are summed in the stacks' precision (float32 tables: single-precision products, the
+    coordinates within about 1e-6 of float64 ones; the error check is in float64).
 
     Parameters
     ----------
-    level
-        The level's decomposition (not empty).
+    stacks
+        Per level, an array of shape ``(m_o, p)`` or any object sliced by rows with a
+        ``shape`` (read a block of rows at a time, so that a level may stay on disk)
+        [cd m-2 lm-1].
     energy, n_components, error, dtype
         As :func:`shared_basis`.
+    columns
+        Columns l of the first sketch [1].
 
     Returns
     -------
-    numpy.ndarray
-        Shape ``(k_o, p)`` [1].
-    """
-    if error is not None and n_components is None:
-        k, candidates = level.summary_candidates(error / 4.0, dtype=dtype)
-        return np.sqrt(level.eigenvalues[:k])[:, None] * candidates[:k]
-    k = level.components_for_energy(1.0 - (1.0 - energy) / 100.0)
-    return np.sqrt(level.eigenvalues[:k])[:, None] * level.basis(k)
+    basis : numpy.ndarray
+        Shape ``(k, p)``, orthonormal rows [1].
+    coefficients : list of numpy.ndarray
+        Per stack, shape ``(m_o, k)``: the images' coefficients [cd m-2 lm-1].
+    explained : float
+        Energy of all normalised images the basis explains [1].
+    achieved : float
+        :func:`bright_relative_error` of all images from the basis and coefficients rounded
+        to ``dtype`` (NaN unless ``error`` is given) [1].
 
-
-def merge_summaries(
-    summaries: list[FloatArray],
-    rows: int,
-    images: list[Any],
-    *,
-    energy: float = 0.999999,
-    n_components: int | None = None,
-    error: float | None = None,
-    dtype: type = np.float64,
-) -> tuple[FloatArray, float, float]:
-    """The shared basis of the levels' summaries (:func:`level_summary`, :func:`shared_basis`).
-
-    Parameters
+    References
     ----------
-    summaries
-        Per non-empty level, shape ``(k_o, p)`` [1].
-    rows
-        Number of non-zero images over all levels [1].
-    images
-        Per level, its images (rows), an array or any object sliced by rows with a ``shape``
-        (read a block of rows at a time, so that a level may stay on disk) [cd m-2 lm-1].
-    energy, n_components, error, dtype
-        As :func:`shared_basis`.
-
-    Returns
-    -------
-    basis, explained, achieved
-        As :func:`shared_basis`.
+    Halko, Martinsson & Tropp 2011, Algs. 4.1 and 5.1.
     """
-    if not summaries:
-        k = n_components or 1
-        return np.zeros((k, images[0].shape[1])), 1.0, float("nan")
-    # rows of the merged summaries are unit-weight images of the Gram matrix sum_o V S^2 V^T:
-    # decompose them without renormalising (their norms are the singular values)
-    merged = np.concatenate(summaries)
-    lam, vec = _eigh(merged @ merged.T)
-    explained = np.cumsum(lam) / rows
-    rank = max(1, int(np.sum(lam > lam[0] * 1e-13)))
-
-    def basis(k: int) -> FloatArray:
+    sizes = [int(stack.shape[0]) for stack in stacks]
+    p = int(stacks[0].shape[1])
+    width = min(max(columns, 2 * (n_components or 0)), sum(sizes), p)
+    norms: list[FloatArray] | None = None
+    while True:
+        sketch = _Sketch(stacks, width, norms, sample=error is not None and n_components is None)
+        norms = sketch.norms
+        rows = int(sum(np.count_nonzero(n) for n in norms))
+        if rows == 0:
+            k = n_components or 1
+            return np.zeros((k, p)), [np.zeros((m, k)) for m in sizes], 1.0, float("nan")
+        full = min(rows, p)
+        explained = np.cumsum(sketch.energies) / rows
+        rank = max(1, int(np.sum(sketch.energies > sketch.energies[0] * 1e-13)))
+        achieved = float("nan")
+        if n_components is not None:
+            k = int(n_components)
+        elif error is not None:
+            k = sketch.search(error, rank, dtype)
+        else:
+            k = int(np.searchsorted(explained, energy - 1e-12) + 1)
         k = max(1, min(k, rank))
-        return _orthonormal(((merged.T @ vec[:, :k]) / np.sqrt(lam[:k])[None, :]).T)
+        if error is not None and n_components is None:
+            achieved = sketch.check(k, dtype)
+            while achieved > error and k < rank:
+                k = min(rank, max(k + 1, int(k * 1.1)))
+                achieved = sketch.check(k, dtype)
+        if k <= width // 2 or width >= full:
+            break
+        width = min(2 * width, full)
+    bounds = np.cumsum([0, *sizes])
+    coefficients = [sketch.coefficients(slice(lo, hi), k) for lo, hi in itertools.pairwise(bounds)]
+    return sketch.directions[:k], coefficients, float(explained[k - 1]), achieved
 
-    achieved = float("nan")
-    if n_components is not None:
-        k = int(n_components)
-    elif error is not None:
-        k, achieved = _components_for_error(images, basis, rank, error, dtype=dtype)
-    else:
-        k = int(np.searchsorted(explained, energy - 1e-12) + 1)
-    k = max(1, min(k, rank))
-    return basis(k), float(explained[k - 1]), achieved
+
+class _Sketch:
+    """The Rayleigh-Ritz step of :func:`sketched_basis` on a sketch of ``width`` columns:
+    ``directions`` (width, p), their ``energies`` (descending), the images' ``norms`` (per
+    stack; computed when not given) and their coordinates on the sketch (rows, width; in the
+    stacks' precision, which their products have), from which :meth:`coefficients` gives
+    the images' coefficients; with ``sample`` every n-th image for the error-target search."""
+
+    def __init__(
+        self, stacks: list[Any], width: int, norms: list[FloatArray] | None, *, sample: bool
+    ) -> None:
+        self.stacks = stacks
+        rng = np.random.default_rng(_SKETCH_SEED)
+        sketch: FloatArray | None = None
+        found = []
+        for index, stack in enumerate(stacks):
+            for lo, block in _blocks(stack):
+                if norms is None:
+                    found.append(np.sqrt(np.einsum("ij,ij->i", block, block, dtype=float)))
+                    scale = _inverse(found[-1])
+                else:
+                    scale = _inverse(norms[index][lo : lo + block.shape[0]])
+                test = rng.standard_normal((block.shape[0], width)) * scale[:, None]
+                part = (block.T @ test.astype(block.dtype)).astype(float)
+                sketch = part if sketch is None else sketch + part
+        sizes = [int(s.shape[0]) for s in stacks]
+        if norms is None:
+            flat = np.concatenate(found)
+            norms = [flat[lo:hi] for lo, hi in itertools.pairwise(np.cumsum([0, *sizes]))]
+        self.norms = norms
+        self.scale = np.concatenate(norms)
+        assert sketch is not None
+        with _one_thread():
+            q = np.linalg.qr(sketch)[0]
+        del sketch
+        step = max(1, -(-sum(sizes) // _SEARCH_ROWS))
+        # the coordinates in the products' precision: float32 for float32 tables (any float64
+        # block makes them float64)
+        self.coordinates = np.zeros((sum(sizes), width), dtype=np.float32)
+        gram = np.zeros((width, width))
+        rows, row = [], 0
+        for index, stack in enumerate(stacks):
+            for lo, block in _blocks(stack):
+                scale = _inverse(norms[index][lo : lo + block.shape[0]])
+                part = block @ q.astype(block.dtype)
+                part *= scale[:, None].astype(part.dtype)
+                if part.dtype != self.coordinates.dtype:
+                    self.coordinates = self.coordinates.astype(part.dtype)
+                self.coordinates[row : row + block.shape[0]] = part
+                wide = part.astype(float)
+                gram += wide.T @ wide
+                row += block.shape[0]
+                if sample:  # every step-th row of the stack (as _sample_rows), copied
+                    rows.append(np.array(block[-lo % step :: step]))
+        self.energies, self.vectors = _eigh(gram)
+        self.directions = (q @ self.vectors).T
+        self.sample = np.concatenate(rows) if sample else None
+        self.sample_rows = _sample_rows(stacks, step) if sample else None
+
+    def coefficients(self, rows: Any, k: int) -> FloatArray:
+        """The coefficients of the images ``rows`` (a slice or indices over all stacks) on the
+        ``k`` leading directions, float64 [unit of the images]."""
+        coordinates = np.asarray(self.coordinates[rows], dtype=float)
+        out: FloatArray = coordinates @ self.vectors[:, :k]
+        out *= self.scale[rows, None]
+        return out
+
+    def search(self, error: float, rank: int, dtype: type) -> int:
+        """Fewest directions meeting ``error`` on the sample: doubling from
+        :data:`_FIRST_CANDIDATES`, then bisection; the products summed in ``dtype``
+        (float32: a relative error of about 1e-6 in the reconstruction, for a choice that
+        :meth:`check` measures in float64) [1]."""
+        assert self.sample is not None and self.sample_rows is not None
+        sample = self.sample
+        coefficients: NDArray[Any] = self.coefficients(self.sample_rows, rank).astype(dtype)
+        directions: NDArray[Any] = self.directions.astype(dtype)
+
+        def meets(k: int) -> bool:
+            total, count = 0.0, 0
+            for lo in range(0, sample.shape[0], _BLOCK_ROWS):
+                approx = coefficients[lo : lo + _BLOCK_ROWS, :k] @ directions[:k]
+                part = bright_error_sums(approx, sample[lo : lo + _BLOCK_ROWS], BRIGHT_FRACTION)
+                total, count = total + part[0], count + part[1]
+            return (total / count if count else 0.0) <= error
+
+        lo, hi = 1, max(1, min(_FIRST_CANDIDATES, rank))
+        while hi < rank and not meets(hi):
+            lo, hi = hi + 1, min(2 * hi, rank)
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if meets(mid):
+                hi = mid
+            else:
+                lo = mid + 1
+        return lo
+
+    def check(self, k: int, dtype: type) -> float:
+        """:func:`bright_relative_error` of every image from ``k`` directions and their
+        coefficients, both rounded to ``dtype``, in float64 [1]."""
+        basis = self.directions[:k].astype(dtype).astype(float)
+        total, count, row = 0.0, 0, 0
+        for stack in self.stacks:
+            for _, block in _blocks(stack):
+                for lo in range(0, block.shape[0], _BLOCK_ROWS):
+                    rows = slice(row + lo, min(row + lo + _BLOCK_ROWS, row + block.shape[0]))
+                    approx = self.coefficients(rows, k).astype(dtype).astype(float) @ basis
+                    part = bright_error_sums(approx, block[lo : lo + _BLOCK_ROWS], BRIGHT_FRACTION)
+                    total, count = total + part[0], count + part[1]
+                row += block.shape[0]
+        return total / count if count else 0.0
+
+
+def _blocks(stack: Any, rows: int = _SKETCH_ROWS) -> Iterator[tuple[int, FloatArray]]:
+    """A stack's rows a block at a time, as stored (float32 or float64)."""
+    for lo in range(0, int(stack.shape[0]), rows):
+        block = np.asarray(stack[lo : lo + rows])
+        yield lo, block if block.dtype in (np.float32, np.float64) else block.astype(float)
+
+
+def _inverse(norms: FloatArray) -> FloatArray:
+    """1 / norm, 0 for zero rows (they take no part) [1]."""
+    return np.divide(1.0, norms, out=np.zeros_like(norms), where=norms > 0)
+
+
+def _sample_rows(stacks: list[Any], step: int) -> NDArray[np.intp]:
+    """Indices, over all stacks' rows, of every ``step``-th row of each stack."""
+    offsets = np.cumsum([0, *(int(s.shape[0]) for s in stacks)])
+    return np.concatenate(
+        [lo + np.arange(0, int(s.shape[0]), step) for lo, s in zip(offsets, stacks, strict=False)]
+    )
 
 
 def decompose_levels(
@@ -621,13 +717,21 @@ def decompose_levels(
     list of LevelDecomposition
         One per observer level.
     """
+    return [LevelDecomposition(rows) for rows in _level_rows(kernel, kernel_uplight)]
+
+
+def _level_rows(
+    kernel: NDArray[np.floating[Any]], kernel_uplight: NDArray[np.floating[Any]] | None
+) -> list[FloatArray]:
+    """Each observer level's images as rows ``(n_c n_r [x 2], p)``: every source altitude and
+    distance, then the same of ``kernel_uplight`` (views of the tables without it)."""
     n_o, n_c, n_r, n_el, n_az = kernel.shape
     levels = []
     for o in range(n_o):
-        rows = kernel[o].reshape(n_c * n_r, n_el * n_az)  # a view of the tables
+        rows = kernel[o].reshape(n_c * n_r, n_el * n_az)
         if kernel_uplight is not None:
             rows = np.concatenate([rows, kernel_uplight[o].reshape(n_c * n_r, n_el * n_az)])
-        levels.append(LevelDecomposition(rows))
+        levels.append(cast(FloatArray, rows))  # as given: float32 tables stay float32
     return levels
 
 
@@ -682,17 +786,22 @@ def compress_kernel(
 
     explained_k = np.zeros(n_o)
     achieved = float("nan")
-    levels = decompositions or decompose_levels(kernel, kernel_uplight)
     if shared_bases:
-        basis, explained, achieved = shared_basis(
-            levels, energy=pca_energy, n_components=n_components, error=pca_error, dtype=dtype
+        stacks = (
+            [level.images for level in decompositions]
+            if decompositions
+            else _level_rows(kernel, kernel_uplight)
+        )
+        basis, coefficients, explained, achieved = sketched_basis(
+            stacks, energy=pca_energy, n_components=n_components, error=pca_error, dtype=dtype
         )
         basis = basis.astype(dtype).astype(float)
         k = basis.shape[0]
         bases = np.broadcast_to(basis, (n_o, k, n_pix))
-        coefs = np.stack([_project(level.images, basis) for level in levels])
+        coefs = np.stack(coefficients)
         explained_k[:] = explained
     else:
+        levels = decompositions or decompose_levels(kernel, kernel_uplight)
         chosen = []
         for level in levels:
             if level.empty:

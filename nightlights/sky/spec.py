@@ -75,11 +75,15 @@ __all__ = [
 KERNEL_FORMAT_VERSION = 2
 
 #: Gauss-Legendre nodes per line-of-sight panel of the default build [1]. From
-#: ``benchmarks/bench_sky_kernel_quadrature.py`` (sources 100 m-300 km against 256 nodes): the
-#: 99th percentile of the ray errors is 0.32 % at 8 nodes (2.2 % at 6, 0.017 % at 12), at
-#: 0.65 of the time per ray of 12 nodes; ``bench_sky_kernel_fast_precompute.py`` (Dobashi's
-#: configuration): the integrated pairs at 8 nodes are 0.006 % from 12 nodes (mean image error).
-DEFAULT_NODES = 8
+#: ``benchmarks/bench_sky_kernel_nodes.py``: the bin images (what a kernel stores) against 32
+#: nodes, mean relative error over the pixels above 1 % of their image's maximum, are 0.009 %
+#: off at 6 nodes on Dobashi's configuration (0.003 % at 8; 99th percentile of the pixels
+#: 0.04 %) and 0.022 % on a kernel reaching 300 km (0.009 % at 8; 99th percentile 0.26 %), at
+#: 3/4 of the integration time of 8 nodes: 1/20 of the default build's 0.5 % budget, below the
+#: PCA's share of it (0.3 %, whose pixel tails reach several per cent). Single rays converge
+#: more slowly (``bench_sky_kernel_quadrature.py``: 99th percentile 2.2 % at 6 nodes, 0.32 % at
+#: 8); the exact path keeps 12.
+DEFAULT_NODES = 6
 
 #: Spacing of the integrated altitude pairs along each line of equal h_c - h_o in the default
 #: build [1]: ``benchmarks/bench_sky_kernel_altitudes.py`` (Dobashi's 16 x 16 levels, 62.5 m

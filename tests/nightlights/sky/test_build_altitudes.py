@@ -75,3 +75,22 @@ def test_interpolated_tables_match_computed_ones() -> None:
     assert spec.content_hash != KernelSpec(**common, altitude_step=1).content_hash
     # the hash keys of kernel format 2: no key at the exact path's value
     assert "altitude_step" not in KernelSpec(**common, altitude_step=1).parameters()
+
+
+def test_interpolation_is_log_linear_where_both_images_are_positive_else_linear() -> None:
+    """Both forms computed over every pixel and then chosen give, pixel by pixel, what each
+    form gives on its own pixels (float32 images, as the tables hold them)."""
+    from nightlights.sky.build import _interpolated
+
+    rng = np.random.default_rng(3)
+    lower = (rng.lognormal(size=500) * 1e-9).astype(np.float32)
+    upper = (lower * rng.lognormal(sigma=0.3, size=500)).astype(np.float32)
+    lower[:10], upper[5:15] = 0.0, -1e-12
+    w = 0.3
+    got = _interpolated(lower, upper, w)
+    positive = (lower > 0) & (upper > 0)
+    a, b = lower.astype(float), upper.astype(float)
+    np.testing.assert_array_equal(
+        got[positive], np.exp((1 - w) * np.log(a[positive]) + w * np.log(b[positive]))
+    )
+    np.testing.assert_array_equal(got[~positive], (1 - w) * a[~positive] + w * b[~positive])

@@ -3,6 +3,8 @@ small altitude grids."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -99,3 +101,23 @@ def test_a_scene_kernel_with_one_observer_level_integrates_every_pair() -> None:
         np.asarray(spec.observer_altitudes), np.asarray(spec.source_altitudes), spec.altitude_step
     )
     assert computed.all() and not interpolated
+
+
+def test_level_rows_read_blocks_into_one_shared_buffer(tmp_path: Path) -> None:
+    """A level file read a block of rows at a time gives the rows of the array; consecutive
+    blocks go into one buffer shared by the levels, other keys are copied."""
+    from nightlights.sky.build import _LevelRows
+
+    tables = np.arange(2 * 3 * 5 * 2 * 4, dtype=np.float32).reshape(2, 3, 5, 2, 4)
+    buffer: list[np.ndarray] = []
+    levels = []
+    for o in range(2):
+        np.save(tmp_path / f"final-{o}.npy", tables[o : o + 1])
+        levels.append(_LevelRows(tmp_path / f"final-{o}.npy", (15, 8), buffer))
+    for o, level in enumerate(levels):
+        rows = tables[o].reshape(15, 8)
+        for key in (slice(0, 4), slice(12, 40), slice(None), slice(3, 3), slice(None, None, 4)):
+            np.testing.assert_array_equal(level[key], rows[key])
+    first = levels[0][0:15]
+    assert np.shares_memory(first, levels[1][0:15])  # the shared buffer: valid until the next read
+    assert not np.shares_memory(levels[0][::2], buffer[0])

@@ -1,17 +1,22 @@
-"""PCA storage levers: bases chosen by an error target, bases shared by observer levels,
-float32 rounding, and the accuracy measure."""
+"""PCA storage levers: bases chosen by an error target, bases shared by observer levels (the
+sketched basis), float32 rounding, and the accuracy measure (its compiled sums against the
+numpy reference)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from nightlights.sky._pca_numba import bright_error_sums
 from nightlights.sky.pca import (
+    BRIGHT_FRACTION,
+    _error_sums,
     bright_relative_error,
     compress_kernel,
     decompose_levels,
     pca_compress,
     shared_basis,
+    sketched_basis,
 )
 
 
@@ -117,3 +122,67 @@ def test_compress_kernel_reuses_given_decompositions() -> None:
     per_level = compress_kernel(kernel, pca_error=0.01)
     assert per_level.attrs["pca_mean_error"] <= 0.01
     assert "pca_mean_error" not in compress_kernel(kernel).attrs
+
+
+@pytest.mark.parametrize("exact_type", [np.float32, np.float64])
+@pytest.mark.parametrize("approx_type", [np.float32, np.float64])
+def test_compiled_error_sums_match_the_numpy_reference(exact_type: type, approx_type: type) -> None:
+    """The compiled sums of the accuracy measure against :func:`_error_sums` (the numpy
+    reference): bright pixels, a zero image and a negative one, float32 and float64."""
+    rng = np.random.default_rng(7)
+    exact = rng.lognormal(sigma=2.0, size=(40, 300))
+    exact[3] = 0.0
+    exact[5] = -exact[5]
+    approx = exact * (1.0 + 0.01 * rng.standard_normal(exact.shape))
+    got = bright_error_sums(approx.astype(approx_type), exact.astype(exact_type), BRIGHT_FRACTION)
+    want = _error_sums(approx.astype(approx_type), exact.astype(exact_type), BRIGHT_FRACTION)
+    assert got[1] == want[1] > 0
+    assert got[0] == pytest.approx(want[0], rel=1e-12)
+    assert bright_error_sums(np.zeros((0, 3)), np.zeros((0, 3)), BRIGHT_FRACTION) == (0.0, 0)
+
+
+def test_sketch_spanning_every_image_is_the_truncated_svd() -> None:
+    """A sketch with as many columns as pixels spans every image: its leading directions are
+    those of the SVD of all stacks together, and the coefficients are the projections."""
+    images = _images(np.random.default_rng(8))
+    basis, coefficients, explained, achieved = sketched_basis(
+        [images[:25], images[25:]], n_components=6
+    )
+    own, _, own_explained = pca_compress(images, n_components=6)
+    np.testing.assert_allclose((own @ basis.T) @ basis, own, atol=1e-8)
+    np.testing.assert_allclose(basis @ basis.T, np.eye(6), atol=1e-12)
+    assert [c.shape for c in coefficients] == [(25, 6), (35, 6)]
+    np.testing.assert_allclose(np.concatenate(coefficients), images @ basis.T, rtol=1e-9)
+    assert explained == pytest.approx(own_explained[5], rel=1e-9)
+    assert np.isnan(achieved)
+
+
+def test_sketch_grows_when_the_target_needs_more_than_half_of_it() -> None:
+    """Sketched with 8 columns first, a target that needs more than 4 bases is sketched again
+    with more columns; the error is then met and measured on every image, and the number of
+    bases is that of the truncated SVD."""
+    images = _images(np.random.default_rng(9), m=200, p=96, rank=24)
+    basis, coefficients, _, achieved = sketched_basis([images], error=0.002, columns=8)
+    k = basis.shape[0]
+    assert k > 4
+    assert achieved <= 0.002
+    reconstruction = np.concatenate(coefficients) @ basis
+    assert bright_relative_error(reconstruction, images) == pytest.approx(achieved, rel=1e-9)
+    fewest, _, _ = pca_compress(images, error=0.002)
+    assert k == fewest.shape[0]
+
+
+def test_sketch_of_float32_stacks_reports_the_error_of_the_stored_values() -> None:
+    """float32 tables: products in float32, the error measured in float64 on the bases and
+    coefficients as a float32 file stores them; zero images take no part."""
+    images = _images(np.random.default_rng(10), m=80).astype(np.float32)
+    images[7] = 0.0
+    basis, coefficients, explained, achieved = sketched_basis(
+        [images], error=0.005, dtype=np.float32
+    )
+    stored_basis = basis.astype(np.float32).astype(float)
+    stored = coefficients[0].astype(np.float32).astype(float)
+    measured = bright_relative_error(stored @ stored_basis, images.astype(float))
+    assert measured == pytest.approx(achieved, rel=1e-9) and achieved <= 0.005
+    np.testing.assert_array_equal(coefficients[0][7], 0.0)
+    assert 0.0 < explained <= 1.0 + 1e-12
