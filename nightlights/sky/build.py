@@ -380,12 +380,12 @@ def streams(spec: KernelSpec) -> bool:
 def kernel_memory(spec: KernelSpec) -> float:
     """Estimated peak memory of :func:`compute_kernel` [B].
 
-    Streamed (:func:`streams`): one observer level's float32 images (all its source altitudes,
-    distances and emission shapes: m images of p pixels) while they are computed,
-    interpolated or decomposed, with the decomposition's float64 copy, Gram matrix and
-    eigenvectors, one pair's float64 images, and the output: every level's summary of q
-    directions (:func:`~nightlights.sky.pca.level_summary`), the shared basis with its
-    spectrum and the coefficients of every level. In memory: the float32 tables
+    Streamed (:func:`streams`): the larger of the integration (one observer level's float32
+    images, all its source altitudes, distances and emission shapes: m images of p pixels,
+    and one pair's float64 images) and the shared basis's randomized range finder
+    (:func:`~nightlights.sky.pca.sketched_basis`: the sample of images its search reads, a
+    level's read buffer, the sketch, every image's coordinates on it and the error check's
+    block), and the output: the basis and every image's coefficients. In memory: the float32 tables
     (observer levels x source levels x distances x elevations x azimuths x emissions, held
     twice: the tables and the dataset's copy), one distance row of float64 images while they
     are integrated, and the PCA of one observer level with the stored bases, coefficients
@@ -405,7 +405,7 @@ def kernel_memory(spec: KernelSpec) -> float:
     Examples
     --------
     >>> round(kernel_memory(KernelSpec(store_tables=False)) / 2**20)  # 64 x 64 x 256, streamed
-    36
+    82
     >>> round(kernel_memory(KernelSpec.exact()) / 2**20)  # the exact path, in memory [MiB]
     43
     """
@@ -415,12 +415,24 @@ def kernel_memory(spec: KernelSpec) -> float:
     m = emissions * n_c * n_r
     q = min(m, pixels)
     if streams(spec):
+        from nightlights.sky.pca import _BLOCK_ROWS, _SEARCH_ROWS, _SKETCH_ROWS, SKETCH_COLUMNS
+
         k = min(max(1, q // 4), ESTIMATED_COMPONENTS)
-        level = 4.0 * m * pixels
-        pair = 3 * 8.0 * emissions * n_r * pixels
-        pca = 8.0 * (2 * m * pixels + 3 * q * q + 3 * k * pixels)
-        stored = 8.0 * (n_o * k * pixels + 3 * k * pixels + 2 * n_o * m * k)
-        return level + max(pair, pca) + stored
+        images = n_o * m
+        width = min(SKETCH_COLUMNS, images, pixels)
+        # pass 1: a level's float32 images while its pairs' float64 images are integrated
+        integrate = 4.0 * m * pixels + 3 * 8.0 * emissions * n_r * pixels
+        # pass 2 (pca.sketched_basis): the sample of images searched for the bases, a level's
+        # read buffer, the sketch, every image's coordinates on it, the error check's block
+        sketch = (
+            4.0 * min(_SEARCH_ROWS, images) * pixels
+            + 4.0 * min(_SKETCH_ROWS, m) * pixels
+            + 8.0 * width * pixels
+            + 4.0 * images * width
+            + 8.0 * _BLOCK_ROWS * pixels
+        )
+        stored = 8.0 * k * pixels + 4.0 * images * k  # the basis and the coefficients
+        return max(integrate, sketch) + stored
     tables = 4.0 * emissions * n_o * n_c * n_r * pixels
     images = 2 * 8.0 * n_r * pixels
     k = min(max(1, q // 8), ESTIMATED_COMPONENTS)
@@ -496,9 +508,8 @@ def compute_kernel(
 #: kernel of 4 distances x 64 x 256 pixels (``bench_memory_estimates.py``). The memory check
 #: adds it to :func:`kernel_memory`.
 KERNEL_FIXED_BYTES = 105 * 2**20
-#: Most directions per level summary and bases assumed by :func:`kernel_memory` before they
-#: are chosen [1]; the streamed estimate takes a quarter of a level's rank q up to this (its
-#: summaries keep more directions than the shared basis), the in-memory one an eighth.
+#: Most bases assumed by :func:`kernel_memory` before they are chosen [1]; the streamed
+#: estimate takes a quarter of a level's rank q up to this, the in-memory one an eighth.
 #: Calibrated on ``benchmarks/bench_sky_kernel_defaults.py``: bases chosen 103 of q = 2048
 #: (Dobashi's configuration, defaults), 33 and 46 of 512 (reduced grid, defaults and exact).
 ESTIMATED_COMPONENTS = 256
