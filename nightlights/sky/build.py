@@ -418,20 +418,20 @@ def kernel_memory(spec: KernelSpec) -> float:
         from nightlights.sky.pca import _BLOCK_ROWS, _SEARCH_ROWS, _SKETCH_ROWS, SKETCH_COLUMNS
 
         k = min(max(1, q // 4), ESTIMATED_COMPONENTS)
-        images = n_o * m
-        width = min(SKETCH_COLUMNS, images, pixels)
+        all_images = n_o * m
+        width = min(SKETCH_COLUMNS, all_images, pixels)
         # pass 1: a level's float32 images while its pairs' float64 images are integrated
         integrate = 4.0 * m * pixels + 3 * 8.0 * emissions * n_r * pixels
         # pass 2 (pca.sketched_basis): the sample of images searched for the bases, a level's
         # read buffer, the sketch, every image's coordinates on it, the error check's block
         sketch = (
-            4.0 * min(_SEARCH_ROWS, images) * pixels
+            4.0 * min(_SEARCH_ROWS, all_images) * pixels
             + 4.0 * min(_SKETCH_ROWS, m) * pixels
             + 8.0 * width * pixels
-            + 4.0 * images * width
+            + 4.0 * all_images * width
             + 8.0 * _BLOCK_ROWS * pixels
         )
-        stored = 8.0 * k * pixels + 4.0 * images * k  # the basis and the coefficients
+        stored = 8.0 * k * pixels + 4.0 * all_images * k  # the basis and the coefficients
         return max(integrate, sketch) + stored
     tables = 4.0 * emissions * n_o * n_c * n_r * pixels
     images = 2 * 8.0 * n_r * pixels
