@@ -6,11 +6,21 @@
   :func:`reduced_luminance_coefficient` (interpolation) and :func:`road_luminance`;
 - the metrics: :func:`average_luminance`, :func:`overall_uniformity`,
   :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
-  :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`.
+  :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`;
+- lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy),
+  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one).
 
 Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
 """
 
+from nightlights.roads._classes import (
+    CRITERIA,
+    Compliance,
+    Criterion,
+    compliance,
+    read_requirements,
+    requirements,
+)
 from nightlights.roads._field import (
     FIELD_QUANTITIES,
     CalculationField,
@@ -45,14 +55,18 @@ from nightlights.roads._rtables import (
 
 __all__ = [
     "BEYOND_RULES",
+    "CRITERIA",
     "FIELD_QUANTITIES",
     "CalculationField",
+    "Compliance",
+    "Criterion",
     "GlareGeometry",
     "RTable",
     "age_factor",
     "average_illuminance",
     "average_luminance",
     "calculation_field",
+    "compliance",
     "edge_illuminance_ratio",
     "edge_strip_width",
     "field_points",
@@ -63,8 +77,10 @@ __all__ = [
     "minimum_illuminance",
     "overall_uniformity",
     "parse_rtable",
+    "read_requirements",
     "read_rtable",
     "reduced_luminance_coefficient",
+    "requirements",
     "road_luminance",
     "synthetic_rtable",
     "threshold_increment",

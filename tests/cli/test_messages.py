@@ -34,6 +34,7 @@ API_ONLY = {
     "average",
     "beyond",
     "carriageway_width",
+    "lighting_class",
     "lanes",
     "quantity",
     "veiling",
