@@ -409,6 +409,23 @@ def _lattice_nodes(size: int, step: int) -> FloatArray:
     return np.unique(np.append(np.arange(0, size, step), size)).astype(float)
 
 
+def _lit_cells(
+    emission: Emission, window: tuple[int, int, int, int]
+) -> tuple[np.ndarray, np.ndarray, FloatArray, float] | None:
+    """The lit cells of a window for :func:`deposit` and :func:`deposit_exact`: their rows and
+    columns in the window, their flux ``(bands, n)`` [lm] and the window's largest cell side
+    (the row nearest the equator) [m]; None when nothing is lit."""
+    r0, r1, _, _ = window
+    flux = cell_flux(emission, window)
+    lit_r, lit_c = np.nonzero(np.any(flux != 0, axis=0))
+    if lit_r.size == 0:
+        return None
+    values = flux[:, lit_r, lit_c]
+    t = emission.transform
+    sizes = [_cell_sizes(emission, r) for r in (r0, r1 - 1, _equator_row(t, r0, r1))]
+    return lit_r, lit_c, values, max(max(size) for size in sizes)
+
+
 def deposit(
     emission: Emission, window: tuple[int, int, int, int], grid: LocalGrid
 ) -> list[FloatArray]:
@@ -423,16 +440,12 @@ def deposit(
     projects every sub-point and is the reference.
     """
     r0, r1, c0, c1 = window
-    flux = cell_flux(emission, window)
     rows, cols = grid.shape
-    lit_r, lit_c = np.nonzero(np.any(flux != 0, axis=0))
-    if lit_r.size == 0:
+    lit = _lit_cells(emission, window)
+    if lit is None:
         return [np.zeros((rows, cols)) for _ in range(emission.bands)]
-    values = flux[:, lit_r, lit_c]  # (bands, n_lit)
-    del flux
+    lit_r, lit_c, values, largest = lit
     t = emission.transform
-    sizes = [_cell_sizes(emission, r) for r in (r0, r1 - 1, _equator_row(t, r0, r1))]
-    largest = max(max(s) for s in sizes)
     k = subdivision(largest, grid.cell)
     step = lattice_step(largest)
     node_r, node_c = _lattice_nodes(r1 - r0, step), _lattice_nodes(c1 - c0, step)
@@ -450,20 +463,16 @@ def deposit_exact(
 ) -> list[FloatArray]:
     """:func:`deposit` with every sub-point projected by PROJ and binned by numpy: the
     reference (slow: the projection took most of a tile's time)."""
-    r0, r1, c0, _ = window
-    flux = cell_flux(emission, window)
+    r0, _, c0, _ = window
     rows, cols = grid.shape
     out = [np.zeros(rows * cols) for _ in range(emission.bands)]
-    lit_r, lit_c = np.nonzero(np.any(flux != 0, axis=0))
-    if lit_r.size == 0:
+    lit = _lit_cells(emission, window)
+    if lit is None:
         return [o.reshape(rows, cols) for o in out]
-    values = flux[:, lit_r, lit_c]  # (bands, n_lit)
-    del flux
+    lit_r, lit_c, values, largest = lit
     to_local = _transformer(emission.crs, grid.crs)
     t = emission.transform
-    # k from the cells' largest size in the window (the row nearest the equator)
-    sizes = [_cell_sizes(emission, r) for r in (r0, r1 - 1, _equator_row(t, r0, r1))]
-    k = subdivision(max(max(s) for s in sizes), grid.cell)
+    k = subdivision(largest, grid.cell)
     offsets = (np.arange(k) + 0.5) / k
     sub_c, sub_r = (a.ravel() for a in np.meshgrid(offsets, offsets))
     per_batch = max(1, SUBPOINT_BATCH // (k * k))
