@@ -64,7 +64,8 @@ SAMPLE_ROWS = 256
 #: Longest side of a lattice cell whose corners are projected exactly; positions between are
 #: interpolated bilinearly (:func:`lattice_step`, :func:`deposit`, :func:`sample_back`) [m].
 #: The interpolation error of a smooth map on a sphere of radius R is about L^2 / 8R: 1 m at
-#: 7 km; measured at most 0.5 m over a 15 arcsec tile and its 300 km halo at 0-80 deg latitude.
+#: 7 km; measured at most 0.5 m over a 15 arcsec tile and its 300 km halo at 0-80 deg latitude,
+#: in a tenth of projecting every sub-point (``benchmarks/bench_darkness_near_field.py``).
 LATTICE_SPAN = 7000.0
 
 
