@@ -75,6 +75,9 @@ _LAZY: dict[str, str] = {
     "SkyRegion": "nightlights.inverse",
     "InfluenceResult": "nightlights.inverse",
     "ReduceResult": "nightlights.inverse",
+    # road lighting: the street's own standard
+    "audit": "nightlights.roads",
+    "AuditResult": "nightlights.roads",
     # many observers: the zenith darkness map of a whole region
     "darkness": "nightlights.sky",
     "DarknessResult": "nightlights.sky",
@@ -160,6 +163,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "AuditResult",
     "CRSError",
     "DarknessResult",
     "DataQualityWarning",
@@ -190,6 +194,7 @@ __all__ = [
     "SkyglowResult",
     "ValidationResult",
     "__version__",
+    "audit",
     "build_kernel",
     "darkness",
     "emission",

@@ -78,6 +78,7 @@ __all__ = [
     "LayerStyle",
     "StyleBuilder",
     "add_layer_style",
+    "compliance_style",
     "dimming_qml",
     "emission_qml",
     "illuminance_qml",
@@ -927,6 +928,32 @@ def streets_style(arrangements: Sequence[str], *, field: str = "arrangement") ->
     description = "streets: coloured by pole arrangement"
     return LayerStyle(
         "streets by arrangement",
+        _vector_document(_categorized(field, categories, symbols), description),
+        description,
+    )
+
+
+#: Colours of a compliance layer's statuses: pass, fail, not rated.
+COMPLIANCE_COLOURS = {"pass": "#1a9641", "fail": "#d7191c", "not rated": OTHER_COLOUR}
+
+
+def compliance_style(*, field: str = "status") -> LayerStyle:
+    """Style of a road-lighting audit layer: segments green where they keep their lighting
+    class, red where they do not, grey where not rated.
+
+    Parameters
+    ----------
+    field
+        Field holding ``pass``, ``fail`` or ``not rated``.
+    """
+    categories = [(name, name) for name in COMPLIANCE_COLOURS]
+    symbols = [
+        _line_symbol(str(index), colour, width=2 * STREET_WIDTH_MM)
+        for index, colour in enumerate(COMPLIANCE_COLOURS.values())
+    ]
+    description = "road lighting: segments by compliance with their lighting class"
+    return LayerStyle(
+        "segments by compliance",
         _vector_document(_categorized(field, categories, symbols), description),
         description,
     )

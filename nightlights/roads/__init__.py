@@ -7,12 +7,16 @@
 - the metrics: :func:`average_luminance`, :func:`overall_uniformity`,
   :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
   :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`;
+- :func:`audit`: every segment of a street layer against its lighting class (a styled
+  GeoPackage and a summary); :func:`road_model` builds what it rates, for plans;
 - lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy),
   :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one).
 
-Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
+The metrics are pure functions on arrays in a road frame (see
+:mod:`nightlights.roads._field`); :func:`audit` is the stage that reads and writes layers.
 """
 
+from nightlights.roads._audit import AuditResult, AuditSummary, RoadModel, audit, road_model
 from nightlights.roads._classes import (
     CRITERIA,
     Compliance,
@@ -57,12 +61,16 @@ __all__ = [
     "BEYOND_RULES",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "AuditResult",
+    "AuditSummary",
     "CalculationField",
     "Compliance",
     "Criterion",
     "GlareGeometry",
     "RTable",
+    "RoadModel",
     "age_factor",
+    "audit",
     "average_illuminance",
     "average_luminance",
     "calculation_field",
@@ -82,6 +90,7 @@ __all__ = [
     "reduced_luminance_coefficient",
     "requirements",
     "road_luminance",
+    "road_model",
     "synthetic_rtable",
     "threshold_increment",
     "veiling_luminance",

@@ -31,6 +31,8 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
     "age",
+    "dimming",
+    "rtable",
     "average",
     "beyond",
     "carriageway_width",
