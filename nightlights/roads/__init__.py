@@ -8,11 +8,24 @@
   :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
   :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`;
 - lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy),
-  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one).
+  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one);
+- energy (EN 13201-5): :func:`burning_intervals` and :func:`annual_burning_hours` of a
+  photocell, :class:`DimmingSchedule` (:func:`parse_schedule`, :func:`schedule_level`,
+  :func:`scheduled_hours`), :func:`light_power`, :func:`annual_energy`,
+  :func:`power_density_indicator`, :func:`energy_consumption_indicator`,
+  :func:`co2_emissions`.
 
 Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
 """
 
+from nightlights.roads._burning import (
+    CIVIL_TWILIGHT,
+    SWITCH_ELEVATION,
+    BurningIntervals,
+    annual_burning_hours,
+    burning_intervals,
+    sun_elevation,
+)
 from nightlights.roads._classes import (
     CRITERIA,
     Compliance,
@@ -20,6 +33,20 @@ from nightlights.roads._classes import (
     compliance,
     read_requirements,
     requirements,
+)
+from nightlights.roads._dimming import (
+    DimmingSchedule,
+    parse_schedule,
+    schedule_level,
+    scheduled_hours,
+)
+from nightlights.roads._energy import (
+    annual_energy,
+    co2_emissions,
+    energy_consumption_indicator,
+    full_power_hours,
+    light_power,
+    power_density_indicator,
 )
 from nightlights.roads._field import (
     FIELD_QUANTITIES,
@@ -55,33 +82,49 @@ from nightlights.roads._rtables import (
 
 __all__ = [
     "BEYOND_RULES",
+    "CIVIL_TWILIGHT",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "SWITCH_ELEVATION",
+    "BurningIntervals",
     "CalculationField",
     "Compliance",
     "Criterion",
+    "DimmingSchedule",
     "GlareGeometry",
     "RTable",
     "age_factor",
+    "annual_burning_hours",
+    "annual_energy",
     "average_illuminance",
     "average_luminance",
+    "burning_intervals",
     "calculation_field",
+    "co2_emissions",
     "compliance",
     "edge_illuminance_ratio",
     "edge_strip_width",
+    "energy_consumption_indicator",
     "field_points",
+    "full_power_hours",
     "glare_geometry",
     "illuminance_uniformity",
+    "light_power",
     "longitudinal_point_count",
     "longitudinal_uniformity",
     "minimum_illuminance",
     "overall_uniformity",
     "parse_rtable",
+    "parse_schedule",
+    "power_density_indicator",
     "read_requirements",
     "read_rtable",
     "reduced_luminance_coefficient",
     "requirements",
     "road_luminance",
+    "schedule_level",
+    "scheduled_hours",
+    "sun_elevation",
     "synthetic_rtable",
     "threshold_increment",
     "veiling_luminance",
