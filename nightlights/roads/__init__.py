@@ -10,13 +10,26 @@
 - :func:`audit`: every segment of a street layer against its lighting class (a styled
   GeoPackage and a summary); :func:`road_model` builds what it rates, for plans;
 - lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy),
-  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one).
+  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one);
+- energy (EN 13201-5): :func:`burning_intervals` and :func:`annual_burning_hours` of a
+  photocell, :class:`DimmingSchedule` (:func:`parse_schedule`, :func:`schedule_level`,
+  :func:`scheduled_hours`), :func:`light_power`, :func:`annual_energy`,
+  :func:`power_density_indicator`, :func:`energy_consumption_indicator`,
+  :func:`co2_emissions`.
 
 The metrics are pure functions on arrays in a road frame (see
 :mod:`nightlights.roads._field`); :func:`audit` is the stage that reads and writes layers.
 """
 
 from nightlights.roads._audit import AuditResult, AuditSummary, RoadModel, audit, road_model
+from nightlights.roads._burning import (
+    CIVIL_TWILIGHT,
+    SWITCH_ELEVATION,
+    BurningIntervals,
+    annual_burning_hours,
+    burning_intervals,
+    sun_elevation,
+)
 from nightlights.roads._classes import (
     CRITERIA,
     Compliance,
@@ -24,6 +37,20 @@ from nightlights.roads._classes import (
     compliance,
     read_requirements,
     requirements,
+)
+from nightlights.roads._dimming import (
+    DimmingSchedule,
+    parse_schedule,
+    schedule_level,
+    scheduled_hours,
+)
+from nightlights.roads._energy import (
+    annual_energy,
+    co2_emissions,
+    energy_consumption_indicator,
+    full_power_hours,
+    light_power,
+    power_density_indicator,
 )
 from nightlights.roads._field import (
     FIELD_QUANTITIES,
@@ -59,38 +86,54 @@ from nightlights.roads._rtables import (
 
 __all__ = [
     "BEYOND_RULES",
+    "CIVIL_TWILIGHT",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "SWITCH_ELEVATION",
     "AuditResult",
     "AuditSummary",
+    "BurningIntervals",
     "CalculationField",
     "Compliance",
     "Criterion",
+    "DimmingSchedule",
     "GlareGeometry",
     "RTable",
     "RoadModel",
     "age_factor",
+    "annual_burning_hours",
+    "annual_energy",
     "audit",
     "average_illuminance",
     "average_luminance",
+    "burning_intervals",
     "calculation_field",
+    "co2_emissions",
     "compliance",
     "edge_illuminance_ratio",
     "edge_strip_width",
+    "energy_consumption_indicator",
     "field_points",
+    "full_power_hours",
     "glare_geometry",
     "illuminance_uniformity",
+    "light_power",
     "longitudinal_point_count",
     "longitudinal_uniformity",
     "minimum_illuminance",
     "overall_uniformity",
     "parse_rtable",
+    "parse_schedule",
+    "power_density_indicator",
     "read_requirements",
     "read_rtable",
     "reduced_luminance_coefficient",
     "requirements",
     "road_luminance",
     "road_model",
+    "schedule_level",
+    "scheduled_hours",
+    "sun_elevation",
     "synthetic_rtable",
     "threshold_increment",
     "veiling_luminance",
