@@ -7,19 +7,28 @@
 - the metrics: :func:`average_luminance`, :func:`overall_uniformity`,
   :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
   :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`;
-- lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy),
-  :func:`requirements` and :func:`compliance` (each criterion's margin, the binding one).
+- hemispherical, semicylindrical and vertical illuminance (EN 13201-3, Sec. 8):
+  :func:`hemispherical_illuminance`, :func:`semicylindrical_illuminance`,
+  :func:`vertical_illuminance`;
+- lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy; RP-8's
+  criteria in a user's table), :func:`requirements_for_region`, :func:`requirements` and
+  :func:`compliance` (each criterion's margin, the binding one);
+- class selection: :func:`read_class_selection` and :func:`select_classes` (a street's class
+  from its street fields by editable rules).
 
 Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
 """
 
 from nightlights.roads._classes import (
     CRITERIA,
+    REGION_REQUIREMENTS,
     Compliance,
     Criterion,
+    class_names,
     compliance,
     read_requirements,
     requirements,
+    requirements_for_region,
 )
 from nightlights.roads._field import (
     FIELD_QUANTITIES,
@@ -27,6 +36,12 @@ from nightlights.roads._field import (
     calculation_field,
     field_points,
     longitudinal_point_count,
+)
+from nightlights.roads._illuminance import (
+    RECEPTOR_HEIGHT,
+    hemispherical_illuminance,
+    semicylindrical_illuminance,
+    vertical_illuminance,
 )
 from nightlights.roads._metrics import (
     GlareGeometry,
@@ -52,12 +67,24 @@ from nightlights.roads._rtables import (
     road_luminance,
     synthetic_rtable,
 )
+from nightlights.roads._selection import (
+    CONDITIONS,
+    ClassRule,
+    ClassSelection,
+    read_class_selection,
+    select_classes,
+)
 
 __all__ = [
     "BEYOND_RULES",
+    "CONDITIONS",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "RECEPTOR_HEIGHT",
+    "REGION_REQUIREMENTS",
     "CalculationField",
+    "ClassRule",
+    "ClassSelection",
     "Compliance",
     "Criterion",
     "GlareGeometry",
@@ -66,23 +93,30 @@ __all__ = [
     "average_illuminance",
     "average_luminance",
     "calculation_field",
+    "class_names",
     "compliance",
     "edge_illuminance_ratio",
     "edge_strip_width",
     "field_points",
     "glare_geometry",
+    "hemispherical_illuminance",
     "illuminance_uniformity",
     "longitudinal_point_count",
     "longitudinal_uniformity",
     "minimum_illuminance",
     "overall_uniformity",
     "parse_rtable",
+    "read_class_selection",
     "read_requirements",
     "read_rtable",
     "reduced_luminance_coefficient",
     "requirements",
+    "requirements_for_region",
     "road_luminance",
+    "select_classes",
+    "semicylindrical_illuminance",
     "synthetic_rtable",
     "threshold_increment",
     "veiling_luminance",
+    "vertical_illuminance",
 ]
