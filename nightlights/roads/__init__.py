@@ -10,13 +10,16 @@
 - hemispherical, semicylindrical and vertical illuminance (EN 13201-3, Sec. 8):
   :func:`hemispherical_illuminance`, :func:`semicylindrical_illuminance`,
   :func:`vertical_illuminance`;
-- lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy; RP-8's
-  criteria in a user's table), :func:`requirements_for_region`, :func:`requirements` and
+- lighting classes: :func:`read_requirements` (EN 13201-2 tables, or a user's copy, which
+  may hold RP-8's criteria), :func:`requirements_for_region`, :func:`requirements` and
   :func:`compliance` (each criterion's margin, the binding one);
+- RP-8's figures: :func:`luminance_average_to_minimum`, :func:`luminance_maximum_to_minimum`,
+  :func:`veiling_luminance_ratio`, :func:`illuminance_average_to_minimum`;
 - class selection: :func:`read_class_selection` and :func:`select_classes` (a street's class
   from its street fields by editable rules).
 
-Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); no files.
+Pure functions on arrays in a road frame (see :mod:`nightlights.roads._field`); the only
+files read are the TOML tables, and none is written.
 """
 
 from nightlights.roads._classes import (
@@ -57,6 +60,12 @@ from nightlights.roads._metrics import (
     overall_uniformity,
     threshold_increment,
     veiling_luminance,
+)
+from nightlights.roads._rp8 import (
+    illuminance_average_to_minimum,
+    luminance_average_to_minimum,
+    luminance_maximum_to_minimum,
+    veiling_luminance_ratio,
 )
 from nightlights.roads._rtables import (
     BEYOND_RULES,
@@ -100,9 +109,12 @@ __all__ = [
     "field_points",
     "glare_geometry",
     "hemispherical_illuminance",
+    "illuminance_average_to_minimum",
     "illuminance_uniformity",
     "longitudinal_point_count",
     "longitudinal_uniformity",
+    "luminance_average_to_minimum",
+    "luminance_maximum_to_minimum",
     "minimum_illuminance",
     "overall_uniformity",
     "parse_rtable",
@@ -118,5 +130,6 @@ __all__ = [
     "synthetic_rtable",
     "threshold_increment",
     "veiling_luminance",
+    "veiling_luminance_ratio",
     "vertical_illuminance",
 ]

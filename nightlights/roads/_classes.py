@@ -339,7 +339,8 @@ def compliance(
     ------
     InputError
         An unknown class, or a figure the class sets that ``measured`` lacks or holds as a
-        non-finite or negative value.
+        negative or non-finite value (+inf is allowed for a maximum, an RP-8 ratio over a
+        minimum of 0, and fails it).
 
     Examples
     --------
@@ -358,9 +359,10 @@ def compliance(
                 f"expected {', '.join(required)}"
             )
         x = float(measured[name])
-        if not (math.isfinite(x) and x >= 0):
-            raise InputError(f"measured[{name!r}] = {measured[name]!r}; expected a number >= 0")
         kind = CRITERIA[name][0]
+        unbounded = kind == "maximum" and x == math.inf  # an RP-8 ratio over a minimum of 0
+        if not (math.isfinite(x) and x >= 0) and not unbounded:
+            raise InputError(f"measured[{name!r}] = {measured[name]!r}; expected a number >= 0")
         margin = x / value - 1.0 if kind == "minimum" else 1.0 - x / value
         criteria.append(Criterion(name, x, value, kind, margin))
     return Compliance(str(lighting_class).strip().upper(), tuple(criteria))

@@ -321,7 +321,10 @@ def select_classes(
 def _holds(column: pd.Series, comparison: str, value: float | bool) -> np.ndarray:
     """Rows where ``column comparison value`` holds; null rows never do."""
     if comparison == "==":
-        flags = column.astype("boolean") if column.dtype != object else column.map(_as_bool)
+        try:
+            flags = column.astype("boolean")
+        except (TypeError, ValueError):  # text or mixed cells: only true bools count
+            flags = column.map(_as_bool)
         return (flags == value).fillna(False).to_numpy(dtype=bool)
     numbers = pd.to_numeric(column, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
     with np.errstate(invalid="ignore"):

@@ -194,3 +194,21 @@ def test_unknown_top_level_keys_are_errors(tmp_path: Path) -> None:
     path.write_text("placholder = true\n[classes.X]\naverage_illuminance = 1.0\n")
     with pytest.raises(InputError, match="unknown key 'placholder'"):
         read_requirements(path)
+
+
+def test_an_infinite_ratio_fails_a_maximum_and_is_refused_for_a_minimum(tmp_path: Path) -> None:
+    path = tmp_path / "rp8.toml"
+    path.write_text(USER_RP8)
+    measured = {
+        "average_luminance": 1.8,
+        "luminance_average_to_minimum": float("inf"),  # a dark point
+        "luminance_maximum_to_minimum": 4.0,
+        "veiling_luminance_ratio": 0.2,
+        "average_illuminance": 18.0,
+        "illuminance_average_to_minimum": 2.0,
+    }
+    result = compliance("RP8_MAJOR_HIGH", measured, read_requirements(path))
+    assert not result.passed
+    assert result.binding.name == "luminance_average_to_minimum"
+    with pytest.raises(InputError, match="expected a number >= 0"):
+        compliance("P1", {"average_illuminance": float("inf"), "minimum_illuminance": 3.0})
