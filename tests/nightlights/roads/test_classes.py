@@ -8,7 +8,15 @@ from pathlib import Path
 import pytest
 
 from nightlights.errors import InputError
-from nightlights.roads import compliance, read_requirements, requirements
+from nightlights.roads import (
+    REGION_REQUIREMENTS,
+    class_names,
+    compliance,
+    read_requirements,
+    requirements,
+    requirements_for_region,
+)
+from nightlights.streets._location import FALLBACK_NETWORK, REGION_BOXES
 
 #: EN 13201-2:2015 Table 1 (M classes): L_av [cd m-2], U_o, U_l, f_TI [%], R_EI, typed from the
 #: standard's table independently of the shipped file.
@@ -112,3 +120,95 @@ def test_unknown_classes_and_missing_figures_are_named() -> None:
         compliance("C1", {"average_illuminance": float("nan"), "overall_uniformity": 0.5})
     with pytest.raises(InputError, match="no such requirements file"):
         read_requirements("/nonexistent/scheme.toml")
+
+
+RP8_EXAMPLE = Path(__file__).parents[3] / "nightlights" / "roads" / "data" / "rp8_example.toml"
+#: A user's RP-8 table: the criteria of both methods, values invented for the test (not RP-8's).
+USER_RP8 = """
+standard = "my RP-8 copy"
+placeholder = false
+
+[classes.RP8_MAJOR_HIGH]
+average_luminance = 1.5
+luminance_average_to_minimum = 3.0
+luminance_maximum_to_minimum = 5.0
+veiling_luminance_ratio = 0.3
+average_illuminance = 15.0
+illuminance_average_to_minimum = 3.0
+"""
+
+
+def test_the_rp8_example_is_refused_while_it_holds_placeholders(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="placeholder = True: its values are placeholders"):
+        read_requirements(RP8_EXAMPLE)
+    assert "RP8_FREEWAY_A" in class_names(RP8_EXAMPLE)
+    assert len(class_names(RP8_EXAMPLE)) == 14
+    # the same file with the flag turned off is read: the schema itself is valid
+    copy = tmp_path / "rp8.toml"
+    copy.write_text(RP8_EXAMPLE.read_text().replace("placeholder = true", "placeholder = false"))
+    assert set(read_requirements(copy)) == set(class_names(RP8_EXAMPLE))
+
+
+def test_rp8_criteria_are_maxima_of_ratios_at_least_one(tmp_path: Path) -> None:
+    path = tmp_path / "rp8.toml"
+    path.write_text(USER_RP8)
+    table = read_requirements(path)
+    measured = {
+        "average_luminance": 1.8,  # min 1.5: +20 %
+        "luminance_average_to_minimum": 2.4,  # max 3.0: 1 - 2.4/3 = +20 %
+        "luminance_maximum_to_minimum": 5.5,  # max 5.0: -10 %
+        "veiling_luminance_ratio": 0.27,  # max 0.3: +10 %
+        "average_illuminance": 18.0,
+        "illuminance_average_to_minimum": 2.0,
+    }
+    result = compliance("rp8_major_high", measured, table)
+    assert not result.passed
+    assert result.binding.name == "luminance_maximum_to_minimum"
+    assert result.binding.margin == pytest.approx(-0.1, abs=1e-12)
+    assert {c.name: c.kind for c in result.criteria}["veiling_luminance_ratio"] == "maximum"
+    path.write_text(
+        USER_RP8.replace("luminance_average_to_minimum = 3.0", "luminance_average_to_minimum = 0.5")
+    )
+    with pytest.raises(InputError, match=r"luminance_average_to_minimum = 0.5; expected >= 1"):
+        read_requirements(path)
+
+
+def test_requirements_by_region_and_the_users_table_wins(tmp_path: Path) -> None:
+    assert requirements_for_region("europe") == read_requirements()
+    assert requirements_for_region("generic")["P3"] == {
+        "average_illuminance": 7.5,
+        "minimum_illuminance": 1.5,
+    }
+    with pytest.raises(InputError, match="region='north_america' takes ANSI/IES RP-8"):
+        requirements_for_region("north_america")
+    path = tmp_path / "rp8.toml"
+    path.write_text(USER_RP8)
+    assert set(requirements_for_region("north_america", path)) == {"RP8_MAJOR_HIGH"}
+    with pytest.raises(InputError, match="region='mars'"):
+        requirements_for_region("mars")
+    assert set(REGION_REQUIREMENTS) == set(REGION_BOXES) | {FALLBACK_NETWORK}
+
+
+def test_unknown_top_level_keys_are_errors(tmp_path: Path) -> None:
+    path = tmp_path / "t.toml"
+    path.write_text("placholder = true\n[classes.X]\naverage_illuminance = 1.0\n")
+    with pytest.raises(InputError, match="unknown key 'placholder'"):
+        read_requirements(path)
+
+
+def test_an_infinite_ratio_fails_a_maximum_and_is_refused_for_a_minimum(tmp_path: Path) -> None:
+    path = tmp_path / "rp8.toml"
+    path.write_text(USER_RP8)
+    measured = {
+        "average_luminance": 1.8,
+        "luminance_average_to_minimum": float("inf"),  # a dark point
+        "luminance_maximum_to_minimum": 4.0,
+        "veiling_luminance_ratio": 0.2,
+        "average_illuminance": 18.0,
+        "illuminance_average_to_minimum": 2.0,
+    }
+    result = compliance("RP8_MAJOR_HIGH", measured, read_requirements(path))
+    assert not result.passed
+    assert result.binding.name == "luminance_average_to_minimum"
+    with pytest.raises(InputError, match="expected a number >= 0"):
+        compliance("P1", {"average_illuminance": float("inf"), "minimum_illuminance": 3.0})
