@@ -45,6 +45,7 @@ from nightlights.roads._metrics import (
 )
 from nightlights.roads._rtables import (
     BEYOND_RULES,
+    INTERPOLATIONS,
     RTable,
     parse_rtable,
     read_rtable,
@@ -57,6 +58,7 @@ __all__ = [
     "BEYOND_RULES",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "INTERPOLATIONS",
     "CalculationField",
     "Compliance",
     "Criterion",

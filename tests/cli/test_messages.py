@@ -33,6 +33,8 @@ API_ONLY = {
     "age",
     "average",
     "beyond",
+    "density",
+    "interpolation",
     "carriageway_width",
     "lighting_class",
     "lanes",
