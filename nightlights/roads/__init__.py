@@ -99,6 +99,7 @@ from nightlights.roads._rp8 import (
 )
 from nightlights.roads._rtables import (
     BEYOND_RULES,
+    INTERPOLATIONS,
     RTable,
     parse_rtable,
     read_rtable,
@@ -120,6 +121,7 @@ __all__ = [
     "CONDITIONS",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "INTERPOLATIONS",
     "RECEPTOR_HEIGHT",
     "REGION_REQUIREMENTS",
     "SWITCH_ELEVATION",

@@ -17,7 +17,14 @@ the observation plane, so :math:`\\beta \\in [0, 180]`.
 
 Modelling choices:
 
-- bilinear interpolation in :math:`(\\beta, \\tan\\gamma)` on the table's grid;
+- interpolation on the table's grid (``interpolation=``): ``"bilinear"`` in
+  :math:`(\\beta, \\tan\\gamma)`, ``"bilinear_gamma"`` (bilinear in
+  :math:`(\\beta, \\gamma)`, the rows placed at :math:`\\gamma = \\arctan(\\tan\\gamma)`) or
+  ``"cubic"`` (the default: the interpolating bicubic spline through the nodes, scipy's
+  ``RectBivariateSpline``, negative overshoots set to 0).
+  ``benchmarks/bench_rtable_interpolation.py`` compares them against the exact r of
+  :func:`synthetic_rtable`'s analytic form (:data:`DEFAULT_INTERPOLATION` says why the spline
+  is the default);
 - :math:`\\tan\\gamma` beyond the last row: ``beyond="zero"`` (the default, r = 0) or
   ``"last"`` (the last row). The standard's own wording on this case was not available to
   this project when it was written; the default treats the table's range as the range of
@@ -50,6 +57,7 @@ from nightlights.roads._geometry import Intensity, intensities, light_array
 
 __all__ = [
     "BEYOND_RULES",
+    "INTERPOLATIONS",
     "RTable",
     "parse_rtable",
     "read_rtable",
@@ -62,6 +70,16 @@ __all__ = [
 R_UNIT = 1e-4
 #: What r is beyond the table's last tan(gamma): zero, or the last row.
 BEYOND_RULES = ("zero", "last")
+#: How r is interpolated between the table's nodes (see the module docstring).
+INTERPOLATIONS = ("bilinear", "bilinear_gamma", "cubic")
+#: The default interpolation, set by benchmarks/bench_rtable_interpolation.py on the CIE grid of
+#: synthetic_rtable against its analytic r: "cubic" was by far the most accurate (use-weighted
+#: error in r 0.025 % against 1.0 % bilinear and 0.66 % bilinear in gamma; L_av within 0.01 %
+#: and U_o within 0.03 % against 0.6 % and 1.7 % bilinear) at the same speed within the noise
+#: of a shared 2-core machine (0.25-0.31 s per 10^6 lookups against 0.27-0.46 s bilinear over
+#: two runs). Measured tables are less smooth than this stand-in: "bilinear" stays available
+#: for comparison with tools that interpolate linearly.
+DEFAULT_INTERPOLATION = "cubic"
 #: The beta columns [deg] of the layout of the CIE road-surface tables, used by
 #: :func:`synthetic_rtable` (the reader accepts any increasing grid in [0, 180]).
 CIE_BETA = (0, 2, 5, 10, 15, 20, 25, 30, 35, 40, 45, 60, 75, 90, 105, 120, 135, 150, 165, 180)
@@ -216,10 +234,28 @@ def synthetic_rtable(*, q0: float = 0.07, forward: float = 1.0) -> RTable:
     return RTable(beta, tan_gamma, r, name=f"synthetic (q0={q0}, forward={forward})")
 
 
-def reduced_luminance_coefficient(
-    table: RTable, beta: ArrayLike, tan_gamma: ArrayLike, *, beyond: str = "zero"
+def _bilinear(
+    nodes_b: FloatArray, nodes_t: FloatArray, r: FloatArray, b: FloatArray, t: FloatArray
 ) -> FloatArray:
-    """r at any (beta, tan gamma) by bilinear interpolation [10^-4 sr-1].
+    """Bilinear interpolation of r (rows t, columns b) at points already inside the grid."""
+    ib = np.clip(np.searchsorted(nodes_b, b, side="right") - 1, 0, nodes_b.size - 2)
+    it = np.clip(np.searchsorted(nodes_t, t, side="right") - 1, 0, nodes_t.size - 2)
+    wb = (b - nodes_b[ib]) / (nodes_b[ib + 1] - nodes_b[ib])
+    wt = (t - nodes_t[it]) / (nodes_t[it + 1] - nodes_t[it])
+    low = r[it, ib] + wb * (r[it, ib + 1] - r[it, ib])
+    high = r[it + 1, ib] + wb * (r[it + 1, ib + 1] - r[it + 1, ib])
+    return np.asarray(low + wt * (high - low), dtype=float)
+
+
+def reduced_luminance_coefficient(
+    table: RTable,
+    beta: ArrayLike,
+    tan_gamma: ArrayLike,
+    *,
+    beyond: str = "zero",
+    interpolation: str = DEFAULT_INTERPOLATION,
+) -> FloatArray:
+    """r at any (beta, tan gamma), interpolated in the table [10^-4 sr-1].
 
     Parameters
     ----------
@@ -231,27 +267,46 @@ def reduced_luminance_coefficient(
         Tangent of the angle of incidence, >= 0 [1].
     beyond
         r beyond the last tan(gamma): ``"zero"`` or ``"last"`` (the last row).
+    interpolation
+        ``"cubic"`` (the default: bicubic interpolating spline, clipped at 0),
+        ``"bilinear"`` in (beta, tan gamma) or ``"bilinear_gamma"`` in (beta, gamma); see
+        the module docstring and :data:`DEFAULT_INTERPOLATION`.
 
     References
     ----------
     CIE 144:2001, Road surface and road marking reflection characteristics.
+
+    Examples
+    --------
+    A table linear in tan(gamma) is reproduced by every method:
+
+    >>> table = parse_rtable("beta 0 90 180\\n0 40 40 40\\n1 30 30 30\\n2 20 20 20\\n3 10 10 10\\n")
+    >>> [round(float(reduced_luminance_coefficient(table, 45.0, 1.5, interpolation=m)), 6)
+    ...  for m in ("bilinear", "cubic")]
+    [25.0, 25.0]
     """
     if beyond not in BEYOND_RULES:
         raise InputError(f"beyond={beyond!r}; expected one of {', '.join(BEYOND_RULES)}")
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(
+            f"interpolation={interpolation!r}; expected one of {', '.join(INTERPOLATIONS)}"
+        )
     b = np.abs(np.mod(np.asarray(beta, dtype=float) + 180.0, 360.0) - 180.0)
     t = np.asarray(tan_gamma, dtype=float)
     b, t = np.broadcast_arrays(b, t)
     tb, tt = table.beta, table.tan_gamma
     bc = np.clip(b, tb[0], tb[-1])
     tc = np.clip(t, 0.0, tt[-1])
-    ib = np.clip(np.searchsorted(tb, bc, side="right") - 1, 0, tb.size - 2)
-    it = np.clip(np.searchsorted(tt, tc, side="right") - 1, 0, tt.size - 2)
-    wb = (bc - tb[ib]) / (tb[ib + 1] - tb[ib])
-    wt = (tc - tt[it]) / (tt[it + 1] - tt[it])
-    r = table.r
-    low = r[it, ib] + wb * (r[it, ib + 1] - r[it, ib])
-    high = r[it + 1, ib] + wb * (r[it + 1, ib + 1] - r[it + 1, ib])
-    value = low + wt * (high - low)
+    if interpolation == "bilinear":
+        value = _bilinear(tb, tt, table.r, bc, tc)
+    elif interpolation == "bilinear_gamma":
+        value = _bilinear(tb, np.arctan(tt), table.r, bc, np.arctan(tc))
+    else:
+        from scipy.interpolate import RectBivariateSpline
+
+        degree = (min(3, tt.size - 1), min(3, tb.size - 1))
+        spline = RectBivariateSpline(tt, tb, table.r, kx=degree[0], ky=degree[1], s=0)
+        value = np.maximum(spline.ev(tc, bc), 0.0)
     if beyond == "zero":
         value = np.where(t > tt[-1], 0.0, value)
     return np.asarray(value, dtype=float)
@@ -267,6 +322,7 @@ def road_luminance(
     *,
     street_azimuth: ArrayLike = 0.0,
     beyond: str = "zero",
+    interpolation: str = DEFAULT_INTERPOLATION,
 ) -> FloatArray:
     """Road surface luminance at points for one observer (equation of the module docstring).
 
@@ -290,6 +346,8 @@ def road_luminance(
         C-plane of each photometry that faces the street [deg].
     beyond
         r beyond the table's last tan(gamma), see :func:`reduced_luminance_coefficient`.
+    interpolation
+        How r is interpolated in the table, see :func:`reduced_luminance_coefficient`.
 
     Returns
     -------
@@ -304,8 +362,8 @@ def road_luminance(
     --------
     A luminaire of 1000 cd everywhere 10 m above the point: r(., 0) = q0 = 0.07 sr-1.
 
-    >>> float(road_luminance([0, 0, 0], [-60, 0, 1.5], [[0, 0, 10]], np.eye(3),
-    ...                      lambda v, h: 1000.0 + 0 * v, synthetic_rtable()))
+    >>> round(float(road_luminance([0, 0, 0], [-60, 0, 1.5], [[0, 0, 10]], np.eye(3),
+    ...                            lambda v, h: 1000.0 + 0 * v, synthetic_rtable())), 12)
     0.7
     """
     p = np.asarray(points, dtype=float)
@@ -327,6 +385,8 @@ def road_luminance(
         horizontal * np.hypot(view[:, 0], view[:, 1])[None, :], 1e-300
     )
     beta = np.degrees(np.arccos(np.clip(cos_beta, -1.0, 1.0)))
-    r = reduced_luminance_coefficient(table, beta, horizontal / height, beyond=beyond)
+    r = reduced_luminance_coefficient(
+        table, beta, horizontal / height, beyond=beyond, interpolation=interpolation
+    )
     luminance = np.sum(r * R_UNIT * candela / height**2, axis=0)
     return luminance.reshape(p.shape[:-1])

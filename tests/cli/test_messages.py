@@ -36,6 +36,8 @@ API_ONLY = {
     "area",
     "average",
     "beyond",
+    "density",
+    "interpolation",
     "carriageway_width",
     "lighting_class",
     "lanes",

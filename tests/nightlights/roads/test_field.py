@@ -5,7 +5,8 @@ Rules, as the expected numbers below were worked out:
   (i + 1/2) S / N;
 - luminance, across: 3 points per lane at (k + 1/2) W_L / 3;
 - illuminance, across: n = max(3, smallest n with W / n <= 1.5 m), points at (k + 1/2) W / n;
-- observer per lane: (-60, lane centre, 1.5).
+- observer per lane: (-60, lane centre, 1.5);
+- density k (not the standard's): k times the counts, each point the centre of its cell.
 """
 
 from __future__ import annotations
@@ -91,6 +92,8 @@ def test_field_arrays_are_frozen() -> None:
         ({"lanes": 0}, "lanes=0"),
         ({"lanes": 1.5}, "lanes=1.5"),
         ({"quantity": "glare"}, "quantity='glare'"),
+        ({"density": 0}, "density=0"),
+        ({"density": 2.5}, "density=2.5"),
     ],
 )
 def test_bad_input(kwargs: dict[str, object], message: str) -> None:
@@ -102,3 +105,43 @@ def test_bad_input(kwargs: dict[str, object], message: str) -> None:
 def test_illuminance_field_has_no_lane_centre_columns() -> None:
     with pytest.raises(InputError, match="luminance field only"):
         calculation_field(30.0, 3.5, 2, quantity="illuminance").lane_centre_columns()
+
+
+def test_default_density_is_the_standard_grid() -> None:
+    # S = 40 m: N = 14 (40 / 3 = 13.3); 2 lanes of 3.5 m: 6 luminance columns.
+    field = calculation_field(40.0, 3.5, 2)
+    assert field.density == 1
+    assert field.shape == (14, 6)
+    assert np.array_equal(field.x, calculation_field(40.0, 3.5, 2, density=1).x)
+
+
+def test_denser_luminance_field() -> None:
+    # k = 3, S = 25 m: 30 rows of 25 / 30 m from 25 / 60 m; 9 points per 3 m lane, 1/3 m apart.
+    field = calculation_field(25.0, 3.0, 2, density=3)
+    assert field.shape == (30, 18)
+    assert field.x[0] == pytest.approx(25.0 / 60.0)
+    assert field.x[-1] == pytest.approx(25.0 - 25.0 / 60.0)
+    assert np.diff(field.y) == pytest.approx(np.full(17, 1.0 / 3.0))
+    assert field.y[0] == pytest.approx(1.0 / 6.0)
+    # The lane centres (1.5 m, 4.5 m) are columns 4 and 13 of an odd density.
+    assert field.lane_centre_columns() == [4, 13]
+    assert field.y[[4, 13]] == pytest.approx([1.5, 4.5])
+    # Odd densities keep the standard's points (the centres of the middle sub-cells).
+    standard = calculation_field(25.0, 3.0, 2)
+    assert field.x[1::3] == pytest.approx(standard.x)
+    assert field.y[1::3] == pytest.approx(standard.y)
+    assert np.array_equal(field.observers, standard.observers)
+
+
+def test_denser_illuminance_field() -> None:
+    # W = 7 m: n = 5 (7 / 1.5 = 4.67), k = 4: 20 columns of 0.35 m from 0.175 m; S = 31: 44 rows.
+    field = calculation_field(31.0, 3.5, 2, quantity="illuminance", density=4)
+    assert field.shape == (44, 20)
+    assert field.y[0] == pytest.approx(0.175)
+    assert np.diff(field.y) == pytest.approx(np.full(19, 0.35))
+    assert field.x[0] == pytest.approx(31.0 / 88.0)
+
+
+def test_even_density_has_no_lane_centre_column() -> None:
+    with pytest.raises(InputError, match="density=2: 6 columns per lane straddle"):
+        calculation_field(30.0, 3.5, 2, density=2).lane_centre_columns()

@@ -80,7 +80,95 @@ def test_interpolation_is_exact_on_nodes_and_bilinear_between() -> None:
     b = rng.uniform(0, 180, 200)
     t = rng.uniform(0, 4, 200)
     expected = 50 + 0.1 * b + 20 * t + 0.05 * b * t
-    assert reduced_luminance_coefficient(table, b, t) == pytest.approx(expected, rel=1e-12)
+    got = reduced_luminance_coefficient(table, b, t, interpolation="bilinear")
+    assert got == pytest.approx(expected, rel=1e-12)
+    # A bicubic spline reproduces a bilinear function too.
+    got = reduced_luminance_coefficient(table, b, t, interpolation="cubic")
+    assert got == pytest.approx(expected, rel=1e-9)
+
+
+def _analytic_r(beta: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """synthetic_rtable's formula with its defaults (q0 = 0.07, forward = 1), by hand."""
+    return 700.0 * (1 + t * (1 + np.cos(np.radians(beta))) / 2) / (1 + t * t) ** 1.5
+
+
+@pytest.mark.parametrize(
+    ("method", "mean_limit", "max_limit"),
+    # The limits bound the errors measured in bench_rtable_interpolation.py (a few % at most
+    # for the linear methods, well below 1 % for the spline), with a margin.
+    [("bilinear", 2.0, 4.0), ("bilinear_gamma", 2.0, 4.0), ("cubic", 0.1, 0.6)],
+)
+def test_interpolation_against_the_analytic_function(
+    method: str, mean_limit: float, max_limit: float
+) -> None:
+    table = synthetic_rtable()
+    rng = np.random.default_rng(7)
+    b = rng.uniform(0, 180, 20_000)
+    t = rng.uniform(0, 12, 20_000)
+    exact = _analytic_r(b, t)
+    got = reduced_luminance_coefficient(table, b, t, interpolation=method)
+    error = np.abs(got - exact) / exact.max() * 100
+    assert error.mean() < mean_limit / 10
+    assert error.max() < max_limit
+    # Exact at the nodes.
+    bb, tt = np.meshgrid(table.beta, table.tan_gamma)
+    nodes = reduced_luminance_coefficient(table, bb, tt, interpolation=method)
+    assert nodes == pytest.approx(_analytic_r(bb, tt), rel=1e-9)
+
+
+def test_cubic_beats_bilinear_in_the_used_range() -> None:
+    """Where road lighting uses the table (tan gamma <= 4), the spline is 10 times closer."""
+    table = synthetic_rtable()
+    rng = np.random.default_rng(8)
+    b, t = rng.uniform(0, 180, 5000), rng.uniform(0, 4, 5000)
+    exact = _analytic_r(b, t)
+    errors = {
+        m: np.abs(reduced_luminance_coefficient(table, b, t, interpolation=m) - exact).mean()
+        for m in ("bilinear", "cubic")
+    }
+    assert errors["cubic"] < errors["bilinear"] / 10
+
+
+def test_cubic_is_the_default_and_never_negative() -> None:
+    table = synthetic_rtable()
+    b, t = np.array([3.0, 47.0, 100.0]), np.array([0.3, 1.1, 5.2])
+    assert np.array_equal(
+        reduced_luminance_coefficient(table, b, t),
+        reduced_luminance_coefficient(table, b, t, interpolation="cubic"),
+    )
+    # A step in r makes the spline ring below 0: clipped.
+    step = parse_rtable("beta 0 90 180\n0 100 100 100\n1 100 100 100\n2 0 0 0\n3 0 0 0\n4 0 0 0\n")
+    ringing = reduced_luminance_coefficient(
+        step, 90.0, np.linspace(2, 4, 41), interpolation="cubic"
+    )
+    assert ringing.min() == 0.0
+
+
+def test_unknown_interpolation() -> None:
+    with pytest.raises(InputError, match="interpolation='nearest'; expected one of"):
+        reduced_luminance_coefficient(synthetic_rtable(), 0.0, 1.0, interpolation="nearest")
+
+
+def test_luminance_interpolation_option() -> None:
+    """road_luminance with each method: r of one luminaire by that method, times I / h^2."""
+    table = synthetic_rtable()
+    light = np.array([[12.0, 3.0, 8.0]])
+    point = np.array([0.7, 1.3, 0.0])
+    eye = np.array([-60.0, 1.75, 1.5])
+    view, to_light = point[:2] - eye[:2], light[0, :2] - point[:2]
+    beta = math.degrees(
+        math.acos(float(view @ to_light) / (np.linalg.norm(view) * np.linalg.norm(to_light)))
+    )
+    t = float(np.linalg.norm(to_light)) / 8.0
+    for method in ("bilinear", "bilinear_gamma", "cubic"):
+        got = road_luminance(
+            point, eye, light, np.eye(3), lambda v, h: 0 * v + 1000.0, table, interpolation=method
+        )
+        r = float(reduced_luminance_coefficient(table, beta, t, interpolation=method))
+        assert float(got) == pytest.approx(r * 1e-4 * 1000.0 / 64.0, rel=1e-12)
+    exact = float(_analytic_r(np.array(beta), np.array(t))) * 1e-4 * 1000.0 / 64.0
+    cubic = road_luminance(point, eye, light, np.eye(3), lambda v, h: 0 * v + 1000.0, table)
+    assert float(cubic) == pytest.approx(exact, rel=2e-3)
 
 
 def test_beta_folds_into_0_180() -> None:
@@ -92,7 +180,9 @@ def test_beta_folds_into_0_180() -> None:
 def test_beyond_the_table() -> None:
     table = parse_rtable(TEXT)
     assert float(reduced_luminance_coefficient(table, 0.0, 1.5)) == 0.0
-    assert float(reduced_luminance_coefficient(table, 0.0, 1.5, beyond="last")) == 70.0
+    assert float(reduced_luminance_coefficient(table, 0.0, 1.5, beyond="last")) == pytest.approx(
+        70.0
+    )
     with pytest.raises(InputError, match="beyond='nearest'"):
         reduced_luminance_coefficient(table, 0.0, 1.5, beyond="nearest")
 
