@@ -46,6 +46,7 @@ from nightlights.roads._layout import StreetFields, lay_out
 from nightlights.roads._metrics import REFERENCE_AGE
 from nightlights.roads._rating import FIGURES, rate_segments, section_figures
 from nightlights.roads._rtables import RTable, read_rtable, synthetic_rtable
+from nightlights.roads._selection import ClassSelection, select_classes
 
 __all__ = ["AuditResult", "AuditSummary", "RoadModel", "audit", "road_model"]
 
@@ -180,8 +181,16 @@ def _as_rtable(rtable: RTable | str | os.PathLike[str] | None) -> RTable | None:
     raise InputError(f"rtable={rtable!r}; expected an RTable, a path to an r-table or None")
 
 
-def _classes(frame: gpd.GeoDataFrame, table: Mapping[str, Any], source: str) -> pd.Series:
-    """Lighting class per segment: the ``lighting_class`` field (checked)."""
+def _classes(
+    frame: gpd.GeoDataFrame,
+    table: Mapping[str, Any],
+    selection: ClassSelection | str | os.PathLike[str] | None,
+    source: str,
+) -> pd.Series:
+    """Lighting class per segment: the selection rules over the street fields, a
+    ``lighting_class`` field overriding them; without ``street_class``, the field alone."""
+    if "street_class" in frame:
+        return select_classes(frame, selection, requirements=table)
     if "lighting_class" not in frame:
         return pd.Series([None] * len(frame), index=frame.index, dtype=object)
     given = frame["lighting_class"].astype(object)
@@ -198,6 +207,20 @@ def _classes(frame: gpd.GeoDataFrame, table: Mapping[str, Any], source: str) -> 
             f"{sorted(set(cleaned[unknown]))}; expected one of {', '.join(sorted(table))}"
         )
     return cleaned
+
+
+def _warn_uncomputed(
+    classes: pd.Series, table: Mapping[str, Mapping[str, float]], source: str
+) -> None:
+    """Warn about criteria the classes in use set but the audit does not compute."""
+    used = {str(c) for c in classes.dropna()}
+    skipped = sorted({name for c in used for name in table.get(c, {}) if name not in FIGURES})
+    if skipped:
+        warnings.warn(
+            f"{source}: the audit does not compute {skipped}; those requirements are not rated",
+            DataQualityWarning,
+            stacklevel=3,
+        )
 
 
 def _ids(frame: pd.DataFrame) -> np.ndarray:
@@ -239,6 +262,7 @@ def road_model(
     catalog: str | os.PathLike[str] | None = None,
     rtable: RTable | str | os.PathLike[str] | None = None,
     requirements: str | os.PathLike[str] | Mapping[str, Mapping[str, float]] | None = None,
+    selection: ClassSelection | str | os.PathLike[str] | None = None,
     age: float = REFERENCE_AGE,
     reach_heights: float = REACH_HEIGHTS,
 ) -> RoadModel:
@@ -266,7 +290,8 @@ def road_model(
         raise InputError(f"{source}: the street layer has no field 'width' (carriageway [m])")
     segments = frame.explode(index_parts=False).reset_index(drop=True)
     segments = segments[segments.geometry.geom_type == "LineString"].reset_index(drop=True)
-    classes = _classes(segments, table, source)
+    classes = _classes(segments, table, selection, source)
+    _warn_uncomputed(classes, table, source)
 
     width = _numbers(segments, "width")
     lanes = _numbers(segments, "lanes")
@@ -384,6 +409,7 @@ def audit(
     catalog: str | os.PathLike[str] | None = None,
     rtable: RTable | str | os.PathLike[str] | None = None,
     requirements: str | os.PathLike[str] | Mapping[str, Mapping[str, float]] | None = None,
+    selection: ClassSelection | str | os.PathLike[str] | None = None,
     dimming: str | ArrayLike | None = None,
     age: float = REFERENCE_AGE,
 ) -> AuditResult:
@@ -406,6 +432,10 @@ def audit(
         the analytic stand-in, with a warning.
     requirements
         Requirements by class or a TOML path (default: EN 13201-2:2015 Tables 1-3).
+    selection
+        Class selection rules or their TOML path (default: the shipped rules,
+        :func:`~nightlights.roads.read_class_selection`); a ``lighting_class`` field
+        overrides them per segment.
     dimming
         Level of every light in [0, 1]: a field of the light layer or an array; default 1.
     age
@@ -425,7 +455,13 @@ def audit(
     """
     with OutputSet(output, inputs={"lights": lights, "streets": streets}) as outputs:
         model = road_model(
-            lights, streets, catalog=catalog, rtable=rtable, requirements=requirements, age=age
+            lights,
+            streets,
+            catalog=catalog,
+            rtable=rtable,
+            requirements=requirements,
+            selection=selection,
+            age=age,
         )
         rating = model.rate(_dimming(model, dimming, lights))
         segments = model.segments.copy()

@@ -10,7 +10,11 @@ EN 13201-3:2015, Sec. 9 (:mod:`nightlights.roads._metrics`) computed from
   observer in that lane), :math:`f_{TI}` the largest over its observers, :math:`R_{EI}` the
   lesser of the two edges' outside-to-inside ratios of average strip illuminance;
 - illuminance sections: :math:`E_\\text{av}`, :math:`E_\\text{min}` and
-  :math:`U_o = E_\\text{min} / E_\\text{av}`.
+  :math:`U_o = E_\\text{min} / E_\\text{av}`;
+- RP-8's ratios (ANSI/IES RP-8): :math:`L_\\text{av}/L_\\text{min}` and
+  :math:`L_\\text{max}/L_\\text{min}` the largest over observers,
+  :math:`L_{v,\\max}/L_\\text{av}` the largest over observers, and
+  :math:`E_\\text{av}/E_\\text{min}`.
 
 A segment takes its worst section on every figure (the least of a minimum criterion, the
 largest threshold increment): a street is rated by its weakest span, as an auditor walks it.
@@ -35,8 +39,21 @@ from nightlights.roads._metrics import TI_LUMINANCE_BREAK
 
 __all__ = ["FIGURES", "rate_segments", "section_figures"]
 
-#: Figures computed per section, each the key of a criterion in :data:`CRITERIA`.
-FIGURES = tuple(CRITERIA)
+#: Figures computed per section, each the key of a criterion in :data:`CRITERIA` (the
+#: pedestrian hemispherical, semicylindrical and vertical figures are not rated).
+FIGURES = (
+    "average_luminance",
+    "overall_uniformity",
+    "longitudinal_uniformity",
+    "threshold_increment",
+    "edge_illuminance_ratio",
+    "average_illuminance",
+    "minimum_illuminance",
+    "luminance_average_to_minimum",
+    "luminance_maximum_to_minimum",
+    "veiling_luminance_ratio",
+    "illuminance_average_to_minimum",
+)
 IntArray = NDArray[np.intp]
 
 
@@ -55,13 +72,22 @@ def _group_reduce(values: FloatArray, group: IntArray, n: int, how: str) -> Floa
     acc = np.full(n, fill)
     known = ~np.isnan(values)
     ufunc.at(acc, group[known], values[known])
-    return np.where(np.isfinite(acc), acc, np.nan)
+    count = np.bincount(group[known], minlength=n)
+    return np.where(count > 0, acc, np.nan)
 
 
 def _ratio(numerator: FloatArray, denominator: FloatArray) -> FloatArray:
     out = np.full(np.shape(numerator), np.nan)
     np.divide(numerator, denominator, out=out, where=denominator > 0)
     return np.where((denominator <= 0) & np.isfinite(denominator), 0.0, out)
+
+
+def _inverse_ratio(numerator: FloatArray, denominator: FloatArray) -> FloatArray:
+    """A ratio over a minimum (RP-8's figures): +inf over a dark point, NaN where unknown."""
+    out = np.full(np.shape(numerator), np.nan)
+    np.divide(numerator, denominator, out=out, where=denominator > 0)
+    dark = (denominator <= 0) & np.isfinite(numerator)
+    return np.where(dark, np.where(numerator > 0, np.inf, 1.0), out)
 
 
 def threshold_increments(veiling: FloatArray, average: FloatArray) -> FloatArray:
@@ -114,6 +140,16 @@ def section_figures(
         figures["threshold_increment"] = _group_reduce(
             threshold_increments(veil, average_o), section, n, "max"
         )
+        maximum_o = _group_reduce(lum, obs, n_obs, "max")
+        figures["luminance_average_to_minimum"] = _group_reduce(
+            _inverse_ratio(average_o, minimum_o), section, n, "max"
+        )
+        figures["luminance_maximum_to_minimum"] = _group_reduce(
+            _inverse_ratio(maximum_o, minimum_o), section, n, "max"
+        )
+        figures["veiling_luminance_ratio"] = _group_reduce(
+            _inverse_ratio(veil, average_o), section, n, "max"
+        )
         strips = fields.strips
         if len(strips):
             e = influence.strips @ d
@@ -135,6 +171,7 @@ def section_figures(
         figures["overall_uniformity"] = np.where(
             is_ill, _ratio(minimum, average), figures["overall_uniformity"]
         )
+        figures["illuminance_average_to_minimum"] = _inverse_ratio(average, minimum)
     return figures
 
 

@@ -307,3 +307,24 @@ def test_stand_in_rtable_warns_only_for_luminance_classes(layers: tuple) -> None
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataQualityWarning)
         roads.audit(lights, streets.iloc[[2]])  # a P class only
+
+
+def test_classes_come_from_the_selection_rules_unless_given(layers: tuple) -> None:
+    lights, streets = layers
+    layer = streets.assign(
+        street_class=["arterial", "collector", "local"], lighting_class=[None, None, "P2"]
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        result = roads.audit(lights, layer)
+        expected = roads.select_classes(layer)
+    assert list(result.segments["lighting_class"]) == list(expected)
+    assert result.segments["lighting_class"].iloc[2] == "P2"
+
+
+def test_criteria_the_audit_does_not_compute_warn(layers: tuple) -> None:
+    lights, streets = layers
+    table = {"P3": {"average_illuminance": 7.5, "minimum_vertical_illuminance": 1.0}}
+    with pytest.warns(DataQualityWarning, match="does not compute"):
+        result = roads.audit(lights, streets.iloc[[2]], requirements=table)
+    assert result.segments["status"].iloc[0] in ("pass", "fail")
