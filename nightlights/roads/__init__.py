@@ -15,7 +15,10 @@
   photocell, :class:`DimmingSchedule` (:func:`parse_schedule`, :func:`schedule_level`,
   :func:`scheduled_hours`), :func:`light_power`, :func:`annual_energy`,
   :func:`power_density_indicator`, :func:`energy_consumption_indicator`,
-  :func:`co2_emissions`.
+  :func:`co2_emissions`;
+- plans: :func:`road_plan` (least-energy dimming under sky targets that keeps every class),
+  :func:`road_plan_schedule`, :class:`SkyMatrix` (each light's part of a sky target,
+  built by :func:`nightlights.inverse.sky_matrix`).
 
 The metrics are pure functions on arrays in a road frame (see
 :mod:`nightlights.roads._field`); :func:`audit` is the stage that reads and writes layers.
@@ -74,6 +77,14 @@ from nightlights.roads._metrics import (
     threshold_increment,
     veiling_luminance,
 )
+from nightlights.roads._plan import (
+    OBJECTIVES,
+    PlanPeriod,
+    RoadPlan,
+    SkyMatrix,
+    road_plan,
+    road_plan_schedule,
+)
 from nightlights.roads._rtables import (
     BEYOND_RULES,
     RTable,
@@ -89,6 +100,7 @@ __all__ = [
     "CIVIL_TWILIGHT",
     "CRITERIA",
     "FIELD_QUANTITIES",
+    "OBJECTIVES",
     "SWITCH_ELEVATION",
     "AuditResult",
     "AuditSummary",
@@ -98,8 +110,11 @@ __all__ = [
     "Criterion",
     "DimmingSchedule",
     "GlareGeometry",
+    "PlanPeriod",
     "RTable",
     "RoadModel",
+    "RoadPlan",
+    "SkyMatrix",
     "age_factor",
     "annual_burning_hours",
     "annual_energy",
@@ -131,6 +146,8 @@ __all__ = [
     "requirements",
     "road_luminance",
     "road_model",
+    "road_plan",
+    "road_plan_schedule",
     "schedule_level",
     "scheduled_hours",
     "sun_elevation",
