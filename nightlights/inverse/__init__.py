@@ -39,6 +39,8 @@ _LAZY: dict[str, str] = {
     "unregister_region_kind": "nightlights.inverse._region",
     "region_kinds": "nightlights.inverse._region",
     "region_numbers": "nightlights.inverse._region",
+    "sky_matrix": "nightlights.inverse.road_sky",
+    "lights_emission": "nightlights.inverse.road_sky",
 }
 
 if TYPE_CHECKING:
@@ -57,6 +59,7 @@ if TYPE_CHECKING:
         unregister_region_kind,
     )
     from nightlights.inverse.plan import ReduceResult, inverse_reduce, least_dimming
+    from nightlights.inverse.road_sky import lights_emission, sky_matrix
     from nightlights.inverse.stage import InfluenceResult, inverse_q, inverse_s
     from nightlights.sky.darkness import DarknessResult, darkness
 
@@ -75,9 +78,11 @@ __all__ = [
     "inverse_s",
     "least_dimming",
     "least_flux_dimming",
+    "lights_emission",
     "region_kinds",
     "region_numbers",
     "register_region_kind",
+    "sky_matrix",
     "unregister_region_kind",
 ]
 

@@ -23,7 +23,10 @@
 - RP-8's figures: :func:`luminance_average_to_minimum`, :func:`luminance_maximum_to_minimum`,
   :func:`veiling_luminance_ratio`, :func:`illuminance_average_to_minimum`;
 - class selection: :func:`read_class_selection` and :func:`select_classes` (a street's class
-  from its street fields by editable rules).
+  from its street fields by editable rules);
+- plans: :func:`road_plan` (least-energy dimming under sky targets that keeps every class),
+  :func:`road_plan_schedule`, :class:`SkyMatrix` (each light's part of a sky target,
+  built by :func:`nightlights.inverse.sky_matrix`).
 
 The metrics are pure functions on arrays in a road frame (see
 :mod:`nightlights.roads._field`); :func:`audit` is the stage that reads and writes layers.
@@ -91,6 +94,14 @@ from nightlights.roads._metrics import (
     threshold_increment,
     veiling_luminance,
 )
+from nightlights.roads._plan import (
+    OBJECTIVES,
+    PlanPeriod,
+    RoadPlan,
+    SkyMatrix,
+    road_plan,
+    road_plan_schedule,
+)
 from nightlights.roads._rp8 import (
     illuminance_average_to_minimum,
     luminance_average_to_minimum,
@@ -122,6 +133,7 @@ __all__ = [
     "CRITERIA",
     "FIELD_QUANTITIES",
     "INTERPOLATIONS",
+    "OBJECTIVES",
     "RECEPTOR_HEIGHT",
     "REGION_REQUIREMENTS",
     "SWITCH_ELEVATION",
@@ -135,8 +147,11 @@ __all__ = [
     "Criterion",
     "DimmingSchedule",
     "GlareGeometry",
+    "PlanPeriod",
     "RTable",
     "RoadModel",
+    "RoadPlan",
+    "SkyMatrix",
     "age_factor",
     "annual_burning_hours",
     "annual_energy",
@@ -175,6 +190,8 @@ __all__ = [
     "requirements_for_region",
     "road_luminance",
     "road_model",
+    "road_plan",
+    "road_plan_schedule",
     "schedule_level",
     "scheduled_hours",
     "select_classes",

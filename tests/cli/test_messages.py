@@ -30,6 +30,15 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: functions of ``nightlights.roads``, which no command calls yet) or names of an object
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "hours",
+    "min_dimming",
+    "objective",
+    "periods",
+    "tolerance",
+    "weights",
+    "zenith_reduction",
+    "albedo",
+    "observers",
     "age",
     "dimming",
     "rtable",
