@@ -31,18 +31,25 @@ Modelling choices:
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from nightlights._typing import FloatArray
-from nightlights.ground.frames import direction_to_photometric
+from nightlights.errors import InputError
 from nightlights.ground.luminaires import Luminaires
 from nightlights.roads._field import OBSERVER_EYE_HEIGHT
+from nightlights.roads._influence_numba import (
+    RGrid,
+    light_grid,
+    luminance_rows,
+    pack_candela,
+    surface_rows,
+    veiling_rows,
+)
 from nightlights.roads._layout import FieldPoints, Observers, StreetFields
 from nightlights.roads._metrics import (
     GLARE_ANGLE_RANGE,
@@ -51,7 +58,12 @@ from nightlights.roads._metrics import (
     SCREENING_ANGLE,
     age_factor,
 )
-from nightlights.roads._rtables import R_UNIT, RTable, reduced_luminance_coefficient
+from nightlights.roads._rtables import (
+    BEYOND_RULES,
+    DEFAULT_INTERPOLATION,
+    RTable,
+    reduced_luminance_coefficient,
+)
 
 __all__ = ["GLARE_REACH", "REACH_HEIGHTS", "RoadInfluence", "road_influence"]
 
@@ -60,8 +72,11 @@ __all__ = ["GLARE_REACH", "REACH_HEIGHTS", "RoadInfluence", "road_influence"]
 REACH_HEIGHTS = 12.0
 #: Distance from the eye within which luminaires count for glare [m].
 GLARE_REACH = 500.0
-#: Point-luminaire pairs handled at once (bounds the working memory to ~0.5 GB).
-_CHUNK = 400_000
+#: Steps of the regular grid the r-table is resampled on for the compiled kernel [deg], [1]:
+#: bilinear reading there differs from the table's own interpolation by less than 1e-4 of
+#: the table's largest r (test).
+R_BETA_STEP = 0.25
+R_TAN_STEP = 0.01
 IntArray = NDArray[np.intp]
 
 
@@ -95,63 +110,42 @@ class RoadInfluence:
     veiling: sp.csr_array
 
 
-def _chunks(total: int, size: int) -> Iterator[slice]:
-    for start in range(0, total, size):
-        yield slice(start, min(total, start + size))
-
-
-def _intensity(lum: Luminaires, light: IntArray, direction: FloatArray) -> FloatArray:
-    """Intensity of luminaires ``light`` along world vectors ``direction`` (m, 3) [cd]."""
-    vertical, horizontal = direction_to_photometric(
-        direction, lum.rotation[light], street_azimuth=lum.street_azimuth[light]
+def resample_rtable(
+    table: RTable, beyond: str, interpolation: str = DEFAULT_INTERPOLATION
+) -> RGrid:
+    """The r-table on the regular grid of :data:`R_BETA_STEP` x :data:`R_TAN_STEP`, by the
+    table's ``interpolation`` (:func:`~nightlights.roads.reduced_luminance_coefficient`), for
+    the compiled kernel's bilinear reading."""
+    if beyond not in BEYOND_RULES:
+        raise InputError(f"beyond={beyond!r}; expected one of {', '.join(BEYOND_RULES)}")
+    tan_max = float(table.tan_gamma[-1])
+    n_tan = max(2, math.ceil(tan_max / R_TAN_STEP))
+    n_beta = max(2, math.ceil(180.0 / R_BETA_STEP))
+    tan = np.linspace(0.0, tan_max, n_tan + 1)
+    beta = np.linspace(0.0, 180.0, n_beta + 1)
+    values = reduced_luminance_coefficient(
+        table, beta[None, :], tan[:, None], beyond="last", interpolation=interpolation
     )
-    out = np.empty(light.size)
-    table = lum.table_index[light]
-    for t in np.unique(table):
-        pick = table == t
-        out[pick] = lum.tables[t].lookup(vertical[pick], horizontal[pick])
-    return out * lum.intensity_scale[light]
+    return RGrid(
+        np.ascontiguousarray(values, dtype=float),
+        tan_max / n_tan,
+        180.0 / n_beta,
+        tan_max,
+        beyond == "zero",
+    )
 
 
-def _surface_pairs(
-    xy: FloatArray, lum: Luminaires, reach_heights: float
-) -> tuple[IntArray, IntArray]:
-    """(point, light) pairs within the reach, sorted by point then light."""
-    if xy.shape[0] == 0 or len(lum) == 0:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty
-    height = lum.light_point[:, 2]
-    reach = reach_heights * height
-    lights = cKDTree(lum.light_point[:, :2])
-    points, partners = [], []
-    for part in _chunks(xy.shape[0], 50_000):
-        found = cKDTree(xy[part]).sparse_distance_matrix(
-            lights, float(reach.max()), output_type="ndarray"
-        )
-        keep = found["v"] <= reach[found["j"]]
-        points.append(found["i"][keep].astype(np.intp) + part.start)
-        partners.append(found["j"][keep].astype(np.intp))
-    point = np.concatenate(points)
-    light = np.concatenate(partners)
-    order = np.lexsort((light, point))
-    return point[order], light[order]
+def _csr(
+    indptr: NDArray[np.int64], light: NDArray[np.int64], value: FloatArray, n: int
+) -> sp.csr_array:
+    return sp.csr_array((value, light, indptr), shape=(indptr.size - 1, n))
 
 
-def _illuminance(
-    points: FieldPoints, lum: Luminaires, reach_heights: float
-) -> tuple[sp.csr_array, IntArray, IntArray, FloatArray]:
-    """Illuminance matrix and, per pair, the point, light and intensity."""
-    point, light = _surface_pairs(points.xy, lum, reach_heights)
-    candela = np.empty(point.size)
-    value = np.empty(point.size)
-    for part in _chunks(point.size, _CHUNK):
-        p, k = point[part], light[part]
-        direction = np.column_stack([points.xy[p] - lum.light_point[k, :2], -lum.light_point[k, 2]])
-        candela[part] = _intensity(lum, k, direction)
-        distance = np.linalg.norm(direction, axis=1)
-        value[part] = candela[part] * lum.light_point[k, 2] / distance**3
-    matrix = sp.csr_array((value, (point, light)), shape=(len(points), len(lum)))
-    return matrix, point, light, candela
+def _gather(ptr: NDArray[np.int64], light: NDArray[np.int64], rows: IntArray) -> NDArray[np.int64]:
+    """The column indices of CSR rows ``rows`` in order (rows may repeat)."""
+    per = ptr[rows + 1] - ptr[rows]
+    first = np.repeat(np.cumsum(per) - per, per)
+    return light[np.repeat(ptr[rows], per) + np.arange(int(per.sum())) - first]
 
 
 def _samples(fields: StreetFields) -> tuple[IntArray, IntArray]:
@@ -167,67 +161,70 @@ def _samples(fields: StreetFields) -> tuple[IntArray, IntArray]:
     return point.astype(np.intp), observer
 
 
-def _luminance(
-    fields: StreetFields,
-    lum: Luminaires,
-    table: RTable,
-    pairs: tuple[IntArray, IntArray, FloatArray],
-    beyond: str,
-) -> tuple[sp.csr_array, IntArray, IntArray]:
-    points = fields.luminance
-    point, light, candela = pairs
-    sample_point, sample_observer = _samples(fields)
-    indptr = np.searchsorted(point, np.arange(len(points) + 1))
-    per = indptr[sample_point + 1] - indptr[sample_point]
-    rows = np.repeat(np.arange(sample_point.size, dtype=np.intp), per)
-    first = np.repeat(np.cumsum(per) - per, per)
-    pair = np.repeat(indptr[sample_point], per) + np.arange(rows.size) - first
-    value = np.empty(rows.size)
-    eye = fields.observers.xy
-    for part in _chunks(rows.size, _CHUNK):
-        q = pair[part]
-        p, k = point[q], light[q]
-        at = points.xy[p]
-        to_light = lum.light_point[k, :2] - at
-        view = at - eye[sample_observer[rows[part]]]
-        horizontal = np.hypot(to_light[:, 0], to_light[:, 1])
-        cos_beta = np.einsum("ij,ij->i", to_light, view) / np.maximum(
-            horizontal * np.hypot(view[:, 0], view[:, 1]), 1e-300
-        )
-        beta = np.degrees(np.arccos(np.clip(cos_beta, -1.0, 1.0)))
-        height = lum.light_point[k, 2]
-        r = reduced_luminance_coefficient(table, beta, horizontal / height, beyond=beyond)
-        value[part] = r * R_UNIT * candela[q] / height**2
-    matrix = sp.csr_array((value, (rows, light[pair])), shape=(sample_point.size, len(lum)))
-    return matrix, sample_point, sample_observer
+class _Lights:
+    """The luminaires as the kernels take them."""
+
+    def __init__(self, lum: Luminaires, reach_heights: float) -> None:
+        self.n = len(lum)
+        self.point = np.ascontiguousarray(lum.light_point, dtype=float)
+        self.rotation = np.ascontiguousarray(lum.rotation, dtype=float)
+        self.azimuth = np.ascontiguousarray(lum.street_azimuth, dtype=float)
+        self.table = np.ascontiguousarray(lum.table_index, dtype=np.int64)
+        self.scale = np.ascontiguousarray(lum.intensity_scale, dtype=float)
+        self.reach = reach_heights * self.point[:, 2]
+        self.packed = pack_candela(lum.tables)
+        self.cell = max(float(self.reach.max()), 1.0) if self.n else 1.0
+        self.grid = light_grid(self.point[:, :2], self.cell) if self.n else None
+
+    def candela_arguments(self) -> tuple:
+        p = self.packed
+        return (p.values, p.offset, p.n_v, p.n_h, p.v_step, p.h_step)
 
 
-def _veiling(observers: Observers, lum: Luminaires, age: float) -> sp.csr_array:
-    if len(observers) == 0 or len(lum) == 0:
-        return sp.csr_array((len(observers), len(lum)))
-    found = cKDTree(observers.xy).sparse_distance_matrix(
-        cKDTree(lum.light_point[:, :2]), GLARE_REACH, output_type="ndarray"
+def _surface(
+    points: FieldPoints, lights: _Lights
+) -> tuple[NDArray[np.int64], NDArray[np.int64], FloatArray, FloatArray]:
+    if len(points) == 0 or lights.grid is None:
+        return np.zeros(len(points) + 1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+    return surface_rows(
+        np.ascontiguousarray(points.xy, dtype=float),
+        lights.point,
+        lights.rotation,
+        lights.azimuth,
+        lights.table,
+        lights.scale,
+        lights.reach,
+        lights.grid,
+        lights.cell,
+        *lights.candela_arguments(),
     )
-    o, k = found["i"].astype(np.intp), found["j"].astype(np.intp)
-    eye = np.column_stack([observers.xy[o], np.full(o.size, OBSERVER_EYE_HEIGHT)])
-    to_light = lum.light_point[k] - eye
-    distance = np.linalg.norm(to_light, axis=1)
-    unit = to_light / distance[:, None]
-    depression = np.radians(LINE_OF_SIGHT_DEPRESSION)
-    sight = np.column_stack(
-        [observers.direction[o] * np.cos(depression), np.full(o.size, -np.sin(depression))]
-    )
-    cos_theta = np.clip(np.einsum("ij,ij->i", unit, sight), -1.0, 1.0)
-    angle = np.degrees(np.arccos(cos_theta))
-    elevation = np.degrees(np.arcsin(np.clip(unit[:, 2], -1.0, 1.0)))
-    ahead = np.einsum("ij,ij->i", to_light[:, :2], observers.direction[o]) > 0
+
+
+def _veiling(observers: Observers, lights: _Lights, age: float) -> sp.csr_array:
+    if len(observers) == 0 or lights.n == 0:
+        return sp.csr_array((len(observers), lights.n))
     low, high = GLARE_ANGLE_RANGE
-    keep = ahead & (elevation < SCREENING_ANGLE) & (angle >= low) & (angle <= high)
-    o, k = o[keep], k[keep]
-    candela = _intensity(lum, k, -to_light[keep])
-    eye_illuminance = candela * cos_theta[keep] / distance[keep] ** 2
-    value = age_factor(age) * eye_illuminance / angle[keep] ** 2
-    return sp.csr_array((value, (o, k)), shape=(len(observers), len(lum)))
+    grid = light_grid(lights.point[:, :2], GLARE_REACH)
+    indptr, light, value = veiling_rows(
+        np.ascontiguousarray(observers.xy, dtype=float),
+        np.ascontiguousarray(observers.direction, dtype=float),
+        OBSERVER_EYE_HEIGHT,
+        lights.point,
+        lights.rotation,
+        lights.azimuth,
+        lights.table,
+        lights.scale,
+        grid,
+        GLARE_REACH,
+        GLARE_REACH,
+        LINE_OF_SIGHT_DEPRESSION,
+        SCREENING_ANGLE,
+        low,
+        high,
+        age_factor(age),
+        *lights.candela_arguments(),
+    )
+    return _csr(indptr, light, value, lights.n)
 
 
 def road_influence(
@@ -238,6 +235,7 @@ def road_influence(
     beyond: str = "zero",
     age: float = REFERENCE_AGE,
     reach_heights: float = REACH_HEIGHTS,
+    interpolation: str = DEFAULT_INTERPOLATION,
 ) -> RoadInfluence:
     """The matrices of the module docstring for every section of ``fields``.
 
@@ -256,14 +254,40 @@ def road_influence(
         Observer's age for the veiling luminance [year].
     reach_heights
         Reach of a luminaire on the road in mounting heights [1].
+    interpolation
+        How r is read between the table's nodes
+        (:func:`~nightlights.roads.reduced_luminance_coefficient`).
     """
-    illuminance, *_ = _illuminance(fields.illuminance, luminaires, reach_heights)
-    strips, *_ = _illuminance(fields.strips, luminaires, reach_heights)
-    _, point, light, candela = _illuminance(fields.luminance, luminaires, reach_heights)
-    luminance, sample_point, sample_observer = _luminance(
-        fields, luminaires, table, (point, light, candela), beyond
-    )
-    veiling = _veiling(fields.observers, luminaires, age)
+    lights = _Lights(luminaires, reach_heights)
+    n = lights.n
+    ptr, light, _, value = _surface(fields.illuminance, lights)
+    illuminance = _csr(ptr, light, value, n)
+    ptr, light, _, value = _surface(fields.strips, lights)
+    strips = _csr(ptr, light, value, n)
+    ptr, light, candela, _ = _surface(fields.luminance, lights)
+    sample_point, sample_observer = _samples(fields)
+    if sample_point.size and n:
+        grid = resample_rtable(table, beyond, interpolation)
+        sample_ptr, values = luminance_rows(
+            sample_point.astype(np.int64),
+            sample_observer.astype(np.int64),
+            np.ascontiguousarray(fields.luminance.xy, dtype=float),
+            np.ascontiguousarray(fields.observers.xy, dtype=float),
+            ptr,
+            light,
+            candela,
+            lights.point,
+            grid.values,
+            grid.tan_step,
+            grid.beta_step,
+            grid.tan_max,
+            grid.zero_beyond,
+        )
+        columns = _gather(ptr, light, sample_point)
+        luminance = _csr(sample_ptr, columns, values, n)
+    else:
+        luminance = sp.csr_array((sample_point.size, n))
+    veiling = _veiling(fields.observers, lights, age)
     return RoadInfluence(
         fields, illuminance, strips, luminance, sample_point, sample_observer, veiling
     )

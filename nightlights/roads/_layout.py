@@ -44,10 +44,8 @@ from nightlights.roads._field import (
 )
 from nightlights.roads._metrics import edge_strip_width
 
-__all__ = ["FieldPoints", "Observers", "StreetFields", "lay_out"]
+__all__ = ["Centrelines", "FieldPoints", "Observers", "StreetFields", "lay_out"]
 
-#: Step of the centred difference that gives the centreline's tangent [m].
-_TANGENT_STEP = 0.5
 #: Strips of the edge illuminance ratio, in road-frame order across the road.
 STRIPS = ("right_outside", "right_inside", "left_inside", "left_outside")
 IntArray = NDArray[np.intp]
@@ -139,37 +137,46 @@ class StreetFields:
         return self.luminance.column % LUMINANCE_POINTS_PER_LANE == 1
 
 
-def along(
-    lines: NDArray[np.object_], which: IntArray, s: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Position and unit tangent at arc length ``s`` on ``lines[which]``.
+class Centrelines:
+    """Street centrelines prepared for fast position and tangent lookups by arc length."""
 
-    Beyond either end the line is extended straight along its end tangent.
+    def __init__(self, lines: NDArray[np.object_]) -> None:
+        # repeated vertices would make zero-length segments without a direction
+        lines = shapely.remove_repeated_points(lines)
+        coords, index = shapely.get_coordinates(lines, return_index=True)
+        self.start = np.searchsorted(index, np.arange(len(lines) + 1))
+        self.coords = coords
+        step = coords[1:] - coords[:-1]
+        length = np.hypot(step[:, 0], step[:, 1])
+        same = index[1:] == index[:-1]
+        self.step = step
+        self.length = np.where(same, length, 0.0)
+        self.cumulative = np.concatenate([[0.0], np.cumsum(self.length)])
 
-    Returns
-    -------
-    xy, tangent : numpy.ndarray
-        Positions (m, 2) [m] and unit tangents (m, 2).
-    """
-    geometry = lines[which]
-    length = shapely.length(geometry)
-    inside = np.clip(s, 0.0, length)
-    step = np.minimum(_TANGENT_STEP, length / 2.0)
-    ahead = shapely.get_coordinates(
-        shapely.line_interpolate_point(geometry, np.minimum(inside + step, length))
-    )
-    behind = shapely.get_coordinates(
-        shapely.line_interpolate_point(geometry, np.maximum(inside - step, 0.0))
-    )
-    tangent = ahead - behind
-    tangent /= np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-12)[:, None]
-    xy = shapely.get_coordinates(shapely.line_interpolate_point(geometry, inside))
-    xy = xy + (s - inside)[:, None] * tangent
-    return xy, tangent
+    def at(self, which: IntArray, s: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Position and unit tangent at arc length ``s`` along lines ``which``.
+
+        Beyond either end the line goes on straight along its end segment.
+
+        Returns
+        -------
+        xy, tangent : numpy.ndarray
+            Positions (m, 2) [m] and unit tangents (m, 2).
+        """
+        first = self.start[which]
+        last = self.start[which + 1] - 2  # the line's last segment
+        target = self.cumulative[first] + s
+        j = np.searchsorted(self.cumulative, target, side="right") - 1
+        j = np.clip(j, first, np.maximum(first, last))
+        length = self.length[j]
+        safe = np.where(length > 0, length, 1.0)
+        tangent = self.step[j] / safe[:, None]
+        xy = self.coords[j] + ((target - self.cumulative[j]) / safe)[:, None] * self.step[j]
+        return xy, tangent
 
 
 def _place(
-    lines: NDArray[np.object_],
+    lines: Centrelines,
     segment: IntArray,
     start: FloatArray,
     width: FloatArray,
@@ -178,37 +185,51 @@ def _place(
     y: FloatArray,
 ) -> FloatArray:
     """World positions of road-frame points (x, y) of sections (module docstring)."""
-    xy, tangent = along(lines, segment[section], start[section] + x)
+    xy, tangent = lines.at(segment[section], start[section] + x)
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     return xy + (y - width[section] / 2.0)[:, None] * normal
 
 
-def _grid(
-    rows: list[FloatArray], columns: list[FloatArray], sections: IntArray
+def _tiled(
+    sections: IntArray,
+    keys: list[tuple[float, float, int]],
+    local: dict[tuple[float, float, int], tuple[FloatArray, FloatArray, IntArray]],
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray]:
-    """Flatten per-section (rows x columns) grids into point arrays."""
-    section, row, column, x, y = [], [], [], [], []
-    for s, xs, ys in zip(sections, rows, columns, strict=True):
-        r, c = np.meshgrid(np.arange(xs.size), np.arange(ys.size), indexing="ij")
-        section.append(np.full(r.size, s, dtype=np.intp))
-        row.append(r.ravel())
-        column.append(c.ravel())
-        x.append(np.repeat(xs, ys.size))
-        y.append(np.tile(ys, xs.size))
-    if not section:
-        empty_i = np.zeros(0, dtype=np.intp)
-        return empty_i, empty_i, empty_i, np.zeros(0), np.zeros(0)
+    """Points of many sections from each distinct section's local grid (rows x, columns y,
+    column labels), sorted by section."""
+    parts = []
+    by_key: dict[tuple[float, float, int], list[int]] = {}
+    for s, key in zip(sections, keys, strict=True):
+        by_key.setdefault(key, []).append(int(s))
+    for key, members in by_key.items():
+        xs, ys, labels = local[key]
+        m = np.asarray(members, dtype=np.intp)
+        per = xs.size * ys.size
+        parts.append(
+            (
+                np.repeat(m, per),
+                np.tile(np.repeat(np.arange(xs.size), ys.size), m.size),
+                np.tile(np.tile(labels, xs.size), m.size),
+                np.tile(np.repeat(xs, ys.size), m.size),
+                np.tile(np.tile(ys, xs.size), m.size),
+            )
+        )
+    if not parts:
+        empty = np.zeros(0, dtype=np.intp)
+        return empty, empty, empty, np.zeros(0), np.zeros(0)
+    section, row, column, x, y = (np.concatenate(a) for a in zip(*parts, strict=True))
+    order = np.argsort(section, kind="stable")
     return (
-        np.concatenate(section),
-        np.concatenate(row).astype(np.intp),
-        np.concatenate(column).astype(np.intp),
-        np.concatenate(x),
-        np.concatenate(y),
+        section[order].astype(np.intp),
+        row[order].astype(np.intp),
+        column[order].astype(np.intp),
+        x[order],
+        y[order],
     )
 
 
 def _points(
-    lines: NDArray[np.object_],
+    lines: Centrelines,
     segment: IntArray,
     start: FloatArray,
     width: FloatArray,
@@ -217,6 +238,31 @@ def _points(
     section, row, column, x, y = grids
     xy = _place(lines, segment, start, width, section, x, y) if section.size else np.zeros((0, 2))
     return FieldPoints(xy, section, row, column)
+
+
+def _luminance_grid(key: tuple[float, float, int]) -> tuple[FloatArray, FloatArray, IntArray]:
+    length, width, lanes = key
+    field = calculation_field(length, width / lanes, lanes)
+    return np.asarray(field.x), np.asarray(field.y), np.arange(field.y.size)
+
+
+def _illuminance_grid(key: tuple[float, float, int]) -> tuple[FloatArray, FloatArray, IntArray]:
+    length, width, lanes = key
+    field = calculation_field(length, width / lanes, lanes, quantity="illuminance")
+    return np.asarray(field.x), np.asarray(field.y), np.arange(field.y.size)
+
+
+def _strip_grid(key: tuple[float, float, int]) -> tuple[FloatArray, FloatArray, IntArray]:
+    """Rows of the luminance field; across, the illuminance rule in each of the four strips
+    (labels: the strip's index in :data:`STRIPS`)."""
+    length, width, lanes = key
+    xs = np.asarray(calculation_field(length, width / lanes, lanes).x)
+    strip = edge_strip_width(width)
+    across = np.asarray(calculation_field(1.0, strip, 1, quantity="illuminance").y)
+    offsets = (-strip + across, across, width - strip + across, width + across)
+    ys = np.concatenate(offsets)
+    labels = np.repeat(np.arange(len(STRIPS)), across.size)
+    return xs, ys, labels
 
 
 def lay_out(
@@ -247,6 +293,7 @@ def lay_out(
     StreetFields
         The sections (rated segments only) and their points.
     """
+    centrelines = Centrelines(lines)
     length = shapely.length(lines)
     rated = np.flatnonzero(family != "")
     count = np.maximum(1, np.floor(length[rated] / spacing[rated] + 1e-9)).astype(np.intp)
@@ -259,76 +306,39 @@ def lay_out(
     sec_width = width[segment].astype(float)
     sec_lanes = lanes[segment].astype(np.intp)
     kind = family[segment]
-    lum_sections = np.flatnonzero(kind == "luminance")
-    ill_sections = np.flatnonzero(kind == "illuminance")
-
-    lum_rows, lum_cols, strip_rows, strip_cols = [], [], [], []
-    for s in lum_sections:
-        field = calculation_field(section_length[s], sec_width[s] / sec_lanes[s], sec_lanes[s])
-        lum_rows.append(np.asarray(field.x))
-        lum_cols.append(np.asarray(field.y))
-        strip_rows.append(np.asarray(field.x))
-        strip_cols.append(np.arange(len(STRIPS), dtype=float))
-    ill_rows, ill_cols = [], []
-    for s in ill_sections:
-        field = calculation_field(
-            section_length[s], sec_width[s] / sec_lanes[s], sec_lanes[s], quantity="illuminance"
+    keys = [
+        (float(a), float(b), int(c))
+        for a, b, c in zip(section_length, sec_width, sec_lanes, strict=True)
+    ]
+    grids = {}
+    for name, builder in (
+        ("luminance", _luminance_grid),
+        ("illuminance", _illuminance_grid),
+        ("strips", _strip_grid),
+    ):
+        chosen = np.flatnonzero(kind == ("luminance" if name == "strips" else name))
+        chosen_keys = [keys[i] for i in chosen]
+        local = {key: builder(key) for key in set(chosen_keys)}
+        grids[name] = _points(
+            centrelines, segment, start, sec_width, _tiled(chosen, chosen_keys, local)
         )
-        ill_rows.append(np.asarray(field.x))
-        ill_cols.append(np.asarray(field.y))
-
-    luminance = _points(lines, segment, start, sec_width, _grid(lum_rows, lum_cols, lum_sections))
-    illuminance = _points(lines, segment, start, sec_width, _grid(ill_rows, ill_cols, ill_sections))
-    strips = _strip_points(lines, segment, start, sec_width, strip_rows, lum_sections)
-    observers = _observers(lines, segment, start, sec_width, sec_lanes, lum_sections)
+    observers = _observers(
+        centrelines, segment, start, sec_width, sec_lanes, np.flatnonzero(kind == "luminance")
+    )
     return StreetFields(
-        segment, section_length, sec_width, sec_lanes, luminance, observers, illuminance, strips
+        segment,
+        section_length,
+        sec_width,
+        sec_lanes,
+        grids["luminance"],
+        observers,
+        grids["illuminance"],
+        grids["strips"],
     )
-
-
-def _strip_points(
-    lines: NDArray[np.object_],
-    segment: IntArray,
-    start: FloatArray,
-    width: FloatArray,
-    rows: list[FloatArray],
-    sections: IntArray,
-) -> FieldPoints:
-    """Edge-strip points: the illuminance rule across each strip, all strips' points kept
-    with ``column`` naming the strip."""
-    section, row, column, x, y = [], [], [], [], []
-    for s, xs in zip(sections, rows, strict=True):
-        w = float(width[s])
-        strip = edge_strip_width(w)
-        across = calculation_field(1.0, strip, 1, quantity="illuminance").y  # offsets in strip
-        offsets = (
-            -strip + across,  # right outside
-            across,  # right inside
-            w - strip + across,  # left inside
-            w + across,  # left outside
-        )
-        for k, ys in enumerate(offsets):
-            r = np.repeat(np.arange(xs.size), ys.size)
-            section.append(np.full(r.size, s, dtype=np.intp))
-            row.append(r)
-            column.append(np.full(r.size, k, dtype=np.intp))
-            x.append(np.repeat(xs, ys.size))
-            y.append(np.tile(ys, xs.size))
-    if not section:
-        empty = np.zeros(0, dtype=np.intp)
-        return FieldPoints(np.zeros((0, 2)), empty, empty, empty)
-    grids = (
-        np.concatenate(section),
-        np.concatenate(row).astype(np.intp),
-        np.concatenate(column).astype(np.intp),
-        np.concatenate(x),
-        np.concatenate(y),
-    )
-    return _points(lines, segment, start, width, grids)
 
 
 def _observers(
-    lines: NDArray[np.object_],
+    lines: Centrelines,
     segment: IntArray,
     start: FloatArray,
     width: FloatArray,
@@ -343,7 +353,7 @@ def _observers(
         return Observers(np.zeros((0, 2)), np.zeros((0, 2)), empty, empty)
     lane_width = width[section] / lanes[section]
     s = start[section] - OBSERVER_DISTANCE
-    xy, tangent = along(lines, segment[section], s)
+    xy, tangent = lines.at(segment[section], s)
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     offset = (lane + 0.5) * lane_width - width[section] / 2.0
     return Observers(xy + offset[:, None] * normal, tangent, section, lane.astype(np.intp))

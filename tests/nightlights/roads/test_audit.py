@@ -86,7 +86,28 @@ def test_luminance_matrix_equals_point_by_point_sum(everything: roads.RoadModel)
             model.rtable,
             street_azimuth=lum.street_azimuth,
         )
-        np.testing.assert_allclose(total[rows], expected, rtol=1e-12, atol=1e-15)
+        # the kernel reads r bilinearly off the table resampled on a fine grid (next test)
+        np.testing.assert_allclose(total[rows], expected, rtol=1e-4, atol=1e-12)
+
+
+@pytest.mark.parametrize("interpolation", ["cubic", "bilinear"])
+def test_resampled_rtable_reads_within_1e_4(interpolation: str) -> None:
+    from nightlights.roads import _influence
+
+    table = roads.synthetic_rtable()
+    grid = _influence.resample_rtable(table, "zero", interpolation)
+    rng = np.random.default_rng(3)
+    beta, tan = rng.uniform(0, 180, 20000), rng.uniform(0, 12, 20000)
+    ft, fb = tan / grid.tan_step, beta / grid.beta_step
+    it = np.minimum(ft.astype(int), grid.values.shape[0] - 2)
+    ib = np.minimum(fb.astype(int), grid.values.shape[1] - 2)
+    wt, wb = ft - it, fb - ib
+    v = grid.values
+    low = v[it, ib] + wb * (v[it, ib + 1] - v[it, ib])
+    high = v[it + 1, ib] + wb * (v[it + 1, ib + 1] - v[it + 1, ib])
+    read = low + wt * (high - low)
+    exact = roads.reduced_luminance_coefficient(table, beta, tan, interpolation=interpolation)
+    assert np.max(np.abs(read - exact)) < 1e-4 * table.r.max()
 
 
 def test_illuminance_matrix_equals_point_by_point_sum(everything: roads.RoadModel) -> None:
