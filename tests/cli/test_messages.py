@@ -30,9 +30,8 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: functions of ``nightlights.roads``, which no command calls yet) or names of an object
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "energy",
     "age",
-    "dimming",
-    "rtable",
     "area",
     "average",
     "beyond",
@@ -42,14 +41,11 @@ API_ONLY = {
     "latitude",
     "longitude",
     "quantity",
-    "schedule",
     "step_minutes",
     "steps",
     "switch_elevation",
     "veiling",
     "verge_width",
-    "year",
-    "zone",
     "band",
     "emission",
     "replace",
