@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
-from .kinds import FOLDER, LINES, POINTS
+from .kinds import FOLDER, JSON, LINES, POINTS, KindPath, file_kind
 from .options import (
     BUILTIN_MAPPINGS,
     DEFAULT_ACROSS_JITTER,
@@ -416,7 +416,7 @@ def place_command(
 @click.option(
     "--requirements",
     default=None,
-    type=click.Path(exists=True, dir_okay=False),
+    type=KindPath(file_kind("toml"), exists=True, dir_okay=False),
     help="Requirements by class (TOML); default: EN 13201-2:2015 Tables 1-3.",
 )
 @click.option(
@@ -433,7 +433,7 @@ def place_command(
     "--json",
     "summary_json",
     default=None,
-    type=click.Path(dir_okay=False),
+    type=KindPath(JSON, dir_okay=False),
     help="Write the summary to this JSON file.",
 )
 @click.option(
