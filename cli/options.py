@@ -187,6 +187,7 @@ OUTPUT_PARAMETERS = frozenset(
         "dimming_output",
         "old_dimming_out",
         "summary_output",
+        "summary_json",
         "old_summary",
         "plot_path",
         "panoramas",

@@ -3,7 +3,8 @@
 ``normalize`` maps a street layer's fields onto the canonical ones, ``sample`` fills the
 missing street and lighting fields from a Bayesian network, ``fit`` estimates such a network
 from streets whose lighting is known, ``learn`` estimates one from mapped street lamps, and
-``place`` puts light systems along the streets.
+``place`` puts light systems along the streets, and ``audit`` rates each street segment's
+lighting against its lighting class (EN 13201) and, given ``--year``, its energy (EN 13201-5).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
-from .kinds import FOLDER, LINES, POINTS
+from .kinds import FOLDER, JSON, LINES, POINTS, KindPath, file_kind
 from .options import (
     BUILTIN_MAPPINGS,
     DEFAULT_ACROSS_JITTER,
@@ -26,6 +27,7 @@ from .options import (
     LibraryChoice,
     LibraryHelpOption,
     catalog_option,
+    check_outputs,
     crs_option,
     files_argument,
     output_option,
@@ -398,6 +400,161 @@ def place_command(
     )
     for arrangement, count in sorted(Counter(lights["arrangement"]).items()):
         console.print(f"  {arrangement}: {count}")
+
+
+@streets.command("audit")
+@files_argument("LIGHTS STREETS OUTPUT", POINTS, LINES, LINES)
+@output_option
+@overwrite_option
+@catalog_option
+@click.option(
+    "--rtable",
+    default=None,
+    type=click.Path(exists=True, dir_okay=False),
+    help="r-table of the road surface (CIE 144 layout); default: an analytic stand-in.",
+)
+@click.option(
+    "--requirements",
+    default=None,
+    type=KindPath(file_kind("toml"), exists=True, dir_okay=False),
+    help="Requirements by class (TOML); default: EN 13201-2:2015 Tables 1-3.",
+)
+@click.option(
+    "--dimming", default=None, metavar="FIELD", help="Field of LIGHTS with each light's level [1]."
+)
+@click.option(
+    "--age",
+    type=click.FloatRange(min=0, min_open=True),
+    default=23.0,
+    show_default=True,
+    help="Observer's age for the threshold increment [year].",
+)
+@click.option(
+    "--json",
+    "summary_json",
+    default=None,
+    type=KindPath(JSON, dir_okay=False),
+    help="Write the summary to this JSON file.",
+)
+@click.option(
+    "--year",
+    type=click.IntRange(1900, 2100),
+    default=None,
+    help="Compute energy (EN 13201-5) over this UTC year.",
+)
+@click.option(
+    "--schedule",
+    default=None,
+    metavar="STEPS",
+    help="Dimming schedule, e.g. '22:00=0.5,05:00=1' (needs --year).",
+)
+@click.option(
+    "--zone",
+    default="UTC",
+    show_default=True,
+    help="IANA zone or UTC offset of the schedule's clock times.",
+)
+@click.option(
+    "--grid-factor",
+    type=click.FloatRange(min=0),
+    default=None,
+    help="Grid emission factor [kg CO2/kWh] (needs --year).",
+)
+@click.option(
+    "--power-field",
+    default="power",
+    show_default=True,
+    help="Field of LIGHTS with each light's input power [W]; else the photometry's watts.",
+)
+@max_memory_option
+def audit_command(
+    files: tuple[str, ...],
+    output: str | None,
+    overwrite: bool,
+    catalog: str | None,
+    rtable: str | None,
+    requirements: str | None,
+    dimming: str | None,
+    age: float,
+    summary_json: str | None,
+    year: int | None,
+    schedule: str | None,
+    zone: str,
+    grid_factor: float | None,
+    power_field: str,
+) -> None:
+    """Rate the lighting of every segment of STREETS lit by LIGHTS against its lighting class
+    (EN 13201-2/-3); write the styled segments to OUTPUT (GeoPackage).
+
+    With --year, each segment also gets its lights' power, annual energy, D_P, D_E and (with
+    --grid-factor) CO2 (EN 13201-5).
+    """
+    import nightlights as nl
+    from nightlights.roads import EnergyOptions
+
+    (lights_path, streets_path), dst = resolve_inout(
+        files, output, inputs=2, usage="LIGHTS STREETS OUTPUT", overwrite=overwrite
+    )
+    check_outputs([summary_json], overwrite=overwrite)
+    if year is None and (schedule is not None or grid_factor is not None):
+        raise click.UsageError("--schedule and --grid-factor need --year")
+    energy = None
+    if year is not None:
+        energy = EnergyOptions(
+            year, schedule=schedule, zone=zone, grid_factor=grid_factor, power_field=power_field
+        )
+    result = nl.audit(
+        lights_path,
+        streets_path,
+        dst,
+        catalog=catalog,
+        rtable=rtable,
+        requirements=requirements,
+        dimming=dimming,
+        age=age,
+        energy=energy,
+        summary_json=summary_json,
+    )
+    print_audit_summary(result.summary.to_dict(), dst)
+
+
+def print_audit_summary(summary: dict[str, Any], dst: str) -> None:
+    """Print the segments, length and compliant share per class, overall, and the energy
+    totals (stderr)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    def share(value: float | None) -> str:
+        return "-" if value is None else f"{value:.1%}"
+
+    console = Console(stderr=True)
+    console.print(
+        f"[bold]{summary['segments']}[/] segments, {summary['rated']} rated, "
+        f"{summary['passed']} keep their class -> {dst}",
+        highlight=False,
+    )
+    table = Table("class", "segments", "length km", "compliant", title="lighting classes")
+    for name, row in summary["by_class"].items():
+        table.add_row(
+            name, str(row["segments"]), f"{row['length_m'] / 1000:.3f}", share(row["share"])
+        )
+    console.print(table)
+    console.print(
+        f"compliant: {share(summary['share_compliant'])} of "
+        f"{summary['rated_length_m'] / 1000:.3f} km rated street",
+        highlight=False,
+    )
+    energy = summary.get("energy")
+    if energy:
+        line = (
+            f"energy {energy['year']}: {energy['energy_kwh']:.1f} kWh "
+            f"({energy['power_w']:.0f} W, {energy['burning_hours']:.0f} full-power h)"
+        )
+        if energy["energy_density"] is not None:
+            line += f", D_E {energy['energy_density']:.2f} Wh/m2"
+        if energy["co2_kg"] is not None:
+            line += f", CO2 {energy['co2_kg']:.1f} kg"
+        console.print(line, highlight=False)
 
 
 commands = [streets]

@@ -8,7 +8,8 @@
   :func:`longitudinal_uniformity`, :func:`veiling_luminance`, :func:`threshold_increment`,
   :func:`edge_illuminance_ratio`, :func:`average_illuminance`, :func:`minimum_illuminance`;
 - :func:`audit`: every segment of a street layer against its lighting class (a styled
-  GeoPackage and a summary); :func:`road_model` builds what it rates, for plans;
+  GeoPackage and a summary, with energy per segment given :class:`EnergyOptions`);
+  :func:`road_model` builds what it rates, for plans;
 - energy (EN 13201-5): :func:`burning_intervals` and :func:`annual_burning_hours` of a
   photocell, :class:`DimmingSchedule` (:func:`parse_schedule`, :func:`schedule_level`,
   :func:`scheduled_hours`), :func:`light_power`, :func:`annual_energy`,
@@ -32,7 +33,14 @@ The metrics are pure functions on arrays in a road frame (see
 :mod:`nightlights.roads._field`); :func:`audit` is the stage that reads and writes layers.
 """
 
-from nightlights.roads._audit import AuditResult, AuditSummary, RoadModel, audit, road_model
+from nightlights.roads._audit import (
+    AuditResult,
+    AuditSummary,
+    EnergyOptions,
+    RoadModel,
+    audit,
+    road_model,
+)
 from nightlights.roads._burning import (
     CIVIL_TWILIGHT,
     SWITCH_ELEVATION,
@@ -146,6 +154,7 @@ __all__ = [
     "Compliance",
     "Criterion",
     "DimmingSchedule",
+    "EnergyOptions",
     "GlareGeometry",
     "PlanPeriod",
     "RTable",

@@ -25,7 +25,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +37,11 @@ from numpy.typing import ArrayLike
 from nightlights.errors import DataQualityWarning, EmptyInputError, InputError
 from nightlights.ground.luminaires import Luminaires, load_database, resolve_luminaires
 from nightlights.io import as_vector, ensure_projected, write_gpkg
+from nightlights.io.jsonfile import dumps_json
 from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import compliance_style
 from nightlights.io.vector import FieldType
+from nightlights.roads._audit_energy import ENERGY_FIELDS, EnergyOptions, segment_energy
 from nightlights.roads._classes import CRITERIA, read_requirements
 from nightlights.roads._influence import REACH_HEIGHTS, RoadInfluence, road_influence
 from nightlights.roads._layout import StreetFields, lay_out
@@ -48,7 +50,7 @@ from nightlights.roads._rating import FIGURES, rate_segments, section_figures
 from nightlights.roads._rtables import RTable, read_rtable, synthetic_rtable
 from nightlights.roads._selection import ClassSelection, select_classes
 
-__all__ = ["AuditResult", "AuditSummary", "RoadModel", "audit", "road_model"]
+__all__ = ["AuditResult", "AuditSummary", "EnergyOptions", "RoadModel", "audit", "road_model"]
 
 #: Lane width assumed where the layer gives no lane count [m] (a common urban lane).
 DEFAULT_LANE_WIDTH = 3.5
@@ -119,6 +121,8 @@ class AuditSummary:
         Per class: ``segments``, ``length`` [m], ``passed_length`` [m], ``share`` [1].
     rtable
         Name of the r-table used.
+    energy
+        Energy totals (:func:`~nightlights.roads._audit_energy.segment_energy`), or None.
     """
 
     segments: int
@@ -129,6 +133,7 @@ class AuditSummary:
     passed_length: float
     by_class: dict[str, dict[str, float | None]] = field(default_factory=dict)
     rtable: str = ""
+    energy: dict[str, Any] | None = None
 
     @property
     def share(self) -> float:
@@ -147,6 +152,7 @@ class AuditSummary:
             "share_compliant": None if np.isnan(self.share) else round(self.share, 6),
             "by_class": self.by_class,
             "rtable": self.rtable,
+            **({} if self.energy is None else {"energy": self.energy}),
         }
 
 
@@ -341,11 +347,10 @@ def road_model(
     return RoadModel(segments, classes, reason, table, luminaires, influence, r_table)
 
 
-def _dimming(model: RoadModel, dimming: str | ArrayLike | None, lights: Any) -> Any:
+def _dimming(model: RoadModel, dimming: str | ArrayLike | None, frame: pd.DataFrame) -> Any:
     if dimming is None:
         return None
     if isinstance(dimming, str):
-        frame, _ = as_vector(lights, name="lights")
         if dimming not in frame:
             raise InputError(f"dimming={dimming!r}: the light layer has no such field")
         values = pd.to_numeric(frame[dimming], errors="coerce").fillna(1.0).to_numpy(float)
@@ -401,6 +406,10 @@ def output_schema() -> dict[str, FieldType]:
     return schema
 
 
+def _energy_schema() -> dict[str, FieldType]:
+    return dict.fromkeys(ENERGY_FIELDS, "float")
+
+
 def audit(
     lights: gpd.GeoDataFrame | str | os.PathLike[str],
     streets: gpd.GeoDataFrame | str | os.PathLike[str],
@@ -412,6 +421,8 @@ def audit(
     selection: ClassSelection | str | os.PathLike[str] | None = None,
     dimming: str | ArrayLike | None = None,
     age: float = REFERENCE_AGE,
+    energy: EnergyOptions | None = None,
+    summary_json: str | os.PathLike[str] | None = None,
 ) -> AuditResult:
     """Rate every street segment's lighting against its lighting class (EN 13201-2/-3).
 
@@ -440,6 +451,11 @@ def audit(
         Level of every light in [0, 1]: a field of the light layer or an array; default 1.
     age
         Observer's age for the threshold increment [year].
+    energy
+        Compute each segment's power, annual energy, D_P, D_E and CO2 and their totals
+        (:mod:`nightlights.roads._audit_energy`); None: no energy.
+    summary_json
+        JSON file to write the summary to (with the GeoPackage, all or nothing), or None.
 
     Returns
     -------
@@ -453,7 +469,10 @@ def audit(
     EmptyInputError
         No streets or no lights.
     """
-    with OutputSet(output, inputs={"lights": lights, "streets": streets}) as outputs:
+    if energy is not None and not isinstance(energy, EnergyOptions):
+        raise InputError(f"energy={energy!r}; expected EnergyOptions or None")
+    inputs = {"lights": lights, "streets": streets}
+    with OutputSet(output, summary_json, inputs=inputs) as outputs:
         model = road_model(
             lights,
             streets,
@@ -463,7 +482,10 @@ def audit(
             selection=selection,
             age=age,
         )
-        rating = model.rate(_dimming(model, dimming, lights))
+        light_frame, light_source = as_vector(lights, name="lights")
+        light_frame = light_frame.to_crs(model.segments.crs).reset_index(drop=True)
+        levels = _dimming(model, dimming, light_frame)
+        rating = model.rate(levels)
         segments = model.segments.copy()
         for name in rating.columns:
             segments[name] = rating[name].to_numpy()
@@ -474,17 +496,35 @@ def audit(
         reason[(reason == "") & (status == "not rated")] = "no requirement applies"
         segments["reason"] = reason
         segments = segments.drop(columns=["passed"])
-        summary = summarise(segments, model.rtable.name)
+        schema = output_schema()
+        totals = None
+        if energy is not None:
+            fields, totals = segment_energy(
+                segments,
+                light_frame,
+                load_database(catalog),
+                energy,
+                level=levels,
+                source=light_source,
+            )
+            for name in fields.columns:
+                segments[name] = fields[name].to_numpy()
+            schema.update(_energy_schema())
+        summary = replace(summarise(segments, model.rtable.name), energy=totals)
         path = None
         if output is not None:
             write_gpkg(
                 segments,
                 outputs.temporary(output),
                 layer="segments",
-                schema=output_schema(),
+                schema=schema,
                 style=compliance_style(),
             )
             path = Path(output)
+        if summary_json is not None:
+            outputs.temporary(summary_json).write_text(
+                dumps_json(summary.to_dict(), indent=2) + "\n", encoding="utf-8"
+            )
     return AuditResult(segments, summary, model, path)
 
 

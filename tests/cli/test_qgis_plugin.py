@@ -106,6 +106,7 @@ STAGE_IDS = {
     "streetsnormalize",
     "streetssample",
     "streetsplace",
+    "streetsaudit",
     "irradiance",
     "emission",
     "emissionviirs",
