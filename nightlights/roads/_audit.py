@@ -43,7 +43,7 @@ from nightlights.io.styles import compliance_style
 from nightlights.io.vector import FieldType
 from nightlights.roads._audit_energy import ENERGY_FIELDS, EnergyOptions, segment_energy
 from nightlights.roads._classes import CRITERIA, read_requirements
-from nightlights.roads._influence import REACH_HEIGHTS, RoadInfluence, road_influence
+from nightlights.roads._influence import RoadInfluence, road_influence
 from nightlights.roads._layout import StreetFields, lay_out
 from nightlights.roads._metrics import REFERENCE_AGE
 from nightlights.roads._rating import FIGURES, rate_segments, section_figures
@@ -270,7 +270,7 @@ def road_model(
     requirements: str | os.PathLike[str] | Mapping[str, Mapping[str, float]] | None = None,
     selection: ClassSelection | str | os.PathLike[str] | None = None,
     age: float = REFERENCE_AGE,
-    reach_heights: float = REACH_HEIGHTS,
+    reach_heights: float | None = None,
 ) -> RoadModel:
     """Build the rated model of a street layer and its lights (module docstring).
 

@@ -22,10 +22,13 @@ column, so each quality figure's sums are matrix-vector products:
 
 Modelling choices:
 
-- a luminaire counts at a road point within :data:`REACH_HEIGHTS` of its mounting heights
-  (horizontal distance): 12, where the r-tables end (:math:`\\tan\\gamma \\le 12`), so that
-  the luminance is the whole sum; the illuminance figures lose at most 0.25 % there, against
-  3.5 % (the minima) at 5 heights (``benchmarks/bench_road_audit.py`` charts the reach);
+- a luminaire counts at a road point within a reach of its mounting heights (horizontal
+  distance): for luminance :data:`LUMINANCE_REACH_HEIGHTS` = 12, where the r-tables end
+  (:math:`\\tan\\gamma \\le 12`), so that the sum is whole, and for the edge strips
+  (:math:`R_{EI}`, a ratio of averages, within 0.2 % there); for the horizontal illuminance of
+  the C and P classes :data:`ILLUMINANCE_REACH_HEIGHTS`, which
+  ``benchmarks/bench_road_audit.py`` chose: the minima of dark spots still gain a few per cent
+  from luminaires 12-16 heights away;
 - glare counts luminaires within :data:`GLARE_REACH` of the eye.
 """
 
@@ -65,11 +68,22 @@ from nightlights.roads._rtables import (
     reduced_luminance_coefficient,
 )
 
-__all__ = ["GLARE_REACH", "REACH_HEIGHTS", "RoadInfluence", "road_influence"]
+__all__ = [
+    "GLARE_REACH",
+    "ILLUMINANCE_REACH_HEIGHTS",
+    "LUMINANCE_REACH_HEIGHTS",
+    "RoadInfluence",
+    "road_influence",
+]
 
-#: Horizontal reach of a luminaire on the road, in its mounting heights: the last tan(gamma)
-#: of the r-tables (module docstring; chart: ``benchmarks/bench_road_audit.py``) [1].
-REACH_HEIGHTS = 12.0
+#: Horizontal reach of a luminaire for road luminance, in its mounting heights: the last
+#: tan(gamma) of the r-tables (module docstring) [1].
+LUMINANCE_REACH_HEIGHTS = 12.0
+#: Horizontal reach of a luminaire for the horizontal illuminance of the C and P classes, in
+#: its mounting heights (``benchmarks/bench_road_audit.py``: every figure of a 420-segment
+#: grid city within 0.4 % of a 48-height reach, against 2.7 % for E_min at 12 and 0.8 % at
+#: 16) [1].
+ILLUMINANCE_REACH_HEIGHTS = 24.0
 #: Distance from the eye within which luminaires count for glare [m].
 GLARE_REACH = 500.0
 #: Steps of the regular grid the r-table is resampled on for the compiled kernel [deg], [1]:
@@ -234,7 +248,7 @@ def road_influence(
     *,
     beyond: str = "zero",
     age: float = REFERENCE_AGE,
-    reach_heights: float = REACH_HEIGHTS,
+    reach_heights: float | None = None,
     interpolation: str = DEFAULT_INTERPOLATION,
 ) -> RoadInfluence:
     """The matrices of the module docstring for every section of ``fields``.
@@ -253,16 +267,21 @@ def road_influence(
     age
         Observer's age for the veiling luminance [year].
     reach_heights
-        Reach of a luminaire on the road in mounting heights [1].
+        Reach of a luminaire on the road in mounting heights, for luminance and illuminance
+        alike [1]; None: :data:`LUMINANCE_REACH_HEIGHTS` and
+        :data:`ILLUMINANCE_REACH_HEIGHTS`.
     interpolation
         How r is read between the table's nodes
         (:func:`~nightlights.roads.reduced_luminance_coefficient`).
     """
-    lights = _Lights(luminaires, reach_heights)
+    lit = _Lights(luminaires, ILLUMINANCE_REACH_HEIGHTS if reach_heights is None else reach_heights)
+    lights = _Lights(
+        luminaires, LUMINANCE_REACH_HEIGHTS if reach_heights is None else reach_heights
+    )
     n = lights.n
-    ptr, light, _, value = _surface(fields.illuminance, lights)
+    ptr, light, _, value = _surface(fields.illuminance, lit)
     illuminance = _csr(ptr, light, value, n)
-    ptr, light, _, value = _surface(fields.strips, lights)
+    ptr, light, _, value = _surface(fields.strips, lights)  # R_EI: a ratio of averages
     strips = _csr(ptr, light, value, n)
     ptr, light, candela, _ = _surface(fields.luminance, lights)
     sample_point, sample_observer = _samples(fields)
