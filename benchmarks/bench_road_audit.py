@@ -146,7 +146,9 @@ def reach_sweep() -> dict[str, Any]:
                 ref = reference[name].to_numpy(float)
                 got = rating[name].to_numpy(float)
                 ok = np.isfinite(ref) & np.isfinite(got) & (ref != 0)
-                errors[name] = float(np.max(np.abs(got[ok] / ref[ok] - 1))) * 100 if ok.any() else 0.0
+                errors[name] = (
+                    float(np.max(np.abs(got[ok] / ref[ok] - 1))) * 100 if ok.any() else 0.0
+                )
             worst = max(errors, key=lambda k: errors[k])
             flips = int(np.sum(rating["passed"].to_numpy() != reference["passed"].to_numpy()))
             rows.append(
@@ -169,7 +171,9 @@ def plot(document: dict[str, Any]) -> Any:
     sizes = document["sizes"]
     segments = [r["segments"] for r in sizes]
     left.plot(segments, [r["audit_seconds"] for r in sizes], "o-", label="audit (with GeoPackage)")
-    left.plot(segments, [r["model_seconds"] for r in sizes], "s--", label="model (layout, matrices)")
+    left.plot(
+        segments, [r["model_seconds"] for r in sizes], "s--", label="model (layout, matrices)"
+    )
     left.plot(segments, [r["rate_seconds"] for r in sizes], "^:", label="rating")
     left.axhline(60.0, color="grey", lw=0.8)
     left.text(segments[0], 62.0, "target 60 s", fontsize=8, color="grey")
@@ -193,9 +197,7 @@ def plot(document: dict[str, Any]) -> Any:
         )
     default = [r for r in reach if r["reach_heights"] == document["default_reach"]]
     if default:
-        right.plot(
-            default[0]["seconds"], max(default[0]["worst_error_percent"], 1e-4), "r*", ms=14
-        )
+        right.plot(default[0]["seconds"], max(default[0]["worst_error_percent"], 1e-4), "r*", ms=14)
     right.set_yscale("log")
     right.set_xlabel("model + rating time [s]")
     right.set_ylabel("worst figure error [%]")
