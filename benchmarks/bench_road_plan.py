@@ -226,7 +226,12 @@ def main() -> None:
             "rated_segments": largest["rated_segments"],
             "model_seconds": largest["model_seconds"],
             "plan_seconds": default["plan_seconds"],
-            "meets_target": default["plan_seconds"] < TARGET_SECONDS,
+            # the target is for 10^5 lights and 10^3 segments: None below that size
+            "meets_target": (
+                default["plan_seconds"] < TARGET_SECONDS
+                if largest["lights"] >= 1e5 and largest["rated_segments"] >= 1e3
+                else None
+            ),
         },
         "note": (
             "plan_seconds: road_plan end to end (rows, sky-only LP, joint LP, two "
