@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import click
 
+from . import plan_roads
 from .kinds import FOLDER, JSON, LINES, POINTS, KindPath, file_kind
 from .options import (
     BUILTIN_MAPPINGS,
@@ -338,6 +339,9 @@ def print_learn_report(report: Any, dst: str) -> None:
         table.add_row(name, str(evidence.streets), share, values)
     console.print(table)
     console.print(f"learned network -> {dst} (use --network {dst})", highlight=False)
+
+
+streets.add_command(plan_roads.plan)
 
 
 @streets.command("place")
