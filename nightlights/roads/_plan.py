@@ -1,7 +1,7 @@
 """A dimming plan that keeps the roads lit: least energy (or flux) under sky targets.
 
 Every luminaire :math:`k` gets a level :math:`\\delta_k \\in [\\delta_\\min, 1]` from one
-sparse linear program (HiGHS through :func:`scipy.optimize.linprog`):
+sparse linear program (HiGHS [1], its dual simplex warm-started between rounds):
 
 .. math:: \\min_\\delta \\sum_k w_k\\,\\delta_k \\quad\\text{s.t.}\\quad
           S\\,\\delta \\le T - B_\\text{fixed}, \\qquad G\\,\\delta \\ge h, \\qquad
@@ -17,6 +17,15 @@ a second program adds one slack :math:`s_g \\ge 0` per segment to its rows
 (:math:`G_i\\delta + \\text{scale}_i\\, s_g \\ge h_i`) and minimises :math:`\\sum_g s_g`: the
 segments with :math:`s_g > 0` bind, by :math:`s_g` (a fraction of the requirement, or of the
 requirement times the undimmed level for the ratio criteria).
+
+The road rows are many (one per point and observer for the uniformities, one per ordered
+pair of points on a lane's centre line), and few of them bind. They are generated lazily
+(row generation): the first program holds the sky rows and one road row per observer,
+section or edge (averages, glare, edge ratio); every row its solution breaks joins, and the
+program is solved again from the last basis (a few dual simplex steps), until a solution
+breaks none. Each program's rows are a subset of
+the full program's, so its optimum is a lower bound on the full one; the last solution keeps
+every row, so it is the full program's optimum.
 
 The plan is not taken on the solver's word: its compliance is :meth:`RoadModel.rate` at the
 dimming, and its sky is :meth:`SkyMatrix.after`.
@@ -63,6 +72,11 @@ TOLERANCE = 1e-9
 MARGIN = 1e-6
 #: Slack above which a segment binds in the diagnosis [1, fraction of the requirement].
 BINDING_SLACK = 1e-7
+#: Road rows in the first round of the lazy program: one per observer, section or edge; the
+#: point rows (uniformity, minimum) join as a solution breaks them.
+SEED_CRITERIA = ("average_luminance", "average_illuminance", "edge_illuminance_ratio")
+#: Rounds of the lazy program before it falls back to every row at once.
+MAX_ROUNDS = 50
 
 
 @dataclass(frozen=True)
@@ -204,6 +218,46 @@ def _weights(model: RoadModel, objective: str, weights: ArrayLike | None) -> Flo
     return power
 
 
+class _Program:
+    """One HiGHS model that takes rows as they come and re-solves from its last basis."""
+
+    def __init__(self, w: FloatArray, low: float, tolerance: float) -> None:
+        # highspy's bare binding: its Highs wrapper prints a banner when made
+        from highspy import _core
+
+        self.highs = _core._Highs()
+        self.highs.setOptionValue("output_flag", False)
+        self.highs.setOptionValue("primal_feasibility_tolerance", tolerance)
+        self.n = w.size
+        norm = max(float(w.max()), 1e-300) if w.size else 1.0
+        self.highs.addVars(self.n, np.full(self.n, float(low)), np.ones(self.n))
+        self.highs.changeColsCost(self.n, np.arange(self.n, dtype=np.int32), w / norm)
+        self.optimal = _core.HighsModelStatus.kOptimal
+
+    def add(self, a: sp.csr_array, upper: FloatArray) -> None:
+        """Add rows ``a x <= upper``."""
+        if a.shape[0] == 0:
+            return
+        a = sp.csr_array(a)
+        a.sort_indices()
+        self.highs.addRows(
+            a.shape[0],
+            np.full(a.shape[0], -np.inf),
+            np.asarray(upper, dtype=float),
+            a.nnz,
+            a.indptr[:-1].astype(np.int32),
+            a.indices.astype(np.int32),
+            a.data.astype(float),
+        )
+
+    def solve(self, low: float) -> np.ndarray | None:
+        self.highs.run()
+        if self.highs.getModelStatus() != self.optimal:
+            return None
+        x = np.asarray(self.highs.getSolution().col_value, dtype=float)
+        return np.clip(x, low, 1.0)
+
+
 def _solve(
     w: FloatArray,
     sky: SkyMatrix | None,
@@ -211,31 +265,33 @@ def _solve(
     low: float,
     tolerance: float,
 ) -> np.ndarray | None:
-    n = w.size
-    blocks, bounds = [], []
+    """The program of the module docstring, its road rows generated lazily (module
+    docstring): solve with the rows in play, add every row the solution breaks, re-solve from
+    the last basis, repeat."""
+    program = _Program(w, low, tolerance)
     if sky is not None and len(sky.labels):
         room = sky.goal - sky.fixed
         scale = np.maximum(np.abs(sky.goal), 1e-300)
-        blocks.append(sp.csr_array(sky.contribution / scale[:, None]))
-        bounds.append(room / scale - MARGIN)
-    if rows is not None and rows.bound.size:
-        scale = rows.scale
-        blocks.append(sp.csr_array(-(sp.diags_array(1.0 / scale) @ rows.matrix)))
-        bounds.append(-rows.bound / scale - MARGIN)
-    a_ub = sp.vstack(blocks, format="csr") if blocks else None
-    b_ub = np.concatenate(bounds) if bounds else None
-    norm = max(float(w.max()), 1e-300) if n else 1.0
-    result = linprog(
-        w / norm,
-        A_ub=a_ub,
-        b_ub=b_ub,
-        bounds=(low, 1.0),
-        method="highs",
-        options={"primal_feasibility_tolerance": tolerance},
-    )
-    if result.status != 0:
-        return None
-    return np.clip(np.asarray(result.x, dtype=float), low, 1.0)
+        program.add(sp.csr_array(sky.contribution / scale[:, None]), room / scale - MARGIN)
+    if rows is None or not rows.bound.size:
+        return program.solve(low)
+    road_a = sp.csr_array(-(sp.diags_array(1.0 / rows.scale) @ rows.matrix))
+    road_b = -rows.bound / rows.scale - MARGIN
+    active = np.isin(rows.criterion, SEED_CRITERIA)
+    chosen = np.flatnonzero(active)
+    program.add(road_a[chosen], road_b[chosen])
+    for _ in range(MAX_ROUNDS):
+        x = program.solve(low)
+        if x is None:
+            return None  # a subset of the rows is already infeasible
+        broken = np.flatnonzero((road_a @ x - road_b > 0.0) & ~active)
+        if not broken.size:
+            return x
+        active[broken] = True
+        program.add(road_a[broken], road_b[broken])
+    rest = np.flatnonzero(~active)  # pragma: no cover - the rounds never ran out in tests
+    program.add(road_a[rest], road_b[rest])
+    return program.solve(low)
 
 
 def _diagnose(

@@ -122,3 +122,15 @@ def test_an_unreachable_sky_is_refused(case, kernel) -> None:
     sky = sky_matrix(model.luminaires, scene, [OBSERVER], zenith_reduction=0.5)
     with pytest.raises(InputError, match="out of reach"):
         roads.road_plan(model, sky, min_dimming=0.8)
+
+
+def test_lazy_rows_reach_the_full_programs_optimum(road_plan_case, monkeypatch) -> None:
+    """Row generation ends at the optimum of the program with every row at once."""
+    from nightlights.roads import _plan
+
+    _, _, _, model = road_plan_case
+    lazy = roads.road_plan(model, None, min_dimming=0.1)
+    monkeypatch.setattr(_plan, "MAX_ROUNDS", 0)  # straight to the full program
+    full = roads.road_plan(model, None, min_dimming=0.1)
+    assert lazy.cost == pytest.approx(full.cost, rel=1e-6)
+    assert bool(lazy.after["passed"].all())
