@@ -27,6 +27,10 @@ breaks none. Each program's rows are a subset of
 the full program's, so its optimum is a lower bound on the full one; the last solution keeps
 every row, so it is the full program's optimum.
 
+Lights in no road row (far from every rated segment) take :math:`\\delta_\\min` outside the
+program: the sky rows' coefficients and the costs are non-negative, so lowering such a light
+never breaks a row and never costs more.
+
 The plan is not taken on the solver's word: its compliance is :meth:`RoadModel.rate` at the
 dimming, and its sky is :meth:`SkyMatrix.after`.
 
@@ -267,31 +271,43 @@ def _solve(
 ) -> np.ndarray | None:
     """The program of the module docstring, its road rows generated lazily (module
     docstring): solve with the rows in play, add every row the solution breaks, re-solve from
-    the last basis, repeat."""
-    program = _Program(w, low, tolerance)
+    the last basis, repeat. Lights in no road row sit at ``low`` outside the program."""
+    n = w.size
+    x = np.full(n, float(low))
+    if rows is not None and rows.bound.size:
+        used = np.flatnonzero(np.diff(sp.csc_array(rows.matrix).indptr) > 0)
+    else:
+        used = np.zeros(0, dtype=np.intp)
+    program = _Program(w[used], low, tolerance)
     if sky is not None and len(sky.labels):
-        room = sky.goal - sky.fixed
         scale = np.maximum(np.abs(sky.goal), 1e-300)
-        program.add(sp.csr_array(sky.contribution / scale[:, None]), room / scale - MARGIN)
-    if rows is None or not rows.bound.size:
-        return program.solve(low)
-    road_a = sp.csr_array(-(sp.diags_array(1.0 / rows.scale) @ rows.matrix))
+        room = sky.goal - sky.fixed - sky.contribution @ x + sky.contribution[:, used] @ x[used]
+        if np.any(room / scale - MARGIN < 0) and used.size == 0:
+            return None
+        program.add(sp.csr_array(sky.contribution[:, used] / scale[:, None]), room / scale - MARGIN)
+    if used.size == 0:
+        return x
+    assert rows is not None
+    road_a = sp.csr_array(-(sp.diags_array(1.0 / rows.scale) @ rows.matrix))[:, used]
     road_b = -rows.bound / rows.scale - MARGIN
     active = np.isin(rows.criterion, SEED_CRITERIA)
     chosen = np.flatnonzero(active)
     program.add(road_a[chosen], road_b[chosen])
-    for _ in range(MAX_ROUNDS):
-        x = program.solve(low)
-        if x is None:
+    for _ in range(MAX_ROUNDS + 1):
+        if _ == MAX_ROUNDS:  # pragma: no cover - the rounds never ran out in the benchmarks
+            rest = np.flatnonzero(~active)
+            active[rest] = True
+            program.add(road_a[rest], road_b[rest])
+        solution = program.solve(low)
+        if solution is None:
             return None  # a subset of the rows is already infeasible
-        broken = np.flatnonzero((road_a @ x - road_b > 0.0) & ~active)
+        broken = np.flatnonzero((road_a @ solution - road_b > 0.0) & ~active)
         if not broken.size:
+            x[used] = solution
             return x
         active[broken] = True
         program.add(road_a[broken], road_b[broken])
-    rest = np.flatnonzero(~active)  # pragma: no cover - the rounds never ran out in tests
-    program.add(road_a[rest], road_b[rest])
-    return program.solve(low)
+    return None  # pragma: no cover
 
 
 def _diagnose(
