@@ -44,6 +44,7 @@ TOOLBOX: dict[str, tuple[str, str]] = {
     "streets sample": ("Sample street lighting", "Streets"),
     "streets place": ("Place streetlights", "Streets"),
     "streets audit": ("Audit street lighting (EN 13201)", "Streets"),
+    "streets plan": ("Plan dimming that keeps roads lit", "Streets"),
     "irradiance": ("Ground irradiance", "Light"),
     "emission ground": ("Upward emission", "Light"),
     "emission viirs": ("Upward emission from VIIRS", "Light"),

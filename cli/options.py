@@ -100,6 +100,9 @@ from .library import (
     ON_CONFLICT as ON_CONFLICT,
 )
 from .library import (
+    PLAN_OBJECTIVES as PLAN_OBJECTIVES,
+)
+from .library import (
     PROJECT_STAGES as PROJECT_STAGES,
 )
 from .library import (

@@ -18,6 +18,8 @@ import click
 
 from .kinds import JSON, LINES, POINTS, KindPath
 from .options import (
+    PLAN_OBJECTIVES,
+    LibraryChoice,
     catalog_option,
     check_outputs,
     files_argument,
@@ -67,7 +69,7 @@ CELL_SIZE = 100.0
 )
 @click.option(
     "--objective",
-    type=click.Choice(["energy", "flux"]),
+    type=LibraryChoice(PLAN_OBJECTIVES),
     default="energy",
     show_default=True,
     help="Minimise the lights' power or their luminous flux.",
@@ -94,7 +96,7 @@ CELL_SIZE = 100.0
 @catalog_option
 @click.option(
     "--json",
-    "json_path",
+    "summary_json",
     type=KindPath(JSON, dir_okay=False),
     default=None,
     help="Write the summary as JSON.",
@@ -116,7 +118,7 @@ def plan(
     rtable: str | None,
     requirements: str | None,
     catalog: str | None,
-    json_path: str | None,
+    summary_json: str | None,
 ) -> None:
     """Dim LIGHTS by the least energy (or flux) that keeps every segment of STREETS at its
     lighting class and meets the sky targets (--target-zenith, --zenith-reduction) for every
@@ -131,7 +133,7 @@ def plan(
     (lights_path, streets_path), out = resolve_inout(
         files, output, inputs=2, usage="LIGHTS STREETS OUTPUT", overwrite=overwrite
     )
-    check_outputs([json_path], overwrite=overwrite)
+    check_outputs([summary_json], overwrite=overwrite)
     summary = run_plan(
         lights_path,
         streets_path,
@@ -147,8 +149,8 @@ def plan(
         requirements=requirements,
         catalog=catalog,
     )
-    if json_path is not None:
-        Path(json_path).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    if summary_json is not None:
+        Path(summary_json).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     for line in summary_lines(summary, out):
         click.echo(line)
 

@@ -37,6 +37,11 @@ dimming, and its sky is :meth:`SkyMatrix.after`.
 A schedule (:func:`road_plan_schedule`) solves one plan per period, each with its own sky
 targets (e.g. none before midnight, the target after), and weights the energy by each
 period's hours a year.
+
+References
+----------
+1. Huangfu, Q. and Hall, J. A. J. (2018). Parallelizing the dual revised simplex method.
+   Mathematical Programming Computation 10, 119-142 (HiGHS).
 """
 
 from __future__ import annotations

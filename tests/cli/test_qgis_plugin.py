@@ -107,6 +107,7 @@ STAGE_IDS = {
     "streetssample",
     "streetsplace",
     "streetsaudit",
+    "streetsplan",
     "irradiance",
     "emission",
     "emissionviirs",
