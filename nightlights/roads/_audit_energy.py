@@ -19,12 +19,9 @@ segment's average horizontal illuminance [lx]:
 
 Modelling choices:
 
-- :math:`\\bar E` is the ``average_illuminance`` figure of the audit, computed only for the
-  segments of illuminance classes (C, P); a luminance class (M) is rated on luminance and its
-  calculation field carries no horizontal illuminance grid of the carriageway (only the edge
-  strips), so its :math:`D_P` is NaN. EN 13201-5 computes :math:`D_P` of an M class from the
-  average horizontal illuminance of the carriageway; that needs an illuminance grid on the
-  luminance fields, which the audit does not lay out.
+- :math:`\\bar E` is the ``average_illuminance`` figure of the audit: the average horizontal
+  illuminance of the carriageway's illuminance field, which every section carries (for the
+  luminance classes only for this indicator), the least over the segment's sections.
 - One location for the whole layer, the centroid of its extent in longitude and latitude: the
   burning hours change by minutes a year over the tens of kilometres of a city.
 - The total :math:`D_E` is the energy of all assigned lights over the area of all segments

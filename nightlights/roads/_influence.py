@@ -25,8 +25,9 @@ Modelling choices:
 - a luminaire counts at a road point within a reach of its mounting heights (horizontal
   distance): for luminance :data:`LUMINANCE_REACH_HEIGHTS` = 12, where the r-tables end
   (:math:`\\tan\\gamma \\le 12`), so that the sum is whole, and for the edge strips
-  (:math:`R_{EI}`, a ratio of averages, within 0.2 % there); for the horizontal illuminance of
-  the C and P classes :data:`ILLUMINANCE_REACH_HEIGHTS`, which
+  (:math:`R_{EI}`, a ratio of averages, within 0.2 % there) and the average horizontal
+  illuminance of the luminance classes' sections (power density only); for the horizontal
+  illuminance of the C and P classes :data:`ILLUMINANCE_REACH_HEIGHTS`, which
   ``benchmarks/bench_road_audit.py`` chose: the minima of dark spots still gain a few per cent
   from luminaires 12-16 heights away;
 - glare counts luminaires within :data:`GLARE_REACH` of the eye.
@@ -214,6 +215,28 @@ def _surface(
     )
 
 
+def _illuminance_rows(fields: StreetFields, lit: _Lights, lights: _Lights) -> sp.csr_array:
+    """Horizontal illuminance of the illuminance points: the illuminance reach where the class
+    rates illuminance, the luminance reach where only the average is kept (power density)."""
+    points = fields.illuminance
+    rates_luminance = np.zeros(fields.n_sections, dtype=bool)
+    rates_luminance[fields.observers.section] = True
+    short = rates_luminance[points.section]
+    parts, order = [], []
+    for pick, reach in ((~short, lit), (short, lights)):
+        rows = np.flatnonzero(pick)
+        subset = FieldPoints(
+            points.xy[rows], points.section[rows], points.row[rows], points.column[rows]
+        )
+        ptr, light, _, value = _surface(subset, reach)
+        parts.append(_csr(ptr, light, value, lights.n))
+        order.append(rows)
+    stacked = sp.csr_array(sp.vstack(parts, format="csr"))
+    where = np.empty(len(points), dtype=np.intp)
+    where[np.concatenate(order)] = np.arange(len(points))
+    return sp.csr_array(stacked[where])
+
+
 def _veiling(observers: Observers, lights: _Lights, age: float) -> sp.csr_array:
     if len(observers) == 0 or lights.n == 0:
         return sp.csr_array((len(observers), lights.n))
@@ -279,8 +302,7 @@ def road_influence(
         luminaires, LUMINANCE_REACH_HEIGHTS if reach_heights is None else reach_heights
     )
     n = lights.n
-    ptr, light, _, value = _surface(fields.illuminance, lit)
-    illuminance = _csr(ptr, light, value, n)
+    illuminance = _illuminance_rows(fields, lit, lights)
     ptr, light, _, value = _surface(fields.strips, lights)  # R_EI: a ratio of averages
     strips = _csr(ptr, light, value, n)
     ptr, light, candela, _ = _surface(fields.luminance, lights)

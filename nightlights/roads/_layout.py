@@ -3,9 +3,11 @@
 A street segment (a line in a projected CRS) of length :math:`\\ell`, carriageway width
 :math:`W` in :math:`n` lanes (:math:`W_L = W / n`) and luminaire spacing :math:`S` is cut into
 :math:`\\max(1, \\lfloor \\ell / S \\rfloor)` sections of length :math:`S`, centred on the
-segment. Each section carries the field of :func:`~nightlights.roads.calculation_field`
-(rows :math:`D = S/N` apart, three points per lane for luminance, at most 1.5 m apart across
-for illuminance) and, for the edge illuminance ratio, four strips of width
+segment. Each section carries the fields of :func:`~nightlights.roads.calculation_field`
+(rows :math:`D = S/N` apart, three points per lane for luminance where its class rates
+luminance, at most 1.5 m apart across for illuminance on every section: the figures of the
+illuminance classes, and the average horizontal illuminance of all for EN 13201-5's power
+density) and, for the edge illuminance ratio of the luminance classes, four strips of width
 :math:`\\min(5\\,\\text{m}, W/2)` inside and outside each carriageway edge laid out by the
 illuminance rule. A road-frame point :math:`(x, y)` of a section that starts at arc length
 :math:`s_0` stands at
@@ -113,7 +115,8 @@ class StreetFields:
     observers
         One observer per lane of each luminance section.
     illuminance
-        Illuminance points of the sections whose class rates illuminance.
+        Horizontal illuminance points of every section (the figures of the classes that
+        rate illuminance; the average of the others, for their power density).
     strips
         Edge-strip points of the luminance sections.
     """
@@ -316,7 +319,12 @@ def lay_out(
         ("illuminance", _illuminance_grid),
         ("strips", _strip_grid),
     ):
-        chosen = np.flatnonzero(kind == ("luminance" if name == "strips" else name))
+        if name == "strips":
+            chosen = np.flatnonzero(kind == "luminance")
+        elif name == "illuminance":  # every section: the C and P figures, and D_P of all
+            chosen = np.flatnonzero(kind != "")
+        else:
+            chosen = np.flatnonzero(kind == name)
         chosen_keys = [keys[i] for i in chosen]
         local = {key: builder(key) for key in set(chosen_keys)}
         grids[name] = _points(

@@ -195,9 +195,13 @@ def road_rows(influence: RoadInfluence, rating: pd.DataFrame) -> RoadRows:
                 add(sp.csr_array(g), np.zeros(n), sec, "edge_illuminance_ratio", r * inner0)
     points = fields.illuminance
     if len(points):
-        e = influence.illuminance
-        mean_s = sp.csr_array(_averaging(points.section, n) @ e)
-        sec = points.section
+        # only the sections whose class rates illuminance (the others carry the field for D_P)
+        rates_luminance = np.zeros(n, dtype=bool)
+        rates_luminance[fields.observers.section] = True
+        rated = ~rates_luminance[points.section]
+        e = sp.csr_array(influence.illuminance[np.flatnonzero(rated)])
+        mean_s = sp.csr_array(_averaging(points.section[rated], n) @ e)
+        sec = points.section[rated]
         r = _required(rating, "average_illuminance", n, section_segment)
         add(mean_s, r, np.arange(n), "average_illuminance", r)
         r = _required(rating, "minimum_illuminance", n, section_segment)[sec]

