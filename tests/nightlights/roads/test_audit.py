@@ -349,3 +349,17 @@ def test_criteria_the_audit_does_not_compute_warn(layers: tuple) -> None:
     with pytest.warns(DataQualityWarning, match="does not compute"):
         result = roads.audit(lights, streets.iloc[[2]], requirements=table)
     assert result.segments["status"].iloc[0] in ("pass", "fail")
+
+
+def test_lights_without_photometry_or_a_bad_rtable_write_nothing(layers: tuple, tmp_path) -> None:
+    lights, streets = layers
+    out = tmp_path / "audit.gpkg"
+    unknown = lights.assign(system_id=["no_such_system", *list(lights["system_id"][1:])])
+    with pytest.raises(InputError, match="unknown system_id"):
+        roads.audit(unknown, streets, out)
+    assert not out.exists()
+    table = tmp_path / "r.txt"
+    table.write_text("0 90 180\n0 1 2 3\n0.25 1 2\n")  # a row of the wrong length
+    with pytest.raises(InputError, match=r"r\.txt"):
+        roads.audit(lights, streets, out, rtable=table)
+    assert not out.exists()
