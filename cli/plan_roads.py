@@ -9,9 +9,7 @@ every light (:func:`nightlights.inverse.road_sky.lights_emission`); the plan is
 
 from __future__ import annotations
 
-import json
 import warnings
-from pathlib import Path
 from typing import Any
 
 import click
@@ -150,7 +148,11 @@ def plan(
         catalog=catalog,
     )
     if summary_json is not None:
-        Path(summary_json).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+        from nightlights.io.atomic import atomic_output
+        from nightlights.io.jsonfile import dumps_json
+
+        with atomic_output(summary_json) as tmp:
+            tmp.write_text(dumps_json(summary, indent=2) + "\n", encoding="utf-8")
     for line in summary_lines(summary, out):
         click.echo(line)
 
