@@ -247,8 +247,9 @@ def schedule_level(schedule: DimmingSchedule | None, instants: ArrayLike) -> Flo
     Examples
     --------
     >>> s = parse_schedule("22:00=0.5,05:00=1", "+02:00")
-    >>> schedule_level(s, np.array(["2024-06-01T21:00", "2024-06-02T02:59"], "datetime64[m]"))
-    array([0.5, 0.5])
+    >>> at = np.array(["2024-06-01T21:00", "2024-06-02T02:59"], "datetime64[m]")
+    >>> schedule_level(s, at).tolist()
+    [0.5, 0.5]
     """
     seconds = _instants(instants, "instants")
     if schedule is None or seconds.size == 0:
@@ -282,8 +283,8 @@ def scheduled_hours(
     >>> s = parse_schedule("00:00=0,05:00=1", "UTC")
     >>> on = np.array(["2024-01-01T17:00"], "datetime64[m]")
     >>> off = np.array(["2024-01-02T07:00"], "datetime64[m]")
-    >>> scheduled_hours(s, on, off)  # 17-24 h and 5-7 h burn, 0-5 h off
-    array([9.])
+    >>> scheduled_hours(s, on, off).tolist()  # 17-24 h and 5-7 h burn, 0-5 h off
+    [9.0]
     """
     start, end = _instants(on, "on"), _instants(off, "off")
     if start.shape != end.shape:
