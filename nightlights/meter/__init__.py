@@ -36,6 +36,9 @@ _LAZY: dict[str, str] = {
     "ValidationResult": "nightlights.meter.validation",
     "natural_reading": "nightlights.meter.natural",
     "Calibration": "nightlights.meter.calibrate",
+    # published skies at real sites
+    "read_real_skies": "nightlights.meter.real_skies",
+    "SITE_CLASSES": "nightlights.meter.real_skies",
 }
 
 __all__ = sorted(_LAZY)
