@@ -301,6 +301,8 @@ def plot(payload: dict[str, Any]) -> Any:
 
 
 def main() -> None:
+    from pyproj import CRS
+
     from nightlights.meter.real_skies import read_real_skies
 
     parser = harness.argument_parser(__doc__, quick="four sites, one of each class")
@@ -331,6 +333,7 @@ def main() -> None:
     predicted_all = default_model(used)(rows)
     measured = np.array([r["value"] for r in used])
     predicted = default_model(used)(used)
+    in_sample = by_class(used, predicted - measured)
     _, held = held_out(used, default_model)
     times = np.array([[r["seconds"][k] for k in ("crop", "emission", "darkness")] for r in rows])
     largest = max(rows, key=lambda r: r["cells"])
@@ -343,8 +346,14 @@ def main() -> None:
         },
         "crop_radius_m": CROP_RADIUS,
         "natural_sky": NATURAL_SKY,
-        "figures": by_class(used, predicted - measured),
-        "held_out": {"folds": FOLDS, "model": "default (nothing fitted)", "figures": held},
+        "figures": in_sample,
+        "classes": [{"site_class": k, **v} for k, v in in_sample.items()],
+        "held_out": {
+            "folds": FOLDS,
+            "model": "default (nothing fitted)",
+            "figures": held,
+            "classes": [{"site_class": k, **v} for k, v in held.items()],
+        },
         "seconds_per_site": {
             "crop": float(np.median(times[:, 0])),
             "emission": float(np.median(times[:, 1])),
@@ -354,7 +363,7 @@ def main() -> None:
         "darkness_timing": {
             "site": largest["name"],
             "cells": largest["cells"],
-            "crs": largest["crs"],
+            "crs": CRS.from_user_input(largest["crs"]).to_string(),
             "darkness_s": largest["seconds"]["darkness"],
             "darkness_map_s": largest["seconds"]["darkness_map"],
         },
@@ -364,6 +373,9 @@ def main() -> None:
                 "site_class": r["site_class"],
                 "band": r["band"],
                 "statistic": r["statistic"],
+                "instrument": r["instrument"],
+                "citation": r["citation"],
+                "verified": r["verified"],
                 "lon": r["longitude"],
                 "lat": r["latitude"],
                 "measured": r["value"],
