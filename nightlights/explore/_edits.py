@@ -41,6 +41,8 @@ class _Step:
     after: FloatArray
     op: dict[str, Any]
     changed: int
+    extra_before: Any = None
+    extra_after: Any = None
 
 
 class EmissionEdits:
@@ -74,6 +76,9 @@ class EmissionEdits:
         self._undo: list[_Step] = []
         self._redo: list[_Step] = []
         self._baked: list[dict[str, Any]] = []  # steps older than the history
+        #: State kept with the emission by a step of :meth:`set_cells` (restored by undo and
+        #: redo); None before any.
+        self.extra: Any = None
 
     @property
     def can_undo(self) -> bool:
@@ -170,12 +175,61 @@ class EmissionEdits:
         self._trim_history()
         return changed
 
+    def set_cells(
+        self,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        values: FloatArray,
+        op: dict[str, Any],
+        extra: Any = None,
+    ) -> int:
+        """Set the flux density of given cells in one undoable step.
+
+        Parameters
+        ----------
+        rows, cols
+            The cells (n,).
+        values
+            Shape ``(bands, n)``: their new flux density [lm m-2].
+        op
+            The step's record (:attr:`ops`).
+        extra
+            State that goes with the step (:attr:`extra` after it; undo restores the one
+            before).
+
+        Returns
+        -------
+        int
+            Cells changed (0: nothing recorded).
+        """
+        rows = np.asarray(rows, dtype=np.intp)
+        cols = np.asarray(cols, dtype=np.intp)
+        if rows.size == 0:
+            return 0
+        window = (slice(int(rows.min()), int(rows.max()) + 1),
+                  slice(int(cols.min()), int(cols.max()) + 1))  # fmt: skip
+        block = self.data[(slice(None), *window)]
+        before = block.copy()
+        after = block.copy()
+        after[:, rows - window[0].start, cols - window[1].start] = values
+        changed = int(np.sum(np.any(~_same(before, after), axis=0)))
+        if changed == 0 and extra is None:
+            return 0
+        self.data[(slice(None), *window)] = after
+        self._undo.append(_Step(window, before, after, op, changed, self.extra, extra))
+        self.extra = extra
+        self._redo.clear()
+        self._trim_history()
+        return changed
+
     def undo(self) -> int:
         """Undo the last step; returns the cells it changed back."""
         if not self._undo:
             raise InputError("nothing to undo")
         step = self._undo.pop()
         self.data[(slice(None), *step.window)] = step.before
+        if step.extra_after is not None:
+            self.extra = step.extra_before
         self._redo.append(step)
         return step.changed
 
@@ -185,6 +239,8 @@ class EmissionEdits:
             raise InputError("nothing to redo")
         step = self._redo.pop()
         self.data[(slice(None), *step.window)] = step.after
+        if step.extra_after is not None:
+            self.extra = step.extra_after
         self._undo.append(step)
         return step.changed
 
