@@ -266,8 +266,11 @@ class SessionRoads:
         self.shape = shape
         self.emitted = upward_emission(self.model.luminaires)
         flat = self.row * shape[1] + self.col
-        cell_total = np.bincount(flat[self.inside], weights=self.emitted[self.inside])
-        self.cell_emitted = np.where(self.inside, cell_total[flat] if flat.size else 0.0, 0.0)
+        _, index = np.unique(flat[self.inside], return_inverse=True)
+        self.cell_emitted = np.zeros(len(flat))
+        if index.size:
+            cell_total = np.bincount(index, weights=self.emitted[self.inside])
+            self.cell_emitted[self.inside] = cell_total[index]
         original = np.nan_to_num(np.asarray(original, dtype=float), nan=0.0)
         self.original_flux = np.where(self.inside, original[self.row, self.col], 0.0)
         self.represented = self.inside & (self.original_flux > 0) & (self.cell_emitted > 0)

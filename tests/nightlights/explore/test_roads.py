@@ -21,6 +21,7 @@ from nightlights.explore._session import ExploreSession
 from nightlights.inverse.road_sky import lights_emission, sky_matrix
 from nightlights.io import Raster
 from nightlights.sky import Observer, Scene, skyglow
+from nightlights.sky.store import write_kernel
 
 #: The observer of the sky targets, among the streets [m] (EPSG:3067).
 X, Y = 250.0, 50.0
@@ -49,12 +50,14 @@ def layers(road_plan_case: Any, tmp_path_factory: pytest.TempPathFactory) -> dic
     }
 
 
-def _session(layers: dict[str, Any], kernel: Any, **options: Any) -> ExploreSession:
+def _session(
+    layers: dict[str, Any], kernel: Any, emission: Any = None, **options: Any
+) -> ExploreSession:
     options.setdefault("streets", layers["streets"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
         return ExploreSession(
-            Scene(layers["emission"], kernel=kernel),
+            Scene(layers["emission"] if emission is None else emission, kernel=kernel),
             lights=layers["lights"],
             road_options=RoadOptions(requirements=layers["table"]),
             height=0.0,
@@ -206,3 +209,33 @@ def test_the_api_rates_plans_and_undoes(layers: dict[str, Any], tiny_sky_kernel,
     assert bad.status_code == 400 and "x" in bad.json()["error"]
     unreachable = dict(body, min_dimming=1.0)
     assert client.post("/api/road-plan", json=unreachable).status_code == 422
+
+
+def test_a_session_file_keeps_the_streets_and_refuses_a_plan(
+    layers: dict[str, Any], tiny_sky_kernel, tmp_path: Path
+) -> None:
+    emission = layers["emission"].write(tmp_path / "emission.tif")
+    kernel = tmp_path / "kernel.nc"
+    write_kernel(tiny_sky_kernel.kernel, kernel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        session = ExploreSession(
+            Scene(emission, kernel=kernel),
+            lights=layers["lights"],
+            streets=layers["streets"],
+            height=0.0,
+            progress=False,
+        )
+        session.edit("scale", [(200.0, 100.0)], radius=2000.0, value=0.5)
+        saved = session.save(tmp_path / "session.json")
+        reopened = ExploreSession.open(saved, progress=False)
+    assert reopened.has_streets
+    np.testing.assert_allclose(reopened.light_levels(), 0.5, rtol=1e-12)
+    # a plan is no brush edit, and the file keeps no road options: both refused
+    planned = _session(layers, kernel, emission)
+    assert planned.road_plan().applied
+    with pytest.raises(InputError, match="road plan"):
+        planned.save(tmp_path / "planned.json")
+    planned.undo()
+    with pytest.raises(InputError, match="road_options"):
+        planned.save(tmp_path / "planned.json")
