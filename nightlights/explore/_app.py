@@ -713,6 +713,7 @@ class _Explorer:
         options: dict[str, Any] = {
             "objective": fields.choice("objective", ("energy", "flux"), "energy"),
             "min_dimming": fields.number("min_dimming", 0.0, unit="1"),
+            "hours": fields.number("hours", math.nan, unit="h"),
             "apply": fields.flag("apply", True),
         }
         target = fields.choice("target", ("zenith", "region", "none"), "none")

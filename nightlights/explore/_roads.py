@@ -182,6 +182,8 @@ class RoadPlanView:
             "cost": plan.cost,
             "saved": plan.saved,
             "saved_share": plan.saved / plan.cost_full if plan.cost_full > 0 else None,
+            "hours": _finite(plan.hours),
+            "energy_saved_kwh": _finite(plan.energy_saved / 1000.0),
             "cost_sky_only": plan.cost_sky_only,
             "cost_of_safety": plan.cost_of_safety,
             "target": self.target,

@@ -881,6 +881,7 @@ class ExploreSession:
         target_region: float | None = None,
         objective: str = "energy",
         min_dimming: float = 0.0,
+        hours: float = math.nan,
         apply: bool = True,
         crs: str | None = None,
         height: float | None = None,
@@ -901,6 +902,8 @@ class ExploreSession:
             ``energy`` (the lights' power) or ``flux``.
         min_dimming
             Lowest level any light may take [1].
+        hours
+            Hours a year the plan runs [h], for the energy saved (NaN: not given).
         apply
             Apply a feasible plan to the session.
 
@@ -950,7 +953,11 @@ class ExploreSession:
                     target=goal,
                     best=best,
                 )
-        plan = road_plan(roads.model, sky, objective=objective, min_dimming=min_dimming)
+        if not (math.isnan(hours) or 0.0 <= hours <= 8784.0):
+            raise InputError(f"hours={hours!r}; expected the hours of a year, 0 to 8784 [h]")
+        plan = road_plan(
+            roads.model, sky, objective=objective, min_dimming=min_dimming, hours=hours
+        )
         applied = bool(apply and plan.feasible)
         sky_after = math.nan
         if applied:

@@ -161,6 +161,7 @@ export const ui = {
   roadsShare: byId("roads-share", HTMLOutputElement),
   roadObjective: byId("road-objective", HTMLSelectElement),
   roadMinDimming: byId("road-min-dimming", HTMLInputElement),
+  roadHours: byId("road-hours", HTMLInputElement),
   roadSky: byId("road-sky", HTMLInputElement),
   roadPlan: byId("road-plan", HTMLButtonElement),
   roadPlanResult: byId("road-plan-result", HTMLElement),

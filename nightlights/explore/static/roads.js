@@ -63,6 +63,9 @@ function planLines(plan) {
     `${plan.applied ? "Applied" : "Solved"}: ${plan.lights_dimmed} of ${plan.lights} lights dimmed`,
     `${plan.objective}: ${fmt(plan.cost)} of ${fmt(plan.cost_full)} ${unit} ` +
       `(saved ${fmt(plan.saved)} ${unit})`,
+    ...(plan.energy_saved_kwh !== null
+      ? [`energy saved: ${fmt(plan.energy_saved_kwh)} kWh a year over ${fmt(plan.hours)} h`]
+      : []),
     `cost of safety: ${fmt(plan.cost_of_safety)} ${unit} over the sky-only plan`,
     `compliant: ${share(plan.compliance_before)} before, ${share(plan.compliance_after)} after`,
   ];
@@ -95,6 +98,7 @@ export function bindRoads(afterEdit) {
         objective: ui.roadObjective.value,
         min_dimming: Number(ui.roadMinDimming.value),
       };
+      if (ui.roadHours.value !== "") body.hours = Number(ui.roadHours.value);
       if (ui.roadSky.checked) {
         const target = ui.target.value;
         if (target === "region" && !state.region) throw new Error("draw a region on the panorama first");

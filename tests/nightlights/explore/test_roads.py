@@ -149,9 +149,11 @@ def test_the_plan_meets_the_sky_and_keeps_the_roads(
 def test_roads_only_and_infeasible_plans(layers: dict[str, Any], tiny_sky_kernel) -> None:
     session = _session(layers, tiny_sky_kernel)
     model = layers["model"]
-    alone = session.road_plan(apply=False)
+    alone = session.road_plan(apply=False, hours=4000.0)
     direct = roads.road_plan(model, None)
     assert alone.plan.cost == pytest.approx(direct.cost, rel=1e-6)
+    saved_kwh = (direct.cost_full - direct.cost) * 4000.0 / 1000.0  # [W] x [h] -> [kWh]
+    assert alone.to_dict()["energy_saved_kwh"] == pytest.approx(saved_kwh, rel=1e-6)
     assert not alone.applied and not session.can_undo
     # a sky darker than the roads allow: no plan; the binding segments, nothing applied
     dark = float(luminance_to_magnitude(1e-3 * session.panorama(X, Y).zenith_luminance))
@@ -203,6 +205,8 @@ def test_the_api_rates_plans_and_undoes(layers: dict[str, Any], tiny_sky_kernel,
     bad = client.post("/api/road-plan", json={"target": "region", "x": X, "y": Y,
                                               "brightness": 21.0})  # fmt: skip
     assert bad.status_code == 400 and "region" in bad.json()["error"]
+    bad = client.post("/api/road-plan", json={"hours": 10_000})
+    assert bad.status_code == 400 and "hours" in bad.json()["error"]
     bad = client.post("/api/road-plan", json={"objective": "light"})
     assert bad.status_code == 400 and "objective" in bad.json()["error"]
     bad = client.post("/api/road-plan", json={"target": "zenith", "brightness": 21.0})
