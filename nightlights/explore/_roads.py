@@ -309,7 +309,7 @@ class SessionRoads:
     def view(self, levels: FloatArray) -> RoadView:
         """The segments rated at ``levels``."""
         rating = self.model.rate(levels)
-        segments = self._segments if self._segments is not None else self.model.segments
+        segments = self.model.segments
         segments = segments[[segments.geometry.name]].copy()
         segments["segment"] = np.arange(len(segments))
         classes = rating["lighting_class"].astype(object)
@@ -324,7 +324,17 @@ class SessionRoads:
         reason = self.model.reason.copy()
         reason[(reason == "") & (status == "not rated")] = "no requirement applies"
         segments["reason"] = reason
-        return RoadView(segments, summarise(segments, self.model.rtable.name), levels)
+        # lengths in the street layer's own CRS; the map's geometry in the raster's
+        summary = summarise(segments, self.model.rtable.name)
+        if self._segments is not None:
+            import geopandas as gpd
+
+            segments = gpd.GeoDataFrame(
+                segments.drop(columns=segments.geometry.name),
+                geometry=self._segments.geometry.to_numpy(),
+                crs=self.crs,
+            )
+        return RoadView(segments, summary, levels)
 
     def sky_matrix(
         self,

@@ -16,12 +16,15 @@ toolkit's own stages, with every per-scene step done once:
 
 The panoramas equal ``skyglow_panorama``'s for the same raster, kernel and observer; the
 per-cell Q and S maps and the least-flux dimming are the inverse stage's
-(:mod:`nightlights.inverse`).
+(:mod:`nightlights.inverse`). With a street layer, each segment's compliance at the current
+emission and a plan that keeps the roads lit (:func:`nightlights.roads.road_plan`) are the
+road stage's, read from and written to the emission as :mod:`nightlights.explore._roads`
+describes.
 
-Length: about 1200 lines, most of them numpydoc, because the session's state (the emission
+Length: about 1500 lines, most of them numpydoc, because the session's state (the emission
 in its current and original form, the kernel levels, the per-observer caches) and every query
-and file on it are kept in one class, so that no query sees a half-updated state; the views
-and the edit history are in their own modules.
+and file on it are kept in one class, so that no query sees a half-updated state; the views,
+the edit history and the road model on the raster are in their own modules.
 """
 
 from __future__ import annotations
