@@ -169,7 +169,10 @@ function showRoadPopup(/** @type {number} */ sx, /** @type {number} */ sy) {
   ui.roadPopup.textContent =
     `segment ${road.segment} · ${road.lighting_class ?? "no class"} · ${road.status}` +
     (binding ? ` · ${binding}` : "");
-  ui.roadPopup.style.left = `${sx + 12}px`;
+  // beside the pointer, on the side of the map with room for it
+  const width = ui.roadPopup.offsetWidth;
+  const left = sx + 12 + width > state.view.width ? Math.max(0, sx - 12 - width) : sx + 12;
+  ui.roadPopup.style.left = `${left}px`;
   ui.roadPopup.style.top = `${sy + 12}px`;
 }
 
