@@ -22,10 +22,15 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_flux_density
 from nightlights.errors import InputError
 
-__all__ = ["EDIT_OPS", "EmissionEdits", "band_share", "check_saved_edits"]
+__all__ = ["EDIT_OPS", "PLAN_OP", "EmissionEdits", "band_share", "check_saved_edits"]
 
 #: Edit operations.
 EDIT_OPS = ("paint", "erase", "scale")
+#: Operation of an applied road plan: its fields are :data:`PLAN_FIELDS`, ``dimming`` the
+#: level of every light of the road model [1] (:mod:`nightlights.explore._roads`).
+PLAN_OP = "road-plan"
+#: Fields of a saved road plan.
+PLAN_FIELDS = ("op", "dimming", "target", "objective")
 #: Most cells one brush stroke may touch (a stroke wider than the raster is refused) [1].
 MAX_BRUSH_CELLS = 16_000_000
 #: Undo history kept, all steps together [B].
@@ -329,6 +334,9 @@ points, radius and value (null for erase)
         where = f"{source}: edit {index + 1} of {len(edits)}"
         if not isinstance(edit, dict):
             raise InputError(f"{where}: a {_json_type(edit)}; {expected}")
+        if edit.get("op") == PLAN_OP:
+            checked.append(_checked_plan(edit, where))
+            continue
         unknown = sorted(set(edit) - set(EDIT_FIELDS))
         if unknown:
             raise InputError(f"{where}: unknown field {unknown[0]!r}; {expected}")
@@ -359,6 +367,24 @@ points, radius and value (null for erase)
             raise InputError(f"{where}: value {_shown(value)}; expected null or a number")
         checked.append({"op": op, "points": points, "radius": radius, "value": value})
     return checked
+
+
+def _checked_plan(edit: dict[str, Any], where: str) -> dict[str, Any]:
+    """A saved road plan, checked: known fields, a list of levels in [0, 1]."""
+    unknown = sorted(set(edit) - set(PLAN_FIELDS))
+    if unknown:
+        raise InputError(f"{where}: unknown field {unknown[0]!r}; expected op and dimming")
+    dimming = edit.get("dimming")
+    if not (
+        isinstance(dimming, list)
+        and dimming
+        and all(_finite(level) and 0.0 <= float(level) <= 1.0 for level in dimming)
+    ):
+        raise InputError(
+            f"{where}: dimming {_shown(dimming)}; expected a list of levels in [0, 1], one "
+            "per light"
+        )
+    return {key: edit[key] for key in PLAN_FIELDS if key in edit}
 
 
 def _finite(value: Any) -> bool:

@@ -58,8 +58,6 @@ from nightlights.roads._plan import RoadPlan, SkyMatrix
 
 __all__ = ["RoadOptions", "RoadPlanView", "RoadView", "SessionRoads"]
 
-#: Edit operation of an applied road plan (:attr:`~nightlights.explore._edits.EmissionEdits.ops`).
-PLAN_OP = "road-plan"
 #: Per-segment fields the road view sends to the map.
 POPUP_FIELDS = ("segment", "lighting_class", "status", "binding", "binding_margin", "reason")
 

@@ -53,9 +53,8 @@ from nightlights.brightness import (
     magnitude_to_luminance,
 )
 from nightlights.errors import InputError, OutputExistsError
-from nightlights.explore._edits import EmissionEdits, band_share, check_saved_edits
+from nightlights.explore._edits import PLAN_OP, EmissionEdits, band_share, check_saved_edits
 from nightlights.explore._roads import (
-    PLAN_OP,
     RoadOptions,
     RoadPlanView,
     RoadView,
@@ -396,6 +395,13 @@ class ExploreSession:
         )
         for index, op in enumerate(edits):
             try:
+                if op["op"] == PLAN_OP:
+                    session.apply_dimming(
+                        op["dimming"],
+                        target=op.get("target", ""),
+                        objective=op.get("objective", ""),
+                    )
+                    continue
                 session.edit(op["op"], op["points"], radius=op["radius"], value=op["value"])
             except InputError as exc:
                 raise InputError(f"{path}: edit {index + 1} of {len(edits)}: {exc}") from None
@@ -964,11 +970,7 @@ class ExploreSession:
         applied = bool(apply and plan.feasible)
         sky_after = math.nan
         if applied:
-            rows, cols, values = roads.cell_values(plan.dimming, self._original)
-            state = roads.after_plan(plan.dimming, rows, cols, values)
-            op = {"op": PLAN_OP, "target": target, "objective": objective}
-            self._edits.set_cells(rows, cols, values, op, extra=state)
-            self._changed(rows.size)
+            self.apply_dimming(plan.dimming, target=target, objective=objective)
             if sky is not None:
                 assert x is not None and y is not None
                 sky_after = self.influence(x, y, **options).panorama_value
@@ -976,6 +978,40 @@ class ExploreSession:
         else:
             after = roads.view(plan.dimming)
         return RoadPlanView(plan, applied, sky_before, sky_after, goal, target, before, after)
+
+    def apply_dimming(
+        self, dimming: Sequence[float] | FloatArray, *, target: str = "", objective: str = ""
+    ) -> EditView:
+        """Set every light of the road model to a level, as one undoable edit
+        (:mod:`nightlights.explore._roads`: each cell holding lights takes its original flux
+        times the lights' emission-weighted mean level).
+
+        Parameters
+        ----------
+        dimming
+            Level of every light of the road model [1], in [0, 1].
+        target, objective
+            What the levels meet, for the session file.
+
+        Returns
+        -------
+        EditView
+            The emission's state after the step.
+        """
+        if self._roads is None:
+            raise no_streets()
+        roads = self._roads
+        levels = np.asarray(dimming, dtype=float)
+        if levels.shape != (roads.n_lights,) or not np.all((levels >= 0) & (levels <= 1)):
+            raise InputError(
+                f"dimming of shape {levels.shape}; expected {roads.n_lights} levels in [0, 1], "
+                "one per light of the street layer's lights"
+            )
+        rows, cols, values = roads.cell_values(levels, self._original)
+        state = roads.after_plan(levels, rows, cols, values)
+        op = {"op": PLAN_OP, "dimming": levels.tolist(), "target": target, "objective": objective}
+        self._edits.set_cells(rows, cols, values, op, extra=state)
+        return self._changed(rows.size)
 
     # --- edits ------------------------------------------------------------------------------
 
@@ -1218,11 +1254,6 @@ class ExploreSession:
             raise InputError(
                 f"a session of an in-memory {', '.join(self._in_memory)} cannot be saved: "
                 "open it from files"
-            )
-        if any(op.get("op") == PLAN_OP for op in self._edits.ops):
-            raise InputError(
-                "a session with an applied road plan cannot be saved yet (a session file "
-                "replays brush edits only): undo the plan, or export the emission"
             )
         if self._road_options != RoadOptions():
             raise InputError(

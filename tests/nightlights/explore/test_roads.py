@@ -3,6 +3,7 @@ skyglow called directly, through the session and its HTTP API; and the requests 
 
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 from typing import Any
@@ -215,12 +216,13 @@ def test_the_api_rates_plans_and_undoes(layers: dict[str, Any], tiny_sky_kernel,
     assert client.post("/api/road-plan", json=unreachable).status_code == 422
 
 
-def test_a_session_file_keeps_the_streets_and_refuses_a_plan(
+def test_a_session_file_replays_brush_edits_and_plans(
     layers: dict[str, Any], tiny_sky_kernel, tmp_path: Path
 ) -> None:
     emission = layers["emission"].write(tmp_path / "emission.tif")
     kernel = tmp_path / "kernel.nc"
     write_kernel(tiny_sky_kernel.kernel, kernel)
+    levels = np.random.default_rng(3).random(len(layers["model"].luminaires))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataQualityWarning)
         session = ExploreSession(
@@ -231,15 +233,36 @@ def test_a_session_file_keeps_the_streets_and_refuses_a_plan(
             progress=False,
         )
         session.edit("scale", [(200.0, 100.0)], radius=2000.0, value=0.5)
+        session.apply_dimming(levels)
+        session.edit("scale", [(200.0, 100.0)], radius=2000.0, value=0.5)
         saved = session.save(tmp_path / "session.json")
         reopened = ExploreSession.open(saved, progress=False)
     assert reopened.has_streets
+    # the plan sets each light's level; the brush after it halves them all
+    np.testing.assert_allclose(reopened.light_levels(), 0.5 * levels, rtol=1e-12)
+    np.testing.assert_allclose(reopened.emission(), session.emission(), rtol=1e-12)
+    reopened.undo()
+    reopened.undo()
     np.testing.assert_allclose(reopened.light_levels(), 0.5, rtol=1e-12)
-    # a plan is no brush edit, and the file keeps no road options: both refused
+    with pytest.raises(InputError, match="dimming"):
+        session.apply_dimming(levels[:-1])
+    # the file keeps no road options: refused
     planned = _session(layers, kernel, emission)
-    assert planned.road_plan().applied
-    with pytest.raises(InputError, match="road plan"):
-        planned.save(tmp_path / "planned.json")
-    planned.undo()
     with pytest.raises(InputError, match="road_options"):
         planned.save(tmp_path / "planned.json")
+
+
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        ({"op": "road-plan", "dimming": [0.5, 2.0]}, "dimming [0.5, 2.0]"),
+        ({"op": "road-plan", "dimming": []}, "dimming []"),
+        ({"op": "road-plan"}, "dimming None"),
+        ({"op": "road-plan", "dimming": [1.0], "radius": 3}, "unknown field 'radius'"),
+    ],
+)
+def test_a_saved_plan_is_checked(edit: dict[str, Any], words: str) -> None:
+    from nightlights.explore._edits import check_saved_edits
+
+    with pytest.raises(InputError, match=re.escape(f"s.json: edit 1 of 1: {words}")):
+        check_saved_edits([edit], "s.json")
