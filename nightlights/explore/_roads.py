@@ -36,6 +36,13 @@ from the raster rather than from the photometry: when the raster is the lights' 
 :math:`\\sum_k \\delta_k e_k / \\sum_k e_k` (all bands alike), in one undoable edit; its sky
 is then exactly what the matrix predicts. The sky after is recomputed from the edited raster
 (not taken from the solver), and so is the compliance (:math:`\\ell = \\delta`).
+
+References
+----------
+Dobashi, Y., Ishikawa, N. & Iwasaki, K. 2023, "Efficient Visualization of Light Pollution for
+the Night Sky", ACM TOG 42(6) 219, Eqs. 13-14 (a cell's part of a sky region).
+EN 13201-2:2015, Tables 1-3, and EN 13201-3:2015 (the classes and the figures rated, see
+:mod:`nightlights.roads`).
 """
 
 from __future__ import annotations
