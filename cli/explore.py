@@ -15,7 +15,7 @@ from .options import (
 from .resources import max_memory_option
 
 #: Options that a session file (``--session``) fixes.
-SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
+SESSION_FIXES = ("lights", "streets", "kernel", "dem", "observer_height", "turbidity")
 
 
 @click.command("explore")
@@ -25,6 +25,13 @@ SESSION_FIXES = ("lights", "kernel", "dem", "observer_height", "turbidity")
     type=click.Path(exists=True, dir_okay=False),
     default=None,
     help="The light points (nightlights streets place) to show on the map.",
+)
+@click.option(
+    "--streets",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="The street layer the --lights light: its segments' compliance with their lighting "
+    "classes on the map, and a plan that keeps them lit (needs --lights).",
 )
 @kernel_option
 @dem_option
@@ -66,6 +73,7 @@ def explore(
     ctx: click.Context,
     emission: str | None,
     lights: str | None,
+    streets: str | None,
     kernel: str | None,
     dem: str | None,
     observer_height: float,
@@ -77,7 +85,8 @@ def explore(
     tiles: str | None,
     export_dir: str,
 ) -> None:
-    """Explore EMISSION [lm m-2] in the browser: panoramas, Q/S maps, dimming, edits.
+    """Explore EMISSION [lm m-2] in the browser: panoramas, Q/S maps, dimming, edits; with
+    --streets, road compliance and a dimming plan that keeps the roads lit.
 
     Serves the page on HOST:PORT until Ctrl-C. The server holds one shared session: every tab
     sees the same edits. On an address other than loopback anyone who reaches it can edit the
@@ -109,6 +118,7 @@ def explore(
             session = ExploreSession(
                 scene_of(emission, dem=dem, kernel=kernel, turbidity=turbidity),
                 lights=lights,
+                streets=streets,
                 height=observer_height,
             )
         url = _app.browser_url(host, sock.getsockname()[1])

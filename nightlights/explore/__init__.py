@@ -23,12 +23,16 @@ _LAZY: dict[str, str] = {
     "InfluenceView": "nightlights.explore._session",
     "DimmingView": "nightlights.explore._session",
     "EditView": "nightlights.explore._session",
+    "RoadOptions": "nightlights.explore._roads",
+    "RoadPlanView": "nightlights.explore._roads",
+    "RoadView": "nightlights.explore._roads",
     "create_app": "nightlights.explore._app",
     "serve": "nightlights.explore._app",
 }
 
 if TYPE_CHECKING:
     from nightlights.explore._app import create_app, serve
+    from nightlights.explore._roads import RoadOptions, RoadPlanView, RoadView
     from nightlights.explore._session import (
         DimmingView,
         EditView,
@@ -43,6 +47,9 @@ __all__ = [
     "ExploreSession",
     "InfluenceView",
     "PanoramaView",
+    "RoadOptions",
+    "RoadPlanView",
+    "RoadView",
     "create_app",
     "serve",
 ]

@@ -12,6 +12,10 @@ The API (every response JSON unless noted; errors are ``{"error": "<one line>"}`
 ``POST /api/influence``     each lit cell's part in the glow (Q or S), as a map image
 ``POST /api/dim``           dimming by the Q or S map (Dobashi et al. 2023, Eq. 12)
 ``POST /api/least-dimming`` the least flux removal that meets a sky-brightness target
+``GET /api/roads``          the street segments (GeoJSON, raster CRS) with their compliance
+                            status at the current emission, and the share of length compliant
+``POST /api/road-plan``     solve the least-energy dimming that keeps every road lit under the
+                            least-dimming target, and apply it (one edit)
 ``POST /api/edit``          paint, erase or scale the emission along a brush stroke
 ``POST /api/undo``, ``redo`` step through the edits
 ``POST /api/export``        write the emission, a dimming, a panorama or the session file
@@ -21,7 +25,8 @@ Status codes: 400 a bad request (a missing or malformed field, a non-finite numb
 session refuses), 403 a cross-origin request or, on a loopback server, a foreign ``Host`` (a
 web page elsewhere must not drive the session: DNS rebinding, forged form posts), 404 an
 unknown path, 405 a wrong method, 409 an export that exists without ``overwrite`` or nothing
-to undo/redo, 413 a body over ``max_body``, 422 a dimming target that cannot be reached, 500 a
+to undo/redo or a road query without streets, 413 a body over ``max_body``, 422 a dimming
+target that cannot be reached, 500 a
 fault of the server (logged with its traceback).
 
 A response to a request that made the toolkit warn (an observer above the kernel's levels,
@@ -561,6 +566,7 @@ class _Explorer:
                 "azimuth": session.azimuth,
                 "kernel": session.kernel_info,
                 "has_lights": session.lights is not None,
+                "has_streets": session.has_streets,
                 "has_dem": session.has_dem,
                 "tiles": self.tiles,
                 "edit_version": session.edit_version,
@@ -683,6 +689,61 @@ class _Explorer:
             return noted(self.dimming_json(view, image=image), notes)
 
         return json_response(await run_in_threadpool(work))
+
+    # -- roads --------------------------------------------------------------------------
+
+    def _streets(self) -> None:
+        if not self.session.has_streets:
+            raise ApiError(
+                409, "the session has no street layer; expected a session opened with streets="
+            )
+
+    async def roads(self, request: Request) -> Response:
+        Fields(request.query_params).done()
+
+        def work() -> dict[str, Any]:
+            self._streets()
+            return self.session.roads().to_geojson()
+
+        data, notes = await self.call(work)
+        return json_response(noted(data, notes))
+
+    async def road_plan(self, request: Request) -> Response:
+        fields = await self.body(request)
+        options: dict[str, Any] = {
+            "objective": fields.choice("objective", ("energy", "flux"), "energy"),
+            "min_dimming": fields.number("min_dimming", 0.0, unit="1"),
+            "hours": fields.number("hours", math.nan, unit="h"),
+            "apply": fields.flag("apply", True),
+        }
+        target = fields.choice("target", ("zenith", "region", "none"), "none")
+        if target != "none":
+            x, y, where = _observer_call(fields)
+            brightness = fields.number("brightness", unit="mag arcsec-2")
+            region = fields.region()
+            if target == "region" and region is None:
+                raise ApiError(400, "region: missing; target region needs the sky polygon")
+            key = "target_zenith" if target == "zenith" else "target_region"
+            options.update({key: brightness, "region": region, "x": x, "y": y, **where})
+        fields.done()
+
+        def work() -> dict[str, Any]:
+            self._streets()
+            view = self.session.road_plan(**options)
+            result = view.to_dict()
+            result["roads"] = view.after.to_geojson()
+            session = self.session
+            result["edit"] = {
+                "edit_version": session.edit_version,
+                "n_lit": session.n_lit,
+                "total_flux": session.total_flux,
+                "can_undo": session.can_undo,
+                "can_redo": session.can_redo,
+            }
+            return result
+
+        data, notes = await self.call(work)
+        return json_response(noted(data, notes))
 
     # -- editing ------------------------------------------------------------------------
 
@@ -905,6 +966,8 @@ def create_app(
         Route("/api/influence", _endpoint(explorer.influence), methods=["POST"]),
         Route("/api/dim", _endpoint(explorer.dim), methods=["POST"]),
         Route("/api/least-dimming", _endpoint(explorer.least_dimming), methods=["POST"]),
+        Route("/api/roads", _endpoint(explorer.roads), methods=["GET"]),
+        Route("/api/road-plan", _endpoint(explorer.road_plan), methods=["POST"]),
         Route("/api/edit", _endpoint(explorer.edit), methods=["POST"]),
         Route("/api/undo", _endpoint(explorer.undo), methods=["POST"]),
         Route("/api/redo", _endpoint(explorer.redo), methods=["POST"]),

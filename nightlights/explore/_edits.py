@@ -22,10 +22,15 @@ from nightlights._typing import FloatArray
 from nightlights._validate import check_flux_density
 from nightlights.errors import InputError
 
-__all__ = ["EDIT_OPS", "EmissionEdits", "band_share", "check_saved_edits"]
+__all__ = ["EDIT_OPS", "PLAN_OP", "EmissionEdits", "band_share", "check_saved_edits"]
 
 #: Edit operations.
 EDIT_OPS = ("paint", "erase", "scale")
+#: Operation of an applied road plan: its fields are :data:`PLAN_FIELDS`, ``dimming`` the
+#: level of every light of the road model [1] (:mod:`nightlights.explore._roads`).
+PLAN_OP = "road-plan"
+#: Fields of a saved road plan.
+PLAN_FIELDS = ("op", "dimming", "target", "objective")
 #: Most cells one brush stroke may touch (a stroke wider than the raster is refused) [1].
 MAX_BRUSH_CELLS = 16_000_000
 #: Undo history kept, all steps together [B].
@@ -41,6 +46,8 @@ class _Step:
     after: FloatArray
     op: dict[str, Any]
     changed: int
+    extra_before: Any = None
+    extra_after: Any = None
 
 
 class EmissionEdits:
@@ -74,6 +81,9 @@ class EmissionEdits:
         self._undo: list[_Step] = []
         self._redo: list[_Step] = []
         self._baked: list[dict[str, Any]] = []  # steps older than the history
+        #: State kept with the emission by a step of :meth:`set_cells` (restored by undo and
+        #: redo); None before any.
+        self.extra: Any = None
 
     @property
     def can_undo(self) -> bool:
@@ -170,12 +180,61 @@ class EmissionEdits:
         self._trim_history()
         return changed
 
+    def set_cells(
+        self,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        values: FloatArray,
+        op: dict[str, Any],
+        extra: Any = None,
+    ) -> int:
+        """Set the flux density of given cells in one undoable step.
+
+        Parameters
+        ----------
+        rows, cols
+            The cells (n,).
+        values
+            Shape ``(bands, n)``: their new flux density [lm m-2].
+        op
+            The step's record (:attr:`ops`).
+        extra
+            State that goes with the step (:attr:`extra` after it; undo restores the one
+            before).
+
+        Returns
+        -------
+        int
+            Cells changed (0: nothing recorded).
+        """
+        rows = np.asarray(rows, dtype=np.intp)
+        cols = np.asarray(cols, dtype=np.intp)
+        if rows.size == 0:
+            return 0
+        window = (slice(int(rows.min()), int(rows.max()) + 1),
+                  slice(int(cols.min()), int(cols.max()) + 1))  # fmt: skip
+        block = self.data[(slice(None), *window)]
+        before = block.copy()
+        after = block.copy()
+        after[:, rows - window[0].start, cols - window[1].start] = values
+        changed = int(np.sum(np.any(~_same(before, after), axis=0)))
+        if changed == 0 and extra is None:
+            return 0
+        self.data[(slice(None), *window)] = after
+        self._undo.append(_Step(window, before, after, op, changed, self.extra, extra))
+        self.extra = extra
+        self._redo.clear()
+        self._trim_history()
+        return changed
+
     def undo(self) -> int:
         """Undo the last step; returns the cells it changed back."""
         if not self._undo:
             raise InputError("nothing to undo")
         step = self._undo.pop()
         self.data[(slice(None), *step.window)] = step.before
+        if step.extra_after is not None:
+            self.extra = step.extra_before
         self._redo.append(step)
         return step.changed
 
@@ -185,6 +244,8 @@ class EmissionEdits:
             raise InputError("nothing to redo")
         step = self._redo.pop()
         self.data[(slice(None), *step.window)] = step.after
+        if step.extra_after is not None:
+            self.extra = step.extra_after
         self._undo.append(step)
         return step.changed
 
@@ -273,6 +334,9 @@ points, radius and value (null for erase)
         where = f"{source}: edit {index + 1} of {len(edits)}"
         if not isinstance(edit, dict):
             raise InputError(f"{where}: a {_json_type(edit)}; {expected}")
+        if edit.get("op") == PLAN_OP:
+            checked.append(_checked_plan(edit, where))
+            continue
         unknown = sorted(set(edit) - set(EDIT_FIELDS))
         if unknown:
             raise InputError(f"{where}: unknown field {unknown[0]!r}; {expected}")
@@ -303,6 +367,24 @@ points, radius and value (null for erase)
             raise InputError(f"{where}: value {_shown(value)}; expected null or a number")
         checked.append({"op": op, "points": points, "radius": radius, "value": value})
     return checked
+
+
+def _checked_plan(edit: dict[str, Any], where: str) -> dict[str, Any]:
+    """A saved road plan, checked: known fields, a list of levels in [0, 1]."""
+    unknown = sorted(set(edit) - set(PLAN_FIELDS))
+    if unknown:
+        raise InputError(f"{where}: unknown field {unknown[0]!r}; expected op and dimming")
+    dimming = edit.get("dimming")
+    if not (
+        isinstance(dimming, list)
+        and dimming
+        and all(_finite(level) and 0.0 <= float(level) <= 1.0 for level in dimming)
+    ):
+        raise InputError(
+            f"{where}: dimming {_shown(dimming)}; expected a list of levels in [0, 1], one "
+            "per light"
+        )
+    return {key: edit[key] for key in PLAN_FIELDS if key in edit}
 
 
 def _finite(value: Any) -> bool:

@@ -16,12 +16,15 @@ toolkit's own stages, with every per-scene step done once:
 
 The panoramas equal ``skyglow_panorama``'s for the same raster, kernel and observer; the
 per-cell Q and S maps and the least-flux dimming are the inverse stage's
-(:mod:`nightlights.inverse`).
+(:mod:`nightlights.inverse`). With a street layer, each segment's compliance at the current
+emission and a plan that keeps the roads lit (:func:`nightlights.roads.road_plan`) are the
+road stage's, read from and written to the emission as :mod:`nightlights.explore._roads`
+describes.
 
-Length: about 1200 lines, most of them numpydoc, because the session's state (the emission
+Length: about 1500 lines, most of them numpydoc, because the session's state (the emission
 in its current and original form, the kernel levels, the per-observer caches) and every query
-and file on it are kept in one class, so that no query sees a half-updated state; the views
-and the edit history are in their own modules.
+and file on it are kept in one class, so that no query sees a half-updated state; the views,
+the edit history and the road model on the raster are in their own modules.
 """
 
 from __future__ import annotations
@@ -50,7 +53,14 @@ from nightlights.brightness import (
     magnitude_to_luminance,
 )
 from nightlights.errors import InputError, OutputExistsError
-from nightlights.explore._edits import EmissionEdits, band_share, check_saved_edits
+from nightlights.explore._edits import PLAN_OP, EmissionEdits, band_share, check_saved_edits
+from nightlights.explore._roads import (
+    RoadOptions,
+    RoadPlanView,
+    RoadView,
+    SessionRoads,
+    no_streets,
+)
 from nightlights.explore._views import DimmingView, EditView, InfluenceView, PanoramaView
 from nightlights.ground.checks import raster_header
 from nightlights.inverse._dimming import dimming_fraction, least_flux_dimming
@@ -146,6 +156,14 @@ class ExploreSession:
         a kernel: a scene kernel reaching across the raster from any cell in it (cached).
     lights
         Optional luminaire layer (any vector format) shown on the map.
+    streets
+        Optional street layer (lines with ``width`` [m] and the fields of
+        :func:`nightlights.roads.audit`) lit by ``lights``: its segments are rated against
+        their lighting classes at the session's dimming (:meth:`roads`), and a plan that keeps
+        them lit can be solved (:meth:`road_plan`).
+    road_options
+        How the road model is built (catalogue, r-table, requirements, class selection;
+        default: :func:`nightlights.roads.road_model`'s defaults).
     height
         Eye height above the ground of the observers placed in the session [m].
     components
@@ -176,6 +194,8 @@ class ExploreSession:
         scene: Scene,
         *,
         lights: PathLike | None = None,
+        streets: PathLike | None = None,
+        road_options: RoadOptions | None = None,
         height: float = OBSERVER_HEIGHT,
         components: int | None = None,
         progress: bool = True,
@@ -195,6 +215,7 @@ class ExploreSession:
             "kernel": _path_or_none(kernel),
             "dem": _path_or_none(dem),
             "lights": _path_or_none(lights),
+            "streets": _path_or_none(streets),
             "turbidity": scene.turbidity,
             "emission_sha256": _file_hash(emission),
         }
@@ -236,11 +257,34 @@ class ExploreSession:
         self._influence_version: dict[tuple[Any, ...], int] = {}
         self._in_memory = [
             name
-            for name, given in (("emission", emission), ("kernel", kernel), ("dem", dem))
+            for name, given in (
+                ("emission", emission),
+                ("kernel", kernel),
+                ("dem", dem),
+                ("streets", streets),
+            )
             if given is not None and self._sources[name] is None
         ]
         self.saved_observer: list[float] | None = None
         self.lights = _read_lights(lights, raster.crs) if lights is not None else None
+        self._roads: SessionRoads | None = None
+        self._road_options = road_options or RoadOptions()
+        if streets is not None:
+            if lights is None:
+                raise InputError(
+                    f"streets={str(streets)!r} needs lights=, the luminaires that light them"
+                )
+            if road_options is not None and not isinstance(road_options, RoadOptions):
+                raise InputError(f"road_options={road_options!r}; expected RoadOptions or None")
+            self._roads = SessionRoads(
+                lights,
+                streets,
+                road_options or RoadOptions(),
+                transform=self.transform,
+                shape=self.shape,
+                crs=self.crs,
+                original=np.sum(self._original, axis=0),
+            )
 
     # --- construction ---------------------------------------------------------------------
 
@@ -345,11 +389,19 @@ class ExploreSession:
                 cache_dir=cache_dir,
             ),
             lights=resolve("lights"),
+            streets=resolve("streets"),
             height=float(observer_height),
             progress=progress,
         )
         for index, op in enumerate(edits):
             try:
+                if op["op"] == PLAN_OP:
+                    session.apply_dimming(
+                        op["dimming"],
+                        target=op.get("target", ""),
+                        objective=op.get("objective", ""),
+                    )
+                    continue
                 session.edit(op["op"], op["points"], radius=op["radius"], value=op["value"])
             except InputError as exc:
                 raise InputError(f"{path}: edit {index + 1} of {len(edits)}: {exc}") from None
@@ -584,13 +636,14 @@ class ExploreSession:
         region: SkyRegion | Sequence[Sequence[float]] | str | None = None,
         crs: str | None = None,
         height: float | None = None,
+        which: str = "current",
     ) -> InfluenceView:
         """Each lit cell's part of the sky: Q (Eqs. 10-11) or S of a region (Eqs. 13-14).
 
         Parameters
         ----------
-        x, y, crs, height
-            The observer, as :meth:`panorama`.
+        x, y, crs, height, which
+            The observer and the emission, as :meth:`panorama`.
         kind
             ``q`` or ``s``.
         metric
@@ -606,17 +659,18 @@ class ExploreSession:
             The values per lit cell and as a grid [cd m-2].
         """
         start = time.perf_counter()
-        cells = self._state("current")
+        which = _which(which)
+        cells = self._state(which)
         xy, eye = self._observer(x, y, crs, height, cells)
         sky_region = _region(region) if kind == "s" else None
         if kind not in ("q", "s"):
             raise InputError(f"kind {kind!r}; expected q or s")
         if kind == "q" and metric not in ("pca-norm", "zenith", "hemisphere"):
             raise InputError(f"metric {metric!r}; expected pca-norm, zenith or hemisphere")
-        key = (xy, eye, kind, metric if kind == "q" else "region", _region_key(sky_region))
+        key = (xy, eye, kind, metric if kind == "q" else "region", _region_key(sky_region), which)
         cached = self._influences.get(key)
         if cached is not None and cached.values.size == cells.rows.size:
-            if self._influence_version.get(key) == self.edit_version:
+            if which == "original" or self._influence_version.get(key) == self.edit_version:
                 return cached
         slices = self._slices_at(eye - cells.offset)
         polar = lit_polar_cells(
@@ -798,6 +852,166 @@ class ExploreSession:
             seconds=seconds,
             params=params,
         )
+
+    # --- roads ------------------------------------------------------------------------------
+
+    @property
+    def has_streets(self) -> bool:
+        """Whether a street layer is rated (``streets`` given)."""
+        return self._roads is not None
+
+    def light_levels(self) -> FloatArray:
+        """Level of every light of the road model at the current emission [1]
+        (:mod:`nightlights.explore._roads`); InputError without ``streets``."""
+        if self._roads is None:
+            raise no_streets()
+        return self._roads.levels(self.emission("current"), self._edits.extra)
+
+    def roads(self) -> RoadView:
+        """The street segments rated against their classes at the current emission.
+
+        Returns
+        -------
+        RoadView
+            Status, binding criterion and margin per segment, the share of length compliant
+            (:meth:`nightlights.roads.RoadModel.rate` at :meth:`light_levels`).
+        """
+        if self._roads is None:
+            raise no_streets()
+        return self._roads.view(self.light_levels())
+
+    def road_plan(
+        self,
+        x: float | None = None,
+        y: float | None = None,
+        *,
+        target_zenith: float | None = None,
+        region: SkyRegion | Sequence[Sequence[float]] | str | None = None,
+        target_region: float | None = None,
+        objective: str = "energy",
+        min_dimming: float = 0.0,
+        hours: float = math.nan,
+        apply: bool = True,
+        crs: str | None = None,
+        height: float | None = None,
+    ) -> RoadPlanView:
+        """The least-energy per-light dimming that meets a sky target and keeps every road lit.
+
+        :func:`nightlights.roads.road_plan` with the target of :meth:`least_dimming` as a
+        per-light matrix (:mod:`nightlights.explore._roads`); a feasible plan is applied to
+        the emission as one edit (undo takes it back).
+
+        Parameters
+        ----------
+        x, y, crs, height
+            The observer of the target, as :meth:`panorama` (not needed without a target).
+        target_zenith, region, target_region
+            The sky target, as :meth:`least_dimming`; neither: the road minima alone.
+        objective
+            ``energy`` (the lights' power) or ``flux``.
+        min_dimming
+            Lowest level any light may take [1].
+        hours
+            Hours a year the plan runs [h], for the energy saved (NaN: not given).
+        apply
+            Apply a feasible plan to the session.
+
+        Returns
+        -------
+        RoadPlanView
+            The plan, the sky and the compliance before and after (recomputed), the energy
+            saved, the cost of safety; the binding segments when no plan meets both.
+        """
+        from nightlights.inverse import InfeasibleTargetError
+        from nightlights.roads import road_plan
+
+        if self._roads is None:
+            raise no_streets()
+        roads = self._roads
+        before = roads.view(self.light_levels())
+        sky, target, goal, sky_before = None, "roads only", math.nan, math.nan
+        options: dict[str, Any] = {}
+        if target_zenith is not None and target_region is not None:
+            raise InputError("give one target: a zenith brightness or a region's brightness")
+        if target_zenith is not None or target_region is not None:
+            if x is None or y is None:
+                raise InputError("x, y: missing; a sky target needs its observer")
+            brightness = float(target_zenith if target_zenith is not None else target_region)  # type: ignore[arg-type]
+            if not math.isfinite(brightness):
+                raise InputError(f"target brightness {brightness}; expected a finite mag arcsec-2")
+            if target_zenith is not None:
+                options = {"kind": "q", "metric": "zenith"}
+                target = "zenith"
+            else:
+                options = {"kind": "s", "region": region}
+                target = f"region {_region(region).text}"
+            options.update(crs=crs, height=height)
+            now = self.influence(x, y, **options)
+            original = self.influence(x, y, which="original", **options)
+            sky_before = now.panorama_value
+            goal = float(magnitude_to_luminance(brightness))
+            xy = self.to_xy(x, y, crs)
+            target = f"{target} at ({xy[0]:.1f}, {xy[1]:.1f})"
+            sky = roads.sky_matrix(original.grid, now.grid, sky_before, goal, target)
+            best = float(sky.fixed[0] + min_dimming * sky.contribution.sum())
+            if best > goal:
+                raise InfeasibleTargetError(
+                    f"{target}: {goal:.4g} cd m-2 is out of reach of the street lights; at "
+                    f"min_dimming={min_dimming:g} the sky keeps {best:.4g} cd m-2",
+                    label=target,
+                    target=goal,
+                    best=best,
+                )
+        if not (math.isnan(hours) or 0.0 <= hours <= 8784.0):
+            raise InputError(f"hours={hours!r}; expected the hours of a year, 0 to 8784 [h]")
+        plan = road_plan(
+            roads.model, sky, objective=objective, min_dimming=min_dimming, hours=hours
+        )
+        applied = bool(apply and plan.feasible)
+        sky_after = math.nan
+        if applied:
+            self.apply_dimming(plan.dimming, target=target, objective=objective)
+            if sky is not None:
+                assert x is not None and y is not None
+                sky_after = self.influence(x, y, **options).panorama_value
+            after = roads.view(self.light_levels())
+        else:
+            after = roads.view(plan.dimming)
+        return RoadPlanView(plan, applied, sky_before, sky_after, goal, target, before, after)
+
+    def apply_dimming(
+        self, dimming: Sequence[float] | FloatArray, *, target: str = "", objective: str = ""
+    ) -> EditView:
+        """Set every light of the road model to a level, as one undoable edit
+        (:mod:`nightlights.explore._roads`: each cell holding lights takes its original flux
+        times the lights' emission-weighted mean level).
+
+        Parameters
+        ----------
+        dimming
+            Level of every light of the road model [1], in [0, 1].
+        target, objective
+            What the levels meet, for the session file.
+
+        Returns
+        -------
+        EditView
+            The emission's state after the step.
+        """
+        if self._roads is None:
+            raise no_streets()
+        roads = self._roads
+        levels = np.asarray(dimming, dtype=float)
+        if levels.shape != (roads.n_lights,) or not np.all((levels >= 0) & (levels <= 1)):
+            raise InputError(
+                f"dimming of shape {levels.shape}; expected {roads.n_lights} levels in [0, 1], "
+                "one per light of the street layer's lights"
+            )
+        rows, cols, values = roads.cell_values(levels, self._original)
+        state = roads.after_plan(levels, rows, cols, values)
+        op = {"op": PLAN_OP, "dimming": levels.tolist(), "target": target, "objective": objective}
+        self._edits.set_cells(rows, cols, values, op, extra=state)
+        return self._changed(rows.size)
 
     # --- edits ------------------------------------------------------------------------------
 
@@ -1041,6 +1255,11 @@ class ExploreSession:
                 f"a session of an in-memory {', '.join(self._in_memory)} cannot be saved: "
                 "open it from files"
             )
+        if self._road_options != RoadOptions():
+            raise InputError(
+                "a session with road_options cannot be saved yet: the file keeps the streets "
+                "and reopens them with the defaults"
+            )
         folder = target.resolve().parent
 
         def relative(value: Path | None) -> str | None:
@@ -1059,6 +1278,7 @@ class ExploreSession:
             "kernel": relative(self._sources["kernel"]),
             "dem": relative(self._sources["dem"]),
             "lights": relative(self._sources["lights"]),
+            "streets": relative(self._sources["streets"]),
             "turbidity": self._sources["turbidity"],
             "observer_height": self._observer_height,
             "observer": list(observer) if observer is not None else None,
@@ -1071,7 +1291,8 @@ class ExploreSession:
     def _refuse(self, path: PathLike, overwrite: bool) -> None:
         """Refuse a file the session was opened from (whatever ``overwrite``), then an
         existing file without ``overwrite``."""
-        inputs = {name: self._sources[name] for name in ("emission", "kernel", "dem", "lights")}
+        names = ("emission", "kernel", "dem", "lights", "streets")
+        inputs = {name: self._sources[name] for name in names}
         refuse_replacing_inputs([path], inputs)
         _refuse_existing(path, overwrite)
 

@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -20,6 +21,8 @@ import pytest
 from affine import Affine
 from click.testing import CliRunner, Result
 
+from nightlights import roads
+from nightlights.errors import DataQualityWarning
 from nightlights.explore import _app
 from nightlights_cli.main import cli
 
@@ -70,7 +73,7 @@ def one_line_error(result: Result, exit_code: int, *words: str) -> str:
 def test_help() -> None:
     result = invoke("--help")
     assert result.exit_code == 0
-    for word in ("EMISSION", "--session", "--no-browser", "--export-dir", "--tiles", "Ctrl-C"):
+    for word in ("EMISSION", "--session", "--no-browser", "--export-dir", "--tiles", "--streets"):
         assert word in result.output
 
 
@@ -146,14 +149,50 @@ def test_a_session_file(files: SimpleNamespace, fake_serve: Recorder, tmp_path: 
         (lambda f: [f.emission, "--session", f.emission], ["only one of"]),
         (lambda f: ["--session", f.emission, "--kernel", f.kernel], ["--kernel", "session"]),
         (lambda f: ["--session", f.emission, "--observer-height", 2], ["--observer-height"]),
+        (lambda f: ["--session", f.emission, "--streets", f.emission], ["--streets"]),
         (lambda f: [f.emission, "--port", 70000], ["--port", "70000"]),
         (lambda f: [f.emission, "--export-dir", f.folder / "none"], ["--export-dir"]),
     ],
-    ids=["missing", "none", "both", "session-fixes-kernel", "session-fixes-height", "port", "dir"],
+    ids=[
+        "missing",
+        "none",
+        "both",
+        "session-fixes-kernel",
+        "session-fixes-height",
+        "session-fixes-streets",
+        "port",
+        "dir",
+    ],
 )
 def test_usage_errors(files: SimpleNamespace, fake_serve: Recorder, args, words) -> None:
     one_line_error(invoke(*args(files)), 2, *words)
     assert fake_serve.calls == []
+
+
+def test_streets_are_rated_in_the_session(
+    files: SimpleNamespace, fake_serve: Recorder, road_plan_case: Any, tmp_path: Path
+) -> None:
+    lights, streets, _, _ = road_plan_case
+    lights.to_file(tmp_path / "lights.gpkg")
+    streets.to_file(tmp_path / "streets.gpkg")
+    args = [files.emission, "--kernel", files.kernel, "--port", 0, "--no-browser"]
+    result = invoke(
+        *args, "--lights", tmp_path / "lights.gpkg", "--streets", tmp_path / "streets.gpkg"
+    )
+    assert result.exit_code == 0, result.output
+    (session,) = fake_serve.args
+    # the lights lie outside this raster: every light keeps its full level
+    assert session.has_streets and np.all(session.light_levels() == 1.0)
+    # the command's classes and requirements are the defaults: rated as road_model's
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        expected = roads.road_model(lights, streets).rate()["passed"]
+    shown = session.roads().segments["status"]
+    assert list(shown == "pass") == [p is True for p in expected.astype(object).tolist()]
+    assert list(shown == "not rated") == list(expected.isna())
+    # streets without the lights that light them: one line, in the command's words
+    result = invoke(*args, "--streets", tmp_path / "streets.gpkg")
+    one_line_error(result, 1, "--streets", "--lights")
 
 
 @pytest.mark.parametrize(

@@ -68,6 +68,7 @@ API_ONLY = {
     "leg_nodes",
     "lon",
     "max_body",
+    "road_options",
     "max_size",
     "name",
     "natural_luminance",

@@ -31,6 +31,7 @@
  * @property {number[]} elevation [deg]
  * @property {number[]} azimuth [deg]
  * @property {boolean} has_lights
+ * @property {boolean} has_streets
  * @property {boolean} has_dem
  * @property {string | null} tiles
  * @property {number} edit_version

@@ -54,7 +54,7 @@ export async function undoRedo(action) {
  * @param {EditResult} result
  * @param {string} message
  */
-function afterEdit(result, message) {
+export function afterEdit(result, message) {
   const info = state.info;
   if (!info) return;
   info.edit_version = result.edit_version;
@@ -75,6 +75,7 @@ function afterEdit(result, message) {
   showOverlayLegend();
   requestPanorama();
   void refreshInfluence();
+  window.dispatchEvent(new Event("nightlights:edited"));
 }
 
 /** Listen to the edit tools: the tool radios, Undo and Redo. */

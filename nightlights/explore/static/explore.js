@@ -7,13 +7,14 @@
  *
  * This entry module wires the parts: the map (map.js), the sky (sky.js), the inverse tools
  * (inverse.js: Q/S maps, Dobashi et al. 2023 Eq. 12 sliders, least-flux dimming), edits
- * with undo/redo (edits.js) and exports (export.js), over the server's API (api.js) and
+ * with undo/redo (edits.js), road compliance and the plan that keeps roads lit (roads.js)
+ * and exports (export.js), over the server's API (api.js) and
  * the page's shared elements and state (page.js). Here: moving the observer, which
  * touches them all, the observer's inputs, the layers, the keyboard and the start.
  */
 
 import { api } from "./api.js";
-import { applyStroke, bindEdits, undoRedo } from "./edits.js";
+import { afterEdit, applyStroke, bindEdits, undoRedo } from "./edits.js";
 import { bindExport } from "./export.js";
 import {
   bindInverse,
@@ -24,6 +25,7 @@ import {
 } from "./inverse.js";
 import { bindMap, fitView, loadEmission, loadLights, scheduleMap } from "./map.js";
 import { drawLegend, setStatus, showError, showSceneInfo, state, ui } from "./page.js";
+import { bindRoads, loadRoads } from "./roads.js";
 import {
   bindSky,
   cancelDrawing,
@@ -150,9 +152,17 @@ async function start() {
     );
     ui.showLights.disabled = !info.has_lights;
     ui.showLights.checked = info.has_lights;
+    ui.showRoads.disabled = !info.has_streets;
+    ui.showRoads.checked = info.has_streets;
+    ui.roadPlan.disabled = !info.has_streets;
+    ui.roadsPanel.hidden = !info.has_streets;
     fitView();
     scheduleMap();
-    await Promise.all([loadEmission(), ui.showLights.checked ? loadLights() : Promise.resolve()]);
+    await Promise.all([
+      loadEmission(),
+      ui.showLights.checked ? loadLights() : Promise.resolve(),
+      loadRoads(),
+    ]);
     setStatus("ready: click the map to place an observer");
     document.body.dataset.ready = "true";
   } catch (error) {
@@ -166,4 +176,5 @@ bindInverse();
 bindEdits();
 bindPage();
 bindExport();
+bindRoads(afterEdit);
 void start();

@@ -3,7 +3,7 @@
  * nightlights explore: the map.
  *
  * The emission raster in its own CRS (metres), panned and zoomed; the Q, S or dimming
- * overlay over it; the light points, background tiles (Web Mercator rasters only), the
+ * overlay over it; the street segments by compliance (with a popup), the light points, background tiles (Web Mercator rasters only), the
  * observer marker, the brush and a scale bar; and the pointer gestures on it.
  */
 
@@ -14,6 +14,14 @@ import { GRAB_RADIUS, byId, context2d, fitCanvas, showError, state, ui } from ".
 
 /** Pointer travel [CSS px] below which a press and release is a click, not a drag. */
 const CLICK_SLOP = 4;
+/** Distance [CSS px] within which the pointer picks a street segment for its popup. */
+const ROAD_PICK = 6;
+/** Colours of the compliance statuses, as nightlights.io.styles.COMPLIANCE_COLOURS. */
+const STATUS_COLOURS = /** @type {Record<string, string>} */ ({
+  pass: "#1a9641",
+  fail: "#d7191c",
+  "not rated": "#bdbdbd",
+});
 
 // --- the map --------------------------------------------------------------------------------
 
@@ -82,6 +90,7 @@ function drawMap() {
   ctx.strokeStyle = "#39414f";
   ctx.lineWidth = 1;
   ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+  if (ui.showRoads.checked && state.roads) drawRoads(ctx);
   if (ui.showLights.checked && state.lights) drawLights(ctx);
   drawStroke(ctx);
   drawObserver(ctx);
@@ -101,6 +110,70 @@ function drawLights(ctx) {
     if (sx < -4 || sy < -4 || sx > v.width + 4 || sy > v.height + 4) continue;
     ctx.fillRect(sx - size / 2, sy - size / 2, size, size);
   }
+}
+
+/** @param {CanvasRenderingContext2D} ctx */
+function drawRoads(ctx) {
+  ctx.lineWidth = 3;
+  ctx.lineCap = "round";
+  for (const feature of state.roads.features ?? []) {
+    const coordinates = feature.geometry?.coordinates ?? [];
+    if (coordinates.length < 2) continue;
+    ctx.strokeStyle = STATUS_COLOURS[feature.properties.status] ?? STATUS_COLOURS["not rated"];
+    ctx.beginPath();
+    coordinates.forEach((/** @type {number[]} */ point, /** @type {number} */ i) => {
+      const [sx, sy] = toScreen(point[0], point[1]);
+      if (i === 0) ctx.moveTo(sx, sy);
+      else ctx.lineTo(sx, sy);
+    });
+    ctx.stroke();
+  }
+}
+
+/**
+ * The segment nearest a screen point within ROAD_PICK, or null.
+ * @param {number} sx @param {number} sy [CSS px]
+ */
+function roadAt(sx, sy) {
+  let best = null;
+  let bestDistance = ROAD_PICK;
+  for (const feature of state.roads?.features ?? []) {
+    const points = (feature.geometry?.coordinates ?? []).map(
+      (/** @type {number[]} */ p) => toScreen(p[0], p[1]),
+    );
+    for (let i = 1; i < points.length; i++) {
+      const [ax, ay] = points[i - 1];
+      const [bx, by] = points[i];
+      const dx = bx - ax;
+      const dy = by - ay;
+      const length2 = dx * dx + dy * dy;
+      const t = length2 ? Math.min(1, Math.max(0, ((sx - ax) * dx + (sy - ay) * dy) / length2)) : 0;
+      const distance = Math.hypot(sx - (ax + t * dx), sy - (ay + t * dy));
+      if (distance <= bestDistance) {
+        bestDistance = distance;
+        best = feature.properties;
+      }
+    }
+  }
+  return best;
+}
+
+/** Show the popup of the segment under the pointer (class, status, binding criterion, margin). */
+function showRoadPopup(/** @type {number} */ sx, /** @type {number} */ sy) {
+  const road = ui.showRoads.checked ? roadAt(sx, sy) : null;
+  ui.roadPopup.hidden = !road;
+  if (!road) return;
+  const margin =
+    road.binding_margin === null ? "" : ` (margin ${(100 * road.binding_margin).toFixed(1)} %)`;
+  const binding = road.binding ? `binding: ${road.binding}${margin}` : road.reason || "";
+  ui.roadPopup.textContent =
+    `segment ${road.segment} · ${road.lighting_class ?? "no class"} · ${road.status}` +
+    (binding ? ` · ${binding}` : "");
+  // beside the pointer, on the side of the map with room for it
+  const width = ui.roadPopup.offsetWidth;
+  const left = sx + 12 + width > state.view.width ? Math.max(0, sx - 12 - width) : sx + 12;
+  ui.roadPopup.style.left = `${left}px`;
+  ui.roadPopup.style.top = `${sy + 12}px`;
 }
 
 /** @param {CanvasRenderingContext2D} ctx */
@@ -328,6 +401,7 @@ export function bindMap({ moveObserver, applyStroke, onResize }) {
     const [sx, sy] = mapPoint(event);
     const [wx, wy] = toWorld(sx, sy);
     ui.cursorCoords.textContent = `x ${wx.toFixed(1)}  y ${wy.toFixed(1)} m  (${state.info?.crs ?? ""})`;
+    if (state.roads) showRoadPopup(sx, sy);
     if (state.tool !== "observer") {
       state.brushCursor = [sx, sy];
       scheduleMap();
@@ -384,6 +458,7 @@ export function bindMap({ moveObserver, applyStroke, onResize }) {
   ui.map.addEventListener("pointerup", endGesture);
   ui.map.addEventListener("pointercancel", endGesture);
   ui.map.addEventListener("pointerleave", () => {
+    ui.roadPopup.hidden = true;
     state.brushCursor = null;
     scheduleMap();
   });

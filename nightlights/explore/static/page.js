@@ -155,6 +155,16 @@ export const ui = {
   obsSet: byId("obs-set", HTMLButtonElement),
   showOriginal: byId("show-original", HTMLInputElement),
   showLights: byId("show-lights", HTMLInputElement),
+  showRoads: byId("show-roads", HTMLInputElement),
+  roadPopup: byId("road-popup", HTMLElement),
+  roadsPanel: byId("roads-panel", HTMLDetailsElement),
+  roadsShare: byId("roads-share", HTMLOutputElement),
+  roadObjective: byId("road-objective", HTMLSelectElement),
+  roadMinDimming: byId("road-min-dimming", HTMLInputElement),
+  roadHours: byId("road-hours", HTMLInputElement),
+  roadSky: byId("road-sky", HTMLInputElement),
+  roadPlan: byId("road-plan", HTMLButtonElement),
+  roadPlanResult: byId("road-plan-result", HTMLElement),
   showTiles: byId("show-tiles", HTMLInputElement),
   overlay: byId("overlay", HTMLSelectElement),
   metric: byId("metric", HTMLSelectElement),
@@ -220,6 +230,8 @@ export const state = {
   emissionImage: null,
   /** @type {Float64Array | null} x0, y0, x1, y1, ... of the light points */
   lights: null,
+  /** Street segments with their compliance (GeoJSON from api/roads). @type {any} */
+  roads: null,
   /** Panorama from /api/panorama for the observer. @type {Panorama | null} */
   sky: null,
   /** @type {Dimming | null} */

@@ -12,6 +12,7 @@ With ``NIGHTLIGHTS_SCREENSHOTS=<folder>`` the walk saves ``explore_overview.png`
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import threading
@@ -23,6 +24,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from affine import Affine
 
 pytest.importorskip("selenium", reason="selenium is not installed")
 uvicorn = pytest.importorskip("uvicorn", reason="uvicorn is not installed")
@@ -85,17 +87,11 @@ def _synthetic_session(folder: Path) -> Any:
     return ExploreSession(Scene(emission, kernel=kernel), lights=lights, progress=False)
 
 
-@pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path]]:
-    """The app on a free loopback port in a background thread: (its URL, the export folder)."""
+@contextlib.contextmanager
+def _serving(session: Any, export_dir: Path) -> Iterator[str]:
+    """The app of ``session`` on a free loopback port in a background thread: its URL."""
     from nightlights.explore._app import LOOPBACK_NAMES, bind, create_app
-    from nightlights.explore._session import ExploreSession
 
-    folder = tmp_path_factory.mktemp("explore_browser")
-    given = os.environ.get("NIGHTLIGHTS_EXPLORE_SESSION")
-    session = ExploreSession.open(given, progress=False) if given else _synthetic_session(folder)
-    export_dir = folder / "exports"
-    export_dir.mkdir()
     app = create_app(session, export_dir=export_dir, allowed_hosts=LOOPBACK_NAMES)
     sock = bind("127.0.0.1", 0)
     port = sock.getsockname()[1]
@@ -110,11 +106,25 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path
             pytest.fail("the explore app did not start")
         time.sleep(0.02)
     try:
-        yield f"http://127.0.0.1:{port}/", export_dir
+        yield f"http://127.0.0.1:{port}/"
     finally:
         server.should_exit = True
         thread.join(WAIT)
         sock.close()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path]]:
+    """The app on a free loopback port in a background thread: (its URL, the export folder)."""
+    from nightlights.explore._session import ExploreSession
+
+    folder = tmp_path_factory.mktemp("explore_browser")
+    given = os.environ.get("NIGHTLIGHTS_EXPLORE_SESSION")
+    session = ExploreSession.open(given, progress=False) if given else _synthetic_session(folder)
+    export_dir = folder / "exports"
+    export_dir.mkdir()
+    with _serving(session, export_dir) as url:
+        yield url, export_dir
 
 
 @pytest.fixture(scope="module")
@@ -361,3 +371,51 @@ def test_walk_through_the_page(browser: webdriver.Chrome, served: tuple[str, Pat
             f"{median['queue_ms']:.1f}, request {median['request_ms']:.1f} (engine "
             f"{median['server_ms']:.1f}), drawing {median['draw_ms']:.1f} ms"
         )
+
+
+def test_road_compliance_and_the_plan(
+    browser: webdriver.Chrome, road_plan_case: Any, tiny_sky_kernel: Any, tmp_path: Path
+) -> None:
+    """The road layer and the plan button on a session with streets: the share the page shows
+    is the API's, and the plan it applies is one edit that Undo takes back."""
+    import warnings
+
+    from nightlights.errors import DataQualityWarning
+    from nightlights.explore import RoadOptions
+    from nightlights.explore._session import ExploreSession
+    from nightlights.inverse.road_sky import lights_emission
+    from nightlights.io import Raster
+    from nightlights.sky import Scene
+
+    lights, streets, table, model = road_plan_case
+    lights.to_file(tmp_path / "lights.gpkg")
+    streets.to_file(tmp_path / "streets.gpkg")
+    grid = Raster(np.zeros((1, 8, 12)), Affine(100.0, 0, -300.0, 0, -100.0, 500.0), "EPSG:3067")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        session = ExploreSession(
+            Scene(lights_emission(model.luminaires, grid), kernel=tiny_sky_kernel),
+            lights=tmp_path / "lights.gpkg",
+            streets=tmp_path / "streets.gpkg",
+            road_options=RoadOptions(requirements=table),
+            progress=False,
+        )
+    driver = browser
+    with _serving(session, tmp_path) as url:
+        driver.get(url)
+        _wait(driver, lambda: driver.execute_script("return document.body.dataset.ready"), "ready")
+        assert driver.find_element(By.ID, "show-roads").is_selected()
+        share = _get_json(url + "api/roads")["summary"]["share_compliant"]
+        _wait(driver, lambda: _text(driver, "roads-share") == f"{100 * share:.1f} %", "the share")
+        driver.find_element(By.ID, "road-sky").click()  # the road minima alone: no observer
+        driver.find_element(By.ID, "road-plan").click()
+        _wait(driver, lambda: "Applied" in _text(driver, "road-plan-result"), "the plan")
+        assert session.can_undo and not driver.find_element(By.ID, "undo").get_attribute("disabled")
+        driver.find_element(By.ID, "undo").click()
+        _wait(driver, lambda: not session.can_undo, "the undo")
+    errors = [
+        entry["message"]
+        for entry in driver.get_log("browser")
+        if entry["level"] == "SEVERE" and "Failed to load resource" not in entry["message"]
+    ]
+    assert errors == []
