@@ -29,7 +29,7 @@ from nightlights.ground.area_lights import (
     read_area_lights,
     rectangle_illuminance,
 )
-from nightlights.ground.footprints import obstacle_rasters
+from nightlights.ground.footprints import land_use_obstacles, obstacle_rasters
 from nightlights.ground.frames import (
     FluxProfile,
     IntensityTable,
@@ -123,6 +123,7 @@ __all__ = [
     "influence_radius",
     "irradiance",
     "lambertian_panel_table",
+    "land_use_obstacles",
     "light_points",
     "load_database",
     "luminaire_rotation",

@@ -1,4 +1,4 @@
-"""Obstacle rasters from building footprints: height, spacing and filling factor per cell.
+"""Obstacle rasters from building footprints or land use: height, spacing, filling per cell.
 
 Each footprint has a height: its height field, or its number of levels times a storey height
 (:data:`STOREY_HEIGHT`). On a grid of cell area A, with a_ic the area of footprint i (of total
@@ -17,6 +17,10 @@ A cell without buildings has h = 0, f = 0 and no spacing (NaN): no obstacle
 given ``default_height`` (for instance the height of their land use in
 :data:`~nightlights.ground.obstacles.LAND_USE_OBSTACLES`), with a
 :class:`~nightlights.errors.DataQualityWarning` either way.
+
+Without footprints, :func:`land_use_obstacles` gives each cell of a land-use (land-cover)
+raster the defaults of its class (:data:`~nightlights.ground.obstacles.LAND_USE_OBSTACLES`, the
+project's choice from Stewart & Oke 2012, Table 2).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import geopandas as gpd
@@ -36,6 +41,7 @@ from pyproj import CRS
 
 from nightlights._typing import FloatArray
 from nightlights.errors import CRSError, DataQualityWarning, InputError
+from nightlights.ground.obstacles import LAND_USE_OBSTACLES, ObstacleProperties
 from nightlights.io import Raster
 from nightlights.io.raster import as_raster, source_label
 from nightlights.io.vector import as_vector
@@ -45,6 +51,7 @@ __all__ = [
     "LEVELS_FIELDS",
     "STOREY_HEIGHT",
     "footprint_heights",
+    "land_use_obstacles",
     "obstacle_rasters",
 ]
 
@@ -300,3 +307,76 @@ def obstacle_rasters(
     if output is not None:
         raster.write(Path(output))
     return raster
+
+
+def land_use_obstacles(
+    land_use: Raster | xr.DataArray | str | os.PathLike[str],
+    classes: Mapping[int, str | ObstacleProperties],
+    *,
+    output: str | os.PathLike[str] | None = None,
+) -> Raster:
+    """Obstacle rasters from a land-use raster: each class's default obstacles.
+
+    Parameters
+    ----------
+    land_use
+        Single-band raster of land-use class codes (first band read).
+    classes
+        Class code -> a name of :data:`~nightlights.ground.obstacles.LAND_USE_OBSTACLES`
+        (``compact_midrise``, ``open_lowrise``, ...) or its own properties.
+    output
+        GeoTIFF to write (a three-band COG, written atomically); None: none.
+
+    Returns
+    -------
+    Raster
+        Bands ``height`` [m], ``spacing`` [m] and ``filling`` [1] on the land-use grid; cells
+        of codes not in ``classes`` (warned) and nodata cells have no obstacle.
+
+    Raises
+    ------
+    InputError
+        A class name that is not in the table.
+
+    Examples
+    --------
+    >>> raster = Raster(np.array([[[2.0, 6.0]]]), Affine(100, 0, 0, 0, -100, 100), "EPSG:32635")
+    >>> out = land_use_obstacles(raster, {2: "compact_midrise", 6: "open_lowrise"})
+    >>> out.data[0, 0].tolist(), out.data[2, 0].tolist()
+    ([17.5, 6.5], [0.55, 0.3])
+    """
+    raster = as_raster(land_use)
+    codes = raster.data[0]
+    shape = codes.shape
+    height, spacing, filling = np.zeros(shape), np.full(shape, np.nan), np.zeros(shape)
+    for code, kind in classes.items():
+        if isinstance(kind, ObstacleProperties):
+            props = kind
+        elif kind in LAND_USE_OBSTACLES:
+            props = LAND_USE_OBSTACLES[kind]
+        else:
+            raise InputError(
+                f"classes[{code!r}]={kind!r}; expected one of {', '.join(LAND_USE_OBSTACLES)} "
+                "or ObstacleProperties"
+            )
+        cells = codes == code
+        height[cells], spacing[cells], filling[cells] = props.height, props.spacing, props.filling
+    unknown = np.setdiff1d(np.unique(codes[np.isfinite(codes)]), list(classes))
+    if unknown.size:
+        warnings.warn(
+            f"{source_label(land_use, 'land-use raster')}: classes "
+            f"{', '.join(f'{c:g}' for c in unknown[:10])} not in classes=; no obstacles there",
+            DataQualityWarning,
+            stacklevel=2,
+        )
+    out = Raster(
+        np.stack([height, spacing, filling]),
+        raster.transform,
+        raster.crs,
+        ("height", "spacing", "filling"),
+        ("m", "m", "1"),
+        {"model": "ILLUMINA obstacles from land use (Stewart & Oke 2012 defaults)"},
+    )
+    if output is not None:
+        out.write(Path(output))
+    return out

@@ -13,7 +13,8 @@ from affine import Affine
 from shapely.geometry import box
 
 from nightlights.errors import DataQualityWarning, InputError
-from nightlights.ground.footprints import obstacle_rasters
+from nightlights.ground.footprints import land_use_obstacles, obstacle_rasters
+from nightlights.ground.obstacles import ObstacleProperties
 from nightlights.io import Raster
 
 CRS = "EPSG:32635"
@@ -93,3 +94,18 @@ def test_bad_input_is_refused() -> None:
         obstacle_rasters(good, resolution=10.0, height_field="tall")
     with pytest.raises(InputError, match=r"storey_height=0\.0"):
         obstacle_rasters(good, resolution=10.0, storey_height=0.0)
+
+
+def test_land_use_classes_take_their_table_rows() -> None:
+    codes = np.array([[[2.0, 6.0], [np.nan, 99.0]]])
+    raster = Raster(codes, Affine(100, 0, 0, 0, -100, 200), CRS)
+    own = ObstacleProperties(4.0, 8.0, 0.25)
+    with pytest.warns(DataQualityWarning, match="classes 99 not in classes="):
+        out = land_use_obstacles(raster, {2: "compact_midrise", 6: own})
+    # compact midrise: h 10-25 m, H/W 0.75-2, BSF 0.40-0.70 (Stewart & Oke 2012, Table 2).
+    assert out.data[:, 0, 0].tolist() == pytest.approx([17.5, 17.5 / 1.375, 0.55])
+    assert out.data[:, 0, 1].tolist() == pytest.approx([4.0, 8.0, 0.25])
+    for cell in ((1, 0), (1, 1)):
+        assert out.data[0][cell] == 0.0 and out.data[2][cell] == 0.0
+    with pytest.raises(InputError, match=r"classes\[2\]='downtown'; expected one of"):
+        land_use_obstacles(raster, {2: "downtown"})
