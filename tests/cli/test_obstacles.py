@@ -39,3 +39,34 @@ def test_neither_grid_is_one_line(tmp_path: Path) -> None:
     result = CliRunner().invoke(cli, ["obstacles", str(footprints), str(tmp_path / "o.tif")])
     assert result.exit_code == 1
     assert "give one of --reference (a raster) or --resolution" in result.output
+
+
+def test_darkness_takes_the_obstacle_raster_into_its_scene(fake_stage, tmp_path: Path) -> None:
+    from types import SimpleNamespace
+
+    import numpy as np
+    from affine import Affine
+
+    transform = Affine(100, 0, 500_000, 0, -100, 6_700_000)
+    flux = np.zeros((1, 20, 20))
+    flux[0, 5:8, 12:15] = 1.0
+    emission = tmp_path / "emission.tif"
+    Raster(flux, transform, "EPSG:32635", ("reflected",), ("lm m-2",)).write(emission)
+    obstacles = tmp_path / "obstacles.tif"
+    props = np.stack([np.full((20, 20), 10.0), np.full((20, 20), 10.0), np.full((20, 20), 1.0)])
+    Raster(props, transform, "EPSG:32635", ("height", "spacing", "filling")).write(obstacles)
+    done = SimpleNamespace(raster=Raster(np.ones((2, 20, 20)), transform, "EPSG:32635"), seconds=0)
+    recorder = fake_stage("darkness", done)
+    args = ["darkness", str(emission), str(tmp_path / "z.tif"), "--obstacles", str(obstacles)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    scene = recorder.args[0]
+    assert scene.obstacles == str(obstacles) and scene.inputs["emission"] == str(emission)
+    # Full canyons of H/W = 1: the Lambertian share keeps cos(atan 2) of its flux and the
+    # Garstang lobe (tagged on its own band) nothing through the gaps.
+    assert [t["emission_function"] for t in scene.emission.band_tags] == [
+        "lambertian",
+        "garstang:1,0",
+    ]
+    assert scene.emission.data[1].max() == 0.0
+    assert 0.0 < scene.emission.data[0].max() < 1.0
