@@ -142,8 +142,11 @@ def _grid(
         raise InputError("give one of reference= (a raster) or resolution= (a cell size in m)")
     if reference is not None:
         raster = as_raster(reference)
-        if raster.crs is None:
-            raise CRSError(f"{source_label(reference, 'reference raster')}: no CRS")
+        if raster.crs is None or not raster.crs.is_projected:
+            raise CRSError(
+                f"{source_label(reference, 'reference raster')}: CRS {raster.crs}; expected a "
+                "projected CRS in metres (areas and spacings are computed on its grid)"
+            )
         return raster.transform, raster.shape, raster.crs, dict(raster.tags)
     step = float(resolution)  # type: ignore[arg-type]
     if not (math.isfinite(step) and step > 0):

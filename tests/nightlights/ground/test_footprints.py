@@ -12,7 +12,7 @@ import pytest
 from affine import Affine
 from shapely.geometry import box
 
-from nightlights.errors import DataQualityWarning, InputError
+from nightlights.errors import CRSError, DataQualityWarning, InputError
 from nightlights.ground.footprints import land_use_obstacles, obstacle_rasters
 from nightlights.ground.obstacles import ObstacleProperties
 from nightlights.io import Raster
@@ -92,6 +92,9 @@ def test_bad_input_is_refused() -> None:
         obstacle_rasters(good)
     with pytest.raises(InputError, match="height_field='tall': no such field"):
         obstacle_rasters(good, resolution=10.0, height_field="tall")
+    geographic = Raster(np.zeros((1, 2, 2)), Affine(0.1, 0, 24, 0, -0.1, 60), "EPSG:4326")
+    with pytest.raises(CRSError, match="expected a projected CRS in metres"):
+        obstacle_rasters(good, reference=geographic)
     with pytest.raises(InputError, match=r"storey_height=0\.0"):
         obstacle_rasters(good, resolution=10.0, storey_height=0.0)
 
