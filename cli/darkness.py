@@ -13,6 +13,7 @@ from .options import (
     natural_of,
     night_option,
     observer_height_option,
+    obstacles_option,
     output_option,
     overwrite_option,
     resolve_inout,
@@ -31,6 +32,7 @@ from .resources import max_memory_option, scheduler_option
 @overwrite_option
 @observer_height_option
 @dem_option
+@obstacles_option
 @kernel_option
 @turbidity_option
 @instrument_option
@@ -85,6 +87,7 @@ def darkness(
     overwrite: bool,
     observer_height: float,
     dem: str | None,
+    obstacles: str | None,
     kernel: str | None,
     turbidity: float | None,
     instrument: str | None,
@@ -111,6 +114,7 @@ def darkness(
     )
     scene = scene_of(
         emission,
+        obstacles=obstacles,
         dem=dem,
         kernel=kernel,
         turbidity=turbidity,

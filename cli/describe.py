@@ -48,6 +48,7 @@ TOOLBOX: dict[str, tuple[str, str]] = {
     "irradiance": ("Ground irradiance", "Light"),
     "emission ground": ("Upward emission", "Light"),
     "emission viirs": ("Upward emission from VIIRS", "Light"),
+    "obstacles": ("Obstacles from building footprints", "Light"),
     "kernel build": ("Skyglow kernel", "Sky"),
     "skyglow": ("Skyglow panorama", "Sky"),
     "darkness": ("Zenith darkness map", "Sky"),

@@ -37,6 +37,7 @@ COMMAND_MODULES = (
     ".streets",
     ".irradiance",
     ".emission",
+    ".obstacles",
     ".kernel",
     ".skyglow",
     ".inverse",

@@ -599,6 +599,7 @@ def scene_of(
     n_elevation: int | None = None,
     n_azimuth: int | None = None,
     n_distance: int | None = None,
+    obstacles: str | None = None,
 ) -> Any:
     """The ``nightlights.Scene`` of a sky command's scene options."""
     from nightlights.sky import Scene
@@ -611,6 +612,7 @@ def scene_of(
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
         n_distance=n_distance,
+        obstacles=obstacles,
     )
 
 
@@ -649,6 +651,14 @@ observer_height_option = click.option(
     default=DEFAULT_OBSERVER_HEIGHT,
     show_default=True,
     help="Above ground [m].",
+)
+#: Obstacles around the lit ground (``obstacles=`` of the scene).
+obstacles_option = click.option(
+    "--obstacles",
+    type=KindPath(RASTER, exists=True, dir_okay=False),
+    default=None,
+    help="Obstacle raster on the emission's grid (nightlights obstacles: height, spacing, "
+    "filling); default: open ground.",
 )
 kernel_option = click.option(
     "--kernel",

@@ -17,6 +17,7 @@ from .options import (
     natural_of,
     night_option,
     observer_of,
+    obstacles_option,
     one_of,
     output_option,
     overwrite_option,
@@ -40,6 +41,7 @@ PANORAMA = file_kind("nc", "tif")
 )
 @overwrite_option
 @scene_options
+@obstacles_option
 @click.option(
     "--mode",
     type=LibraryChoice(SKYGLOW_MODES),
@@ -97,6 +99,7 @@ def skyglow(
     polar_output: str | None,
     old_polar_out: str | None,
     dem: str | None,
+    obstacles: str | None,
     bands: str,
     spectrum: str | None,
     instrument: str | None,
@@ -119,6 +122,7 @@ def skyglow(
     check_outputs([png, polar_output], overwrite=overwrite)
     scene = scene_of(
         emission,
+        obstacles=obstacles,
         dem=dem,
         kernel=kernel,
         turbidity=turbidity,

@@ -56,6 +56,8 @@ _LAZY: dict[str, str] = {
     "irradiance": "nightlights.ground",
     "emission": "nightlights.ground",
     "emission_from_viirs": "nightlights.ground",
+    "obstacle_rasters": "nightlights.ground",
+    "ObstacleProperties": "nightlights.ground",
     "IrradianceResult": "nightlights.ground",
     "EmissionResult": "nightlights.ground",
     # what a sky computation is about: the scene and who looks at it
@@ -106,9 +108,11 @@ if TYPE_CHECKING:
     from nightlights.ground import (
         EmissionResult,
         IrradianceResult,
+        ObstacleProperties,
         emission,
         emission_from_viirs,
         irradiance,
+        obstacle_rasters,
     )
     from nightlights.inverse import (
         InfluenceResult,
@@ -182,6 +186,7 @@ __all__ = [
     "NormalizeResult",
     "Observer",
     "ObserversResult",
+    "ObstacleProperties",
     "OutputError",
     "PlaceResult",
     "ProjectResult",
@@ -209,6 +214,7 @@ __all__ = [
     "load_project",
     "normalize",
     "observers",
+    "obstacle_rasters",
     "place",
     "read_readings",
     "run",

@@ -6,7 +6,9 @@ Stages (in-memory objects or paths in, a result object out, a file written on re
   (:class:`IrradianceResult`);
 * :func:`emission`: ground illuminance and the lights -> upward flux density, reflected and
   direct (:class:`EmissionResult`);
-* :func:`emission_from_viirs`: a VIIRS Day/Night Band radiance raster -> upward flux density.
+* :func:`emission_from_viirs`: a VIIRS Day/Night Band radiance raster -> upward flux density;
+* :func:`obstacle_rasters`: building footprints -> obstacle height, spacing and filling factor
+  (:mod:`~nightlights.ground.footprints`; the obstacle model: :mod:`~nightlights.ground.obstacles`).
 
 The model underneath, one module per job: luminaire frames and candela tables
 (:mod:`~nightlights.ground.frames`), light layers to luminaire arrays
@@ -27,6 +29,7 @@ from nightlights.ground.area_lights import (
     read_area_lights,
     rectangle_illuminance,
 )
+from nightlights.ground.footprints import land_use_obstacles, obstacle_rasters
 from nightlights.ground.frames import (
     FluxProfile,
     IntensityTable,
@@ -48,6 +51,12 @@ from nightlights.ground.luminaires import (
     resolve_luminaires,
     sample_elevation,
     sensor_factors,
+)
+from nightlights.ground.obstacles import (
+    LAND_USE_OBSTACLES,
+    ObstacleProperties,
+    escaping_fraction,
+    obstacle_transmission,
 )
 from nightlights.ground.stage import IrradianceResult, ground_on_grid, irradiance
 from nightlights.ground.tiles import (
@@ -77,6 +86,7 @@ from nightlights.ground.upward import (
 __all__ = [
     "DEFAULT_VIIRS_SPECTRUM",
     "DNB_BAND",
+    "LAND_USE_OBSTACLES",
     "AreaLightOptions",
     "ComputedIrradiance",
     "DatabaseLike",
@@ -87,6 +97,7 @@ __all__ = [
     "IrradianceResult",
     "LightSystemLike",
     "Luminaires",
+    "ObstacleProperties",
     "PhotometryLike",
     "PseudoLights",
     "RasterGrid",
@@ -102,6 +113,7 @@ __all__ = [
     "dnb_luminous_efficacy",
     "emission",
     "emission_from_viirs",
+    "escaping_fraction",
     "flux_density_to_viirs_radiance",
     "flux_profile",
     "geographic_cell_areas",
@@ -111,10 +123,13 @@ __all__ = [
     "influence_radius",
     "irradiance",
     "lambertian_panel_table",
+    "land_use_obstacles",
     "light_points",
     "load_database",
     "luminaire_rotation",
     "make_tiles",
+    "obstacle_rasters",
+    "obstacle_transmission",
     "photometric_to_direction",
     "pseudo_lights",
     "read_area_lights",

@@ -37,6 +37,7 @@ from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells
 from nightlights.sky.kernel import TABULATED_PREFIX
+from nightlights.sky.obstacles import ObstacleInput, obstructed_emission
 from nightlights.sky.spec import KernelSpec, scene_kernel_spec
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
 
@@ -171,6 +172,13 @@ class Scene:
         :data:`DEFAULT_GRID`); with ``kernel`` None or equal to the kernel's own [1].
     cache_dir
         Folder of the kernel cache (None: the default cache folder).
+    obstacles
+        Obstacles around the lit ground (:mod:`nightlights.sky.obstacles`): uniform
+        :class:`~nightlights.ground.obstacles.ObstacleProperties` or a three-band raster
+        (height [m], spacing [m], filling factor [1]) on the emission's grid, as written by
+        :func:`~nightlights.ground.footprints.obstacle_rasters`. Every sky stage then sees the
+        obstructed emission (:func:`~nightlights.sky.obstacles.obstructed_emission`) as
+        ``emission``. None (default), or no cell with obstacles: the emission as given.
 
     Examples
     --------
@@ -195,9 +203,11 @@ class Scene:
     n_azimuth: int | None = None
     n_distance: int | None = None
     cache_dir: PathLike | None = None
+    obstacles: ObstacleInput | None = None
     _loaded: dict[str, xr.Dataset] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _given: EmissionInput | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.emission is None:
@@ -217,13 +227,31 @@ class Scene:
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
                 raise InputError(f"{name}={value!r}; expected an integer >= 1")
             object.__setattr__(self, name, int(value))
+        if self.obstacles is not None:
+            self._obstruct()
+
+    def _obstruct(self) -> None:
+        """Put the obstructed emission in place of the given one (kept as ``_given``)."""
+        given, obstacles = self.emission, self.obstacles
+        assert obstacles is not None  # called with obstacles
+        label = self.label
+        if isinstance(given, LitCells):
+            raise InputError(
+                "obstacles need the emission raster on its grid, not its lit cells; give the "
+                "scene a Raster, DataArray or path"
+            )
+        obstructed = obstructed_emission(given, obstacles, label=label)
+        object.__setattr__(self, "_given", given)
+        if obstructed is not None:
+            object.__setattr__(self, "emission", obstructed)
 
     @property
     def label(self) -> str:
         """How messages name the emission."""
-        if isinstance(self.emission, LitCells):
+        emission = self.emission if self._given is None else self._given
+        if isinstance(emission, LitCells):
             return "in-memory emission raster"
-        return source_label(self.emission, "emission raster")
+        return source_label(emission, "emission raster")
 
     def raster_input(self, stage: str) -> RasterInput:
         """The emission as a raster input (a stage that needs the whole grid cannot take the
@@ -246,7 +274,9 @@ class Scene:
         """The scene's inputs by parameter (``emission``, ``dem``, ``kernel``): the stages
         refuse an output that would replace one of those given as files
         (:func:`~nightlights.io.outputs.refuse_replacing_inputs`)."""
-        return {"emission": self.emission, "dem": self.dem, "kernel": self.kernel}
+        emission = self.emission if self._given is None else self._given
+        inputs = {"emission": emission, "dem": self.dem, "kernel": self.kernel}
+        return inputs if self.obstacles is None else {**inputs, "obstacles": self.obstacles}
 
     @property
     def grid(self) -> dict[str, int | None]:
@@ -256,6 +286,8 @@ class Scene:
     def replace(self, **changes: Any) -> Scene:
         """A copy with some fields changed (``turbidity=3.0``, ``dem="dem.tif"``); a loaded
         kernel is shared while ``kernel`` stays."""
+        if self._given is not None and "emission" not in changes:
+            changes = {**changes, "emission": self._given}
         scene = dataclasses.replace(self, **changes)
         if "kernel" not in changes:
             scene._loaded.update(self._loaded)
@@ -352,7 +384,8 @@ class Scene:
         -------
         dict
             ``turbidity``, ``n_elevation``, ``n_azimuth``, ``n_distance``, ``kernel_hash``,
-            and ``kernel_file`` / ``dem_file`` when they were given as files.
+            and ``kernel_file`` / ``dem_file`` / ``obstacles_file`` when they were given as
+            files.
         """
         n_frequency = int(table.sizes.get("frequency", 0))
         tags = {
@@ -366,6 +399,8 @@ class Scene:
             tags["kernel_file"] = str(Path(self.kernel).resolve())
         if isinstance(self.dem, str | Path):
             tags["dem_file"] = str(Path(self.dem).resolve())
+        if isinstance(self.obstacles, str | Path):
+            tags["obstacles_file"] = str(Path(self.obstacles).resolve())
         return tags
 
     def recorded(self, tags: Mapping[str, Any], label: str = "product") -> Scene:
@@ -373,8 +408,8 @@ class Scene:
 
         What this scene leaves open (None) is taken from the tags: the turbidity and grid of
         the product's kernel, its kernel file (when it still exists with the recorded
-        content hash) and its DEM file. What this scene gives explicitly wins; a turbidity
-        that differs from the recorded one is warned about.
+        content hash), its DEM file and its obstacles file. What this scene gives explicitly
+        wins; a turbidity that differs from the recorded one is warned about.
 
         Parameters
         ----------
@@ -421,6 +456,17 @@ class Scene:
                 warnings.warn(
                     f"{label} was computed over the DEM {dem_file}, which no longer exists; "
                     "the figures use flat ground",
+                    DataQualityWarning,
+                    stacklevel=3,
+                )
+        obstacles_file = tags.get("obstacles_file")
+        if self.obstacles is None and obstacles_file:
+            if Path(obstacles_file).is_file():
+                changes["obstacles"] = Path(obstacles_file)
+            else:
+                warnings.warn(
+                    f"{label} was computed with the obstacles {obstacles_file}, which no longer "
+                    "exist; the figures use open ground",
                     DataQualityWarning,
                     stacklevel=3,
                 )

@@ -83,6 +83,7 @@ API_ONLY = {
     "temperature_c",
     "vmax",
     "vmin",
+    "classes",  # land_use_obstacles: land-use codes to obstacle defaults (no command)
 }
 #: ``name=value`` in messages that is no parameter: OpenStreetMap tags.
 NOT_PARAMETERS = {"highway"}

@@ -111,6 +111,7 @@ STAGE_IDS = {
     "irradiance",
     "emission",
     "emissionviirs",
+    "obstacles",
     "skyglow",
     "validate",
     "inverseq",
