@@ -36,6 +36,7 @@ from nightlights.emission_functions import EMISSION_MODELS, EmissionFunction, em
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells
+from nightlights.sky.clouds import CloudLayer
 from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.spec import KernelSpec, scene_kernel_spec
 from nightlights.sky.store import KernelResult, get_or_build_kernel, load_kernel
@@ -171,6 +172,10 @@ class Scene:
         :data:`DEFAULT_GRID`); with ``kernel`` None or equal to the kernel's own [1].
     cache_dir
         Folder of the kernel cache (None: the default cache folder).
+    clouds
+        A cloud deck (:class:`~nightlights.sky.clouds.CloudLayer`); None: a clear sky.
+        ``skyglow`` mixes the cloudy panorama of :mod:`nightlights.sky.cloudy` in by the cover
+        and dims the natural sky it reports; the other sky stages do not read it yet.
 
     Examples
     --------
@@ -195,6 +200,7 @@ class Scene:
     n_azimuth: int | None = None
     n_distance: int | None = None
     cache_dir: PathLike | None = None
+    clouds: CloudLayer | None = None
     _loaded: dict[str, xr.Dataset] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -202,6 +208,8 @@ class Scene:
     def __post_init__(self) -> None:
         if self.emission is None:
             raise InputError("emission=None; expected an emission raster (Raster, DataArray, path)")
+        if self.clouds is not None and not isinstance(self.clouds, CloudLayer):
+            raise InputError(f"clouds={self.clouds!r}; expected a CloudLayer or None")
         if self.turbidity is not None:
             try:
                 turbidity = float(self.turbidity)
