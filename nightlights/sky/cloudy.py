@@ -59,7 +59,7 @@ def cloud_cover_at(cloud: CloudLayer, xy: tuple[float, float], crs: Any = None) 
         raise InputError(
             f"cover_raster CRS {raster.crs}; expected the emission's CRS {crs} (reproject it)"
         )
-    col, row = ~raster.transform * (float(xy[0]), float(xy[1]))
+    col, row = ~raster.transform @ (float(xy[0]), float(xy[1]))
     i, j = int(np.floor(row)), int(np.floor(col))
     rows, cols = raster.shape
     if not (0 <= i < rows and 0 <= j < cols):
