@@ -28,6 +28,8 @@ from nightlights.brightness import NON_FINITE_SKY, bortle_class, luminance_to_ma
 from nightlights.errors import InputError
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.clouds import CloudLayer
+from nightlights.sky.cloudy import cloud_cover_at, cloudy_panorama
 from nightlights.sky.colour import TRISTIMULUS_WAVELENGTHS, tristimulus_flux_ratios
 from nightlights.sky.instrument_units import DEFAULT_SPECTRUM, emission_spectrum, instrument_sky
 from nightlights.sky.instruments import Instrument
@@ -238,6 +240,14 @@ def skyglow_panorama(
         luminance = xyz[..., 1]
     seconds = time.perf_counter() - start
     luminance = np.maximum(luminance, 0.0)  # PCA truncation can ring slightly below zero
+    cloud_attrs: dict[str, float] = {}
+    if scene.clouds is not None:
+        clear = luminance
+        luminance, cloud_attrs = _with_clouds(scene.clouds, luminance, polar, tables, setup)
+        if xyz is not None:  # the deck is grey: the colour follows the luminance
+            with np.errstate(divide="ignore", invalid="ignore"):
+                gain = np.where(clear > 0, luminance / clear, 1.0)
+            xyz = xyz * gain[..., None]
     below_terrain = setup.below_terrain()
     if terrain is not None:
         luminance = np.where(below_terrain, np.nan, luminance)
@@ -268,10 +278,35 @@ def skyglow_panorama(
     if xyz is not None:
         dataset.attrs["spectrum"] = spectrum
     dataset.attrs["bands"] = bands
+    dataset.attrs.update(cloud_attrs)
     if reader is not None:
         weights = reader.panorama_weights(tables.elevation, dataset["azimuth"].values)
         dataset.attrs.update(reader.summary(reader.read(luminance, weights)))
     return SkyglowScene(dataset, polar, seconds)
+
+
+def _with_clouds(
+    cloud: CloudLayer,
+    luminance: FloatArray,
+    polar: PolarMap,
+    tables: KernelSlice,
+    setup: SceneSetup,
+) -> tuple[FloatArray, dict[str, float]]:
+    """The panorama under the scene's cloud deck (:mod:`nightlights.sky.cloudy`)."""
+    ground = setup.observer_altitude + setup.offset - setup.observer_height
+    top = float(np.max(setup.heights)) + setup.offset if setup.terrain is not None else None
+    return cloudy_panorama(
+        luminance,
+        polar.flux,
+        polar.distance_edges,
+        tables.elevation,
+        setup.functions,
+        cloud,
+        _kernel_atmosphere(setup.table),
+        cover=cloud_cover_at(cloud, setup.xy, setup.crs),
+        ground_altitude=max(ground, 0.0),
+        terrain_top=top,
+    )
 
 
 def _colour_spectrum(bands: str, scene: Scene) -> str:

@@ -36,6 +36,7 @@ from nightlights.emission_functions import EMISSION_MODELS, EmissionFunction, em
 from nightlights.errors import DataQualityWarning, InputError
 from nightlights.io import Raster, source_label
 from nightlights.io.raster import LitCells
+from nightlights.sky.clouds import CloudLayer
 from nightlights.sky.kernel import TABULATED_PREFIX
 from nightlights.sky.obstacles import ObstacleInput, obstructed_emission
 from nightlights.sky.spec import KernelSpec, scene_kernel_spec
@@ -179,6 +180,10 @@ class Scene:
         :func:`~nightlights.ground.footprints.obstacle_rasters`. Every sky stage then sees the
         obstructed emission (:func:`~nightlights.sky.obstacles.obstructed_emission`) as
         ``emission``. None (default), or no cell with obstacles: the emission as given.
+    clouds
+        A cloud deck (:class:`~nightlights.sky.clouds.CloudLayer`); None: a clear sky.
+        ``skyglow`` mixes the cloudy panorama of :mod:`nightlights.sky.cloudy` in by the cover
+        and dims the natural sky it reports; the other sky stages do not read it yet.
 
     Examples
     --------
@@ -204,6 +209,7 @@ class Scene:
     n_distance: int | None = None
     cache_dir: PathLike | None = None
     obstacles: ObstacleInput | None = None
+    clouds: CloudLayer | None = None
     _loaded: dict[str, xr.Dataset] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -212,6 +218,8 @@ class Scene:
     def __post_init__(self) -> None:
         if self.emission is None:
             raise InputError("emission=None; expected an emission raster (Raster, DataArray, path)")
+        if self.clouds is not None and not isinstance(self.clouds, CloudLayer):
+            raise InputError(f"clouds={self.clouds!r}; expected a CloudLayer or None")
         if self.turbidity is not None:
             try:
                 turbidity = float(self.turbidity)

@@ -22,7 +22,7 @@ from affine import Affine
 from pyproj import CRS
 
 from nightlights._typing import PathLike
-from nightlights.brightness import zenith_summary
+from nightlights.brightness import NATURAL_ZENITH_LUMINANCE, zenith_summary
 from nightlights.errors import InputError
 from nightlights.io import Raster, atomic_output
 from nightlights.io.outputs import OutputSet
@@ -258,7 +258,9 @@ def skyglow(
     dataset = sky.panorama
     zenith = float(dataset.attrs["zenith_luminance_cd_m2"])
     zenith_mag = float(dataset.attrs["zenith_sky_brightness"])
-    dataset.attrs.update(_with_natural_sky(zenith))
+    dataset.attrs.update(
+        _with_natural_sky(zenith, float(dataset.attrs.get("natural_sky_factor", 1.0)))
+    )
     with outputs:
         if target is not None and _is_geotiff(target):
             panorama_raster(dataset).write(outputs.temporary(target))
@@ -434,10 +436,14 @@ def polar_raster(
     )
 
 
-def _with_natural_sky(artificial: float) -> dict[str, float | int]:
+def _with_natural_sky(artificial: float, factor: float = 1.0) -> dict[str, float | int]:
     """The zenith with a moonless natural sky added (airglow, zodiacal light, starlight:
-    22.0 mag arcsec-2), beside the artificial figures, which stay as they are."""
-    summary = zenith_summary(artificial)
+    22.0 mag arcsec-2, times ``factor`` under a cloud deck), beside the artificial figures,
+    which stay as they are."""
+    if factor == 1.0:
+        summary = zenith_summary(artificial)
+    else:
+        summary = zenith_summary(artificial, natural_luminance=factor * NATURAL_ZENITH_LUMINANCE)
     return {
         "zenith_natural_cd_m2": float(summary["zenith_natural_cd_m2"]),
         "zenith_total_sky_brightness": float(summary["zenith_sky_brightness"]),

@@ -37,6 +37,7 @@ API_ONLY = {
     "tolerance",
     "weights",
     "zenith_reduction",
+    "clouds",
     "albedo",
     "observers",
     "energy",
