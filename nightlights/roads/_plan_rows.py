@@ -30,8 +30,9 @@ the mean of observer :math:`o`'s samples, :math:`r` the requirement):
   stays on the high branch, where :math:`\\bar L^{0.05} \\ge 5^{0.05}`).
 
 A segment that fails a criterion undimmed keeps that criterion at its undimmed value (the
-segment's worst section's figure replaces the requirement): the plan may not make it worse,
-and full output stays feasible. Each row carries its segment and a scale (the requirement
+segment's worst section's figure, loosened by :data:`RELAX_ROOM`, replaces the requirement):
+the plan may not make it worse, and full output stays feasible with the margin the program
+keeps inside every row. Each row carries its segment and a scale (the requirement
 times the undimmed level it compares with) that turns a shortfall into a fraction of the
 requirement, for the diagnosis of an infeasible plan.
 """
@@ -55,6 +56,10 @@ __all__ = ["RoadRows", "road_rows"]
 IntArray = NDArray[np.intp]
 #: f_TI formula constants, EN 13201-3:2015, Sec. 9.4 (low and high luminance branches).
 _TI_LOW, _TI_HIGH, _EXP_LOW, _EXP_HIGH = 65.0, 95.0, 0.8, 1.05
+#: Room given a criterion held at its undimmed figure [1, fraction of the figure]: twice the
+#: margin :data:`nightlights.roads._plan.MARGIN` the program keeps inside every row, so that
+#: full output meets the held rows (a plan may lose at most this much on a failing segment).
+RELAX_ROOM = 2e-6
 
 
 @dataclass(frozen=True)
@@ -98,10 +103,12 @@ def _required(rating: pd.DataFrame, table_name: str, n_sections: int, seg: IntAr
     value = rating[table_name].to_numpy(float)
     kind = CRITERIA[table_name][0]
     fails = np.isfinite(req) & np.isfinite(value)
+    # A failing criterion is held at its undimmed figure, loosened by RELAX_ROOM so that full
+    # output keeps the margin the program holds inside every row.
     if kind == "minimum":
-        req = np.where(fails & (value < req), value, req)
+        req = np.where(fails & (value < req), value * (1.0 - RELAX_ROOM), req)
     else:
-        req = np.where(fails & (value > req), value, req)
+        req = np.where(fails & (value > req), value * (1.0 + RELAX_ROOM), req)
     return req[seg] if n_sections else np.zeros(0)
 
 

@@ -134,3 +134,29 @@ def test_lazy_rows_reach_the_full_programs_optimum(road_plan_case, monkeypatch) 
     full = roads.road_plan(model, None, min_dimming=0.1)
     assert lazy.cost == pytest.approx(full.cost, rel=1e-6)
     assert bool(lazy.after["passed"].all())
+
+
+def test_segments_failing_undimmed_are_kept_no_worse(case) -> None:
+    lights, streets, _, _ = case
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataQualityWarning)
+        model = roads.road_model(lights, streets)  # the published classes: every segment fails
+    before = model.rate()
+    assert not before["passed"].any()
+    plan = roads.road_plan(model, None)
+    assert plan.feasible
+    assert sorted(plan.relaxed.tolist()) == list(range(len(streets)))
+    after = model.rate(plan.dimming)
+    for name in EN_FIGURES:
+        kind = roads.CRITERIA[name][0]
+        old, new = before[name].to_numpy(float), after[name].to_numpy(float)
+        required = before[f"{name}_required"].to_numpy(float)
+        # a failing figure may not get worse (beyond the room of 2e-6 the program is given);
+        # a passing one must keep its class
+        held = np.isfinite(required) & np.isfinite(old)
+        if kind == "minimum":
+            floor = np.where(old < required, old * (1 - 3e-6), required * (1 - 1e-6))
+            assert np.all(new[held] >= floor[held]), name
+        else:
+            ceiling = np.where(old > required, old * (1 + 3e-6), required * (1 + 1e-6))
+            assert np.all(new[held] <= ceiling[held]), name
