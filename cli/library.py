@@ -103,6 +103,7 @@ DEFAULT_AREA_HEIGHT = FromLibrary("nightlights.ground.area_lights", "AreaLightOp
 DEFAULT_MAX_RADIUS = FromLibrary("nightlights.ground.influence", "InfluenceThreshold.max_radius")
 DEFAULT_ALONG_JITTER = FromLibrary("nightlights.streets._place", "PlacementOptions.along_jitter")
 DEFAULT_ACROSS_JITTER = FromLibrary("nightlights.streets._place", "PlacementOptions.across_jitter")
+DEFAULT_CLOUD_OPTICAL_DEPTH = FromLibrary("nightlights.sky.clouds", "DEFAULT_CLOUD_OPTICAL_DEPTH")
 DEFAULT_MERGE_FRACTION = FromLibrary(
     "nightlights.streets._place", "PlacementOptions.merge_fraction"
 )

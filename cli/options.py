@@ -61,6 +61,9 @@ from .library import (
     DEFAULT_CANDIDATES as DEFAULT_CANDIDATES,
 )
 from .library import (
+    DEFAULT_CLOUD_OPTICAL_DEPTH as DEFAULT_CLOUD_OPTICAL_DEPTH,
+)
+from .library import (
     DEFAULT_MAX_DISTANCE as DEFAULT_MAX_DISTANCE,
 )
 from .library import (
@@ -600,6 +603,7 @@ def scene_of(
     n_azimuth: int | None = None,
     n_distance: int | None = None,
     obstacles: str | None = None,
+    clouds: Any = None,
 ) -> Any:
     """The ``nightlights.Scene`` of a sky command's scene options."""
     from nightlights.sky import Scene
@@ -613,7 +617,53 @@ def scene_of(
         n_azimuth=n_azimuth,
         n_distance=n_distance,
         obstacles=obstacles,
+        clouds=clouds,
     )
+
+
+def clouds_of(base_height: float | None, optical_depth: float, cover: float) -> Any:
+    """The ``CloudLayer`` of ``--cloud-base``, ``--cloud-optical-depth`` and
+    ``--cloud-cover``; None (a clear sky) without ``--cloud-base``."""
+    if base_height is None:
+        return None
+    from nightlights.sky.clouds import CloudLayer
+
+    return CloudLayer(base_height, optical_depth=optical_depth, cover=cover)
+
+
+def clouds_options(function: F) -> F:
+    """A cloud deck over the scene (``clouds=CloudLayer(...)``): its base, optical depth and
+    cover."""
+    options = (
+        click.option(
+            "--cloud-base",
+            "base_height",
+            type=float,
+            default=None,
+            metavar="METRES",
+            help="Height of a cloud deck's base above the ground [m]; default: a clear sky.",
+        ),
+        click.option(
+            "--cloud-optical-depth",
+            "optical_depth",
+            type=float,
+            default=DEFAULT_CLOUD_OPTICAL_DEPTH,
+            show_default=True,
+            help="Optical depth of the cloud deck (sets its reflectance by the two-stream "
+            "relation).",
+        ),
+        click.option(
+            "--cloud-cover",
+            "cover",
+            type=float,
+            default=1.0,
+            show_default=True,
+            help="Share of the sky the deck covers, 0-1.",
+        ),
+    )
+    for option in reversed(options):
+        function = option(function)
+    return function
 
 
 def observer_of(text: str, crs: str | None, height: float) -> Any:

@@ -10,6 +10,8 @@ from .options import (
     SKYGLOW_MODES,
     LibraryChoice,
     check_outputs,
+    clouds_of,
+    clouds_options,
     components_option,
     deprecated_option,
     files_argument,
@@ -42,6 +44,7 @@ PANORAMA = file_kind("nc", "tif")
 @overwrite_option
 @scene_options
 @obstacles_option
+@clouds_options
 @click.option(
     "--mode",
     type=LibraryChoice(SKYGLOW_MODES),
@@ -100,6 +103,9 @@ def skyglow(
     old_polar_out: str | None,
     dem: str | None,
     obstacles: str | None,
+    base_height: float | None,
+    optical_depth: float,
+    cover: float,
     bands: str,
     spectrum: str | None,
     instrument: str | None,
@@ -123,6 +129,7 @@ def skyglow(
     scene = scene_of(
         emission,
         obstacles=obstacles,
+        clouds=clouds_of(base_height, optical_depth, cover),
         dem=dem,
         kernel=kernel,
         turbidity=turbidity,

@@ -205,15 +205,15 @@ class CloudLayer:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.base_height) and self.base_height > 0):
-            raise InputError(f"base_height {self.base_height!r} m; expected a height > 0 m")
+            raise InputError(f"base_height={self.base_height!r}; expected a height > 0 [m]")
         if not (np.isfinite(self.optical_depth) and self.optical_depth >= 0):
-            raise InputError(f"optical_depth {self.optical_depth!r}; expected >= 0")
+            raise InputError(f"optical_depth={self.optical_depth!r}; expected a number >= 0")
         for name in ("albedo", "ground_albedo", "cover"):
             value = getattr(self, name)
             if value is not None and not 0.0 <= value <= 1.0:
-                raise InputError(f"{name} {value!r}; expected a fraction from 0 to 1")
+                raise InputError(f"{name}={value!r}; expected a fraction from 0 to 1")
         if not -1.0 < self.asymmetry < 1.0:
-            raise InputError(f"asymmetry {self.asymmetry!r}; expected -1 < g < 1")
+            raise InputError(f"asymmetry={self.asymmetry!r}; expected -1 < g < 1")
 
     @property
     def reflectance(self) -> float:

@@ -568,6 +568,7 @@ def darkness(
     """
     scheduler = check_scheduler(scheduler)  # an address is parsed and probed before any work
     target = _check_output(output, scene)
+    scene.clear_sky("the darkness map")
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
     if _tiled_path(scene, chunk_size, tiled, target_crs, store, label):

@@ -172,7 +172,7 @@ def skyglow_panorama(
     )
     if spectrum is None:
         spectrum = reader.spectrum if reader is not None else _colour_spectrum(bands, scene)
-    setup = prepare_scene(scene, observer, progress=progress)
+    setup = prepare_scene(scene, observer, progress=progress, clouds=True)
     xy, table, levels = setup.xy, setup.table, setup.levels
     label, terrain, spec = setup.label, setup.terrain, setup.spec
     observer_altitude, offset, slices = setup.observer_altitude, setup.offset, setup.slices

@@ -267,6 +267,7 @@ def observers(
     >>> result.summary["name"].tolist(), result.summary["top1_share"].round(12).tolist()
     (['observer_1', 'observer_2'], [1.0, 1.0])
     """
+    scene.clear_sky("the many-observer summary")
     scheduler = check_scheduler(scheduler, local=SCHEDULERS)  # parsed and probed first
     if not (isinstance(top_cells, int | np.integer) and top_cells >= 0):
         raise InputError(f"top_cells={top_cells!r}; expected an integer >= 0")

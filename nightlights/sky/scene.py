@@ -261,6 +261,20 @@ class Scene:
             return "in-memory emission raster"
         return source_label(emission, "emission raster")
 
+    def clear_sky(self, stage: str) -> None:
+        """Refuse a cloud deck in a stage that models only a clear sky.
+
+        Raises
+        ------
+        InputError
+            The scene has ``clouds`` and ``stage`` does not read them.
+        """
+        if self.clouds is not None:
+            raise InputError(
+                f"clouds={self.clouds!r}: {stage} models a clear sky only (skyglow reads a "
+                "cloud deck); give the scene clouds=None"
+            )
+
     def raster_input(self, stage: str) -> RasterInput:
         """The emission as a raster input (a stage that needs the whole grid cannot take the
         lit cells alone).

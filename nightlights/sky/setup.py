@@ -292,6 +292,7 @@ def prepare_scene(
     *,
     progress: bool = True,
     window: ReachWindow | None = None,
+    clouds: bool = False,
 ) -> SceneSetup:
     """Check a scene's emission and an observer, and find the scene's kernel for them.
 
@@ -314,12 +315,17 @@ def prepare_scene(
     window
         The part of the grid the kernel reaches from the observer (:func:`reach_window`),
         read alone; None: the whole grid. A window without a lit cell is refused.
+    clouds
+        Whether the calling stage reads the scene's cloud deck; a stage that does not refuses
+        a scene with one (:meth:`~nightlights.sky.scene.Scene.clear_sky`).
 
     Returns
     -------
     SceneSetup
         The checked scene with one kernel slice per source level.
     """
+    if not clouds:
+        scene.clear_sky("this sky stage")
     emission = scene.emission
     label = scene.label
     cells = as_lit_cells(emission, None if window is None else window.bounds)

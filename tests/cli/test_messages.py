@@ -38,6 +38,7 @@ API_ONLY = {
     "weights",
     "zenith_reduction",
     "clouds",
+    "asymmetry",  # CloudLayer: the droplets' asymmetry g (no command)
     "albedo",
     "observers",
     "energy",

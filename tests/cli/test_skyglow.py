@@ -177,3 +177,23 @@ def test_any_existing_output_is_refused(
     assert result.output == f"Error: {existing}: exists; give --overwrite to replace it\n"
     assert fake_skyglow.calls == [] and existing.read_bytes() == b"keep"
     assert CliRunner().invoke(cli, [*args, "--overwrite"]).exit_code == 0
+
+
+def test_cloud_options_give_the_scene_a_deck(fake_skyglow, emission: Path, tmp_path: Path) -> None:
+    args = ["skyglow", str(emission), str(tmp_path / "p.nc"), *OBSERVER]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert fake_skyglow.args[0].clouds is None  # no --cloud-base: a clear sky
+    more = ["--cloud-base", "800", "--cloud-optical-depth", "30", "--cloud-cover", "0.5"]
+    result = CliRunner().invoke(cli, [*args, "--overwrite", *more])
+    assert result.exit_code == 0, result.output
+    deck = fake_skyglow.calls[-1][0][0].clouds
+    assert (deck.base_height, deck.optical_depth, deck.cover) == (800.0, 30.0, 0.5)
+
+
+def test_a_bad_cloud_cover_is_named_by_its_flag(emission: Path, tmp_path: Path) -> None:
+    args = ["skyglow", str(emission), str(tmp_path / "p.nc"), *OBSERVER, "--cloud-base", "800"]
+    result = CliRunner().invoke(cli, [*args, "--cloud-cover", "1.5"])
+    assert result.exit_code != 0
+    assert "--cloud-cover" in result.output and "fraction from 0 to 1" in result.output
+    assert not (tmp_path / "p.nc").exists()
