@@ -130,9 +130,9 @@ def test_lazy_rows_reach_the_full_programs_optimum(road_plan_case, monkeypatch) 
     from nightlights.roads import _plan
 
     _, _, _, model = road_plan_case
-    lazy = roads.road_plan(model, None, min_dimming=0.1)
+    lazy = roads.road_plan(model, None, min_dimming=0.1, coefficient_floor=0.0)
     monkeypatch.setattr(_plan, "MAX_ROUNDS", 0)  # straight to the full program
-    full = roads.road_plan(model, None, min_dimming=0.1)
+    full = roads.road_plan(model, None, min_dimming=0.1, coefficient_floor=0.0)
     assert lazy.cost == pytest.approx(full.cost, rel=1e-6)
     assert bool(lazy.after["passed"].all())
 
