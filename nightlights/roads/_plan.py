@@ -25,7 +25,8 @@ section or edge (averages, glare, edge ratio); every row its solution breaks joi
 program is solved again from the last basis (a few dual simplex steps), until a solution
 breaks none. Each program's rows are a subset of
 the full program's, so its optimum is a lower bound on the full one; the last solution keeps
-every row, so it is the full program's optimum.
+every row, so it is the full program's optimum (with ``coefficient_floor=0``; by default the
+thinned program's, below).
 
 **Thinned rows** (``coefficient_floor``, by default): a road row holds every light whose
 light reaches its points, most of them by a tiny part (a light 100 m off adds a thousandth
