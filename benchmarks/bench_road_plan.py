@@ -20,10 +20,17 @@ observer; the small case of :func:`real_sky_case` times that path.
 Timed separately: :func:`nightlights.roads.road_model` (layout, influence matrices);
 :func:`nightlights.roads.road_plan` (the sky-only program, the joint program, both re-ratings
 by :meth:`RoadModel.rate`); inside the plan the row building (``road_rows``). Sizes: grids
-of 6, 9 and 12 streets a side (8 to 72 rated segments). At the largest size,
-``tolerance`` (HiGHS primal
-feasibility) is swept against the largest violation of any class minimum found by
-re-rating the plan (negative margin [fraction of the requirement]) and the sky targets.
+of 12, 30 and 97 streets a side (72, 288 and 1,058 rated segments; 1,444, 9,459 and
+~10^5 lights). At the middle size ``tolerance`` (HiGHS primal feasibility) is swept against
+the largest violation of any class minimum found by re-rating the plan (negative margin
+[fraction of the requirement]) and the sky targets.
+
+``coefficient_floor`` (road-row coefficients below that fraction of their row's largest
+enter the program at their worst case) is swept at every size against the objective's gap:
+to the exact program (``coefficient_floor=0``, the reference) where it is affordable (the
+two smaller sizes), and at every size to a certified bound, the optimum of the same rows
+thinned the other way (each dropped term at its best case, a relaxation): the exact optimum
+lies between the two, so ``(cost - bound) / bound`` bounds the gap from above.
 
 Run: ``python benchmarks/bench_road_plan.py [--quick] [--out DIR]`` (``--quick``: the two
 smaller sizes, two tolerances). Writes ``road_plan.json`` and ``.png``.
@@ -43,13 +50,18 @@ from shapely import LineString
 from nightlights import roads
 from nightlights.errors import DataQualityWarning
 from nightlights.inverse.road_sky import upward_emission
+from nightlights.roads import _plan
 from nightlights.roads._plan_rows import road_rows
 from nightlights.streets import place
 
 #: Grid sizes swept: (streets per direction, rated streets per direction); the last is the
 #: target's size (~10^5 lights, ~10^3 rated segments).
-SIZES = ((12, 6), (30, 12), (85, 22))
+SIZES = ((12, 6), (30, 12), (97, 23))
 QUICK_SIZES = ((6, 2), (9, 4))
+#: Coefficient floors swept at every size (the library's default among them).
+FLOORS = (1e-2, 1e-3, 1e-4)
+#: Largest size (lights) at which the exact program (floor 0) is solved as the reference.
+EXACT_MAX_LIGHTS = 20_000
 #: Street spacing of the grid [m] and the light spacing along a street [m].
 BLOCK = 100.0
 SPACING = 30.0
@@ -201,7 +213,51 @@ def run_size(n: int, rated: int, tolerances: tuple[float, ...]) -> dict[str, Any
             f"sky {worst['sky_excess_max']:+.1e}",
             flush=True,
         )
+    entry["floors"] = floor_sweep(model, sky, rows)
     return entry
+
+
+def floor_sweep(model: roads.RoadModel, sky: roads.SkyMatrix, rows: Any) -> list[dict[str, Any]]:
+    """Time and objective gap of each coefficient floor (module docstring)."""
+    floors = sorted({*FLOORS, _plan.COEFFICIENT_FLOOR}, reverse=True)
+    exact_cost = None
+    out = []
+    if len(model.luminaires) <= EXACT_MAX_LIGHTS:
+        floors.append(0.0)
+    w = _plan._weights(model, "energy", None)
+    for floor in floors:
+        plan, seconds = harness.timed(
+            lambda f=floor: roads.road_plan(model, sky, coefficient_floor=f)
+        )
+        bound = float("nan")
+        if floor > 0:
+            low = _plan._solve(w, sky, rows, 0.0, _plan.TOLERANCE, floor, relax=True)
+            bound = float(w @ low) if low is not None else float("nan")
+        else:
+            exact_cost = plan.cost
+        worst = violation(plan, sky)
+        out.append(
+            {
+                "coefficient_floor": floor,
+                "plan_seconds": seconds,
+                "cost": plan.cost,
+                "bound": bound,
+                "gap_bound": (plan.cost - bound) / bound,
+                "passed": bool(plan.after["passed"].fillna(True).all()),
+                **worst,
+            }
+        )
+        print(
+            f"  floor {floor:.0e}: plan {seconds:6.1f} s, cost {plan.cost:.6f}, "
+            f"certified gap <= {(plan.cost - bound) / bound:.1e}, "
+            f"margin {worst['road_margin_min']:+.1e}",
+            flush=True,
+        )
+    for entry in out:
+        entry["gap_to_exact"] = (
+            entry["cost"] / exact_cost - 1.0 if exact_cost is not None else float("nan")
+        )
+    return out
 
 
 def main() -> None:
@@ -226,6 +282,12 @@ def main() -> None:
             "rated_segments": largest["rated_segments"],
             "model_seconds": largest["model_seconds"],
             "plan_seconds": default["plan_seconds"],
+            "coefficient_floor": _plan.COEFFICIENT_FLOOR,
+            "gap_bound": next(
+                f["gap_bound"]
+                for f in largest["floors"]
+                if f["coefficient_floor"] == _plan.COEFFICIENT_FLOOR
+            ),
             # the target is for 10^5 lights and 10^3 segments: None below that size
             "meets_target": (
                 default["plan_seconds"] < TARGET_SECONDS
@@ -235,7 +297,10 @@ def main() -> None:
         },
         "note": (
             "plan_seconds: road_plan end to end (rows, sky-only LP, joint LP, two "
-            "re-ratings); model_seconds: road_model (not part of the target). Wall times on "
+            "re-ratings) at the default coefficient_floor unless stated; floors: each "
+            "coefficient_floor's time, cost, gap to the exact program (floor 0, the smaller "
+            "sizes) and certified gap bound (to the relaxed thinned program); "
+            "model_seconds: road_model (not part of the target). Wall times on "
             "a shared 2-core machine."
         ),
         "sizes": results,
@@ -247,8 +312,8 @@ def plot(result: dict[str, Any]) -> Any:
     """Time against size (left); tolerance against violation and time (right)."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(12, 4.8))
-    left, right = figure.subplots(1, 2)
+    figure = Figure(figsize=(18, 4.8))
+    left, right, third = figure.subplots(1, 3)
     sizes = result["sizes"]
     size = [s["lights"] * s["rated_segments"] for s in sizes]
     model = [s["model_seconds"] for s in sizes]
@@ -291,6 +356,48 @@ def plot(result: dict[str, Any]) -> Any:
     right.set_title(f"tolerance at {swept['lights']} lights", fontsize=9)
     right.legend(fontsize=8)
     right.grid(True, alpha=0.3)
+    for k, (s, marker) in enumerate(zip(sizes, "osD^v", strict=False)):
+        floors = [f for f in s.get("floors", []) if f["coefficient_floor"] > 0]
+        if not floors:
+            continue
+        t = [f["plan_seconds"] for f in floors]
+        label = f"{s['lights']} lights"
+        third.plot(
+            t,
+            [max(f["gap_bound"], 1e-12) for f in floors],
+            marker=marker,
+            ls="--",
+            color=f"C{k}",
+            label=f"{label}: certified bound",
+        )
+        exact = [f["gap_to_exact"] for f in floors]
+        if all(np.isfinite(exact)):
+            third.plot(
+                t,
+                [max(g, 1e-12) for g in exact],
+                marker=marker,
+                color=f"C{k}",
+                label=f"{label}: to exact",
+            )
+        for f, x in zip(floors, t, strict=True):
+            third.annotate(
+                f"{f['coefficient_floor']:.0e}",
+                (x, max(f["gap_bound"], 1e-12)),
+                textcoords="offset points",
+                xytext=(3, 3),
+                fontsize=7,
+            )
+        reference = next((f for f in s["floors"] if f["coefficient_floor"] == 0), None)
+        if reference is not None:
+            third.axvline(reference["plan_seconds"], color="grey", lw=0.8, ls=":")
+    third.axvline(result["target_seconds"], color="grey", ls="--", label="target")
+    third.set_xscale("log")
+    third.set_yscale("log")
+    third.set_xlabel("road_plan wall time [s] (dotted: exact program)")
+    third.set_ylabel("objective gap [fraction]")
+    third.set_title("coefficient_floor: time against objective gap", fontsize=9)
+    third.legend(fontsize=7)
+    third.grid(True, alpha=0.3)
     figure.tight_layout()
     return figure
 

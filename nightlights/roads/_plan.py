@@ -25,7 +25,25 @@ section or edge (averages, glare, edge ratio); every row its solution breaks joi
 program is solved again from the last basis (a few dual simplex steps), until a solution
 breaks none. Each program's rows are a subset of
 the full program's, so its optimum is a lower bound on the full one; the last solution keeps
-every row, so it is the full program's optimum.
+every row, so it is the full program's optimum (with ``coefficient_floor=0``; by default the
+thinned program's, below).
+
+**Thinned rows** (``coefficient_floor``, by default): a road row holds every light whose
+light reaches its points, most of them by a tiny part (a light 100 m off adds a thousandth
+of the nearest one's); those dense rows make every simplex basis dense, and the exact
+program slow (benchmark). A coefficient :math:`a_k` below the floor times its row's largest
+leaves the row, its term :math:`a_k\\delta_k` moved to the bound at its worst case over
+:math:`\\delta_k \\in [\\delta_\\min, 1]` (:math:`a_k` or :math:`a_k\\delta_\\min`,
+whichever is larger, for a row :math:`a\\delta \\le b`). Every plan that keeps the thinned
+rows keeps the given ones, so the plan is feasible and its cost an upper bound of the
+optimum; the termination check runs on the given rows. A row that full output keeps but its
+thinned form would not (a segment held at its failing undimmed figure, which full output
+only just keeps) enters whole, so full output stays feasible; and when the thinned program
+is infeasible all the same (the sky rows), the exact one is solved before a plan is called
+infeasible. The same rows with each dropped term
+at its best case are a relaxation whose optimum bounds the optimum from below: the
+benchmark brackets the exact optimum between the two and charts the gap against the time
+(``coefficient_floor=0`` is the exact program, the reference).
 
 Lights in no road row (far from every rated segment) take :math:`\\delta_\\min` outside the
 program: the sky rows' coefficients and the costs are non-negative, so lowering such a light
@@ -86,6 +104,10 @@ BINDING_SLACK = 1e-7
 SEED_CRITERIA = ("average_luminance", "average_illuminance", "edge_illuminance_ratio")
 #: Rounds of the lazy program before it falls back to every row at once.
 MAX_ROUNDS = 50
+#: Road-row coefficients below this fraction of their row's largest enter HiGHS as their
+#: worst case (module docstring) [1]; 0 keeps every coefficient, the exact program.
+#: ``benchmarks/bench_road_plan.py`` charts the time against the objective's gap to it.
+COEFFICIENT_FLOOR = 1e-3
 
 
 @dataclass(frozen=True)
@@ -267,16 +289,55 @@ class _Program:
         return np.clip(x, low, 1.0)
 
 
+def _thin(
+    a: sp.csr_array, upper: FloatArray, floor: float, low: float, relax: bool = False
+) -> tuple[sp.csr_array, FloatArray]:
+    """Rows ``a x <= upper`` without their coefficients below ``floor`` times their row's
+    largest, each dropped term moved to the bound at its worst value over
+    :math:`x_k \\in [\\text{low}, 1]` (module docstring): every ``x`` that keeps the thinned
+    rows keeps the given ones; a row that ``x = 1`` keeps but its thinned form would not
+    stays whole. ``relax``: at its best value instead (a relaxation, whose optimum bounds the
+    program's from below)."""
+    a = sp.csr_array(a, copy=True)
+    upper = np.asarray(upper, dtype=float)
+    if floor <= 0.0 or a.nnz == 0:
+        return a, upper
+    length = np.diff(a.indptr)
+    size = np.abs(a.data)
+    largest = np.zeros(a.shape[0])
+    filled = length > 0
+    largest[filled] = np.maximum.reduceat(size, a.indptr[:-1][filled])
+    small = size < floor * np.repeat(largest, length)
+    worst = np.where((a.data > 0) != relax, a.data, a.data * low)
+    row = np.repeat(np.arange(a.shape[0]), length)
+    if not relax:
+        # a row that full output keeps stays whole where its worst case would close it
+        m = a.shape[0]
+        given = np.bincount(row, weights=a.data, minlength=m)
+        kept = np.bincount(row[~small], weights=a.data[~small], minlength=m)
+        moved = np.bincount(row[small], weights=worst[small], minlength=m)
+        whole = (given <= upper) & (kept + moved > upper)
+        small &= ~whole[row]
+    upper = upper - np.bincount(row[small], weights=worst[small], minlength=a.shape[0])
+    a.data[small] = 0.0
+    a.eliminate_zeros()
+    return a, upper
+
+
 def _solve(
     w: FloatArray,
     sky: SkyMatrix | None,
     rows: RoadRows | None,
     low: float,
     tolerance: float,
+    floor: float = 0.0,
+    relax: bool = False,
 ) -> np.ndarray | None:
     """The program of the module docstring, its road rows generated lazily (module
     docstring): solve with the rows in play, add every row the solution breaks, re-solve from
-    the last basis, repeat. Lights in no road row sit at ``low`` outside the program."""
+    the last basis, repeat. Lights in no road row sit at ``low`` outside the program. Rows
+    enter HiGHS thinned by ``floor`` (:func:`_thin`); ``relax``: relaxed instead, and the
+    rows checked are the relaxed ones (a lower bound of the optimum, for the benchmark)."""
     n = w.size
     x = np.full(n, float(low))
     if rows is not None and rows.bound.size:
@@ -293,25 +354,39 @@ def _solve(
     if used.size == 0:
         return x
     assert rows is not None
-    road_a = sp.csr_array(-(sp.diags_array(1.0 / rows.scale) @ rows.matrix))[:, used]
+    # rows a x <= b over every light (scaled in place: no copy of the matrix by columns)
+    matrix = sp.csr_array(rows.matrix)
+    road_a = sp.csr_array((matrix.data.copy(), matrix.indices, matrix.indptr), shape=matrix.shape)
+    road_a.data *= np.repeat(-1.0 / rows.scale, np.diff(matrix.indptr))
     road_b = -rows.bound / rows.scale - MARGIN
+    if relax:
+        road_a, road_b = _thin(road_a, road_b, floor, low, relax=True)
+        floor = 0.0
+    column = np.full(n, -1, dtype=np.int64)
+    column[used] = np.arange(used.size)
+
+    def add(chosen: np.ndarray) -> None:
+        a, b = _thin(road_a[chosen], road_b[chosen], floor, low)
+        a = sp.csr_array((a.data, column[a.indices], a.indptr), shape=(a.shape[0], used.size))
+        program.add(a, b)
+
     active = np.isin(rows.criterion, SEED_CRITERIA)
-    chosen = np.flatnonzero(active)
-    program.add(road_a[chosen], road_b[chosen])
+    add(np.flatnonzero(active))
+    full = x.copy()
     for _ in range(MAX_ROUNDS + 1):
         if _ == MAX_ROUNDS:  # pragma: no cover - the rounds never ran out in the benchmarks
             rest = np.flatnonzero(~active)
             active[rest] = True
-            program.add(road_a[rest], road_b[rest])
+            add(rest)
         solution = program.solve(low)
         if solution is None:
             return None  # a subset of the rows is already infeasible
-        broken = np.flatnonzero((road_a @ solution - road_b > 0.0) & ~active)
+        full[used] = solution
+        broken = np.flatnonzero((road_a @ full - road_b > 0.0) & ~active)
         if not broken.size:
-            x[used] = solution
-            return x
+            return full
         active[broken] = True
-        program.add(road_a[broken], road_b[broken])
+        add(broken)
     return None  # pragma: no cover
 
 
@@ -393,6 +468,7 @@ def road_plan(
     weights: ArrayLike | None = None,
     hours: float = float("nan"),
     tolerance: float = TOLERANCE,
+    coefficient_floor: float = COEFFICIENT_FLOOR,
 ) -> RoadPlan:
     """The least-energy (or least-flux) dimming that meets the sky and keeps every class.
 
@@ -413,6 +489,10 @@ def road_plan(
         Hours a year the plan runs [h], for :attr:`RoadPlan.energy_saved`.
     tolerance
         HiGHS primal feasibility tolerance [1, rows scaled to a requirement of 1].
+    coefficient_floor
+        Road-row coefficients below this fraction of their row's largest enter the program
+        at their worst case (module docstring) [1]: a plan that keeps every row, at a cost a
+        little above the optimum, found much faster. 0: the exact program (the reference).
 
     Returns
     -------
@@ -425,6 +505,10 @@ def road_plan(
         raise InputError(f"min_dimming={min_dimming!r}; expected a level in [0, 1]")
     if not (0.0 < tolerance < 1e-3):
         raise InputError(f"tolerance={tolerance!r}; expected a number in (0, 1e-3)")
+    if not 0.0 <= coefficient_floor < 1.0:
+        raise InputError(
+            f"coefficient_floor={coefficient_floor!r}; expected a fraction in [0, 1) (0: exact)"
+        )
     n = len(model.luminaires)
     if sky is not None and sky.contribution.shape != (len(sky.labels), n):
         raise InputError(
@@ -441,7 +525,10 @@ def road_plan(
             "sky: the sky targets are out of reach even with every light at min_dimming "
             f"({min_dimming:g}); expected targets above the sky the other sources leave"
         )
-    joint = _solve(w, sky, rows, min_dimming, tolerance)
+    joint = _solve(w, sky, rows, min_dimming, tolerance, coefficient_floor)
+    if joint is None and coefficient_floor > 0.0:
+        # thinned rows are tighter than the given ones: the exact program decides
+        joint = _solve(w, sky, rows, min_dimming, tolerance, 0.0)
     feasible = joint is not None
     binding = pd.DataFrame()
     if joint is None:

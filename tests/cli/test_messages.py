@@ -30,6 +30,7 @@ NOT_PRINTED = ("nightlights/qgis/plugin",)
 #: functions of ``nightlights.roads``, which no command calls yet) or names of an object
 #: (``Atmosphere(extinction=True)``).
 API_ONLY = {
+    "coefficient_floor",
     "hours",
     "min_dimming",
     "objective",

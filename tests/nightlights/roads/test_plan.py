@@ -108,6 +108,7 @@ def test_a_schedule_solves_each_period(case, kernel) -> None:
         ({"min_dimming": 1.5}, "min_dimming"),
         ({"weights": [1.0, 2.0]}, "weights"),
         ({"tolerance": 0.5}, "tolerance"),
+        ({"coefficient_floor": 1.0}, "coefficient_floor"),
     ],
 )
 def test_bad_input_is_refused(case, options, match) -> None:
@@ -129,9 +130,9 @@ def test_lazy_rows_reach_the_full_programs_optimum(road_plan_case, monkeypatch) 
     from nightlights.roads import _plan
 
     _, _, _, model = road_plan_case
-    lazy = roads.road_plan(model, None, min_dimming=0.1)
+    lazy = roads.road_plan(model, None, min_dimming=0.1, coefficient_floor=0.0)
     monkeypatch.setattr(_plan, "MAX_ROUNDS", 0)  # straight to the full program
-    full = roads.road_plan(model, None, min_dimming=0.1)
+    full = roads.road_plan(model, None, min_dimming=0.1, coefficient_floor=0.0)
     assert lazy.cost == pytest.approx(full.cost, rel=1e-6)
     assert bool(lazy.after["passed"].all())
 
@@ -160,3 +161,73 @@ def test_segments_failing_undimmed_are_kept_no_worse(case) -> None:
         else:
             ceiling = np.where(old > required, old * (1 + 3e-6), required * (1 + 1e-6))
             assert np.all(new[held] <= ceiling[held]), name
+
+
+def test_thinning_drops_small_terms_at_their_worst_and_best_case() -> None:
+    """A row 1.0 x0 - 0.0005 x1 + 0.0002 x2 <= 0.5 at floor 1e-3 and x in [0.2, 1]: the worst
+    case of the dropped terms moves the bound by -0.0002 (x2 at 1) and +0.0001 (x1 at 0.2),
+    the best case by -0.00004 (x2 at 0.2) and +0.0005 (x1 at 1); by hand."""
+    import scipy.sparse as sp
+
+    from nightlights.roads import _plan
+
+    a = sp.csr_array(np.array([[1.0, -0.0005, 0.0002], [0.3, 0.0, 0.4]]))
+    b = np.array([0.5, 0.7])
+    thin, upper = _plan._thin(a, b, 1e-3, 0.2)
+    assert thin.toarray().tolist() == [[1.0, 0.0, 0.0], [0.3, 0.0, 0.4]]
+    assert upper == pytest.approx([0.5 - 0.0002 + 0.0001, 0.7], abs=1e-15)
+    _, relaxed = _plan._thin(a, b, 1e-3, 0.2, relax=True)
+    assert relaxed == pytest.approx([0.5 - 0.00004 + 0.0005, 0.7], abs=1e-15)
+    # every x in the box that keeps the thinned row keeps the given one (brute force)
+    x = np.random.default_rng(0).uniform(0.2, 1.0, (20000, 3))
+    keeps = (x @ thin.toarray().T <= upper).all(axis=1)
+    assert keeps.any() and (x[keeps] @ a.toarray().T <= b).all()
+    given = (x @ a.toarray().T <= b).all(axis=1)
+    assert (x[given] @ thin.toarray().T <= relaxed).all()
+
+
+def test_a_row_full_output_only_just_keeps_is_not_thinned() -> None:
+    """1.0 x0 - 0.0005 x1 <= 0.9995 holds at x = 1 with no room; dropping x1 at its worst case
+    (x1 = 0.2) would ask x0 <= 0.9996 and close it, so the row stays whole; a row with room
+    is thinned."""
+    import scipy.sparse as sp
+
+    from nightlights.roads import _plan
+
+    a = sp.csr_array(np.array([[1.0, -0.0005], [1.0, -0.0005]]))
+    b = np.array([0.9995, 1.5])
+    thin, upper = _plan._thin(a, b, 1e-3, 0.2)
+    assert thin.toarray().tolist() == [[1.0, -0.0005], [1.0, 0.0]]
+    assert upper == pytest.approx([0.9995, 1.5 + 0.0001], abs=1e-15)
+
+
+def test_the_coefficient_floor_brackets_the_exact_optimum(road_plan_case) -> None:
+    """The default floor's plan keeps every class by re-rating and costs at most 0.1 % more than
+    the optimum of every row at once (scipy's HiGHS, no row generation, no floor); the relaxed
+    thinned program's optimum lies below it."""
+    import scipy.sparse as sp
+    from scipy.optimize import linprog
+
+    from nightlights.roads import _plan
+    from nightlights.roads._plan_rows import road_rows
+
+    _, _, _, model = road_plan_case
+    low = 0.1
+    w = _plan._weights(model, "energy", None)
+    rows = road_rows(model.influence, model.rate())
+    a = -(sp.diags_array(1.0 / rows.scale) @ rows.matrix)
+    reference = linprog(
+        w,
+        A_ub=sp.csr_array(a),
+        b_ub=-rows.bound / rows.scale - _plan.MARGIN,
+        bounds=(low, 1.0),
+        method="highs",
+    )
+    assert reference.status == 0
+    fast = roads.road_plan(model, None, min_dimming=low)
+    assert bool(fast.after["passed"].all())
+    assert reference.fun * (1 - 1e-9) <= fast.cost <= reference.fun * (1 + 1e-3)
+    exact = roads.road_plan(model, None, min_dimming=low, coefficient_floor=0.0)
+    assert exact.cost == pytest.approx(reference.fun, rel=1e-7)
+    bound = _plan._solve(w, None, rows, low, _plan.TOLERANCE, _plan.COEFFICIENT_FLOOR, relax=True)
+    assert bound is not None and w @ bound <= reference.fun * (1 + 1e-9)
