@@ -94,6 +94,8 @@ from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky._tile_run import ProgressHook
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.cloudy import cloudy_zenith_per_lumen
 from nightlights.sky.horizon import terrain_under
 from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
 from nightlights.sky.instruments import Instrument
@@ -568,10 +570,11 @@ def darkness(
     """
     scheduler = check_scheduler(scheduler)  # an address is parsed and probed before any work
     target = _check_output(output, scene)
-    scene.clear_sky("the darkness map")
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
-    if _tiled_path(scene, chunk_size, tiled, target_crs, store, label):
+    tiled_path = _tiled_path(scene, chunk_size, tiled, target_crs, store, label)
+    _check_clouds(scene, tiled=tiled_path, instrument=instrument)
+    if tiled_path:
         return _tiled_darkness(
             scene,
             target,
@@ -636,6 +639,7 @@ def darkness(
     zenith, n_az, functions, notes = _zenith_tables(
         table, observer_levels, functions, notes, reader, data.shape[0], label
     )
+    zenith, cloud_tags = _overcast(scene, zenith, table, n_az, functions)
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
     estimate = darkness_memory(
@@ -681,6 +685,7 @@ def darkness(
         layout=f"{n_chunks} chunk(s) of {used_chunk} cells",
         reader=reader,
     )
+    tags.update(cloud_tags)
     bands, descriptions, band_tags = _map_bands(reader, luminance)
     result = Raster(
         bands,
@@ -696,6 +701,61 @@ def darkness(
     return DarknessResult(
         result, seconds, target, None if reader is None else reader.instrument.name
     )
+
+
+def _check_clouds(scene: Scene, *, tiled: bool, instrument: Any) -> None:
+    """Refuse a cloud deck where the map cannot carry it: the tiled map, a DEM, an instrument
+    (its natural sky and rows) and a cover raster."""
+    cloud = scene.clouds
+    if cloud is None:
+        return
+    why = (
+        "the tiled (geographic or out-of-core) map"
+        if tiled
+        else "a scene with a DEM"
+        if scene.dem is not None
+        else "an instrument's reading"
+        if instrument is not None
+        else "a cover raster"
+        if cloud.cover_raster is not None
+        else None
+    )
+    if why is not None:
+        raise InputError(
+            f"clouds={cloud!r}: the darkness map reads a cloud deck only in memory, on flat "
+            f"ground, in zenith luminance and with a uniform cover, not for {why}; give the "
+            "scene clouds=None or skyglow one observer at a time"
+        )
+
+
+def _overcast(
+    scene: Scene, zenith: FloatArray, table: Any, n_az: int, functions: tuple[Any, ...]
+) -> tuple[FloatArray, dict[str, str]]:
+    """The zenith tables under the scene's deck, (1 - c) clear + c cloudy per distance bin
+    (:func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen`), and the deck's tags."""
+    cloud = scene.clouds
+    if cloud is None:
+        return zenith, {}
+    cover = float(cloud.cover)
+    tags = {
+        "cloud_cover": str(cover),
+        "cloud_base_height_m": str(float(cloud.base_height)),
+        "cloud_reflectance": str(cloud.reflectance),
+        "cloud_ground_albedo": str(float(cloud.ground_albedo)),
+        "natural_sky_factor": str(cloud.natural_sky_factor(cover)),
+    }
+    if cover == 0.0:
+        return zenith, tags
+    edges = np.asarray(table["distance_edges"].values, dtype=float)
+    cloudy = cloudy_zenith_per_lumen(
+        edges,
+        float(np.asarray(table["elevation"].values, dtype=float)[0]),
+        n_az,
+        functions[: zenith.shape[2]],
+        cloud,
+        Atmosphere.from_parameters(table.attrs),
+    )
+    return (1.0 - cover) * zenith + cover * cloudy[None, None], tags
 
 
 def _map_tags(
