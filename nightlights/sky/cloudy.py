@@ -178,12 +178,13 @@ def _mean_distances(distance_edges: FloatArray) -> FloatArray:
 
 def cloudy_zenith_per_lumen(
     distance_edges: FloatArray,
-    elevation: float,
+    elevation: Any,
     n_az: int,
     functions: Sequence[EmissionFunction],
     cloud: CloudLayer,
     atmosphere: Atmosphere,
     *,
+    weights: Any = None,
     ground_altitude: float = 0.0,
 ) -> FloatArray:
     """Overcast zenith luminance per lumen in each distance bin, as :func:`cloudy_panorama`
@@ -194,14 +195,16 @@ def cloudy_zenith_per_lumen(
     with :math:`L_c` :func:`~nightlights.sky.clouds.cloud_luminance` (all ground-cloud
     reflections, through the deck's radial profiles), :math:`e_0` the panorama's top row and
     :math:`\\bar r_d` the bin's area-weighted mean distance: the azimuth mean of the
-    panorama's top row is the sum over bins of the flux times this number.
+    panorama's top row is the sum over bins of the flux times this number. With elevation
+    weights :math:`w_i` (an instrument's, summing to 1) the rows' azimuth means are summed with
+    them, :math:`\\sum_i w_i \\frac{1}{n_\\phi} \\sum_j L_c(e_i, \\phi_j, \\bar r_d)`.
 
     Parameters
     ----------
     distance_edges
         Distance edges ``(n_r + 1,)`` [m].
     elevation
-        Elevation of the panorama's top row [deg].
+        Elevation of the panorama's rows, zenith first [deg] (a number: the top row alone).
     n_az
         Azimuth count of the panorama [1].
     functions
@@ -210,6 +213,8 @@ def cloudy_zenith_per_lumen(
         The deck (its cover is not applied).
     atmosphere
         The air below the base.
+    weights
+        ``(n_el,)`` weights of the rows [1]; None: the top row alone.
     ground_altitude
         Altitude of the ground [m].
 
@@ -221,7 +226,12 @@ def cloudy_zenith_per_lumen(
     atm = dataclasses.replace(atmosphere, flat_earth=True)
     mean_r = _mean_distances(distance_edges)
     rel = np.arange(n_az) * 360.0 / n_az
-    elev = float(np.clip(elevation, 1e-3, 90.0))
+    rows = np.atleast_1d(np.asarray(elevation, dtype=float))
+    w = np.eye(rows.size)[0] if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != rows.shape:
+        raise InputError(f"weights of shape {w.shape}; expected one per elevation row {rows.shape}")
+    used = np.flatnonzero(w != 0)
+    elev = np.clip(rows[used], 1e-3, 90.0)[:, None]
     half_width = max(float(np.max(distance_edges)), 40.0 * cloud.base_height)
     out = np.zeros((len(functions), mean_r.size))
     for band, function in enumerate(functions):
@@ -235,7 +245,7 @@ def cloudy_zenith_per_lumen(
         for r_index, distance in enumerate(mean_r):
             table = cloud_luminance(
                 elev,
-                rel,
+                rel[None, :],
                 distance,
                 cloud,
                 atm,
@@ -243,5 +253,5 @@ def cloudy_zenith_per_lumen(
                 ground_altitude=ground_altitude,
                 profiles=profiles,
             )
-            out[band, r_index] = float(np.mean(table))
+            out[band, r_index] = float(np.mean(table, axis=-1) @ w[used])
     return out

@@ -573,7 +573,7 @@ def darkness(
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
     tiled_path = _tiled_path(scene, chunk_size, tiled, target_crs, store, label)
-    _check_clouds(scene, tiled=tiled_path, instrument=instrument)
+    _check_clouds(scene, tiled=tiled_path)
     if tiled_path:
         return _tiled_darkness(
             scene,
@@ -639,7 +639,7 @@ def darkness(
     zenith, n_az, functions, notes = _zenith_tables(
         table, observer_levels, functions, notes, reader, data.shape[0], label
     )
-    zenith, cloud_tags = _overcast(scene, zenith, table, n_az, functions)
+    zenith, cloud_tags, reader = _overcast(scene, zenith, table, n_az, functions, reader)
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
     estimate = darkness_memory(
@@ -703,9 +703,9 @@ def darkness(
     )
 
 
-def _check_clouds(scene: Scene, *, tiled: bool, instrument: Any) -> None:
-    """Refuse a cloud deck where the map cannot carry it: the tiled map, a DEM, an instrument
-    (its natural sky and rows) and a cover raster."""
+def _check_clouds(scene: Scene, *, tiled: bool) -> None:
+    """Refuse a cloud deck where the map cannot carry it: the tiled map, a DEM and a cover
+    raster."""
     cloud = scene.clouds
     if cloud is None:
         return
@@ -714,8 +714,6 @@ def _check_clouds(scene: Scene, *, tiled: bool, instrument: Any) -> None:
         if tiled
         else "a scene with a DEM"
         if scene.dem is not None
-        else "an instrument's reading"
-        if instrument is not None
         else "a cover raster"
         if cloud.cover_raster is not None
         else None
@@ -723,19 +721,26 @@ def _check_clouds(scene: Scene, *, tiled: bool, instrument: Any) -> None:
     if why is not None:
         raise InputError(
             f"clouds={cloud!r}: the darkness map reads a cloud deck only in memory, on flat "
-            f"ground, in zenith luminance and with a uniform cover, not for {why}; give the "
+            f"ground and with a uniform cover, not for {why}; give the "
             "scene clouds=None or skyglow one observer at a time"
         )
 
 
 def _overcast(
-    scene: Scene, zenith: FloatArray, table: Any, n_az: int, functions: tuple[Any, ...]
-) -> tuple[FloatArray, dict[str, str]]:
+    scene: Scene,
+    zenith: FloatArray,
+    table: Any,
+    n_az: int,
+    functions: tuple[Any, ...],
+    reader: InstrumentSky | None,
+) -> tuple[FloatArray, dict[str, str], InstrumentSky | None]:
     """The zenith tables under the scene's deck, (1 - c) clear + c cloudy per distance bin
-    (:func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen`), and the deck's tags."""
+    (:func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen`, an instrument's rows weighted),
+    the deck's tags, and the instrument's natural sky dimmed by the deck
+    (:meth:`~nightlights.sky.clouds.CloudLayer.natural_sky_factor`)."""
     cloud = scene.clouds
     if cloud is None:
-        return zenith, {}
+        return zenith, {}, reader
     cover = float(cloud.cover)
     tags = {
         "cloud_cover": str(cover),
@@ -745,17 +750,28 @@ def _overcast(
         "natural_sky_factor": str(cloud.natural_sky_factor(cover)),
     }
     if cover == 0.0:
-        return zenith, tags
+        return zenith, tags, reader
     edges = np.asarray(table["distance_edges"].values, dtype=float)
+    elevation = np.asarray(table["elevation"].values, dtype=float)
+    weights = None
+    if reader is not None:
+        weights = reader.elevation_weights(elevation)
+        factor = cloud.natural_sky_factor(cover)
+        reader = replace(
+            reader,
+            natural=reader.natural * factor,
+            natural_source=f"{reader.natural_source}, x{factor:.4g} through the cloud deck",
+        )
     cloudy = cloudy_zenith_per_lumen(
         edges,
-        float(np.asarray(table["elevation"].values, dtype=float)[0]),
+        elevation,
         n_az,
         functions[: zenith.shape[2]],
         cloud,
         Atmosphere.from_parameters(table.attrs),
+        weights=weights,
     )
-    return (1.0 - cover) * zenith + cover * cloudy[None, None], tags
+    return (1.0 - cover) * zenith + cover * cloudy[None, None], tags, reader
 
 
 def _map_tags(

@@ -54,10 +54,23 @@ def test_overcast_brightens_the_town_more_than_far_away(scene: Scene) -> None:
     assert gain[11, 11] > gain[23, 0]  # and the gain falls away from it
 
 
+def test_an_instrument_reads_the_overcast_rows_and_a_dimmed_natural_sky(scene: Scene) -> None:
+    deck = CloudLayer(1000.0, optical_depth=15.0, cover=0.8)
+    cloudy = scene.replace(clouds=deck)
+    clear = darkness(scene, height=0.0, instrument="sqm", progress=False).raster
+    mapped = darkness(cloudy, height=0.0, instrument="sqm", progress=False).raster
+    for row, col in [(11, 11), (20, 3)]:
+        pano = skyglow(cloudy, _centre(row, col), instrument="sqm").panorama
+        expected = float(pano.attrs["instrument_luminance_cd_m2"])
+        assert mapped.data[0][row, col] == pytest.approx(expected, rel=2e-3)
+    # the deck passes T = 1 - R of the diffuse natural sky, under the cover's share
+    factor = 1.0 - 0.8 * deck.reflectance
+    natural = float(clear.tags["instrument_natural_cd_m2"])
+    assert float(mapped.tags["instrument_natural_cd_m2"]) == pytest.approx(natural * factor)
+
+
 def test_what_the_map_cannot_carry_is_refused(scene: Scene) -> None:
     deck = CloudLayer(1000.0)
-    with pytest.raises(InputError, match="instrument"):
-        darkness(scene.replace(clouds=deck), instrument="sqm", progress=False)
     flat = Raster(np.zeros((1, 24, 24)), Affine(250, 0, 0, 0, -250, 6000), "EPSG:32635")
     with pytest.raises(InputError, match="DEM"):
         darkness(scene.replace(clouds=deck, dem=flat), progress=False)
