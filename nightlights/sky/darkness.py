@@ -47,6 +47,14 @@ by the colour term of the light's spectrum (:mod:`nightlights.sky.instrument_uni
 the zenith this is the panorama read with its angular weights
 (:func:`~nightlights.sky.instruments.angular_weights`), as exact as the zenith is.
 
+Under a cloud deck (the scene's ``clouds``, flat ground, uniform cover c) the zenith table of
+each distance bin becomes :math:`(1 - c)\\, z_b(d) + c\\, z^c_b(d)`, with :math:`z^c_b` the
+overcast zenith per lumen of :func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen` (the
+cloudy panorama's top row, or its rows under an instrument's weights, every ground-cloud
+reflection included): the map is then the cloudy panorama's zenith at every cell, and an
+instrument's natural sky is dimmed by the deck's
+:meth:`~nightlights.sky.clouds.CloudLayer.natural_sky_factor`.
+
 Length: the stage, the stencil geometry, the FFT plan every chunk and every tile receives,
 the Dask scheduling and the tiled stage (its geometry and engines in
 :mod:`nightlights.sky.tiled`) share that private plan; apart, each piece would serve only
@@ -496,9 +504,10 @@ def darkness(
     scene
         The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
         with the emission function of its ``emission_function`` tag), terrain, atmosphere and
-        kernel (:class:`~nightlights.sky.scene.Scene`). Its DEM must cover every cell: each
-        observer stands ``height`` above its cell, each source at its own height. Without a
-        kernel, a scene kernel over the region's diagonal (at most
+        kernel (:class:`~nightlights.sky.scene.Scene`); its cloud deck is read on flat
+        ground with a uniform cover, in memory (module docstring). Its DEM must cover every
+        cell: each observer stands ``height`` above its cell, each source at its own height.
+        Without a kernel, a scene kernel over the region's diagonal (at most
         :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels.
     output
         COG to write atomically (2 bands); None writes nothing (the tiled path then needs the
