@@ -48,3 +48,11 @@ def test_other_metrics_refuse_a_deck(scene: Scene) -> None:
     deck = scene.replace(clouds=CloudLayer(1000.0))
     with pytest.raises(InputError, match="metric='pca-norm'"):
         inverse_q(deck, Observer(3000.0, 3000.0), progress=False)
+
+
+def test_zero_cover_leaves_the_clear_values_bitwise(scene: Scene) -> None:
+    observer = Observer(3000.0, 3000.0, height=0.0)
+    clear = inverse_q(scene, observer, metric="zenith", progress=False).raster.data
+    zero = scene.replace(clouds=CloudLayer(1000.0, cover=0.0))
+    values = inverse_q(zero, observer, metric="zenith", progress=False).raster.data
+    assert np.array_equal(values, clear, equal_nan=True)
