@@ -6,6 +6,8 @@ import click
 
 from .kinds import RASTER
 from .options import (
+    clouds_of,
+    clouds_options,
     dem_option,
     files_argument,
     instrument_option,
@@ -33,6 +35,7 @@ from .resources import max_memory_option, scheduler_option
 @observer_height_option
 @dem_option
 @obstacles_option
+@clouds_options
 @kernel_option
 @turbidity_option
 @instrument_option
@@ -88,6 +91,9 @@ def darkness(
     observer_height: float,
     dem: str | None,
     obstacles: str | None,
+    base_height: float | None,
+    optical_depth: float,
+    cover: float,
     kernel: str | None,
     turbidity: float | None,
     instrument: str | None,
@@ -121,6 +127,7 @@ def darkness(
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
         n_distance=n_distance,
+        clouds=clouds_of(base_height, optical_depth, cover),
     )
     natural = None
     if night is not None:

@@ -35,6 +35,8 @@ from .options import (
     DeprecatedCommand,
     LibraryChoice,
     check_outputs,
+    clouds_of,
+    clouds_options,
     components_option,
     dem_option,
     deprecated_option,
@@ -85,6 +87,7 @@ def inverse() -> None:
 @output_option
 @overwrite_option
 @scene_options
+@clouds_options
 @click.option(
     "--metric",
     type=LibraryChoice(Q_METRICS),
@@ -108,6 +111,9 @@ def q_command(
     n_azimuth: int | None,
     n_elevation: int | None,
     n_distance: int | None,
+    base_height: float | None,
+    optical_depth: float,
+    cover: float,
     metric: str,
 ) -> None:
     """Each lit cell's light-pollution level for an observer: write OUTPUT (one-band COG on
@@ -126,6 +132,7 @@ def q_command(
         n_elevation=n_elevation,
         n_azimuth=n_azimuth,
         n_distance=n_distance,
+        clouds=clouds_of(base_height, optical_depth, cover),
     )
     result = library.inverse_q(
         scene, observer_of(observer, observer_crs, observer_height), out, metric=metric

@@ -33,6 +33,7 @@ from nightlights._resources import check_memory
 from nightlights._typing import FloatArray, PathLike
 from nightlights.errors import InputError
 from nightlights.ground.checks import raster_header
+from nightlights.inverse._clouds import check_deck, deck_tags, overcast_tables, overcast_zenith
 from nightlights.inverse._region import SkyRegion
 from nightlights.io import Raster
 from nightlights.io.outputs import Inputs, OutputSet
@@ -188,7 +189,8 @@ def inverse_q(
     _check_outputs(output, inputs=scene.inputs)
     window = _reach(scene, observer)
     _check_grid(_map_shape(scene, window), metric, streamed=window is not None)
-    setup = prepare_scene(scene, observer, progress=progress, window=window)
+    clouds = check_deck(scene, metric)
+    setup = prepare_scene(scene, observer, progress=progress, window=window, clouds=clouds)
     start = time.perf_counter()
     cells = setup.polar_cells()
     levels = setup.level_weights(cells)
@@ -203,11 +205,21 @@ def inverse_q(
             else hemisphere_weights(setup.below_terrain(), first.elevation)
         )
         tables = [region_table(t, weights) for t in setup.slices]
+    if clouds:
+        tables = overcast_tables(setup, tables)
     values = cell_values(cells, levels, tables)
     seconds = time.perf_counter() - start
     panorama_value = math.nan if weights is None else _panorama_value(setup, cells, weights)
+    if clouds and weights is not None:
+        panorama_value = overcast_zenith(setup, cells, _panorama(setup, cells))
     result = _influence_result(
-        setup, cells, values, metric, panorama_value, seconds, {"metric": metric}
+        setup,
+        cells,
+        values,
+        metric,
+        panorama_value,
+        seconds,
+        {"metric": metric, **deck_tags(scene)},
     )
     return _written(result, output)
 

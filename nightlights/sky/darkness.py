@@ -47,6 +47,14 @@ by the colour term of the light's spectrum (:mod:`nightlights.sky.instrument_uni
 the zenith this is the panorama read with its angular weights
 (:func:`~nightlights.sky.instruments.angular_weights`), as exact as the zenith is.
 
+Under a cloud deck (the scene's ``clouds``, flat ground, uniform cover c) the zenith table of
+each distance bin becomes :math:`(1 - c)\\, z_b(d) + c\\, z^c_b(d)`, with :math:`z^c_b` the
+overcast zenith per lumen of :func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen` (the
+cloudy panorama's top row, or its rows under an instrument's weights, every ground-cloud
+reflection included): the map is then the cloudy panorama's zenith at every cell, and an
+instrument's natural sky is dimmed by the deck's
+:meth:`~nightlights.sky.clouds.CloudLayer.natural_sky_factor`.
+
 Length: the stage, the stencil geometry, the FFT plan every chunk and every tile receives,
 the Dask scheduling and the tiled stage (its geometry and engines in
 :mod:`nightlights.sky.tiled`) share that private plan; apart, each piece would serve only
@@ -94,6 +102,8 @@ from nightlights.io.outputs import OutputSet
 from nightlights.io.styles import PRODUCT_TAG
 from nightlights.sky._flat import flat_keywords
 from nightlights.sky._tile_run import ProgressHook
+from nightlights.sky.atmosphere import Atmosphere
+from nightlights.sky.cloudy import cloudy_zenith_per_lumen
 from nightlights.sky.horizon import terrain_under
 from nightlights.sky.instrument_units import InstrumentSky, instrument_sky
 from nightlights.sky.instruments import Instrument
@@ -494,9 +504,10 @@ def darkness(
     scene
         The emission (upward flux density [lm m-2] in a projected CRS, one or two bands, each
         with the emission function of its ``emission_function`` tag), terrain, atmosphere and
-        kernel (:class:`~nightlights.sky.scene.Scene`). Its DEM must cover every cell: each
-        observer stands ``height`` above its cell, each source at its own height. Without a
-        kernel, a scene kernel over the region's diagonal (at most
+        kernel (:class:`~nightlights.sky.scene.Scene`); its cloud deck is read on flat
+        ground with a uniform cover, in memory (module docstring). Its DEM must cover every
+        cell: each observer stands ``height`` above its cell, each source at its own height.
+        Without a kernel, a scene kernel over the region's diagonal (at most
         :data:`~nightlights.sky.spec.MAX_KERNEL_RANGE`), its observer and source levels.
     output
         COG to write atomically (2 bands); None writes nothing (the tiled path then needs the
@@ -568,10 +579,11 @@ def darkness(
     """
     scheduler = check_scheduler(scheduler)  # an address is parsed and probed before any work
     target = _check_output(output, scene)
-    scene.clear_sky("the darkness map")
     emission, dem, observer_height = scene.raster_input("darkness"), scene.dem, height
     label = source_label(emission, "emission raster")
-    if _tiled_path(scene, chunk_size, tiled, target_crs, store, label):
+    tiled_path = _tiled_path(scene, chunk_size, tiled, target_crs, store, label)
+    _check_clouds(scene, tiled=tiled_path)
+    if tiled_path:
         return _tiled_darkness(
             scene,
             target,
@@ -636,6 +648,7 @@ def darkness(
     zenith, n_az, functions, notes = _zenith_tables(
         table, observer_levels, functions, notes, reader, data.shape[0], label
     )
+    zenith, cloud_tags, reader = _overcast(scene, zenith, table, n_az, functions, reader)
     radius = math.ceil(edges[-1] / cell)
     half = (min(radius, rows - 1), min(radius, cols - 1))
     estimate = darkness_memory(
@@ -681,6 +694,7 @@ def darkness(
         layout=f"{n_chunks} chunk(s) of {used_chunk} cells",
         reader=reader,
     )
+    tags.update(cloud_tags)
     bands, descriptions, band_tags = _map_bands(reader, luminance)
     result = Raster(
         bands,
@@ -696,6 +710,77 @@ def darkness(
     return DarknessResult(
         result, seconds, target, None if reader is None else reader.instrument.name
     )
+
+
+def _check_clouds(scene: Scene, *, tiled: bool) -> None:
+    """Refuse a cloud deck where the map cannot carry it: the tiled map, a DEM and a cover
+    raster."""
+    cloud = scene.clouds
+    if cloud is None:
+        return
+    why = (
+        "the tiled (geographic or out-of-core) map"
+        if tiled
+        else "a scene with a DEM"
+        if scene.dem is not None
+        else "a cover raster"
+        if cloud.cover_raster is not None
+        else None
+    )
+    if why is not None:
+        raise InputError(
+            f"clouds={cloud!r}: the darkness map reads a cloud deck only in memory, on flat "
+            f"ground and with a uniform cover, not for {why}; give the "
+            "scene clouds=None or skyglow one observer at a time"
+        )
+
+
+def _overcast(
+    scene: Scene,
+    zenith: FloatArray,
+    table: Any,
+    n_az: int,
+    functions: tuple[Any, ...],
+    reader: InstrumentSky | None,
+) -> tuple[FloatArray, dict[str, str], InstrumentSky | None]:
+    """The zenith tables under the scene's deck, (1 - c) clear + c cloudy per distance bin
+    (:func:`~nightlights.sky.cloudy.cloudy_zenith_per_lumen`, an instrument's rows weighted),
+    the deck's tags, and the instrument's natural sky dimmed by the deck
+    (:meth:`~nightlights.sky.clouds.CloudLayer.natural_sky_factor`)."""
+    cloud = scene.clouds
+    if cloud is None:
+        return zenith, {}, reader
+    cover = float(cloud.cover)
+    tags = {
+        "cloud_cover": str(cover),
+        "cloud_base_height_m": str(float(cloud.base_height)),
+        "cloud_reflectance": str(cloud.reflectance),
+        "cloud_ground_albedo": str(float(cloud.ground_albedo)),
+        "natural_sky_factor": str(cloud.natural_sky_factor(cover)),
+    }
+    if cover == 0.0:
+        return zenith, tags, reader
+    edges = np.asarray(table["distance_edges"].values, dtype=float)
+    elevation = np.asarray(table["elevation"].values, dtype=float)
+    weights = None
+    if reader is not None:
+        weights = reader.elevation_weights(elevation)
+        factor = cloud.natural_sky_factor(cover)
+        reader = replace(
+            reader,
+            natural=reader.natural * factor,
+            natural_source=f"{reader.natural_source}, x{factor:.4g} through the cloud deck",
+        )
+    cloudy = cloudy_zenith_per_lumen(
+        edges,
+        elevation,
+        n_az,
+        functions[: zenith.shape[2]],
+        cloud,
+        Atmosphere.from_parameters(table.attrs),
+        weights=weights,
+    )
+    return (1.0 - cover) * zenith + cover * cloudy[None, None], tags, reader
 
 
 def _map_tags(

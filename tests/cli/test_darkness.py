@@ -174,3 +174,18 @@ def test_darkness_command_errors_are_one_line(stage: None, tmp_path: Path) -> No
     assert bad_chunk.exit_code == 2 and "--chunk-size" in bad_chunk.output
     missing = CliRunner().invoke(command_group(), ["darkness", "nowhere.tif", "z.tif"])
     assert missing.exit_code == 2 and "does not exist" in missing.output
+
+
+def test_darkness_command_maps_the_sky_under_a_cloud_deck(
+    stage: None, emission: Path, kernel: Path, tmp_path: Path
+) -> None:
+    clear, overcast = tmp_path / "clear.tif", tmp_path / "overcast.tif"
+    args = ["darkness", str(emission), "--kernel", str(kernel), "--observer-height", "0"]
+    assert CliRunner().invoke(command_group(), [*args, str(clear)]).exit_code == 0
+    deck = ["--cloud-base", "800", "--cloud-optical-depth", "30", "--cloud-cover", "0.5"]
+    result = CliRunner().invoke(command_group(), [*args, str(overcast), *deck])
+    assert result.exit_code == 0, result.output
+    written = Raster.read(overcast)
+    assert (written.tags["cloud_base_height_m"], written.tags["cloud_cover"]) == ("800.0", "0.5")
+    lit = np.unravel_index(Raster.read(clear).data[0].argmax(), written.data[0].shape)
+    assert written.data[0][lit] > Raster.read(clear).data[0][lit]  # the deck reflects the town

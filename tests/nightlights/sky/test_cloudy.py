@@ -57,11 +57,8 @@ def test_the_scene_refuses_what_is_no_deck(scene: Scene) -> None:
 
 def test_stages_without_a_cloud_model_refuse_a_deck(scene: Scene) -> None:
     from nightlights.errors import InputError
-    from nightlights.sky import darkness
     from nightlights.sky.observers import observers
 
     cloudy = scene.replace(clouds=CloudLayer(1000.0))
-    with pytest.raises(InputError, match="darkness map models a clear sky only"):
-        darkness(cloudy, progress=False)
     with pytest.raises(InputError, match="clear sky only"):
         observers(cloudy, [Observer(5000.0, 5000.0, height=0.0)], progress=False)
