@@ -39,6 +39,7 @@ from nightlights._typing import FloatArray
 from nightlights.errors import InputError
 from nightlights.sky.atmosphere import Atmosphere
 from nightlights.sky.clouds import CloudLayer
+from nightlights.sky.montecarlo import view_directions
 from nightlights.sky.quadrature import gauss_legendre
 
 __all__ = ["CloudyMonteCarlo", "cloudy_monte_carlo"]
@@ -137,16 +138,7 @@ def cloudy_monte_carlo(
         raise InputError(
             f"disc_radius {disc_radius!r} m, core_radius {core_radius!r} m; expected >= 0, > 0"
         )
-    el, az, r = (
-        a.ravel().astype(float)
-        for a in np.broadcast_arrays(
-            np.asarray(elevation, dtype=float),
-            np.asarray(relative_azimuth, dtype=float),
-            np.asarray(distance, dtype=float),
-        )
-    )
-    if np.any(el <= 0) or np.any(el > 90):
-        raise InputError("elevation; expected values in (0, 90] deg")
+    el, az, r = view_directions(elevation, relative_azimuth, distance)
     e, a = np.radians(el), np.radians(az)
     # observer at (-r, 0): the centre lies towards +x, azimuth measured from +x
     rays = np.stack(

@@ -87,7 +87,12 @@ from nightlights.sky.kernel import (
 )
 from nightlights.sky.quadrature import gauss_legendre, tangent_panel_nodes
 
-__all__ = ["MonteCarloLuminance", "monte_carlo_luminance", "point_source_luminance"]
+__all__ = [
+    "MonteCarloLuminance",
+    "monte_carlo_luminance",
+    "point_source_luminance",
+    "view_directions",
+]
 
 _DEFAULT_ATMOSPHERE = Atmosphere()
 
@@ -143,6 +148,24 @@ class MonteCarloLuminance:
         """Standard error of :attr:`ratio` (order 1 has none) [1]."""
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.asarray(self.total_standard_error / self.single)
+
+
+def view_directions(
+    elevation: ArrayLike, relative_azimuth: ArrayLike, distance: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Elevations [deg], azimuths [deg] and distances [m] of the view rays, broadcast together
+    and flattened; elevations outside (0, 90] deg are refused."""
+    el, az, r = (
+        a.ravel().astype(float)
+        for a in np.broadcast_arrays(
+            np.asarray(elevation, dtype=float),
+            np.asarray(relative_azimuth, dtype=float),
+            np.asarray(distance, dtype=float),
+        )
+    )
+    if np.any(el <= 0) or np.any(el > 90):
+        raise InputError("elevation; expected values in (0, 90] deg")
+    return el, az, r
 
 
 def monte_carlo_luminance(
@@ -242,16 +265,7 @@ def monte_carlo_luminance(
         raise InputError(
             f"split_window {split_window!r}, split_points {split_points!r}; expected >= 0, >= 1"
         )
-    el, az, r = (
-        a.ravel().astype(float)
-        for a in np.broadcast_arrays(
-            np.asarray(elevation, dtype=float),
-            np.asarray(relative_azimuth, dtype=float),
-            np.asarray(distance, dtype=float),
-        )
-    )
-    if np.any(el <= 0) or np.any(el > 90):
-        raise InputError("elevation; expected values in (0, 90] deg")
+    el, az, r = view_directions(elevation, relative_azimuth, distance)
     if np.any(r < 0) or not np.all(np.isfinite(r)):
         raise InputError("source distance; expected finite values >= 0 m")
     if observer_altitude < 0 or source_altitude < 0:
